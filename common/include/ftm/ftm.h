@@ -1,0 +1,16 @@
+/* FTM: force transmittal model core (libftm). Umbrella header. */
+#ifndef FTM_FTM_H
+#define FTM_FTM_H
+
+#include "ftm/base.h"
+#include "ftm/generate.h"
+#include "ftm/load.h"
+#include "ftm/mesh.h"
+#include "ftm/scene.h"
+#include "ftm/sim.h"
+
+#define FTM_VERSION_MAJOR 0
+#define FTM_VERSION_MINOR 1
+#define FTM_VERSION_PATCH 0
+
+#endif

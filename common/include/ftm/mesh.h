@@ -1,0 +1,108 @@
+/* Mass-spring meshes: nodes, Voigt links, compact adjacency, surface triangles.
+ *
+ * A mesh is built once with an ftm_mesh_builder and is immutable afterwards,
+ * so several simulations (or threads) may share it read-only.
+ *
+ * Node order: ftm_mesh_build() may renumber nodes (Cuthill-McKee order) so that a
+ * breadth-first region around any node occupies few cache lines. Indices given
+ * to the builder are "input indices"; ftm_mesh_node_of_input() and
+ * ftm_mesh_input_of_node() translate. Every other call uses mesh indices. */
+#ifndef FTM_MESH_H
+#define FTM_MESH_H
+
+#include "ftm/base.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ftm_mesh ftm_mesh;
+typedef struct ftm_mesh_builder ftm_mesh_builder;
+
+typedef struct ftm_node_def {
+    ftm_vec3 position; /* rest position X_i [m] */
+    double mass;       /* m_i [kg], > 0 */
+    double damping;    /* d_i [N s/m], >= 0 */
+    bool fixed;        /* never moves (boundary condition) */
+} ftm_node_def;
+
+ftm_node_def ftm_default_node_def(void);
+
+typedef struct ftm_link_def {
+    int32_t a, b;       /* input node indices, a != b */
+    double stiffness;   /* k_ij [N/m], > 0 */
+    double rest_length; /* l_ij [m]; < 0 means "distance between the rest positions" */
+} ftm_link_def;
+
+ftm_link_def ftm_default_link_def(void);
+
+typedef struct ftm_mesh_build_def {
+    bool reorder;                  /* renumber nodes for locality (default true) */
+    bool surface_from_tetrahedra;  /* no triangles given: use the tets' boundary faces (default true) */
+} ftm_mesh_build_def;
+
+ftm_mesh_build_def ftm_default_mesh_build_def(void);
+
+/* Builder. Adding functions validate their arguments against what has been
+ * added so far and return a negative code (builder unchanged) on bad input.
+ * A link added twice (same pair, either order) is kept once: the first wins. */
+ftm_mesh_builder *ftm_mesh_builder_create(void);
+void ftm_mesh_builder_destroy(ftm_mesh_builder *builder);
+/* Returns the new node's input index (>= 0) or a negative code. */
+int32_t ftm_mesh_builder_add_node(ftm_mesh_builder *builder, const ftm_node_def *def);
+int ftm_mesh_builder_add_link(ftm_mesh_builder *builder, const ftm_link_def *def);
+int ftm_mesh_builder_add_triangle(ftm_mesh_builder *builder, int32_t a, int32_t b, int32_t c);
+int ftm_mesh_builder_add_tetrahedron(ftm_mesh_builder *builder, int32_t a, int32_t b, int32_t c,
+                                     int32_t d);
+int32_t ftm_mesh_builder_node_count(const ftm_mesh_builder *builder);
+
+/* Builds the mesh; the builder may be reused or destroyed afterwards.
+ * Fails (FTM_EINVAL, message in err) on an empty mesh. */
+int ftm_mesh_build(const ftm_mesh_builder *builder, const ftm_mesh_build_def *def, ftm_mesh **out,
+                   ftm_error *err);
+void ftm_mesh_destroy(ftm_mesh *mesh);
+
+int32_t ftm_mesh_node_count(const ftm_mesh *mesh);
+int32_t ftm_mesh_link_count(const ftm_mesh *mesh);
+int32_t ftm_mesh_triangle_count(const ftm_mesh *mesh);
+int32_t ftm_mesh_tetrahedron_count(const ftm_mesh *mesh);
+
+ftm_vec3 ftm_mesh_rest_position(const ftm_mesh *mesh, int32_t node);
+double ftm_mesh_mass(const ftm_mesh *mesh, int32_t node);
+double ftm_mesh_damping(const ftm_mesh *mesh, int32_t node);
+bool ftm_mesh_fixed(const ftm_mesh *mesh, int32_t node);
+
+/* Neighbours of a node: count returned, arrays valid for the mesh's lifetime.
+ * Each entry j has the neighbour's index, the link's stiffness and rest length. */
+int32_t ftm_mesh_neighbors(const ftm_mesh *mesh, int32_t node, const int32_t **neighbors,
+                           const double **stiffness, const double **rest_length);
+
+/* Link i's end nodes (mesh indices), stiffness and rest length. */
+void ftm_mesh_link(const ftm_mesh *mesh, int32_t link, int32_t *a, int32_t *b, double *stiffness,
+                   double *rest_length);
+
+/* Surface triangles as 3 mesh indices each (tri_count * 3 entries). */
+const int32_t *ftm_mesh_triangles(const ftm_mesh *mesh);
+/* Tetrahedra as 4 mesh indices each (may be empty). */
+const int32_t *ftm_mesh_tetrahedra(const ftm_mesh *mesh);
+
+int32_t ftm_mesh_node_of_input(const ftm_mesh *mesh, int32_t input_index);
+int32_t ftm_mesh_input_of_node(const ftm_mesh *mesh, int32_t node);
+
+double ftm_mesh_mean_link_length(const ftm_mesh *mesh);
+int32_t ftm_mesh_max_degree(const ftm_mesh *mesh);
+
+/* Largest time step h for which the explicit central-difference scheme is
+ * guaranteed stable on this mesh, from a Gershgorin bound on the largest
+ * eigenvalue of M^-1 K: lambda <= max_i sum_j k_ij (1/m_i + 1/sqrt(m_i m_j)),
+ * h_crit = 2 / sqrt(lambda). Conservative: the true limit is at least this.
+ * Free nodes only; INFINITY if no free node has a link. */
+double ftm_mesh_critical_time_step(const ftm_mesh *mesh);
+
+/* Nearest node to a point (linear scan; for scene set-up, not per tick). */
+int32_t ftm_mesh_nearest_node(const ftm_mesh *mesh, ftm_vec3 point);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

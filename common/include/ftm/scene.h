@@ -1,0 +1,61 @@
+/* Scenes: a mesh (generator or file), material, simulation parameters and a
+ * scripted load, from a human-readable text file (docs/scene-format.md) or a
+ * built-in name. Used by `ftm sim`, and later by the server and clients, which
+ * must build the same mesh from the same scene to replay bit-identically. */
+#ifndef FTM_SCENE_H
+#define FTM_SCENE_H
+
+#include "ftm/sim.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ftm_scene ftm_scene;
+
+/* How a scripted load's magnitude varies with time t (seconds since start). */
+typedef enum ftm_ramp {
+    FTM_RAMP_CONSTANT = 0, /* full value from start until end */
+    FTM_RAMP_LINEAR = 1,   /* 0 at start rising linearly to full value at end, then held until release */
+    FTM_RAMP_TRIANGLE = 2, /* 0 at start, full value at the midpoint, 0 again at end */
+} ftm_ramp;
+
+/* One scripted load: a contact active from start to release (seconds). */
+typedef struct ftm_scene_load {
+    ftm_contact contact; /* node is a mesh index; value is the full magnitude */
+    double start;        /* [s] */
+    double end;          /* [s], for ramps */
+    double release;      /* [s]; INFINITY = never */
+    ftm_ramp ramp;
+} ftm_scene_load;
+
+/* Parses a scene file. Errors name the file and line. */
+int ftm_scene_load_file(const char *path, ftm_scene **out, ftm_error *err);
+/* Parses scene text held in memory; name is used in error messages. */
+int ftm_scene_parse(const char *text, size_t length, const char *name, ftm_scene **out,
+                    ftm_error *err);
+/* Built-in scenes by name (see ftm_scene_builtin_names). */
+int ftm_scene_builtin(const char *name, ftm_scene **out, ftm_error *err);
+/* NULL-terminated list of built-in scene names. */
+const char *const *ftm_scene_builtin_names(void);
+/* A name that is a built-in loads it, anything else is read as a file. */
+int ftm_scene_open(const char *name_or_path, ftm_scene **out, ftm_error *err);
+void ftm_scene_destroy(ftm_scene *scene);
+
+const char *ftm_scene_name(const ftm_scene *scene);
+const ftm_mesh *ftm_scene_mesh(const ftm_scene *scene);
+ftm_sim_def ftm_scene_sim_def(const ftm_scene *scene);
+int32_t ftm_scene_steps(const ftm_scene *scene); /* default number of steps to run */
+int32_t ftm_scene_load_count(const ftm_scene *scene);
+const ftm_scene_load *ftm_scene_loads(const ftm_scene *scene);
+
+/* The contacts the script prescribes at simulation time t [s]: writes at most
+ * capacity entries and returns how many are active (loads not yet started or
+ * already released are left out; ramps scale the value). */
+int32_t ftm_scene_contacts_at(const ftm_scene *scene, double t, ftm_contact *contacts,
+                              int32_t capacity);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,156 @@
+/* The force transmittal simulation (Choi, Sun, Heng 2004).
+ *
+ * Each step:
+ *  1. the contact nodes form layer L0; a depth-synchronised breadth-first
+ *     search from all of them builds layers L1..Ln (n = penetration depth);
+ *     overlapping regions merge. The layers are cached and reused while the
+ *     set of contact nodes and the depth are unchanged.
+ *  2. nodes are updated layer by layer with the explicit central-difference
+ *     scheme (Eqs. 5-8), each using its neighbours' already-updated positions;
+ *     nodes beyond layer n stay where they are.
+ *  3. nodes that were displaced and have left the contact region (after a
+ *     release, or when the contact moved) keep relaxing, in ascending node
+ *     order, until they are back at rest; then they are put to sleep (set
+ *     exactly to their rest position and no longer touched).
+ * A scene with no contact and nothing relaxing costs a counter increment.
+ *
+ * Determinism: the same mesh, definition and sequence of calls give a
+ * bit-identical state on every run and machine (the core is built without
+ * floating-point contraction or fast-math). ftm_sim_hash() fingerprints it.
+ *
+ * Not thread-safe: one thread per ftm_sim; the mesh may be shared. */
+#ifndef FTM_SIM_H
+#define FTM_SIM_H
+
+#include "ftm/mesh.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ftm_sim ftm_sim;
+
+/* Update order inside a layer. The paper (section 3.1.4) finds the intra-layer
+ * order immaterial; these variants make use of that and are compared by
+ * `ftm bench table3`. */
+typedef enum ftm_order {
+    /* Layers in BFS order; inside a layer, nodes grouped into independent sets
+     * (no two adjacent), each set in BFS order. Gauss-Seidel like the paper,
+     * but consecutive updates do not wait on each other. Default. */
+    FTM_ORDER_LAYER_COLORED = 0,
+    /* Exactly the BFS traversal order of the paper's Fig. 5. */
+    FTM_ORDER_BFS = 1,
+    /* Each layer computed from the state before the layer, then committed:
+     * earlier layers are already updated, nodes of the same layer are not. */
+    FTM_ORDER_LAYER_JACOBI = 2,
+} ftm_order;
+
+typedef struct ftm_sim_def {
+    double time_step;       /* h [s], > 0 (default 1e-3) */
+    int32_t depth;          /* penetration depth n >= 0 (default 10) */
+    ftm_order order;
+    /* Relaxing nodes sleep when |x - X| and |x - x_prev| are both below
+     * sleep_tolerance * mean link length (default 1e-6). */
+    double sleep_tolerance;
+    /* The contact region under an unchanged load sleeps after this many
+     * consecutive steps in which no node moved more than sleep_tolerance *
+     * mean link length; 0 disables region sleep (default 0). */
+    int32_t region_sleep_steps;
+    /* Stability guard: a step in which a node moves more than
+     * guard_motion * (its shortest link's rest length), or to a non-finite
+     * position, is rolled back and redone with twice as many substeps, up to
+     * max_substeps (default 0.5 and 64). guard = false skips the check. */
+    bool guard;
+    double guard_motion;
+    int32_t max_substeps;
+    /* Reuse layers and schedule while the contact node set and the depth are
+     * unchanged (default true); false searches again every step, as the
+     * paper's timing did (used by `ftm bench table3`). */
+    bool cache_layers;
+    ftm_log_fn log; /* warnings (time step above critical) and guard events */
+    void *log_user;
+} ftm_sim_def;
+
+ftm_sim_def ftm_default_sim_def(void);
+
+typedef enum ftm_contact_kind {
+    FTM_CONTACT_FORCE = 0,        /* value: external force F_i [N] */
+    FTM_CONTACT_DISPLACEMENT = 1, /* value: imposed displacement x_i - X_i [m] */
+} ftm_contact_kind;
+
+typedef struct ftm_contact {
+    int32_t node;  /* mesh index, not fixed */
+    int32_t group; /* probe/contact id >= 0, for reaction forces (Eq. 19) */
+    ftm_contact_kind kind;
+    ftm_vec3 value;
+} ftm_contact;
+
+typedef struct ftm_sim_stats {
+    uint64_t step;            /* steps taken */
+    int32_t depth;            /* current penetration depth */
+    int32_t layers;           /* layers in the contact region (<= depth + 1) */
+    int32_t region_nodes;     /* nodes in the contact region */
+    int32_t relaxing_nodes;   /* displaced nodes outside the region, relaxing */
+    int32_t updated_nodes;    /* node updates in the last step (all substeps) */
+    int32_t substeps;         /* current substeps per step (1 unless the guard raised it) */
+    bool region_sleeping;     /* contact region at rest under its load */
+    uint64_t searches;        /* breadth-first searches run (cache misses) */
+    uint64_t guard_events;    /* steps rolled back by the guard */
+    uint64_t unstable_steps;  /* steps that failed even at max_substeps */
+} ftm_sim_stats;
+
+int ftm_sim_create(const ftm_mesh *mesh, const ftm_sim_def *def, ftm_sim **out, ftm_error *err);
+void ftm_sim_destroy(ftm_sim *sim);
+
+/* Replaces the whole contact set (count may be 0: release). Validates every
+ * entry (index range, fixed node, finite value, a node listed twice) and on
+ * error changes nothing. Layers are recomputed only if the node set changed. */
+int ftm_sim_set_contacts(ftm_sim *sim, const ftm_contact *contacts, int32_t count, ftm_error *err);
+
+/* Changes the penetration depth (0..1e6); takes effect at the next step. */
+int ftm_sim_set_depth(ftm_sim *sim, int32_t depth);
+
+/* Advances one time step. Returns FTM_OK, or FTM_EUNSTABLE when the step
+ * diverged even at max_substeps: the state is then left as before the call
+ * (no NaN ever enters it). */
+int ftm_sim_step(ftm_sim *sim);
+
+/* Runs steps until count steps are done or one fails. */
+int ftm_sim_run(ftm_sim *sim, int32_t count);
+
+/* Current positions, 3 doubles per node in mesh order; valid until the next
+ * call that changes the simulation. */
+const double *ftm_sim_positions(const ftm_sim *sim);
+ftm_vec3 ftm_sim_position(const ftm_sim *sim, int32_t node);
+
+/* Reaction force of a contact group (Eq. 19): minus the sum of the spring
+ * forces on the group's displacement-contact nodes, as of the last step. */
+ftm_vec3 ftm_sim_reaction(const ftm_sim *sim, int32_t group);
+
+/* 64-bit fingerprint of the dynamic state: the position and previous position
+ * of every node not exactly at rest, and the step counter. Two simulations of
+ * the same mesh have equal hashes iff (barring collisions) their states are
+ * bit-identical. Cost: proportional to the number of nodes not at rest. */
+uint64_t ftm_sim_hash(const ftm_sim *sim);
+
+void ftm_sim_get_stats(const ftm_sim *sim, ftm_sim_stats *stats);
+
+/* The layers of the current contact region (after a step or set_contacts):
+ * layer_count layers; nodes of layer l are order[start[l] .. start[l+1]-1]
+ * in update order. Arrays valid until the next call that changes the sim. */
+int32_t ftm_sim_layers(ftm_sim *sim, const int32_t **order, const int32_t **start);
+
+/* Kinetic energy estimate sum 1/2 m |x - x_prev|^2 / h^2 and spring potential
+ * energy over the nodes not at rest (for tests and diagnostics). */
+double ftm_sim_kinetic_energy(const ftm_sim *sim);
+double ftm_sim_potential_energy(const ftm_sim *sim);
+
+/* Puts every node back at rest and forgets contacts; keeps the definition. */
+void ftm_sim_reset(ftm_sim *sim);
+
+const ftm_mesh *ftm_sim_mesh(const ftm_sim *sim);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

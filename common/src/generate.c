@@ -1,0 +1,233 @@
+/* Lattice generators: the paper's 2D triangular lattice and 3D cubic lattices. */
+#include "ftm/generate.h"
+
+#include "error.h"
+
+#include <math.h>
+
+ftm_material_def ftm_default_material_def(void)
+{
+    return (ftm_material_def){
+        .node_mass = 1.0, .node_damping = 1.0, .stiffness = 1.0, .axis_scale = {1, 1, 1}};
+}
+
+ftm_lattice2d_def ftm_default_lattice2d_def(void)
+{
+    return (ftm_lattice2d_def){
+        .nx = 50, .ny = 50, .spacing = 1.0, .material = ftm_default_material_def(),
+        .fixed_faces = FTM_FACE_XMIN | FTM_FACE_XMAX | FTM_FACE_YMIN | FTM_FACE_YMAX};
+}
+
+ftm_lattice3d_def ftm_default_lattice3d_def(void)
+{
+    return (ftm_lattice3d_def){.nx = 10, .ny = 10, .nz = 10, .spacing = {1, 1, 1},
+                               .stencil = FTM_STENCIL_6, .material = ftm_default_material_def(),
+                               .class_scale = {1, 1, 1}, .fixed_faces = FTM_FACE_ZMIN};
+}
+
+#define FTM_MAX_LATTICE_NODES (64 * 1024 * 1024)
+
+static int check_material(const ftm_material_def *m, const char *who, ftm_error *err)
+{
+    if (!(m->node_mass > 0.0) || !isfinite(m->node_mass))
+        return ftm_error_set(err, FTM_EINVAL, "%s: node mass must be > 0 (got %g)", who,
+                             m->node_mass);
+    if (!(m->node_damping >= 0.0) || !isfinite(m->node_damping))
+        return ftm_error_set(err, FTM_EINVAL, "%s: node damping must be >= 0 (got %g)", who,
+                             m->node_damping);
+    if (!(m->stiffness > 0.0) || !isfinite(m->stiffness))
+        return ftm_error_set(err, FTM_EINVAL, "%s: stiffness must be > 0 (got %g)", who,
+                             m->stiffness);
+    const double *s = &m->axis_scale.x;
+    for (int i = 0; i < 3; i++)
+        if (!(s[i] > 0.0) || !isfinite(s[i]))
+            return ftm_error_set(err, FTM_EINVAL, "%s: axis stiffness scale %c must be > 0 (got %g)",
+                                 who, "xyz"[i], s[i]);
+    return FTM_OK;
+}
+
+/* Stiffness of a link along direction (dx, dy, dz), scaled per axis. */
+static double axis_stiffness(const ftm_material_def *m, double dx, double dy, double dz)
+{
+    double l2 = dx * dx + dy * dy + dz * dz;
+    return m->stiffness *
+           (m->axis_scale.x * dx * dx + m->axis_scale.y * dy * dy + m->axis_scale.z * dz * dz) / l2;
+}
+
+static int add_nodes_failed(int32_t r, const char *who, ftm_error *err)
+{
+    return ftm_error_set(err, r, "%s: cannot add node: %s", who, ftm_strerror(r));
+}
+
+int ftm_generate_lattice2d(ftm_mesh_builder *b, const ftm_lattice2d_def *def, ftm_error *err)
+{
+    const char *who = "lattice2d";
+    if (!b || !def)
+        return ftm_error_set(err, FTM_EINVAL, "%s: null argument", who);
+    if (def->nx < 2 || def->ny < 2 || (int64_t)def->nx * def->ny > FTM_MAX_LATTICE_NODES)
+        return ftm_error_set(err, FTM_EINVAL, "%s: size %d x %d out of range (2..; at most %d nodes)",
+                             who, (int)def->nx, (int)def->ny, FTM_MAX_LATTICE_NODES);
+    if (!(def->spacing > 0.0) || !isfinite(def->spacing))
+        return ftm_error_set(err, FTM_EINVAL, "%s: spacing must be > 0 (got %g)", who, def->spacing);
+    int rc = check_material(&def->material, who, err);
+    if (rc)
+        return rc;
+    const double a = def->spacing, pitch = def->spacing * sqrt(3.0) / 2.0;
+    const int32_t base = ftm_mesh_builder_node_count(b);
+    for (int32_t iy = 0; iy < def->ny; iy++)
+        for (int32_t ix = 0; ix < def->nx; ix++) {
+            bool fixed = ((def->fixed_faces & FTM_FACE_XMIN) && ix == 0) ||
+                         ((def->fixed_faces & FTM_FACE_XMAX) && ix == def->nx - 1) ||
+                         ((def->fixed_faces & FTM_FACE_YMIN) && iy == 0) ||
+                         ((def->fixed_faces & FTM_FACE_YMAX) && iy == def->ny - 1);
+            ftm_node_def nd = {.position = {(ix + 0.5 * (iy & 1)) * a, iy * pitch, 0.0},
+                               .mass = def->material.node_mass,
+                               .damping = def->material.node_damping,
+                               .fixed = fixed};
+            int32_t r = ftm_mesh_builder_add_node(b, &nd);
+            if (r < 0)
+                return add_nodes_failed(r, who, err);
+        }
+    /* forward half of the 6-neighbour stencil: right, and the two nodes of the
+     * next row that touch this one (which depend on the row's parity) */
+    for (int32_t iy = 0; iy < def->ny; iy++)
+        for (int32_t ix = 0; ix < def->nx; ix++) {
+            int32_t nbx[3] = {ix + 1, ix - 1 + (iy & 1), ix + (iy & 1)};
+            int32_t nby[3] = {iy, iy + 1, iy + 1};
+            for (int k = 0; k < 3; k++) {
+                if (nbx[k] < 0 || nbx[k] >= def->nx || nby[k] >= def->ny)
+                    continue;
+                double dx = (nbx[k] - ix) + 0.5 * ((nby[k] & 1) - (iy & 1));
+                double dy = (nby[k] - iy) * sqrt(3.0) / 2.0;
+                ftm_link_def ld = {.a = base + ix + def->nx * iy,
+                                   .b = base + nbx[k] + def->nx * nby[k],
+                                   .stiffness = axis_stiffness(&def->material, dx, dy, 0.0),
+                                   .rest_length = -1.0}; /* = the rest positions' distance */
+                rc = ftm_mesh_builder_add_link(b, &ld);
+                if (rc)
+                    return ftm_error_set(err, rc, "%s: cannot add link: %s", who, ftm_strerror(rc));
+            }
+        }
+    /* surface triangles, counter-clockwise seen from +z: two per cell between rows */
+    for (int32_t iy = 0; iy + 1 < def->ny; iy++)
+        for (int32_t ix = 0; ix + 1 < def->nx; ix++) {
+            int32_t p0 = base + ix + def->nx * iy, p1 = p0 + 1;
+            int32_t q0 = p0 + def->nx, q1 = q0 + 1;
+            if (iy & 1) { /* this row is shifted right: q0 sits left of p0 */
+                rc = ftm_mesh_builder_add_triangle(b, p0, q1, q0);
+                if (!rc)
+                    rc = ftm_mesh_builder_add_triangle(b, p0, p1, q1);
+            } else {
+                rc = ftm_mesh_builder_add_triangle(b, p0, p1, q0);
+                if (!rc)
+                    rc = ftm_mesh_builder_add_triangle(b, p1, q1, q0);
+            }
+            if (rc)
+                return ftm_error_set(err, rc, "%s: cannot add triangle: %s", who, ftm_strerror(rc));
+        }
+    return FTM_OK;
+}
+
+int ftm_generate_lattice3d(ftm_mesh_builder *b, const ftm_lattice3d_def *def, ftm_error *err)
+{
+    const char *who = "lattice3d";
+    if (!b || !def)
+        return ftm_error_set(err, FTM_EINVAL, "%s: null argument", who);
+    if (def->nx < 2 || def->ny < 2 || def->nz < 2 ||
+        (int64_t)def->nx * def->ny * def->nz > FTM_MAX_LATTICE_NODES)
+        return ftm_error_set(err, FTM_EINVAL,
+                             "%s: size %d x %d x %d out of range (2..; at most %d nodes)", who,
+                             (int)def->nx, (int)def->ny, (int)def->nz, FTM_MAX_LATTICE_NODES);
+    const double *sp = &def->spacing.x;
+    for (int i = 0; i < 3; i++)
+        if (!(sp[i] > 0.0) || !isfinite(sp[i]))
+            return ftm_error_set(err, FTM_EINVAL, "%s: spacing %c must be > 0 (got %g)", who,
+                                 "xyz"[i], sp[i]);
+    if (def->stencil != FTM_STENCIL_6 && def->stencil != FTM_STENCIL_18 &&
+        def->stencil != FTM_STENCIL_26)
+        return ftm_error_set(err, FTM_EINVAL, "%s: stencil must be 6, 18 or 26 (got %d)", who,
+                             (int)def->stencil);
+    for (int i = 0; i < 3; i++)
+        if (!(def->class_scale[i] > 0.0) || !isfinite(def->class_scale[i]))
+            return ftm_error_set(err, FTM_EINVAL, "%s: link class scale %d must be > 0 (got %g)",
+                                 who, i, def->class_scale[i]);
+    int rc = check_material(&def->material, who, err);
+    if (rc)
+        return rc;
+
+    const int32_t base = ftm_mesh_builder_node_count(b);
+    const int32_t nx = def->nx, ny = def->ny, nz = def->nz;
+    for (int32_t iz = 0; iz < nz; iz++)
+        for (int32_t iy = 0; iy < ny; iy++)
+            for (int32_t ix = 0; ix < nx; ix++) {
+                uint32_t f = def->fixed_faces;
+                bool fixed = ((f & FTM_FACE_XMIN) && ix == 0) || ((f & FTM_FACE_XMAX) && ix == nx - 1) ||
+                             ((f & FTM_FACE_YMIN) && iy == 0) || ((f & FTM_FACE_YMAX) && iy == ny - 1) ||
+                             ((f & FTM_FACE_ZMIN) && iz == 0) || ((f & FTM_FACE_ZMAX) && iz == nz - 1);
+                ftm_node_def nd = {.position = {ix * sp[0], iy * sp[1], iz * sp[2]},
+                                   .mass = def->material.node_mass,
+                                   .damping = def->material.node_damping,
+                                   .fixed = fixed};
+                int32_t r = ftm_mesh_builder_add_node(b, &nd);
+                if (r < 0)
+                    return add_nodes_failed(r, who, err);
+            }
+    /* forward half-stencil: each undirected link once */
+    static const int8_t off[13][3] = {
+        {1, 0, 0}, {0, 1, 0}, {0, 0, 1},                                  /* edges */
+        {1, 1, 0}, {1, -1, 0}, {1, 0, 1}, {1, 0, -1}, {0, 1, 1}, {0, 1, -1}, /* face diagonals */
+        {1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {1, -1, -1}};                    /* body diagonals */
+    int noff = def->stencil == FTM_STENCIL_6 ? 3 : def->stencil == FTM_STENCIL_18 ? 9 : 13;
+    for (int32_t iz = 0; iz < nz; iz++)
+        for (int32_t iy = 0; iy < ny; iy++)
+            for (int32_t ix = 0; ix < nx; ix++)
+                for (int k = 0; k < noff; k++) {
+                    int32_t jx = ix + off[k][0], jy = iy + off[k][1], jz = iz + off[k][2];
+                    if (jx < 0 || jx >= nx || jy < 0 || jy >= ny || jz < 0 || jz >= nz)
+                        continue;
+                    double dx = off[k][0] * sp[0], dy = off[k][1] * sp[1], dz = off[k][2] * sp[2];
+                    int cls = k < 3 ? FTM_LINK_EDGE : k < 9 ? FTM_LINK_FACE_DIAGONAL
+                                                            : FTM_LINK_BODY_DIAGONAL;
+                    ftm_link_def ld = {
+                        .a = base + ix + nx * (iy + ny * iz),
+                        .b = base + jx + nx * (jy + ny * jz),
+                        .stiffness = def->class_scale[cls] * axis_stiffness(&def->material, dx, dy, dz),
+                        .rest_length = -1.0}; /* = the rest positions' distance */
+                    rc = ftm_mesh_builder_add_link(b, &ld);
+                    if (rc)
+                        return ftm_error_set(err, rc, "%s: cannot add link: %s", who,
+                                             ftm_strerror(rc));
+                }
+    /* surface triangles: two per boundary quad, outward-facing */
+    for (int face = 0; face < 6; face++) {
+        int ax = face / 2, hi = face & 1;          /* normal axis, max side? */
+        int u = (ax + 1) % 3, v = (ax + 2) % 3;   /* in-plane axes, (u, v, ax) right-handed */
+        int32_t dims[3] = {nx, ny, nz};
+        for (int32_t j = 0; j + 1 < dims[v]; j++)
+            for (int32_t i = 0; i + 1 < dims[u]; i++) {
+                int32_t c[4][3];
+                int32_t q[4][2] = {{i, j}, {i + 1, j}, {i + 1, j + 1}, {i, j + 1}};
+                int32_t id[4];
+                for (int t = 0; t < 4; t++) {
+                    c[t][ax] = hi ? dims[ax] - 1 : 0;
+                    c[t][u] = q[t][0];
+                    c[t][v] = q[t][1];
+                    id[t] = base + c[t][0] + nx * (c[t][1] + ny * c[t][2]);
+                }
+                /* counter-clockwise seen from outside: (u, v) order on the max side */
+                if (hi) {
+                    rc = ftm_mesh_builder_add_triangle(b, id[0], id[1], id[2]);
+                    if (!rc)
+                        rc = ftm_mesh_builder_add_triangle(b, id[0], id[2], id[3]);
+                } else {
+                    rc = ftm_mesh_builder_add_triangle(b, id[0], id[2], id[1]);
+                    if (!rc)
+                        rc = ftm_mesh_builder_add_triangle(b, id[0], id[3], id[2]);
+                }
+                if (rc)
+                    return ftm_error_set(err, rc, "%s: cannot add triangle: %s", who,
+                                         ftm_strerror(rc));
+            }
+    }
+    return FTM_OK;
+}

@@ -1,0 +1,118 @@
+#include "layers.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+int ftm_layering_init(ftm_layering *ly, int32_t n)
+{
+    memset(ly, 0, sizeof *ly);
+    ly->visit = calloc((size_t)n, sizeof *ly->visit);
+    ly->queue = malloc(((size_t)n + 1) * sizeof *ly->queue);
+    ly->order = malloc(((size_t)n + 1) * sizeof *ly->order);
+    ly->set_start = malloc(((size_t)n + 1) * sizeof *ly->set_start);
+    ly->set_color = malloc((size_t)n + 1);
+    ly->start_cap = 64;
+    ly->start = malloc((size_t)ly->start_cap * sizeof *ly->start);
+    if (!ly->visit || !ly->queue || !ly->order || !ly->set_start || !ly->set_color ||
+        !ly->start) {
+        ftm_layering_free(ly);
+        return FTM_ENOMEM;
+    }
+    ly->start[0] = 0;
+    return FTM_OK;
+}
+
+void ftm_layering_free(ftm_layering *ly)
+{
+    free(ly->visit);
+    free(ly->queue);
+    free(ly->order);
+    free(ly->start);
+    free(ly->set_start);
+    free(ly->set_color);
+    memset(ly, 0, sizeof *ly);
+}
+
+/* Stable counting sort of the layer queue[s..e) by mesh colour into
+ * order[s..e), recording one set per colour present; pos holds the layer's
+ * count of each colour (counted as the search found the nodes) and is
+ * left zeroed. */
+static void sort_layer(ftm_layering *ly, const uint8_t *color, int32_t *pos, int32_t s,
+                       int32_t e)
+{
+    int32_t p = s;
+    for (int c = 0; c <= FTM_SHARED_COLOR && p < e; c++) {
+        int32_t n = pos[c];
+        if (n == 0)
+            continue;
+        ly->set_start[ly->sets] = p;
+        ly->set_color[ly->sets++] = (uint8_t)c;
+        pos[c] = p;
+        p += n;
+    }
+    for (int32_t k = s; k < e; k++) {
+        int32_t u = ly->queue[k];
+        ly->order[pos[color[u]]++] = u;
+    }
+    memset(pos, 0, (FTM_SHARED_COLOR + 1) * sizeof *pos);
+}
+
+int ftm_layering_build(ftm_layering *ly, const ftm_mesh *m, const int32_t *src, int32_t ns,
+                       int32_t depth, bool want_sets)
+{
+    if (++ly->gen == 0) { /* stamp wrapped: the only time the array is cleared */
+        memset(ly->visit, 0, (size_t)m->node_count * sizeof *ly->visit);
+        ly->gen = 1;
+    }
+    const uint32_t gen = ly->gen;
+    uint32_t *restrict visit = ly->visit;
+    int32_t *restrict queue = ly->queue;
+    const int32_t *adj_start = m->adj_start, *adj_node = m->adj_node;
+    const uint8_t *color = m->color;
+    /* colour counts of the layer being sorted and of the one being found */
+    int32_t counts[2][FTM_SHARED_COLOR + 1] = {{0}};
+    int32_t count = 0;
+    for (int32_t s = 0; s < ns; s++) {
+        visit[src[s]] = gen;
+        queue[count++] = src[s];
+        counts[0][color[src[s]]]++;
+    }
+    ly->sets = 0;
+    ly->start[0] = 0;
+    /* all sources advance together: layer l+1 is everything first reached from layer l */
+    int32_t layer = 0, head = 0;
+    while (head < count) {
+        if (layer + 2 > ly->start_cap) {
+            int32_t ncap = ly->start_cap * 2;
+            int32_t *st = realloc(ly->start, (size_t)ncap * sizeof *st);
+            if (!st)
+                return FTM_ENOMEM;
+            ly->start = st;
+            ly->start_cap = ncap;
+        }
+        int32_t end = count;
+        int32_t *next = counts[(layer + 1) & 1];
+        for (int32_t k = head; layer < depth && k < end; k++) {
+            int32_t u = queue[k];
+            for (int32_t e = adj_start[u]; e < adj_start[u + 1]; e++) {
+                int32_t v = adj_node[e];
+                if (visit[v] != gen) {
+                    visit[v] = gen;
+                    queue[count++] = v;
+                    next[color[v]]++;
+                }
+            }
+        }
+        if (want_sets)
+            sort_layer(ly, color, counts[layer & 1], head, end);
+        else
+            memcpy(ly->order + head, queue + head, (size_t)(end - head) * sizeof *queue);
+        head = end;
+        ly->start[++layer] = end;
+    }
+    if (want_sets)
+        ly->set_start[ly->sets] = count;
+    ly->count = count;
+    ly->layers = layer;
+    return FTM_OK;
+}

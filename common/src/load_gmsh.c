@@ -1,0 +1,523 @@
+/* Gmsh MSH 4.1 ASCII loader.
+ *
+ * Reads $MeshFormat, $Nodes and $Elements; every other section is skipped.
+ * The parser is line based, in the layout Gmsh (and meshio) write: one node
+ * tag per line, then one coordinate line per node, one line per element.
+ * Node tags may be sparse; they are mapped to 0-based indices in order of
+ * appearance. $Nodes must precede $Elements (as Gmsh writes it), so element
+ * errors can be reported on their own line. */
+#include "ftm/load.h"
+
+#include "error.h"
+#include "text.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Defined in load.c. */
+int ftm_load_check_args(const ftm_mesh_builder *builder, const char *path,
+                        const ftm_material_def *material, ftm_error *err);
+int ftm_load_read_file(const char *path, char **data, size_t *length, ftm_error *err);
+void *ftm_load_grow(void *array, size_t *capacity, size_t needed, size_t elem_size);
+int ftm_load_commit(ftm_mesh_builder *builder, const char *path, const ftm_material_def *material,
+                    const double *pos, size_t node_count, const int32_t *tris, size_t tri_count,
+                    bool tri_edges, const int32_t *tets, size_t tet_count, ftm_error *err);
+
+#define QUOTE_MAX 40
+#define QUOTE(len) ((int)((len) > QUOTE_MAX ? QUOTE_MAX : (len)))
+/* Most tokens on one line we ever need (a 125-node hexahedron plus its tag). */
+#define MAX_TOKENS 128
+
+enum { ELEM_TRIANGLE = 2, ELEM_TETRAHEDRON = 4, ELEM_TETRAHEDRON10 = 11 };
+
+typedef struct tag_entry {
+    int64_t tag;
+    int32_t index;
+} tag_entry;
+
+typedef struct msh_state {
+    const char *path;
+    ftm_text text;
+    /* The current line split into tokens. */
+    const char *tok[MAX_TOKENS];
+    size_t toklen[MAX_TOKENS];
+    size_t ntok;
+    bool too_long; /* the line had more than MAX_TOKENS tokens */
+
+    double *pos; /* 3 per node */
+    size_t pos_cap;
+    int32_t *node_line; /* line of each node's tag, for "repeated" messages */
+    size_t node_line_cap;
+    size_t node_count;
+    tag_entry *tags; /* sorted by tag after $Nodes */
+    size_t tags_cap;
+
+    int32_t *tris, *tets;
+    size_t tri_count, tri_cap, tet_count, tet_cap;
+    size_t tet10_count; /* skipped second-order tetrahedra, for a hint */
+} msh_state;
+
+/* Nodes per element type, for the types Gmsh defines (0: unknown). */
+static int nodes_per_element(int64_t type)
+{
+    static const int table[] = {
+        0,  2,  3,  4,  4,  8,  6,  5,  3,  6,  9, /* 0..10 */
+        10, 27, 18, 14, 1,  8,  20, 15, 13, 9,     /* 11..20 */
+        10, 12, 15, 15, 21, 4,  5,  6,  20, 35, 56 /* 21..31 */
+    };
+    if (type >= 0 && type < (int64_t)(sizeof table / sizeof table[0]))
+        return table[type];
+    if (type == 92)
+        return 64;
+    if (type == 93)
+        return 125;
+    return 0;
+}
+
+/* Reads the next non-blank line into s->tok; false at end of file. */
+static bool next_line(msh_state *s)
+{
+    const char *line;
+    size_t len;
+    while (ftm_text_next_line(&s->text, &line, &len)) {
+        const char *cur = line, *end = line + len;
+        s->ntok = 0;
+        s->too_long = false;
+        const char *tok;
+        size_t toklen;
+        while (ftm_text_token(&cur, end, &tok, &toklen)) {
+            if (s->ntok == MAX_TOKENS) {
+                s->too_long = true;
+                break;
+            }
+            s->tok[s->ntok] = tok;
+            s->toklen[s->ntok] = toklen;
+            s->ntok++;
+        }
+        if (s->ntok > 0)
+            return true;
+    }
+    return false;
+}
+
+static bool line_is(const msh_state *s, const char *word)
+{
+    return s->ntok == 1 && s->toklen[0] == strlen(word) &&
+           memcmp(s->tok[0], word, s->toklen[0]) == 0;
+}
+
+/* Next line inside section `section`, which must hold data (not a $ line). */
+static int data_line(msh_state *s, const char *section, const char *what, ftm_error *err)
+{
+    if (!next_line(s))
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: file ends inside $%s (expected %s)", s->path,
+                             s->text.line, section, what);
+    if (s->tok[0][0] == '$')
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: expected %s, found '%.*s'", s->path,
+                             s->text.line, what, QUOTE(s->toklen[0]), s->tok[0]);
+    return FTM_OK;
+}
+
+/* Section end marker, e.g. "$EndNodes". */
+static int end_line(msh_state *s, const char *section, ftm_error *err)
+{
+    char want[32];
+    snprintf(want, sizeof want, "$End%s", section);
+    if (!next_line(s))
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: file ends inside $%s (expected %s)", s->path,
+                             s->text.line, section, want);
+    if (!line_is(s, want))
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: expected %s, found '%.*s'", s->path,
+                             s->text.line, want, QUOTE(s->toklen[0]), s->tok[0]);
+    return FTM_OK;
+}
+
+/* Parses token i as an integer in [lo, hi]; `what` names it in messages. */
+static int int_token(msh_state *s, size_t i, int64_t lo, int64_t hi, const char *what,
+                     int64_t *out, ftm_error *err)
+{
+    if (!ftm_text_parse_int(s->tok[i], s->toklen[i], out))
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad %s '%.*s'", s->path, s->text.line, what,
+                             QUOTE(s->toklen[i]), s->tok[i]);
+    if (*out < lo || *out > hi)
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: %s %lld out of range", s->path,
+                             s->text.line, what, (long long)*out);
+    return FTM_OK;
+}
+
+static int expect_tokens(msh_state *s, size_t n, const char *what, ftm_error *err)
+{
+    if (s->ntok != n || s->too_long)
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: %s needs %zu values, found %s%zu", s->path,
+                             s->text.line, what, n, s->too_long ? "over " : "", s->ntok);
+    return FTM_OK;
+}
+
+static int parse_format(msh_state *s, ftm_error *err)
+{
+    int rc = data_line(s, "MeshFormat", "version, file type and data size", err);
+    if (rc < 0)
+        return rc;
+    if ((rc = expect_tokens(s, 3, "$MeshFormat", err)) < 0)
+        return rc;
+    double version;
+    if (!ftm_text_parse_double(s->tok[0], s->toklen[0], &version) || version != 4.1)
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s:%d: MSH version '%.*s' not supported (need 4.1)", s->path,
+                             s->text.line, QUOTE(s->toklen[0]), s->tok[0]);
+    int64_t file_type, data_size;
+    if ((rc = int_token(s, 1, 0, 1, "file type", &file_type, err)) < 0)
+        return rc;
+    if (file_type == 1)
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s:%d: binary MSH not supported (save as ASCII MSH 4.1)", s->path,
+                             s->text.line);
+    if ((rc = int_token(s, 2, 1, 64, "data size", &data_size, err)) < 0)
+        return rc;
+    return end_line(s, "MeshFormat", err);
+}
+
+static int compare_tags(const void *pa, const void *pb)
+{
+    const tag_entry *a = pa, *b = pb;
+    if (a->tag != b->tag)
+        return (a->tag > b->tag) - (a->tag < b->tag);
+    return (a->index > b->index) - (a->index < b->index);
+}
+
+static int compare_tag_only(const void *pa, const void *pb)
+{
+    const tag_entry *a = pa, *b = pb;
+    return (a->tag > b->tag) - (a->tag < b->tag);
+}
+
+static int32_t find_tag(const msh_state *s, int64_t tag)
+{
+    if (s->node_count == 0)
+        return -1; /* bsearch must not be given a NULL array */
+    const tag_entry key = {.tag = tag};
+    const tag_entry *e = bsearch(&key, s->tags, s->node_count, sizeof *s->tags, compare_tag_only);
+    return e ? e->index : -1;
+}
+
+static int parse_nodes(msh_state *s, ftm_error *err)
+{
+    int rc = data_line(s, "Nodes", "the $Nodes header", err);
+    if (rc < 0 || (rc = expect_tokens(s, 4, "$Nodes header", err)) < 0)
+        return rc;
+    int64_t nblocks, nnodes, minmax;
+    if ((rc = int_token(s, 0, 0, INT64_MAX, "entity block count", &nblocks, err)) < 0 ||
+        (rc = int_token(s, 1, 0, INT64_MAX, "node count", &nnodes, err)) < 0 ||
+        (rc = int_token(s, 2, 0, INT64_MAX, "minimum node tag", &minmax, err)) < 0 ||
+        (rc = int_token(s, 3, 0, INT64_MAX, "maximum node tag", &minmax, err)) < 0)
+        return rc;
+    if (nnodes > INT32_MAX)
+        return ftm_error_set(err, FTM_ERANGE, "%s:%d: %lld nodes are more than supported", s->path,
+                             s->text.line, (long long)nnodes);
+
+    /* Counts are only trusted as far as the content bears them out: arrays
+     * grow with the lines actually read. */
+    for (int64_t b = 0; b < nblocks; b++) {
+        if ((rc = data_line(s, "Nodes", "a node entity block header", err)) < 0 ||
+            (rc = expect_tokens(s, 4, "node entity block header", err)) < 0)
+            return rc;
+        int64_t dim, entity, parametric, count;
+        if ((rc = int_token(s, 0, 0, 3, "entity dimension", &dim, err)) < 0 ||
+            (rc = int_token(s, 1, INT32_MIN, INT32_MAX, "entity tag", &entity, err)) < 0 ||
+            (rc = int_token(s, 2, 0, 1, "parametric flag", &parametric, err)) < 0 ||
+            (rc = int_token(s, 3, 0, INT64_MAX, "block node count", &count, err)) < 0)
+            return rc;
+        if (count > nnodes - (int64_t)s->node_count)
+            return ftm_error_set(err, FTM_EPARSE,
+                                 "%s:%d: block of %lld nodes would exceed the %lld nodes "
+                                 "announced in the $Nodes header",
+                                 s->path, s->text.line, (long long)count, (long long)nnodes);
+        size_t first = s->node_count, n = (size_t)count;
+        /* Tags first, one per line ... */
+        for (size_t i = 0; i < n; i++) {
+            int64_t tag;
+            if ((rc = data_line(s, "Nodes", "a node tag", err)) < 0 ||
+                (rc = expect_tokens(s, 1, "node tag line", err)) < 0 ||
+                (rc = int_token(s, 0, 1, INT64_MAX, "node tag", &tag, err)) < 0)
+                return rc;
+            tag_entry *t = ftm_load_grow(s->tags, &s->tags_cap, first + i + 1, sizeof *t);
+            if (!t)
+                return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
+            s->tags = t;
+            int32_t *l = ftm_load_grow(s->node_line, &s->node_line_cap, first + i + 1, sizeof *l);
+            if (!l)
+                return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
+            s->node_line = l;
+            t[first + i] = (tag_entry){.tag = tag, .index = (int32_t)(first + i)};
+            l[first + i] = s->text.line;
+        }
+        /* ... then coordinates, one line per node: x y z, plus u [v [w]] if parametric. */
+        size_t want = 3 + (parametric ? (size_t)dim : 0);
+        double *p = ftm_load_grow(s->pos, &s->pos_cap, 3 * (first + n), sizeof *p);
+        if (!p && n > 0)
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
+        if (p)
+            s->pos = p;
+        for (size_t i = 0; i < n; i++) {
+            if ((rc = data_line(s, "Nodes", "node coordinates", err)) < 0 ||
+                (rc = expect_tokens(s, want, "node coordinate line", err)) < 0)
+                return rc;
+            for (size_t c = 0; c < want; c++) {
+                double v;
+                if (!ftm_text_parse_double(s->tok[c], s->toklen[c], &v))
+                    return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad node coordinate '%.*s'",
+                                         s->path, s->text.line, QUOTE(s->toklen[c]), s->tok[c]);
+                if (c < 3)
+                    s->pos[3 * (first + i) + c] = v;
+            }
+        }
+        s->node_count = first + n;
+    }
+    if ((rc = end_line(s, "Nodes", err)) < 0)
+        return rc;
+    if ((int64_t)s->node_count != nnodes)
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s:%d: $Nodes header announces %lld nodes, blocks hold %zu",
+                             s->path, s->text.line, (long long)nnodes, s->node_count);
+
+    /* Sort for lookup (by tag, then order of appearance). A repeated tag
+     * forms a run; its second entry is the repeat. Report the repeat that
+     * comes first in the file, as a one-pass reader would. */
+    if (s->node_count > 0)
+        qsort(s->tags, s->node_count, sizeof *s->tags, compare_tags);
+    size_t repeat = 0; /* position in tags of the earliest repeat; 0 = none */
+    for (size_t i = 1; i < s->node_count; i++) {
+        bool second_of_run = s->tags[i].tag == s->tags[i - 1].tag &&
+                             (i < 2 || s->tags[i - 2].tag != s->tags[i].tag);
+        if (second_of_run && (repeat == 0 || s->tags[i].index < s->tags[repeat].index))
+            repeat = i;
+    }
+    if (repeat > 0)
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: node tag %lld repeated (first on line %d)",
+                             s->path, s->node_line[s->tags[repeat].index],
+                             (long long)s->tags[repeat].tag,
+                             s->node_line[s->tags[repeat - 1].index]);
+    return FTM_OK;
+}
+
+static bool same_position(const double *pos, int32_t a, int32_t b)
+{
+    const double *pa = pos + 3 * (size_t)a, *pb = pos + 3 * (size_t)b;
+    return pa[0] == pb[0] && pa[1] == pb[1] && pa[2] == pb[2];
+}
+
+/* Resolves and checks the corner tags of a triangle or tetrahedron on the
+ * current line (tokens 1..n), then appends it to *array. */
+static int add_element(msh_state *s, int n, int32_t **array, size_t *count, size_t *cap,
+                       ftm_error *err)
+{
+    int32_t v[4];
+    int64_t tags[4];
+    int rc;
+    for (int i = 0; i < n; i++) {
+        if ((rc = int_token(s, (size_t)i + 1, 1, INT64_MAX, "node tag", &tags[i], err)) < 0)
+            return rc;
+        v[i] = find_tag(s, tags[i]);
+        if (v[i] < 0)
+            return ftm_error_set(err, FTM_ERANGE, "%s:%d: element refers to unknown node tag %lld",
+                                 s->path, s->text.line, (long long)tags[i]);
+    }
+    for (int i = 0; i < n; i++) {
+        for (int j = i + 1; j < n; j++) {
+            if (v[i] == v[j])
+                return ftm_error_set(err, FTM_EPARSE,
+                                     "%s:%d: degenerate element: node tag %lld repeated",
+                                     s->path, s->text.line, (long long)tags[i]);
+            if (same_position(s->pos, v[i], v[j]))
+                return ftm_error_set(err, FTM_EPARSE,
+                                     "%s:%d: degenerate element: nodes %lld and %lld coincide",
+                                     s->path, s->text.line, (long long)tags[i], (long long)tags[j]);
+        }
+    }
+    if (*count >= INT32_MAX / 6)
+        return ftm_error_set(err, FTM_ERANGE, "%s:%d: too many elements", s->path, s->text.line);
+    int32_t *a = ftm_load_grow(*array, cap, (size_t)n * (*count + 1), sizeof *a);
+    if (!a)
+        return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
+    *array = a;
+    memcpy(a + (size_t)n * *count, v, (size_t)n * sizeof *v);
+    (*count)++;
+    return FTM_OK;
+}
+
+static int parse_elements(msh_state *s, ftm_error *err)
+{
+    int rc = data_line(s, "Elements", "the $Elements header", err);
+    if (rc < 0 || (rc = expect_tokens(s, 4, "$Elements header", err)) < 0)
+        return rc;
+    int64_t nblocks, nelems, minmax, seen = 0;
+    if ((rc = int_token(s, 0, 0, INT64_MAX, "entity block count", &nblocks, err)) < 0 ||
+        (rc = int_token(s, 1, 0, INT64_MAX, "element count", &nelems, err)) < 0 ||
+        (rc = int_token(s, 2, 0, INT64_MAX, "minimum element tag", &minmax, err)) < 0 ||
+        (rc = int_token(s, 3, 0, INT64_MAX, "maximum element tag", &minmax, err)) < 0)
+        return rc;
+    for (int64_t b = 0; b < nblocks; b++) {
+        if ((rc = data_line(s, "Elements", "an element entity block header", err)) < 0 ||
+            (rc = expect_tokens(s, 4, "element entity block header", err)) < 0)
+            return rc;
+        int64_t dim, entity, type, count;
+        if ((rc = int_token(s, 0, 0, 3, "entity dimension", &dim, err)) < 0 ||
+            (rc = int_token(s, 1, INT32_MIN, INT32_MAX, "entity tag", &entity, err)) < 0 ||
+            (rc = int_token(s, 2, INT32_MIN, INT32_MAX, "element type", &type, err)) < 0 ||
+            (rc = int_token(s, 3, 0, INT64_MAX, "block element count", &count, err)) < 0)
+            return rc;
+        if (count > nelems - seen)
+            return ftm_error_set(err, FTM_EPARSE,
+                                 "%s:%d: block of %lld elements would exceed the %lld elements "
+                                 "announced in the $Elements header",
+                                 s->path, s->text.line, (long long)count, (long long)nelems);
+        int nodes = nodes_per_element(type);
+        if (nodes == 0)
+            return ftm_error_set(err, FTM_EPARSE, "%s:%d: unknown element type %lld", s->path,
+                                 s->text.line, (long long)type);
+        for (int64_t i = 0; i < count; i++) {
+            if ((rc = data_line(s, "Elements", "an element line", err)) < 0)
+                return rc;
+            if (s->ntok != (size_t)nodes + 1 || s->too_long)
+                return ftm_error_set(err, FTM_EPARSE,
+                                     "%s:%d: element of type %lld needs a tag and %d node tags, "
+                                     "found %s%zu values",
+                                     s->path, s->text.line, (long long)type, nodes,
+                                     s->too_long ? "over " : "", s->ntok);
+            int64_t tag;
+            if ((rc = int_token(s, 0, 1, INT64_MAX, "element tag", &tag, err)) < 0)
+                return rc;
+            if (type == ELEM_TETRAHEDRON)
+                rc = add_element(s, 4, &s->tets, &s->tet_count, &s->tet_cap, err);
+            else if (type == ELEM_TRIANGLE)
+                rc = add_element(s, 3, &s->tris, &s->tri_count, &s->tri_cap, err);
+            else {
+                /* Skipped, but its tags must still be numbers to stay trustworthy. */
+                int64_t t;
+                for (size_t j = 1; j < s->ntok && rc >= 0; j++)
+                    rc = int_token(s, j, 1, INT64_MAX, "node tag", &t, err);
+                if (type == ELEM_TETRAHEDRON10)
+                    s->tet10_count++;
+            }
+            if (rc < 0)
+                return rc;
+        }
+        seen += count;
+    }
+    if ((rc = end_line(s, "Elements", err)) < 0)
+        return rc;
+    if (seen != nelems)
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s:%d: $Elements header announces %lld elements, blocks hold %lld",
+                             s->path, s->text.line, (long long)nelems, (long long)seen);
+    return FTM_OK;
+}
+
+/* Skips an unknown section ($PhysicalNames, $Entities, $NodeData, ...). */
+static int skip_section(msh_state *s, ftm_error *err)
+{
+    const char *name = s->tok[0] + 1;
+    size_t name_len = s->toklen[0] - 1;
+    int32_t start = s->text.line;
+    while (next_line(s)) {
+        if (s->toklen[0] == name_len + 4 && memcmp(s->tok[0], "$End", 4) == 0 &&
+            memcmp(s->tok[0] + 4, name, name_len) == 0)
+            return FTM_OK;
+    }
+    return ftm_error_set(err, FTM_EPARSE, "%s:%d: section $%.*s is not closed by $End%.*s",
+                         s->path, start, QUOTE(name_len), name, QUOTE(name_len), name);
+}
+
+static int parse_file(msh_state *s, ftm_error *err)
+{
+    if (!next_line(s))
+        return ftm_error_set(err, FTM_EPARSE, "%s: file is empty", s->path);
+    if (!line_is(s, "$MeshFormat"))
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s:%d: not a Gmsh MSH file (expected $MeshFormat, found '%.*s')",
+                             s->path, s->text.line, QUOTE(s->toklen[0]), s->tok[0]);
+    int rc = parse_format(s, err);
+    bool have_nodes = false, have_elements = false;
+    while (rc >= 0 && next_line(s)) {
+        if (s->tok[0][0] != '$')
+            return ftm_error_set(err, FTM_EPARSE, "%s:%d: expected a section ($Name), found '%.*s'",
+                                 s->path, s->text.line, QUOTE(s->toklen[0]), s->tok[0]);
+        if (line_is(s, "$Nodes")) {
+            if (have_nodes)
+                return ftm_error_set(err, FTM_EPARSE, "%s:%d: second $Nodes section", s->path,
+                                     s->text.line);
+            have_nodes = true;
+            rc = parse_nodes(s, err);
+        } else if (line_is(s, "$Elements")) {
+            if (!have_nodes)
+                return ftm_error_set(err, FTM_EPARSE, "%s:%d: $Elements before $Nodes", s->path,
+                                     s->text.line);
+            if (have_elements)
+                return ftm_error_set(err, FTM_EPARSE, "%s:%d: second $Elements section", s->path,
+                                     s->text.line);
+            have_elements = true;
+            rc = parse_elements(s, err);
+        } else if (line_is(s, "$MeshFormat")) {
+            return ftm_error_set(err, FTM_EPARSE, "%s:%d: second $MeshFormat section", s->path,
+                                 s->text.line);
+        } else if (s->ntok != 1 || s->toklen[0] < 2 ||
+                   (s->toklen[0] >= 4 && memcmp(s->tok[0], "$End", 4) == 0)) {
+            return ftm_error_set(err, FTM_EPARSE, "%s:%d: unexpected '%.*s'", s->path,
+                                 s->text.line, QUOTE(s->toklen[0]), s->tok[0]);
+        } else {
+            rc = skip_section(s, err);
+        }
+    }
+    if (rc < 0)
+        return rc;
+    if (!have_nodes)
+        return ftm_error_set(err, FTM_EPARSE, "%s: no $Nodes section", s->path);
+    if (!have_elements)
+        return ftm_error_set(err, FTM_EPARSE, "%s: no $Elements section", s->path);
+    if (s->tet_count == 0 && s->tri_count == 0)
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s: no 4-node tetrahedra (type 4) or 3-node triangles (type 2)%s",
+                             s->path,
+                             s->tet10_count ? "; second-order meshes are not supported, "
+                                              "export with element order 1"
+                                            : "");
+    return FTM_OK;
+}
+
+int ftm_load_gmsh(ftm_mesh_builder *builder, const char *path, const ftm_material_def *material,
+                  ftm_error *err)
+{
+    int rc = ftm_load_check_args(builder, path, material, err);
+    if (rc < 0)
+        return rc;
+    char *data;
+    size_t length;
+    ftm_error read_err = {0};
+    rc = ftm_load_read_file(path, &data, &length, &read_err);
+    if (rc == FTM_EPARSE) /* the reader refuses NUL bytes: a binary MSH file */
+        return ftm_error_set(err, rc, "%s: binary data in file (binary MSH not supported, "
+                                      "save as ASCII MSH 4.1)", path);
+    if (rc < 0)
+        return ftm_error_set(err, rc, "%s", read_err.message);
+
+    msh_state *s = calloc(1, sizeof *s);
+    if (!s) {
+        free(data);
+        return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", path);
+    }
+    s->path = path;
+    ftm_text_init(&s->text, path, data, length);
+    rc = parse_file(s, err);
+    if (rc >= 0)
+        rc = ftm_load_commit(builder, path, material, s->pos, s->node_count, s->tris,
+                             s->tri_count, s->tet_count == 0, s->tets, s->tet_count, err);
+    free(s->tets);
+    free(s->tris);
+    free(s->tags);
+    free(s->node_line);
+    free(s->pos);
+    free(s);
+    free(data);
+    return rc;
+}

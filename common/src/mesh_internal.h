@@ -1,0 +1,47 @@
+/* Internal layout of ftm_mesh, shared by the core's source files.
+ * Adjacency is CSR: the neighbours of node i are adj_node[adj_start[i] ..
+ * adj_start[i+1]-1], with the link's stiffness and rest length alongside. */
+#ifndef FTM_SRC_MESH_INTERNAL_H
+#define FTM_SRC_MESH_INTERNAL_H
+
+#include "ftm/mesh.h"
+
+struct ftm_mesh {
+    int32_t node_count;
+    int32_t link_count;
+    int32_t tri_count;
+    int32_t tet_count;
+    int32_t max_degree;
+
+    double *rest;      /* 3 per node */
+    double *mass;
+    double *damping;
+    uint8_t *fixed;
+    double *min_link;  /* shortest rest length of a link at each node (INFINITY if none) */
+
+    int32_t *adj_start; /* node_count + 1 */
+    int32_t *adj_node;
+    double *adj_k;
+    double *adj_len;
+    /* The same adjacency padded to max_degree slots per node: node i's slot s
+     * is pad_node[i * max_degree + s] with (k, len) in pad_kl[2 * that];
+     * padding slots link i to itself with k = -0.0 and len = 0, adding exactly -0.0. */
+    int32_t *pad_node;
+    double *pad_kl;
+    /* Greedy colouring of the whole graph, 0..63: adjacent nodes differ in
+     * colour unless both are 63 (only where a node has >= 63 lower neighbours). */
+    uint8_t *color;
+
+    int32_t *link_a, *link_b; /* link_count each, link_a < link_b */
+    double *link_k, *link_len;
+
+    int32_t *tris; /* 3 per triangle */
+    int32_t *tets; /* 4 per tetrahedron */
+
+    int32_t *node_of_input; /* input index -> mesh index */
+    int32_t *input_of_node; /* mesh index -> input index */
+
+    double mean_link_length;
+};
+
+#endif

@@ -1,0 +1,1533 @@
+/* Scene files: INI-like text ("[section]", "key = value", "#" comments)
+ * describing a mesh, its material, simulation parameters and scripted loads.
+ * The format is documented in docs/scene-format.md.
+ *
+ * Parsing runs in two passes: the text is read into a plain specification
+ * (every key remembers its line), then the mesh is built and everything that
+ * depends on it (node indices, fixed nodes, load targets) is checked, so an
+ * error always names the line of the key that caused it. */
+#include "ftm/scene.h"
+
+#include "ftm/generate.h"
+#include "ftm/load.h"
+
+#include "error.h"
+#include "text.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SCENE_MAX_BYTES ((size_t)1 << 20)   /* scene files are small; refuse anything big */
+#define SCENE_NAME_MAX 128                  /* bytes, including the terminator */
+#define SCENE_MAX_LOADS 100000
+#define SCENE_MAX_LATTICE_NODES ((int64_t)1 << 24)
+#define SCENE_MAX_LATTICE_AXIS ((int64_t)1 << 20)
+#define SCENE_MAX_DEPTH 1000000
+#define SCENE_MAX_SUBSTEPS 65536
+#define SCENE_DEFAULT_STEPS 1000
+#define SCENE_DEFAULT_STENCIL 18
+#define ALL_FACES                                                                                  \
+    (FTM_FACE_XMIN | FTM_FACE_XMAX | FTM_FACE_YMIN | FTM_FACE_YMAX | FTM_FACE_ZMIN | FTM_FACE_ZMAX)
+
+struct ftm_scene {
+    char name[SCENE_NAME_MAX];
+    ftm_mesh *mesh;
+    ftm_sim_def sim;
+    int32_t steps;
+    ftm_scene_load *loads;
+    int32_t load_count;
+};
+
+/* ---------------------------------------------------------------- keys */
+
+typedef enum section {
+    SEC_NONE,
+    SEC_SCENE,
+    SEC_MESH,
+    SEC_MATERIAL,
+    SEC_SIM,
+    SEC_LOAD,
+    SEC_COUNT
+} section;
+
+static const char *const section_names[SEC_COUNT] = {"", "scene", "mesh", "material", "sim",
+                                                     "load"};
+
+typedef enum key {
+    K_NAME,
+    K_DESCRIPTION,
+    K_GENERATOR,
+    K_FILE,
+    K_NX,
+    K_NY,
+    K_NZ,
+    K_SPACING,
+    K_STENCIL,
+    K_CLASS_SCALE,
+    K_FIXED_FACES,
+    K_FIXED_NODES,
+    K_FIXED_BOX,
+    K_MASS,
+    K_DAMPING,
+    K_STIFFNESS,
+    K_AXIS_SCALE,
+    K_TIME_STEP,
+    K_DEPTH,
+    K_ORDER,
+    K_STEPS,
+    K_SLEEP_TOLERANCE,
+    K_REGION_SLEEP_STEPS,
+    K_GUARD,
+    K_GUARD_MOTION,
+    K_MAX_SUBSTEPS,
+    K_NODE, /* first [load] key: load keys are recorded per load */
+    K_KIND,
+    K_VALUE,
+    K_GROUP,
+    K_START,
+    K_END,
+    K_RELEASE,
+    K_RAMP,
+    K_COUNT
+} key;
+
+#define LOAD_KEY_COUNT (K_COUNT - K_NODE)
+
+static const struct {
+    section sec;
+    const char *name;
+    bool repeatable; /* may be given several times; values accumulate */
+} key_table[K_COUNT] = {
+    [K_NAME] = {SEC_SCENE, "name", false},
+    [K_DESCRIPTION] = {SEC_SCENE, "description", false},
+    [K_GENERATOR] = {SEC_MESH, "generator", false},
+    [K_FILE] = {SEC_MESH, "file", false},
+    [K_NX] = {SEC_MESH, "nx", false},
+    [K_NY] = {SEC_MESH, "ny", false},
+    [K_NZ] = {SEC_MESH, "nz", false},
+    [K_SPACING] = {SEC_MESH, "spacing", false},
+    [K_STENCIL] = {SEC_MESH, "stencil", false},
+    [K_CLASS_SCALE] = {SEC_MESH, "class_scale", false},
+    [K_FIXED_FACES] = {SEC_MESH, "fixed_faces", false},
+    [K_FIXED_NODES] = {SEC_MESH, "fixed_nodes", true},
+    [K_FIXED_BOX] = {SEC_MESH, "fixed_box", true},
+    [K_MASS] = {SEC_MATERIAL, "mass", false},
+    [K_DAMPING] = {SEC_MATERIAL, "damping", false},
+    [K_STIFFNESS] = {SEC_MATERIAL, "stiffness", false},
+    [K_AXIS_SCALE] = {SEC_MATERIAL, "axis_scale", false},
+    [K_TIME_STEP] = {SEC_SIM, "time_step", false},
+    [K_DEPTH] = {SEC_SIM, "depth", false},
+    [K_ORDER] = {SEC_SIM, "order", false},
+    [K_STEPS] = {SEC_SIM, "steps", false},
+    [K_SLEEP_TOLERANCE] = {SEC_SIM, "sleep_tolerance", false},
+    [K_REGION_SLEEP_STEPS] = {SEC_SIM, "region_sleep_steps", false},
+    [K_GUARD] = {SEC_SIM, "guard", false},
+    [K_GUARD_MOTION] = {SEC_SIM, "guard_motion", false},
+    [K_MAX_SUBSTEPS] = {SEC_SIM, "max_substeps", false},
+    [K_NODE] = {SEC_LOAD, "node", false},
+    [K_KIND] = {SEC_LOAD, "kind", false},
+    [K_VALUE] = {SEC_LOAD, "value", false},
+    [K_GROUP] = {SEC_LOAD, "group", false},
+    [K_START] = {SEC_LOAD, "start", false},
+    [K_END] = {SEC_LOAD, "end", false},
+    [K_RELEASE] = {SEC_LOAD, "release", false},
+    [K_RAMP] = {SEC_LOAD, "ramp", false},
+};
+
+/* ------------------------------------------------------- specification */
+
+typedef enum generator { GEN_NONE, GEN_LATTICE2D, GEN_LATTICE3D } generator;
+
+typedef struct fixed_index {
+    int64_t input;
+    int32_t line;
+} fixed_index;
+
+typedef struct fixed_box {
+    double lo[3], hi[3];
+} fixed_box;
+
+typedef struct load_spec {
+    int32_t line;                     /* line of the [load] header */
+    int32_t key_line[LOAD_KEY_COUNT]; /* where each key was set, 0 = not set */
+    bool nearest;                     /* node given as "nearest x y z" */
+    int64_t input;                    /* input index when !nearest */
+    ftm_vec3 point;                   /* when nearest */
+    ftm_scene_load load;              /* contact.node is filled in once the mesh exists */
+} load_spec;
+
+typedef struct spec {
+    int32_t key_line[K_COUNT]; /* line where each (non-load) key was last set, 0 = unset */
+    int32_t section_line[SEC_COUNT];
+    char name[SCENE_NAME_MAX];
+    /* [mesh] */
+    generator gen;
+    char *file;
+    int64_t nx, ny, nz;
+    double spacing[3];
+    int spacing_count;
+    int64_t stencil;
+    double class_scale[3];
+    uint32_t fixed_faces;
+    fixed_index *fixed_nodes;
+    size_t fixed_node_count, fixed_node_cap;
+    fixed_box *fixed_boxes;
+    size_t fixed_box_count, fixed_box_cap;
+    /* [material] */
+    ftm_material_def material;
+    /* [sim] */
+    ftm_sim_def sim;
+    int64_t steps;
+    /* [load] */
+    load_spec *loads;
+    size_t load_count, load_cap;
+} spec;
+
+typedef struct parser {
+    const char *name;     /* file name for messages */
+    const char *base_dir; /* directory that mesh file paths are relative to; NULL = cwd */
+    int32_t line;         /* current line */
+    int32_t last_line;    /* number of lines in the text */
+    ftm_error *err;
+    spec s;
+} parser;
+
+typedef struct token {
+    const char *s;
+    size_t n;
+} token;
+
+#define MAX_TOKENS 8
+
+/* ------------------------------------------------------------- errors */
+
+#if defined(__GNUC__)
+__attribute__((format(printf, 4, 5)))
+#endif
+static int
+fail_at(const parser *p, int32_t line, int code, const char *fmt, ...)
+{
+    char msg[FTM_ERROR_MESSAGE_MAX];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return ftm_error_set(p->err, code, "%s:%d: %s", p->name, (int)line, msg);
+}
+
+/* Prints at most this many characters of an offending token. */
+static int shown(size_t n)
+{
+    return n > 40 ? 40 : (int)n;
+}
+
+/* ------------------------------------------------------------- values */
+
+static bool token_is(token t, const char *word)
+{
+    size_t n = strlen(word);
+    return t.n == n && memcmp(t.s, word, n) == 0;
+}
+
+/* Splits value into whitespace-separated tokens; the count must lie in [min, max]. */
+static int split(const parser *p, const char *keyname, const char *v, size_t vlen, token *out,
+                 int min, int max, int *count)
+{
+    const char *cur = v, *end = v + vlen;
+    int n = 0;
+    token t;
+    while (ftm_text_token(&cur, end, &t.s, &t.n)) {
+        if (n == max) {
+            if (min == max)
+                return fail_at(p, p->line, FTM_EPARSE, "%s: expected %d value%s, got more", keyname,
+                               max, max == 1 ? "" : "s");
+            return fail_at(p, p->line, FTM_EPARSE, "%s: expected at most %d values, got more",
+                           keyname, max);
+        }
+        out[n++] = t;
+    }
+    if (n < min) {
+        if (min == max)
+            return fail_at(p, p->line, FTM_EPARSE, "%s: expected %d value%s, got %d", keyname, min,
+                           min == 1 ? "" : "s", n);
+        return fail_at(p, p->line, FTM_EPARSE, "%s: expected at least %d values, got %d", keyname,
+                       min, n);
+    }
+    *count = n;
+    return FTM_OK;
+}
+
+static int number(const parser *p, const char *keyname, token t, double *out)
+{
+    if (!ftm_text_parse_double(t.s, t.n, out))
+        return fail_at(p, p->line, FTM_EPARSE, "%s: expected a finite number, got '%.*s'", keyname,
+                       shown(t.n), t.s);
+    return FTM_OK;
+}
+
+static int integer(const parser *p, const char *keyname, token t, int64_t lo, int64_t hi,
+                   int64_t *out)
+{
+    int64_t v = 0;
+    if (!ftm_text_parse_int(t.s, t.n, &v))
+        return fail_at(p, p->line, FTM_EPARSE, "%s: expected an integer, got '%.*s'", keyname,
+                       shown(t.n), t.s);
+    if (v < lo || v > hi)
+        return fail_at(p, p->line, FTM_EINVAL, "%s must be between %lld and %lld, got %lld",
+                       keyname, (long long)lo, (long long)hi, (long long)v);
+    *out = v;
+    return FTM_OK;
+}
+
+/* One number in (0, inf) if positive, else in [0, inf). */
+static int scalar(const parser *p, const char *keyname, const char *v, size_t vlen, bool positive,
+                  double *out)
+{
+    token t[1];
+    int n = 0;
+    double x = 0;
+    int rc = split(p, keyname, v, vlen, t, 1, 1, &n);
+    if (rc == FTM_OK)
+        rc = number(p, keyname, t[0], &x);
+    if (rc != FTM_OK)
+        return rc;
+    if (positive ? !(x > 0) : !(x >= 0))
+        return fail_at(p, p->line, FTM_EINVAL, "%s must be %s, got %.*s", keyname,
+                       positive ? "> 0" : ">= 0", shown(t[0].n), t[0].s);
+    *out = x;
+    return FTM_OK;
+}
+
+static int one_integer(const parser *p, const char *keyname, const char *v, size_t vlen,
+                       int64_t lo, int64_t hi, int64_t *out)
+{
+    token t[1];
+    int n = 0;
+    int rc = split(p, keyname, v, vlen, t, 1, 1, &n);
+    return rc != FTM_OK ? rc : integer(p, keyname, t[0], lo, hi, out);
+}
+
+/* Exactly three numbers; positive: each must be > 0. */
+static int triple(const parser *p, const char *keyname, const char *v, size_t vlen, bool positive,
+                  double out[3])
+{
+    token t[3];
+    int n = 0;
+    int rc = split(p, keyname, v, vlen, t, 3, 3, &n);
+    if (rc != FTM_OK)
+        return rc;
+    double x[3];
+    for (int i = 0; i < 3; i++) {
+        if ((rc = number(p, keyname, t[i], &x[i])) != FTM_OK)
+            return rc;
+        if (positive && !(x[i] > 0))
+            return fail_at(p, p->line, FTM_EINVAL, "%s: every value must be > 0, got %.*s",
+                           keyname, shown(t[i].n), t[i].s);
+    }
+    memcpy(out, x, sizeof x);
+    return FTM_OK;
+}
+
+/* One word out of a NULL-terminated list; returns its index in *out. */
+static int word(const parser *p, const char *keyname, const char *v, size_t vlen,
+                const char *const *choices, const char *expected, int *out)
+{
+    token t[1];
+    int n = 0;
+    int rc = split(p, keyname, v, vlen, t, 1, 1, &n);
+    if (rc != FTM_OK)
+        return rc;
+    for (int i = 0; choices[i]; i++) {
+        if (token_is(t[0], choices[i])) {
+            *out = i;
+            return FTM_OK;
+        }
+    }
+    return fail_at(p, p->line, FTM_EPARSE, "%s: unknown value '%.*s' (expected %s)", keyname,
+                   shown(t[0].n), t[0].s, expected);
+}
+
+/* Grows a dynamic array by one element; returns a pointer to it or NULL. */
+static void *push(void **items, size_t *count, size_t *cap, size_t size)
+{
+    if (*count == *cap) {
+        size_t ncap = *cap ? *cap * 2 : 8;
+        void *n = realloc(*items, ncap * size);
+        if (!n)
+            return NULL;
+        *items = n;
+        *cap = ncap;
+    }
+    void *slot = (char *)*items + *count * size;
+    memset(slot, 0, size);
+    (*count)++;
+    return slot;
+}
+
+/* ----------------------------------------------------- key assignment */
+
+static int set_mesh_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
+{
+    spec *s = &p->s;
+    token t[MAX_TOKENS];
+    int n = 0, rc;
+    switch (k) {
+    case K_GENERATOR: {
+        if ((rc = split(p, kn, v, vlen, t, 1, 1, &n)) != FTM_OK)
+            return rc;
+        if (token_is(t[0], "lattice2d"))
+            s->gen = GEN_LATTICE2D;
+        else if (token_is(t[0], "lattice3d"))
+            s->gen = GEN_LATTICE3D;
+        else
+            return fail_at(p, p->line, FTM_ENOENT,
+                           "generator: unknown generator '%.*s' (expected lattice2d or lattice3d)",
+                           shown(t[0].n), t[0].s);
+        return FTM_OK;
+    }
+    case K_FILE:
+        /* The rest of the line, so that paths may contain spaces. */
+        if (vlen > 4096)
+            return fail_at(p, p->line, FTM_EINVAL, "file: path too long");
+        s->file = malloc(vlen + 1);
+        if (!s->file)
+            return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
+        memcpy(s->file, v, vlen);
+        s->file[vlen] = '\0';
+        return FTM_OK;
+    case K_NX:
+        return one_integer(p, kn, v, vlen, 2, SCENE_MAX_LATTICE_AXIS, &s->nx);
+    case K_NY:
+        return one_integer(p, kn, v, vlen, 2, SCENE_MAX_LATTICE_AXIS, &s->ny);
+    case K_NZ:
+        return one_integer(p, kn, v, vlen, 2, SCENE_MAX_LATTICE_AXIS, &s->nz);
+    case K_SPACING: {
+        double x[3];
+        if ((rc = split(p, kn, v, vlen, t, 1, 3, &n)) != FTM_OK)
+            return rc;
+        if (n == 2)
+            return fail_at(p, p->line, FTM_EPARSE,
+                           "spacing: expected 1 value (all axes) or 3 (x y z), got 2");
+        for (int i = 0; i < n; i++) {
+            if ((rc = number(p, kn, t[i], &x[i])) != FTM_OK)
+                return rc;
+            if (!(x[i] > 0))
+                return fail_at(p, p->line, FTM_EINVAL, "spacing must be > 0, got %.*s",
+                               shown(t[i].n), t[i].s);
+        }
+        for (int i = 0; i < 3; i++)
+            s->spacing[i] = x[n == 1 ? 0 : i];
+        s->spacing_count = n;
+        return FTM_OK;
+    }
+    case K_STENCIL:
+        if ((rc = one_integer(p, kn, v, vlen, INT32_MIN, INT32_MAX, &s->stencil)) != FTM_OK)
+            return rc;
+        if (s->stencil != 6 && s->stencil != 18 && s->stencil != 26)
+            return fail_at(p, p->line, FTM_EINVAL, "stencil must be 6, 18 or 26, got %lld",
+                           (long long)s->stencil);
+        return FTM_OK;
+    case K_CLASS_SCALE:
+        return triple(p, kn, v, vlen, true, s->class_scale);
+    case K_FIXED_FACES: {
+        static const char *const faces[] = {"xmin", "xmax", "ymin", "ymax", "zmin", "zmax", NULL};
+        if ((rc = split(p, kn, v, vlen, t, 1, MAX_TOKENS, &n)) != FTM_OK)
+            return rc;
+        uint32_t mask = 0;
+        for (int i = 0; i < n; i++) {
+            bool none = token_is(t[i], "none"), all = token_is(t[i], "all");
+            if ((none || all) && n > 1)
+                return fail_at(p, p->line, FTM_EPARSE,
+                               "fixed_faces: '%s' cannot be combined with other faces",
+                               none ? "none" : "all");
+            if (none)
+                break;
+            if (all) {
+                mask = ALL_FACES;
+                break;
+            }
+            int f = -1;
+            for (int j = 0; faces[j]; j++)
+                if (token_is(t[i], faces[j]))
+                    f = j;
+            if (f < 0)
+                return fail_at(p, p->line, FTM_EPARSE,
+                               "fixed_faces: unknown face '%.*s' (expected xmin xmax ymin ymax "
+                               "zmin zmax, all or none)",
+                               shown(t[i].n), t[i].s);
+            mask |= 1u << f; /* FTM_FACE_* follow the order of faces[] */
+        }
+        s->fixed_faces = mask;
+        return FTM_OK;
+    }
+    case K_FIXED_NODES: {
+        /* Any number of indices: walk the tokens without a fixed limit. */
+        const char *cur = v, *end = v + vlen;
+        token one;
+        int count = 0;
+        while (ftm_text_token(&cur, end, &one.s, &one.n)) {
+            int64_t idx = 0;
+            if ((rc = integer(p, kn, one, 0, INT32_MAX, &idx)) != FTM_OK)
+                return rc;
+            fixed_index *fi = push((void **)&s->fixed_nodes, &s->fixed_node_count,
+                                   &s->fixed_node_cap, sizeof *fi);
+            if (!fi)
+                return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
+            fi->input = idx;
+            fi->line = p->line;
+            count++;
+        }
+        if (count == 0)
+            return fail_at(p, p->line, FTM_EPARSE, "fixed_nodes: expected node indices");
+        return FTM_OK;
+    }
+    case K_FIXED_BOX: {
+        double x[6];
+        if ((rc = split(p, kn, v, vlen, t, 6, 6, &n)) != FTM_OK)
+            return rc;
+        for (int i = 0; i < 6; i++)
+            if ((rc = number(p, kn, t[i], &x[i])) != FTM_OK)
+                return rc;
+        for (int i = 0; i < 3; i++)
+            if (x[i] > x[i + 3])
+                return fail_at(p, p->line, FTM_EINVAL,
+                               "fixed_box: min %c (%g) is greater than max %c (%g)", 'x' + i, x[i],
+                               'x' + i, x[i + 3]);
+        fixed_box *b =
+            push((void **)&s->fixed_boxes, &s->fixed_box_count, &s->fixed_box_cap, sizeof *b);
+        if (!b)
+            return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
+        memcpy(b->lo, x, sizeof b->lo);
+        memcpy(b->hi, x + 3, sizeof b->hi);
+        return FTM_OK;
+    }
+    default:
+        return fail_at(p, p->line, FTM_EPARSE, "internal: key %s in [mesh]", kn);
+    }
+}
+
+static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
+{
+    spec *s = &p->s;
+    int rc;
+    int64_t iv = 0;
+    switch (k) {
+    case K_NAME:
+        if (vlen >= SCENE_NAME_MAX)
+            return fail_at(p, p->line, FTM_EINVAL, "name longer than %d characters",
+                           SCENE_NAME_MAX - 1);
+        for (size_t i = 0; i < vlen; i++)
+            if ((unsigned char)v[i] < 0x20 || v[i] == 0x7f)
+                return fail_at(p, p->line, FTM_EINVAL, "name contains a control character");
+        memcpy(s->name, v, vlen);
+        s->name[vlen] = '\0';
+        return FTM_OK;
+    case K_DESCRIPTION:
+        return FTM_OK; /* free text for readers of the file */
+    case K_MASS:
+        return scalar(p, kn, v, vlen, true, &s->material.node_mass);
+    case K_DAMPING:
+        return scalar(p, kn, v, vlen, false, &s->material.node_damping);
+    case K_STIFFNESS:
+        return scalar(p, kn, v, vlen, true, &s->material.stiffness);
+    case K_AXIS_SCALE: {
+        double x[3];
+        if ((rc = triple(p, kn, v, vlen, true, x)) != FTM_OK)
+            return rc;
+        s->material.axis_scale = (ftm_vec3){x[0], x[1], x[2]};
+        return FTM_OK;
+    }
+    case K_TIME_STEP:
+        return scalar(p, kn, v, vlen, true, &s->sim.time_step);
+    case K_DEPTH:
+        if ((rc = one_integer(p, kn, v, vlen, 0, SCENE_MAX_DEPTH, &iv)) != FTM_OK)
+            return rc;
+        s->sim.depth = (int32_t)iv;
+        return FTM_OK;
+    case K_ORDER: {
+        static const char *const orders[] = {"colored", "bfs", "jacobi", NULL};
+        static const ftm_order values[] = {FTM_ORDER_LAYER_COLORED, FTM_ORDER_BFS,
+                                           FTM_ORDER_LAYER_JACOBI};
+        int o;
+        if ((rc = word(p, kn, v, vlen, orders, "colored, bfs or jacobi", &o)) != FTM_OK)
+            return rc;
+        s->sim.order = values[o];
+        return FTM_OK;
+    }
+    case K_STEPS:
+        return one_integer(p, kn, v, vlen, 0, INT32_MAX, &s->steps);
+    case K_SLEEP_TOLERANCE:
+        return scalar(p, kn, v, vlen, false, &s->sim.sleep_tolerance);
+    case K_REGION_SLEEP_STEPS:
+        if ((rc = one_integer(p, kn, v, vlen, 0, INT32_MAX, &iv)) != FTM_OK)
+            return rc;
+        s->sim.region_sleep_steps = (int32_t)iv;
+        return FTM_OK;
+    case K_GUARD: {
+        static const char *const bools[] = {"on", "off", "true", "false", "yes", "no", "1", "0",
+                                            NULL};
+        int b;
+        if ((rc = word(p, kn, v, vlen, bools, "on or off", &b)) != FTM_OK)
+            return rc;
+        s->sim.guard = (b % 2) == 0;
+        return FTM_OK;
+    }
+    case K_GUARD_MOTION:
+        return scalar(p, kn, v, vlen, true, &s->sim.guard_motion);
+    case K_MAX_SUBSTEPS:
+        if ((rc = one_integer(p, kn, v, vlen, 1, SCENE_MAX_SUBSTEPS, &iv)) != FTM_OK)
+            return rc;
+        s->sim.max_substeps = (int32_t)iv;
+        return FTM_OK;
+    default:
+        return set_mesh_key(p, k, kn, v, vlen);
+    }
+}
+
+static int set_load_key(parser *p, load_spec *ls, key k, const char *kn, const char *v,
+                        size_t vlen)
+{
+    ftm_scene_load *l = &ls->load;
+    token t[4];
+    int n = 0, rc;
+    int64_t iv = 0;
+    switch (k) {
+    case K_NODE:
+        if ((rc = split(p, kn, v, vlen, t, 1, 4, &n)) != FTM_OK)
+            return rc;
+        if (token_is(t[0], "nearest")) {
+            if (n != 4)
+                return fail_at(p, p->line, FTM_EPARSE,
+                               "node: expected 'nearest X Y Z' with three coordinates");
+            double x[3];
+            for (int i = 0; i < 3; i++)
+                if ((rc = number(p, kn, t[i + 1], &x[i])) != FTM_OK)
+                    return rc;
+            ls->nearest = true;
+            ls->point = (ftm_vec3){x[0], x[1], x[2]};
+            return FTM_OK;
+        }
+        if (n != 1)
+            return fail_at(p, p->line, FTM_EPARSE,
+                           "node: expected an input node index or 'nearest X Y Z'");
+        ls->nearest = false;
+        return integer(p, kn, t[0], 0, INT32_MAX, &ls->input);
+    case K_KIND: {
+        static const char *const kinds[] = {"force", "displacement", NULL};
+        int kd;
+        if ((rc = word(p, kn, v, vlen, kinds, "force or displacement", &kd)) != FTM_OK)
+            return rc;
+        l->contact.kind = kd == 0 ? FTM_CONTACT_FORCE : FTM_CONTACT_DISPLACEMENT;
+        return FTM_OK;
+    }
+    case K_VALUE: {
+        double x[3];
+        if ((rc = triple(p, kn, v, vlen, false, x)) != FTM_OK)
+            return rc;
+        l->contact.value = (ftm_vec3){x[0], x[1], x[2]};
+        return FTM_OK;
+    }
+    case K_GROUP:
+        if ((rc = one_integer(p, kn, v, vlen, 0, INT32_MAX, &iv)) != FTM_OK)
+            return rc;
+        l->contact.group = (int32_t)iv;
+        return FTM_OK;
+    case K_START:
+        return scalar(p, kn, v, vlen, false, &l->start);
+    case K_END:
+        return scalar(p, kn, v, vlen, false, &l->end);
+    case K_RELEASE:
+        if ((rc = split(p, kn, v, vlen, t, 1, 1, &n)) != FTM_OK)
+            return rc;
+        if (token_is(t[0], "never")) {
+            l->release = INFINITY;
+            return FTM_OK;
+        }
+        return scalar(p, kn, v, vlen, false, &l->release);
+    case K_RAMP: {
+        static const char *const ramps[] = {"constant", "linear", "triangle", NULL};
+        static const ftm_ramp values[] = {FTM_RAMP_CONSTANT, FTM_RAMP_LINEAR, FTM_RAMP_TRIANGLE};
+        int r;
+        if ((rc = word(p, kn, v, vlen, ramps, "constant, linear or triangle", &r)) != FTM_OK)
+            return rc;
+        l->ramp = values[r];
+        return FTM_OK;
+    }
+    default:
+        return fail_at(p, p->line, FTM_EPARSE, "internal: key %s in [load]", kn);
+    }
+}
+
+/* ------------------------------------------------------------ lines */
+
+static bool is_blank(char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
+
+static void trim(const char **s, size_t *n)
+{
+    while (*n > 0 && is_blank(**s)) {
+        (*s)++;
+        (*n)--;
+    }
+    while (*n > 0 && is_blank((*s)[*n - 1]))
+        (*n)--;
+}
+
+/* A '#' at the start of a line or after a blank starts a comment, so values
+ * such as file names can still contain '#' inside a word. */
+static size_t strip_comment(const char *line, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (line[i] == '#' && (i == 0 || is_blank(line[i - 1])))
+            return i;
+    return n;
+}
+
+static int open_section(parser *p, const char *s, size_t n, section *cur)
+{
+    spec *sp = &p->s;
+    if (n < 2 || s[n - 1] != ']')
+        return fail_at(p, p->line, FTM_EPARSE, "section header must look like [name]");
+    const char *nm = s + 1;
+    size_t nn = n - 2;
+    trim(&nm, &nn);
+    section sec = SEC_NONE;
+    for (int i = 1; i < SEC_COUNT; i++) {
+        if (strlen(section_names[i]) == nn && memcmp(section_names[i], nm, nn) == 0)
+            sec = (section)i;
+    }
+    if (sec == SEC_NONE)
+        return fail_at(p, p->line, FTM_EPARSE,
+                       "unknown section [%.*s] (expected scene, mesh, material, sim or load)",
+                       shown(nn), nm);
+    if (sec == SEC_LOAD) {
+        if (sp->load_count >= SCENE_MAX_LOADS)
+            return fail_at(p, p->line, FTM_ERANGE, "more than %d [load] sections",
+                           SCENE_MAX_LOADS);
+        load_spec *ls = push((void **)&sp->loads, &sp->load_count, &sp->load_cap, sizeof *ls);
+        if (!ls)
+            return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
+        ls->line = p->line;
+        ls->load.contact.kind = FTM_CONTACT_FORCE;
+        ls->load.release = INFINITY;
+        ls->load.ramp = FTM_RAMP_CONSTANT;
+    } else if (sp->section_line[sec]) {
+        return fail_at(p, p->line, FTM_EPARSE, "duplicate section [%s] (first at line %d)",
+                       section_names[sec], (int)sp->section_line[sec]);
+    }
+    sp->section_line[sec] = p->line;
+    *cur = sec;
+    return FTM_OK;
+}
+
+static int key_value(parser *p, const char *s, size_t n, section cur)
+{
+    spec *sp = &p->s;
+    const char *eq = memchr(s, '=', n);
+    if (!eq)
+        return fail_at(p, p->line, FTM_EPARSE, "expected 'key = value' or '[section]', got '%.*s'",
+                       shown(n), s);
+    const char *kname = s, *v = eq + 1;
+    size_t kn = (size_t)(eq - s), vn = n - kn - 1;
+    trim(&kname, &kn);
+    trim(&v, &vn);
+    if (kn == 0)
+        return fail_at(p, p->line, FTM_EPARSE, "missing key before '='");
+    if (cur == SEC_NONE)
+        return fail_at(p, p->line, FTM_EPARSE, "key '%.*s' outside a section", shown(kn), kname);
+    int k = -1;
+    for (int i = 0; i < K_COUNT; i++) {
+        if (key_table[i].sec == cur && strlen(key_table[i].name) == kn &&
+            memcmp(key_table[i].name, kname, kn) == 0)
+            k = i;
+    }
+    if (k < 0) {
+        /* A known key in the wrong section gets a hint where it belongs. */
+        for (int i = 0; i < K_COUNT; i++)
+            if (strlen(key_table[i].name) == kn && memcmp(key_table[i].name, kname, kn) == 0)
+                return fail_at(p, p->line, FTM_EPARSE,
+                               "unknown key '%s' in [%s] (it belongs in [%s])", key_table[i].name,
+                               section_names[cur], section_names[key_table[i].sec]);
+        return fail_at(p, p->line, FTM_EPARSE, "unknown key '%.*s' in [%s]", shown(kn), kname,
+                       section_names[cur]);
+    }
+    const char *name = key_table[k].name;
+    if (vn == 0)
+        return fail_at(p, p->line, FTM_EPARSE, "%s: missing value", name);
+
+    int32_t *seen;
+    if (cur == SEC_LOAD)
+        seen = &sp->loads[sp->load_count - 1].key_line[k - K_NODE];
+    else
+        seen = &sp->key_line[k];
+    if (*seen && !key_table[k].repeatable)
+        return fail_at(p, p->line, FTM_EPARSE, "duplicate key '%s' (first at line %d)", name,
+                       (int)*seen);
+    int rc = cur == SEC_LOAD
+                 ? set_load_key(p, &sp->loads[sp->load_count - 1], (key)k, name, v, vn)
+                 : set_key(p, (key)k, name, v, vn);
+    if (rc == FTM_OK)
+        *seen = p->line;
+    return rc;
+}
+
+static int parse_text(parser *p, const char *text, size_t length)
+{
+    ftm_text t;
+    ftm_text_init(&t, p->name, text, length);
+    const char *line;
+    size_t n;
+    section cur = SEC_NONE;
+    while (ftm_text_next_line(&t, &line, &n)) {
+        p->line = t.line;
+        n = strip_comment(line, n);
+        trim(&line, &n);
+        if (n == 0)
+            continue;
+        int rc = line[0] == '[' ? open_section(p, line, n, &cur) : key_value(p, line, n, cur);
+        if (rc != FTM_OK)
+            return rc;
+    }
+    p->last_line = t.line > 0 ? t.line : 1;
+    return FTM_OK;
+}
+
+/* ------------------------------------------------------- building */
+
+/* Line to blame for a missing key: its section header, else the end of the text. */
+static int32_t section_or_end(const parser *p, section sec)
+{
+    return p->s.section_line[sec] ? p->s.section_line[sec] : p->last_line;
+}
+
+static int check_mesh_keys(const parser *p)
+{
+    const spec *s = &p->s;
+    const int32_t *kl = s->key_line;
+    if (kl[K_GENERATOR] && kl[K_FILE])
+        return fail_at(p, kl[K_FILE], FTM_EPARSE,
+                       "[mesh] has both generator (line %d) and file; give one",
+                       (int)kl[K_GENERATOR]);
+    if (!kl[K_GENERATOR] && !kl[K_FILE])
+        return fail_at(p, section_or_end(p, SEC_MESH), FTM_EPARSE,
+                       "[mesh] needs 'generator = lattice2d|lattice3d' or 'file = PATH'");
+    static const key lattice_keys[] = {K_NX, K_NY, K_NZ, K_SPACING, K_STENCIL, K_CLASS_SCALE,
+                                       K_FIXED_FACES};
+    for (size_t i = 0; i < sizeof lattice_keys / sizeof lattice_keys[0]; i++) {
+        key k = lattice_keys[i];
+        if (!kl[k])
+            continue;
+        if (s->gen == GEN_NONE)
+            return fail_at(p, kl[k], FTM_EPARSE, "%s is only used with a generator%s",
+                           key_table[k].name,
+                           k == K_FIXED_FACES ? "; use fixed_nodes or fixed_box with a file" : "");
+        bool only3d = k == K_NZ || k == K_STENCIL || k == K_CLASS_SCALE;
+        if (s->gen == GEN_LATTICE2D && only3d)
+            return fail_at(p, kl[k], FTM_EPARSE, "%s is not used by lattice2d", key_table[k].name);
+    }
+    if (s->gen == GEN_LATTICE2D) {
+        if (s->spacing_count > 1)
+            return fail_at(p, kl[K_SPACING], FTM_EPARSE,
+                           "spacing: lattice2d takes a single spacing");
+        if (s->fixed_faces & (FTM_FACE_ZMIN | FTM_FACE_ZMAX)) {
+            if (s->fixed_faces != ALL_FACES) /* "all" means the four sides in 2D */
+                return fail_at(p, kl[K_FIXED_FACES], FTM_EINVAL,
+                               "fixed_faces: lattice2d has no zmin/zmax faces");
+        }
+    }
+    if (s->gen != GEN_NONE) {
+        static const key required[] = {K_NX, K_NY, K_NZ, K_SPACING};
+        for (size_t i = 0; i < sizeof required / sizeof required[0]; i++) {
+            key k = required[i];
+            if (k == K_NZ && s->gen == GEN_LATTICE2D)
+                continue;
+            if (!kl[k])
+                return fail_at(p, kl[K_GENERATOR], FTM_EPARSE, "%s generator needs %s",
+                               s->gen == GEN_LATTICE2D ? "lattice2d" : "lattice3d",
+                               key_table[k].name);
+        }
+        int64_t total = s->nx * s->ny * (s->gen == GEN_LATTICE3D ? s->nz : 1);
+        if (total > SCENE_MAX_LATTICE_NODES)
+            return fail_at(p, kl[K_GENERATOR], FTM_ERANGE,
+                           "lattice of %lld nodes is larger than the limit of %lld",
+                           (long long)total, (long long)SCENE_MAX_LATTICE_NODES);
+    }
+    return FTM_OK;
+}
+
+/* Fills a builder with the generated or loaded mesh. */
+static int fill_builder(const parser *p, ftm_mesh_builder *b)
+{
+    const spec *s = &p->s;
+    ftm_error sub;
+    ftm_error_clear(&sub);
+    int rc;
+    int32_t line;
+    if (s->gen == GEN_LATTICE2D) {
+        ftm_lattice2d_def d = ftm_default_lattice2d_def();
+        d.nx = (int32_t)s->nx;
+        d.ny = (int32_t)s->ny;
+        d.spacing = s->spacing[0];
+        d.material = s->material;
+        d.fixed_faces = s->fixed_faces & (FTM_FACE_XMIN | FTM_FACE_XMAX | FTM_FACE_YMIN |
+                                          FTM_FACE_YMAX);
+        rc = ftm_generate_lattice2d(b, &d, &sub);
+        line = s->key_line[K_GENERATOR];
+    } else if (s->gen == GEN_LATTICE3D) {
+        ftm_lattice3d_def d = ftm_default_lattice3d_def();
+        d.nx = (int32_t)s->nx;
+        d.ny = (int32_t)s->ny;
+        d.nz = (int32_t)s->nz;
+        d.spacing = (ftm_vec3){s->spacing[0], s->spacing[1], s->spacing[2]};
+        d.stencil = (ftm_stencil)s->stencil;
+        d.material = s->material;
+        memcpy(d.class_scale, s->class_scale, sizeof d.class_scale);
+        d.fixed_faces = s->fixed_faces;
+        rc = ftm_generate_lattice3d(b, &d, &sub);
+        line = s->key_line[K_GENERATOR];
+    } else {
+        /* Relative paths are relative to the scene file's directory. */
+        char *path = s->file;
+        char *joined = NULL;
+        if (p->base_dir && p->base_dir[0] && s->file[0] != '/') {
+            size_t dl = strlen(p->base_dir), fl = strlen(s->file);
+            bool slash = p->base_dir[dl - 1] == '/'; /* base "/" for "/x.scene" */
+            joined = malloc(dl + fl + 2);
+            if (!joined)
+                return fail_at(p, s->key_line[K_FILE], FTM_ENOMEM, "out of memory");
+            memcpy(joined, p->base_dir, dl);
+            if (!slash)
+                joined[dl++] = '/';
+            memcpy(joined + dl, s->file, fl + 1);
+            path = joined;
+        }
+        rc = ftm_load_mesh(b, path, &s->material, &sub);
+        free(joined);
+        line = s->key_line[K_FILE];
+    }
+    if (rc != FTM_OK)
+        return fail_at(p, line, rc, "%s", sub.message[0] ? sub.message : ftm_strerror(rc));
+    return FTM_OK;
+}
+
+static bool in_box(const fixed_box *b, ftm_vec3 x)
+{
+    return x.x >= b->lo[0] && x.x <= b->hi[0] && x.y >= b->lo[1] && x.y <= b->hi[1] &&
+           x.z >= b->lo[2] && x.z <= b->hi[2];
+}
+
+/* The builder API cannot change a node once added, so fixed_nodes and
+ * fixed_box are applied by building the mesh once without reordering and
+ * copying it, with the extra fixed flags, into a second builder. Input
+ * indices are preserved, so the result is as if the loader had fixed them. */
+static int copy_with_fixed(const parser *p, const ftm_mesh_builder *src, ftm_mesh_builder **out)
+{
+    const spec *s = &p->s;
+    ftm_error sub;
+    ftm_error_clear(&sub);
+    ftm_mesh_build_def bd = ftm_default_mesh_build_def();
+    bd.reorder = false;
+    ftm_mesh *m = NULL;
+    int rc = ftm_mesh_build(src, &bd, &m, &sub);
+    if (rc != FTM_OK)
+        return fail_at(p, section_or_end(p, SEC_MESH), rc, "%s", sub.message);
+    int32_t n = ftm_mesh_node_count(m);
+    uint8_t *fix = calloc((size_t)n, 1);
+    ftm_mesh_builder *b = ftm_mesh_builder_create();
+    if (!fix || !b) {
+        rc = fail_at(p, section_or_end(p, SEC_MESH), FTM_ENOMEM, "out of memory");
+        goto done;
+    }
+    for (size_t i = 0; i < s->fixed_node_count; i++)
+        fix[s->fixed_nodes[i].input] = 1; /* indices were checked against n already */
+    for (int32_t i = 0; i < n && s->fixed_box_count; i++) {
+        ftm_vec3 x = ftm_mesh_rest_position(m, ftm_mesh_node_of_input(m, i));
+        for (size_t j = 0; j < s->fixed_box_count; j++)
+            if (in_box(&s->fixed_boxes[j], x))
+                fix[i] = 1;
+    }
+    for (int32_t i = 0; i < n; i++) {
+        int32_t node = ftm_mesh_node_of_input(m, i);
+        ftm_node_def nd = ftm_default_node_def();
+        nd.position = ftm_mesh_rest_position(m, node);
+        nd.mass = ftm_mesh_mass(m, node);
+        nd.damping = ftm_mesh_damping(m, node);
+        nd.fixed = ftm_mesh_fixed(m, node) || fix[i];
+        int32_t got = ftm_mesh_builder_add_node(b, &nd);
+        if (got < 0) {
+            rc = fail_at(p, section_or_end(p, SEC_MESH), got, "copying node %d failed", (int)i);
+            goto done;
+        }
+    }
+    for (int32_t l = 0; l < ftm_mesh_link_count(m); l++) {
+        ftm_link_def ld = ftm_default_link_def();
+        int32_t a, c;
+        ftm_mesh_link(m, l, &a, &c, &ld.stiffness, &ld.rest_length);
+        ld.a = ftm_mesh_input_of_node(m, a);
+        ld.b = ftm_mesh_input_of_node(m, c);
+        if ((rc = ftm_mesh_builder_add_link(b, &ld)) != FTM_OK) {
+            rc = fail_at(p, section_or_end(p, SEC_MESH), rc, "copying link %d failed", (int)l);
+            goto done;
+        }
+    }
+    const int32_t *tri = ftm_mesh_triangles(m);
+    for (int32_t i = 0; i < ftm_mesh_triangle_count(m); i++) {
+        rc = ftm_mesh_builder_add_triangle(b, ftm_mesh_input_of_node(m, tri[3 * i]),
+                                           ftm_mesh_input_of_node(m, tri[3 * i + 1]),
+                                           ftm_mesh_input_of_node(m, tri[3 * i + 2]));
+        if (rc != FTM_OK) {
+            rc = fail_at(p, section_or_end(p, SEC_MESH), rc, "copying triangle %d failed", (int)i);
+            goto done;
+        }
+    }
+    const int32_t *tet = ftm_mesh_tetrahedra(m);
+    for (int32_t i = 0; i < ftm_mesh_tetrahedron_count(m); i++) {
+        rc = ftm_mesh_builder_add_tetrahedron(b, ftm_mesh_input_of_node(m, tet[4 * i]),
+                                              ftm_mesh_input_of_node(m, tet[4 * i + 1]),
+                                              ftm_mesh_input_of_node(m, tet[4 * i + 2]),
+                                              ftm_mesh_input_of_node(m, tet[4 * i + 3]));
+        if (rc != FTM_OK) {
+            rc = fail_at(p, section_or_end(p, SEC_MESH), rc, "copying tetrahedron %d failed",
+                         (int)i);
+            goto done;
+        }
+    }
+    *out = b;
+    b = NULL;
+    rc = FTM_OK;
+done:
+    ftm_mesh_builder_destroy(b);
+    free(fix);
+    ftm_mesh_destroy(m);
+    return rc;
+}
+
+static int build_mesh(const parser *p, ftm_mesh **out)
+{
+    const spec *s = &p->s;
+    ftm_mesh_builder *b = ftm_mesh_builder_create();
+    if (!b)
+        return fail_at(p, section_or_end(p, SEC_MESH), FTM_ENOMEM, "out of memory");
+    int rc = fill_builder(p, b);
+    if (rc == FTM_OK) {
+        int32_t n = ftm_mesh_builder_node_count(b);
+        for (size_t i = 0; i < s->fixed_node_count; i++) {
+            if (s->fixed_nodes[i].input >= n) {
+                rc = fail_at(p, s->fixed_nodes[i].line, FTM_ERANGE,
+                             "fixed_nodes: node %lld out of range (mesh has %d nodes)",
+                             (long long)s->fixed_nodes[i].input, (int)n);
+                break;
+            }
+        }
+    }
+    if (rc == FTM_OK && (s->fixed_node_count || s->fixed_box_count)) {
+        ftm_mesh_builder *fixed = NULL;
+        rc = copy_with_fixed(p, b, &fixed);
+        if (rc == FTM_OK) {
+            ftm_mesh_builder_destroy(b);
+            b = fixed;
+        }
+    }
+    if (rc == FTM_OK) {
+        ftm_error sub;
+        ftm_error_clear(&sub);
+        ftm_mesh_build_def bd = ftm_default_mesh_build_def();
+        rc = ftm_mesh_build(b, &bd, out, &sub);
+        if (rc != FTM_OK)
+            rc = fail_at(p, section_or_end(p, SEC_MESH), rc, "%s", sub.message);
+    }
+    ftm_mesh_builder_destroy(b);
+    return rc;
+}
+
+static int check_material(const parser *p)
+{
+    const spec *s = &p->s;
+    if (!s->section_line[SEC_MATERIAL])
+        return fail_at(p, p->last_line, FTM_EPARSE,
+                       "missing [material] section (mass and stiffness are required)");
+    if (!s->key_line[K_MASS])
+        return fail_at(p, s->section_line[SEC_MATERIAL], FTM_EPARSE, "[material] needs mass");
+    if (!s->key_line[K_STIFFNESS])
+        return fail_at(p, s->section_line[SEC_MATERIAL], FTM_EPARSE,
+                       "[material] needs stiffness");
+    return FTM_OK;
+}
+
+/* Checks the times of every load (keys may come in any order, hence afterwards). */
+static int check_load_times(const parser *p, load_spec *ls)
+{
+    ftm_scene_load *l = &ls->load;
+    const int32_t *kl = ls->key_line;
+    int32_t end_line = kl[K_END - K_NODE];
+    if (!kl[K_NODE - K_NODE])
+        return fail_at(p, ls->line, FTM_EPARSE, "[load] needs node");
+    if (!kl[K_VALUE - K_NODE])
+        return fail_at(p, ls->line, FTM_EPARSE, "[load] needs value");
+    if (!end_line)
+        l->end = l->start; /* only ramps use end */
+    if (l->ramp != FTM_RAMP_CONSTANT) {
+        if (!end_line)
+            return fail_at(p, kl[K_RAMP - K_NODE], FTM_EPARSE, "a %s ramp needs end",
+                           l->ramp == FTM_RAMP_LINEAR ? "linear" : "triangle");
+        if (!(l->end > l->start))
+            return fail_at(p, end_line, FTM_EINVAL, "end (%g) must be after start (%g)", l->end,
+                           l->start);
+    } else if (end_line && l->end < l->start) {
+        return fail_at(p, end_line, FTM_EINVAL, "end (%g) must not be before start (%g)", l->end,
+                       l->start);
+    }
+    int32_t rl = kl[K_RELEASE - K_NODE];
+    if (rl && !(l->release > l->start))
+        return fail_at(p, rl, FTM_EINVAL, "release (%g) must be after start (%g)", l->release,
+                       l->start);
+    return FTM_OK;
+}
+
+typedef struct load_key {
+    int32_t node;
+    double start, release;
+    int32_t line;
+} load_key;
+
+static int compare_load_keys(const void *a, const void *b)
+{
+    const load_key *x = a, *y = b;
+    if (x->node != y->node)
+        return x->node < y->node ? -1 : 1;
+    if (x->start != y->start)
+        return x->start < y->start ? -1 : 1;
+    return x->line < y->line ? -1 : x->line > y->line;
+}
+
+/* Resolves load targets to mesh indices and rejects fixed targets and two
+ * loads on one node at the same time (the simulation takes one contact per node). */
+static int resolve_loads(const parser *p, const ftm_mesh *mesh, ftm_scene_load *out)
+{
+    const spec *s = &p->s;
+    int32_t n = ftm_mesh_node_count(mesh);
+    for (size_t i = 0; i < s->load_count; i++) {
+        const load_spec *ls = &s->loads[i];
+        int32_t line = ls->key_line[0];
+        int32_t node;
+        if (ls->nearest) {
+            node = ftm_mesh_nearest_node(mesh, ls->point);
+            if (node < 0 || node >= n)
+                return fail_at(p, line, FTM_ERANGE, "node: no node near (%g, %g, %g)",
+                               ls->point.x, ls->point.y, ls->point.z);
+        } else {
+            if (ls->input >= n)
+                return fail_at(p, line, FTM_ERANGE, "node %lld out of range (mesh has %d nodes)",
+                               (long long)ls->input, (int)n);
+            node = ftm_mesh_node_of_input(mesh, (int32_t)ls->input);
+        }
+        if (ftm_mesh_fixed(mesh, node))
+            return fail_at(p, line, FTM_EINVAL, "node %d is fixed and cannot take a load",
+                           (int)ftm_mesh_input_of_node(mesh, node));
+        out[i] = ls->load;
+        out[i].contact.node = node;
+    }
+    if (s->load_count < 2)
+        return FTM_OK;
+    load_key *keys = malloc(s->load_count * sizeof *keys);
+    if (!keys)
+        return fail_at(p, p->last_line, FTM_ENOMEM, "out of memory");
+    for (size_t i = 0; i < s->load_count; i++)
+        keys[i] = (load_key){out[i].contact.node, out[i].start, out[i].release,
+                             s->loads[i].line};
+    qsort(keys, s->load_count, sizeof *keys, compare_load_keys);
+    /* Sorted by node, then start: a load overlaps an earlier one on the same
+     * node iff it starts before the latest release seen so far on that node. */
+    int rc = FTM_OK;
+    size_t latest = 0; /* index in keys of the latest-releasing load on this node */
+    for (size_t i = 1; i < s->load_count && rc == FTM_OK; i++) {
+        if (keys[i].node != keys[latest].node) {
+            latest = i;
+            continue;
+        }
+        if (keys[i].start < keys[latest].release)
+            rc = fail_at(p, keys[i].line, FTM_EINVAL,
+                         "load on node %d overlaps in time with the load at line %d",
+                         (int)ftm_mesh_input_of_node(mesh, keys[i].node), (int)keys[latest].line);
+        else if (keys[i].release > keys[latest].release)
+            latest = i;
+    }
+    free(keys);
+    return rc;
+}
+
+/* Scene name from a file name: base name without its extension. */
+static void default_name(const char *path, char out[SCENE_NAME_MAX])
+{
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    size_t n = strlen(base);
+    const char *dot = strrchr(base, '.');
+    if (dot && dot != base)
+        n = (size_t)(dot - base);
+    if (n >= SCENE_NAME_MAX)
+        n = SCENE_NAME_MAX - 1;
+    memcpy(out, base, n);
+    out[n] = '\0';
+}
+
+static void free_spec(spec *s)
+{
+    free(s->file);
+    free(s->fixed_nodes);
+    free(s->fixed_boxes);
+    free(s->loads);
+}
+
+static int parse_scene(const char *text, size_t length, const char *name, const char *base_dir,
+                       ftm_scene **out, ftm_error *err)
+{
+    if (!text || !out || !name)
+        return ftm_error_set(err, FTM_EINVAL, "ftm_scene_parse: NULL argument");
+    if (length > SCENE_MAX_BYTES)
+        return ftm_error_set(err, FTM_ERANGE, "%s: scene larger than %zu bytes", name,
+                             SCENE_MAX_BYTES);
+    /* Values are handled as counted strings, but a NUL would still cut file paths short. */
+    const char *nul = memchr(text, '\0', length);
+    if (nul) {
+        int32_t line = 1;
+        for (const char *c = text; c < nul; c++)
+            line += *c == '\n';
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: NUL byte in scene text", name, (int)line);
+    }
+    parser p;
+    memset(&p, 0, sizeof p);
+    p.name = name;
+    p.base_dir = base_dir;
+    p.err = err;
+    /* The format's own documented defaults, not the library's. */
+    p.s.material = ftm_default_material_def();
+    p.s.material.node_damping = 0;
+    p.s.material.axis_scale = (ftm_vec3){1, 1, 1};
+    p.s.sim = ftm_default_sim_def();
+    p.s.sim.log = NULL;
+    p.s.sim.log_user = NULL;
+    p.s.steps = SCENE_DEFAULT_STEPS;
+    p.s.stencil = SCENE_DEFAULT_STENCIL;
+    p.s.class_scale[0] = p.s.class_scale[1] = p.s.class_scale[2] = 1;
+    default_name(name, p.s.name);
+
+    ftm_scene *scene = NULL;
+    int rc = parse_text(&p, text, length);
+    if (rc == FTM_OK && !p.s.section_line[SEC_MESH])
+        rc = fail_at(&p, p.last_line, FTM_EPARSE, "missing [mesh] section");
+    if (rc == FTM_OK)
+        rc = check_mesh_keys(&p);
+    if (rc == FTM_OK)
+        rc = check_material(&p);
+    for (size_t i = 0; rc == FTM_OK && i < p.s.load_count; i++)
+        rc = check_load_times(&p, &p.s.loads[i]);
+    if (rc == FTM_OK) {
+        scene = calloc(1, sizeof *scene);
+        if (!scene)
+            rc = ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", name);
+    }
+    if (rc == FTM_OK)
+        rc = build_mesh(&p, &scene->mesh);
+    if (rc == FTM_OK && p.s.load_count) {
+        scene->loads = calloc(p.s.load_count, sizeof *scene->loads);
+        if (!scene->loads)
+            rc = ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", name);
+        else
+            rc = resolve_loads(&p, scene->mesh, scene->loads);
+    }
+    if (rc == FTM_OK) {
+        memcpy(scene->name, p.s.name, sizeof scene->name);
+        scene->sim = p.s.sim;
+        scene->steps = (int32_t)p.s.steps;
+        scene->load_count = (int32_t)p.s.load_count;
+        *out = scene;
+        scene = NULL;
+    }
+    ftm_scene_destroy(scene);
+    free_spec(&p.s);
+    return rc;
+}
+
+/* ------------------------------------------------------- public API */
+
+int ftm_scene_parse(const char *text, size_t length, const char *name, ftm_scene **out,
+                    ftm_error *err)
+{
+    return parse_scene(text, length, name, NULL, out, err);
+}
+
+int ftm_scene_load_file(const char *path, ftm_scene **out, ftm_error *err)
+{
+    if (!path || !out)
+        return ftm_error_set(err, FTM_EINVAL, "ftm_scene_load_file: NULL argument");
+    char *data = NULL;
+    size_t length = 0;
+    int rc = ftm_text_read_file(path, SCENE_MAX_BYTES, &data, &length, err);
+    if (rc != FTM_OK)
+        return rc;
+    /* Mesh files are looked up next to the scene file. */
+    char *dir = NULL;
+    const char *slash = strrchr(path, '/');
+    if (slash) {
+        size_t n = slash == path ? 1 : (size_t)(slash - path); /* "/x.scene" -> "/" */
+        dir = malloc(n + 1);
+        if (!dir) {
+            free(data);
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", path);
+        }
+        memcpy(dir, path, n);
+        dir[n] = '\0';
+    }
+    rc = parse_scene(data, length, path, dir, out, err);
+    free(dir);
+    free(data);
+    return rc;
+}
+
+/* Built-in scenes are scene text, so they read exactly like files
+ * (docs/scenes/ has copies of them). builtin_texts[i] belongs to builtin_names[i]. */
+static const char *const builtin_names[] = {"default", "table3", "membrane", NULL};
+
+static const char *const builtin_texts[] = {
+    /* default */
+    "# A 12x12x12 cube of soft tissue resting on its bottom face. A probe pushes\n"
+    "# the centre of the top face 4 mm down, lets go at 0.5 s, and the tissue\n"
+    "# relaxes back to rest.\n"
+    "[scene]\n"
+    "name = default\n"
+    "[mesh]\n"
+    "generator = lattice3d\n"
+    "nx = 12\n"
+    "ny = 12\n"
+    "nz = 12\n"
+    "spacing = 0.01\n"
+    "stencil = 18\n"
+    "fixed_faces = zmin\n"
+    "[material]\n"
+    "mass = 0.001\n"
+    "# Heavy damping, as in real tissue; it also keeps the layer-by-layer update\n"
+    "# stable (below about 0.15 this mesh diverges at this time step).\n"
+    "damping = 0.3\n"
+    "stiffness = 50\n"
+    "[sim]\n"
+    "time_step = 1e-3\n"
+    "depth = 8\n"
+    "steps = 1000\n"
+    "[load]\n"
+    "# lattice point (6, 6, 11): input index 6 + 12 * (6 + 12 * 11)\n"
+    "node = 1662\n"
+    "kind = displacement\n"
+    "value = 0 0 -0.004\n"
+    "start = 0\n"
+    "release = 0.5\n",
+    /* table3 */
+    "# The setup of Table 3 in Choi, Sun & Heng (2004): a 50x50 triangular\n"
+    "# lattice with its border fixed and a constant in-plane force on the centre.\n"
+    "[scene]\n"
+    "name = table3\n"
+    "[mesh]\n"
+    "generator = lattice2d\n"
+    "nx = 50\n"
+    "ny = 50\n"
+    "spacing = 1\n"
+    "fixed_faces = xmin xmax ymin ymax\n"
+    "[material]\n"
+    "mass = 1\n"
+    "damping = 1\n"
+    "stiffness = 1\n"
+    "[sim]\n"
+    "time_step = 0.1\n"
+    "depth = 20\n"
+    "steps = 1000\n"
+    "[load]\n"
+    "# lattice point (25, 25): input index 25 + 50 * 25\n"
+    "node = 1275\n"
+    "kind = force\n"
+    "value = 0 -1 0\n",
+    /* membrane */
+    "# A 30x30 triangular sheet clamped at its border. A force in the sheet's\n"
+    "# plane pulls the centre node: it rises over 0.2 s, is held, and is released\n"
+    "# at 1 s; the sheet then relaxes back to rest. (The force is in-plane because\n"
+    "# a flat, unstretched spring sheet has no linear stiffness across its plane.)\n"
+    "[scene]\n"
+    "name = membrane\n"
+    "[mesh]\n"
+    "generator = lattice2d\n"
+    "nx = 30\n"
+    "ny = 30\n"
+    "spacing = 0.01\n"
+    "fixed_faces = all\n"
+    "[material]\n"
+    "mass = 0.001\n"
+    "damping = 0.15\n"
+    "stiffness = 20\n"
+    "[sim]\n"
+    "time_step = 1e-3\n"
+    "depth = 10\n"
+    "steps = 2000\n"
+    "[load]\n"
+    "# lattice point (15, 15): input index 15 + 30 * 15\n"
+    "node = 465\n"
+    "kind = force\n"
+    "value = 0 -0.05 0\n"
+    "ramp = linear\n"
+    "start = 0\n"
+    "end = 0.2\n"
+    "release = 1\n",
+};
+
+#define BUILTIN_COUNT (sizeof builtin_texts / sizeof builtin_texts[0])
+_Static_assert(sizeof builtin_names / sizeof builtin_names[0] == BUILTIN_COUNT + 1,
+               "every built-in scene needs a name and a text");
+
+const char *const *ftm_scene_builtin_names(void)
+{
+    return builtin_names;
+}
+
+static int builtin_index(const char *name)
+{
+    for (size_t i = 0; i < BUILTIN_COUNT; i++)
+        if (strcmp(builtin_names[i], name) == 0)
+            return (int)i;
+    return -1;
+}
+
+/* "default, table3, ..." for messages. */
+static void list_builtins(char *buf, size_t size)
+{
+    size_t used = 0;
+    buf[0] = '\0';
+    for (size_t i = 0; i < BUILTIN_COUNT && used < size; i++) {
+        int n = snprintf(buf + used, size - used, "%s%s", i ? ", " : "", builtin_names[i]);
+        if (n < 0)
+            break;
+        used += (size_t)n;
+    }
+}
+
+int ftm_scene_builtin(const char *name, ftm_scene **out, ftm_error *err)
+{
+    if (!name || !out)
+        return ftm_error_set(err, FTM_EINVAL, "ftm_scene_builtin: NULL argument");
+    int i = builtin_index(name);
+    if (i < 0) {
+        char names[256];
+        list_builtins(names, sizeof names);
+        return ftm_error_set(err, FTM_ENOENT, "unknown built-in scene '%s' (built-ins: %s)", name,
+                             names);
+    }
+    char label[64];
+    snprintf(label, sizeof label, "builtin:%s", name);
+    return ftm_scene_parse(builtin_texts[i], strlen(builtin_texts[i]), label, out, err);
+}
+
+int ftm_scene_open(const char *name_or_path, ftm_scene **out, ftm_error *err)
+{
+    if (!name_or_path || !out)
+        return ftm_error_set(err, FTM_EINVAL, "ftm_scene_open: NULL argument");
+    if (builtin_index(name_or_path) >= 0)
+        return ftm_scene_builtin(name_or_path, out, err);
+    /* A bare word that is no file was most likely meant as a built-in name. */
+    FILE *f = fopen(name_or_path, "rb");
+    if (!f && !strchr(name_or_path, '/') && !strchr(name_or_path, '.')) {
+        char names[256];
+        list_builtins(names, sizeof names);
+        return ftm_error_set(err, FTM_ENOENT,
+                             "unknown scene '%s': not a built-in (%s) and no such file",
+                             name_or_path, names);
+    }
+    if (f)
+        fclose(f);
+    return ftm_scene_load_file(name_or_path, out, err);
+}
+
+void ftm_scene_destroy(ftm_scene *scene)
+{
+    if (!scene)
+        return;
+    ftm_mesh_destroy(scene->mesh);
+    free(scene->loads);
+    free(scene);
+}
+
+const char *ftm_scene_name(const ftm_scene *scene)
+{
+    return scene->name;
+}
+
+const ftm_mesh *ftm_scene_mesh(const ftm_scene *scene)
+{
+    return scene->mesh;
+}
+
+ftm_sim_def ftm_scene_sim_def(const ftm_scene *scene)
+{
+    return scene->sim;
+}
+
+int32_t ftm_scene_steps(const ftm_scene *scene)
+{
+    return scene->steps;
+}
+
+int32_t ftm_scene_load_count(const ftm_scene *scene)
+{
+    return scene->load_count;
+}
+
+const ftm_scene_load *ftm_scene_loads(const ftm_scene *scene)
+{
+    return scene->loads;
+}
+
+/* Fraction of the full value a load applies at time t (start <= t < release). */
+static double ramp_factor(const ftm_scene_load *l, double t)
+{
+    switch (l->ramp) {
+    case FTM_RAMP_LINEAR:
+        if (t >= l->end)
+            return 1.0;
+        return (t - l->start) / (l->end - l->start);
+    case FTM_RAMP_TRIANGLE: {
+        double mid = l->start + 0.5 * (l->end - l->start);
+        if (t >= l->end)
+            return 0.0;
+        if (t <= mid)
+            return (t - l->start) / (mid - l->start);
+        return (l->end - t) / (l->end - mid);
+    }
+    case FTM_RAMP_CONSTANT:
+    default:
+        return 1.0;
+    }
+}
+
+int32_t ftm_scene_contacts_at(const ftm_scene *scene, double t, ftm_contact *contacts,
+                              int32_t capacity)
+{
+    int32_t n = 0;
+    for (int32_t i = 0; i < scene->load_count; i++) {
+        const ftm_scene_load *l = &scene->loads[i];
+        if (!(t >= l->start) || t >= l->release)
+            continue;
+        if (n < capacity) {
+            double f = ramp_factor(l, t);
+            ftm_contact c = l->contact;
+            if (f != 1.0) { /* leave the full value bit-exact */
+                c.value.x *= f;
+                c.value.y *= f;
+                c.value.z *= f;
+            }
+            contacts[n] = c;
+        }
+        n++;
+    }
+    return n;
+}

@@ -1,0 +1,35 @@
+/* Internal: reading text files line by line with positions for error messages.
+ * Shared by the mesh loaders and the scene parser. */
+#ifndef FTM_SRC_TEXT_H
+#define FTM_SRC_TEXT_H
+
+#include "ftm/base.h"
+
+typedef struct ftm_text {
+    const char *name; /* file name for messages */
+    const char *data; /* NUL-terminated */
+    size_t length;
+    size_t pos;
+    int32_t line; /* 1-based number of the line last returned */
+} ftm_text;
+
+/* Reads a whole file (NUL-terminated copy in *data, free() it). Refuses files
+ * with NUL bytes and files over max_bytes; errors name the path. */
+int ftm_text_read_file(const char *path, size_t max_bytes, char **data, size_t *length,
+                       ftm_error *err);
+
+void ftm_text_init(ftm_text *t, const char *name, const char *data, size_t length);
+
+/* Next line without its terminator (\n or \r\n); false at end of input.
+ * The line is not NUL-terminated: use the returned length. */
+bool ftm_text_next_line(ftm_text *t, const char **line, size_t *length);
+
+/* Splits the next whitespace-separated token off [*cur, end); false if none. */
+bool ftm_text_token(const char **cur, const char *end, const char **tok, size_t *toklen);
+
+/* Whole-token number parsing; false on trailing junk, overflow or (for
+ * doubles) a non-finite value. */
+bool ftm_text_parse_double(const char *tok, size_t len, double *out);
+bool ftm_text_parse_int(const char *tok, size_t len, int64_t *out);
+
+#endif

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# All tests, from a fresh clone: installs dependencies, then builds and runs
+# the test suite twice: a release build with warnings as errors, and an
+# AddressSanitizer + UndefinedBehaviorSanitizer build.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+deploy/install-deps.sh
+
+jobs=$(nproc 2>/dev/null || echo 2)
+status=0
+
+echo "== release build (-Werror) =="
+cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DFTM_WERROR=ON
+cmake --build build/release -j "$jobs"
+ctest --test-dir build/release --output-on-failure -j "$jobs" || status=1
+
+echo "== ASan + UBSan build =="
+cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTM_WERROR=ON \
+      -DFTM_SANITIZE=address,undefined
+cmake --build build/asan -j "$jobs"
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir build/asan --output-on-failure -j "$jobs" || status=1
+
+exit $status

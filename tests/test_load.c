@@ -1,0 +1,689 @@
+/* Mesh loader tests: OBJ, Gmsh MSH 4.1 ASCII and TetGen .node/.ele.
+ *
+ * Good files must give the expected node, spring, triangle and tetrahedron
+ * counts and positions. Malformed files must fail with the expected code and
+ * a message "<path>:<line>: ..." (or "<path>: ..." for whole-file problems),
+ * and must leave the builder exactly as it was. Files in tests/data cover the
+ * common cases; the many small variants are written to a temporary directory. */
+#ifndef _POSIX_C_SOURCE
+#define _POSIX_C_SOURCE 200809L /* mkdtemp, strdup */
+#endif
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include "ftm/load.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define DATA(name) FTM_TEST_DATA "/" name
+
+typedef int (*loader_fn)(ftm_mesh_builder *, const char *, const ftm_material_def *, ftm_error *);
+
+/* ---- temporary files ---- */
+
+#define MAX_TMP 256
+static char tmp_dir[64];
+static char *tmp_paths[MAX_TMP];
+static int tmp_count;
+
+static int group_setup(void **state)
+{
+    (void)state;
+    snprintf(tmp_dir, sizeof tmp_dir, "/tmp/ftm_test_load_XXXXXX");
+    return mkdtemp(tmp_dir) ? 0 : -1;
+}
+
+static int group_teardown(void **state)
+{
+    (void)state;
+    for (int i = 0; i < tmp_count; i++) {
+        unlink(tmp_paths[i]);
+        free(tmp_paths[i]);
+    }
+    tmp_count = 0;
+    return rmdir(tmp_dir);
+}
+
+/* Writes `len` bytes to tmp_dir/name; the returned path lives until teardown. */
+static const char *tmp_write_n(const char *name, const char *content, size_t len)
+{
+    char path[256];
+    snprintf(path, sizeof path, "%s/%s", tmp_dir, name);
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(content, 1, len, f), len);
+    assert_int_equal(fclose(f), 0);
+    for (int i = 0; i < tmp_count; i++)
+        if (strcmp(tmp_paths[i], path) == 0)
+            return tmp_paths[i];
+    assert_true(tmp_count < MAX_TMP);
+    tmp_paths[tmp_count] = strdup(path);
+    assert_non_null(tmp_paths[tmp_count]);
+    return tmp_paths[tmp_count++];
+}
+
+static const char *tmp_write(const char *name, const char *content)
+{
+    return tmp_write_n(name, content, strlen(content));
+}
+
+/* ---- helpers ---- */
+
+/* |actual - expected| <= tol (this cmocka has no assert_double_equal). */
+#define assert_near(actual, expected, tol) check_near((actual), (expected), (tol), __LINE__)
+static void check_near(double actual, double expected, double tol, int line)
+{
+    if (!(fabs(actual - expected) <= tol))
+        fail_msg("line %d: %.17g differs from %.17g by more than %g", line, actual, expected, tol);
+}
+
+static ftm_material_def test_material(void)
+{
+    ftm_material_def m = ftm_default_material_def();
+    m.node_mass = 0.25;
+    m.node_damping = 0.5;
+    m.stiffness = 10.0;
+    m.axis_scale = (ftm_vec3){1.0, 1.0, 1.0};
+    return m;
+}
+
+/* Loads into a builder holding `existing` nodes already and builds the mesh. */
+static ftm_mesh *load_ok_after(loader_fn fn, const char *path, const ftm_material_def *mat,
+                               int32_t existing)
+{
+    ftm_mesh_builder *b = ftm_mesh_builder_create();
+    assert_non_null(b);
+    for (int32_t i = 0; i < existing; i++) {
+        ftm_node_def nd = ftm_default_node_def();
+        nd.position = (ftm_vec3){100.0 + i, 0.0, 0.0};
+        assert_int_equal(ftm_mesh_builder_add_node(b, &nd), i);
+    }
+    ftm_error err = {0};
+    int rc = fn(b, path, mat, &err);
+    if (rc != FTM_OK)
+        fail_msg("loading %s failed (%d): %s", path, rc, err.message);
+    ftm_mesh *m = NULL;
+    ftm_mesh_build_def bd = ftm_default_mesh_build_def();
+    rc = ftm_mesh_build(b, &bd, &m, &err);
+    if (rc != FTM_OK)
+        fail_msg("building %s failed (%d): %s", path, rc, err.message);
+    ftm_mesh_builder_destroy(b);
+    return m;
+}
+
+static ftm_mesh *load_ok(loader_fn fn, const char *path)
+{
+    ftm_material_def mat = test_material();
+    return load_ok_after(fn, path, &mat, 0);
+}
+
+static void check_counts(const ftm_mesh *m, int32_t nodes, int32_t links, int32_t tris,
+                         int32_t tets)
+{
+    assert_int_equal(ftm_mesh_node_count(m), nodes);
+    assert_int_equal(ftm_mesh_link_count(m), links);
+    assert_int_equal(ftm_mesh_triangle_count(m), tris);
+    assert_int_equal(ftm_mesh_tetrahedron_count(m), tets);
+}
+
+/* Positions of input nodes first .. first+n-1. */
+static void check_positions(const ftm_mesh *m, int32_t first, const double (*xyz)[3], int32_t n)
+{
+    for (int32_t i = 0; i < n; i++) {
+        ftm_vec3 p = ftm_mesh_rest_position(m, ftm_mesh_node_of_input(m, first + i));
+        assert_near(p.x, xyz[i][0], 0.0);
+        assert_near(p.y, xyz[i][1], 0.0);
+        assert_near(p.z, xyz[i][2], 0.0);
+    }
+}
+
+/* Every spring must join nodes that are not coincident and have the
+ * builder-computed rest length (the distance). */
+static void check_links_have_length(const ftm_mesh *m)
+{
+    for (int32_t l = 0; l < ftm_mesh_link_count(m); l++) {
+        int32_t a, b;
+        double k, len;
+        ftm_mesh_link(m, l, &a, &b, &k, &len);
+        ftm_vec3 pa = ftm_mesh_rest_position(m, a), pb = ftm_mesh_rest_position(m, b);
+        double d = sqrt((pa.x - pb.x) * (pa.x - pb.x) + (pa.y - pb.y) * (pa.y - pb.y) +
+                        (pa.z - pb.z) * (pa.z - pb.z));
+        assert_true(d > 0.0);
+        assert_near(len, d, 1e-12);
+        assert_true(k > 0.0);
+    }
+}
+
+/* Expects failure with `code`, a message starting "<msg_path>:<line>: " (or
+ * "<msg_path>: " if line is 0) and containing `word`; the builder, which
+ * holds one node beforehand, must be unchanged. */
+static void expect_fail_in(loader_fn fn, const char *path, int code, const char *msg_path,
+                           int line, const char *word)
+{
+    ftm_mesh_builder *b = ftm_mesh_builder_create();
+    assert_non_null(b);
+    ftm_node_def nd = ftm_default_node_def();
+    assert_int_equal(ftm_mesh_builder_add_node(b, &nd), 0);
+    ftm_material_def mat = test_material();
+    ftm_error err = {0};
+    int rc = fn(b, path, &mat, &err);
+    if (rc != code || err.code != code)
+        fail_msg("%s: expected code %d, got %d (err.code %d): %s", path, code, rc, err.code,
+                 err.message);
+    char prefix[512];
+    if (line > 0)
+        snprintf(prefix, sizeof prefix, "%s:%d: ", msg_path, line);
+    else
+        snprintf(prefix, sizeof prefix, "%s: ", msg_path);
+    if (strncmp(err.message, prefix, strlen(prefix)) != 0)
+        fail_msg("message '%s' does not start with '%s'", err.message, prefix);
+    if (word && !strstr(err.message, word))
+        fail_msg("message '%s' does not mention '%s'", err.message, word);
+
+    /* Atomicity: still exactly the one node, no springs or elements. */
+    assert_int_equal(ftm_mesh_builder_node_count(b), 1);
+    ftm_mesh *m = NULL;
+    ftm_mesh_build_def bd = ftm_default_mesh_build_def();
+    assert_int_equal(ftm_mesh_build(b, &bd, &m, &err), FTM_OK);
+    check_counts(m, 1, 0, 0, 0);
+    ftm_mesh_destroy(m);
+    ftm_mesh_builder_destroy(b);
+}
+
+static void expect_fail(loader_fn fn, const char *path, int code, int line, const char *word)
+{
+    expect_fail_in(fn, path, code, path, line, word);
+}
+
+/* ---- good files ---- */
+
+static const double cube_xyz[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                      {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+
+static void test_obj_cube(void **state)
+{
+    (void)state;
+    ftm_mesh *m = load_ok(ftm_load_obj, DATA("cube.obj"));
+    /* 6 quads -> 12 triangles; 12 cube edges + one diagonal per face. */
+    check_counts(m, 8, 18, 12, 0);
+    check_positions(m, 0, cube_xyz, 8);
+    check_links_have_length(m);
+    for (int32_t i = 0; i < 8; i++) {
+        assert_near(ftm_mesh_mass(m, i), 0.25, 0.0);
+        assert_near(ftm_mesh_damping(m, i), 0.5, 0.0);
+        assert_false(ftm_mesh_fixed(m, i));
+    }
+    ftm_mesh_destroy(m);
+}
+
+static void test_obj_quad_crlf(void **state)
+{
+    (void)state;
+    ftm_mesh *m = load_ok(ftm_load_obj, DATA("quad.obj"));
+    check_counts(m, 4, 5, 2, 0);
+    static const double xyz[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    check_positions(m, 0, xyz, 4);
+    ftm_mesh_destroy(m);
+}
+
+/* k = stiffness * (sx nx^2 + sy ny^2 + sz nz^2) for the unit edge direction n. */
+static void test_obj_axis_scaled_stiffness(void **state)
+{
+    (void)state;
+    ftm_material_def mat = test_material();
+    mat.axis_scale = (ftm_vec3){2.0, 3.0, 1.0};
+    ftm_mesh *m = load_ok_after(ftm_load_obj, DATA("quad.obj"), &mat, 0);
+    int seen_x = 0, seen_y = 0, seen_diag = 0;
+    for (int32_t l = 0; l < ftm_mesh_link_count(m); l++) {
+        int32_t a, b;
+        double k, len;
+        ftm_mesh_link(m, l, &a, &b, &k, &len);
+        ftm_vec3 pa = ftm_mesh_rest_position(m, a), pb = ftm_mesh_rest_position(m, b);
+        double dx = fabs(pb.x - pa.x), dy = fabs(pb.y - pa.y);
+        if (dx > 0 && dy > 0) {
+            assert_near(k, 25.0, 1e-12); /* 10 * (2 * 1/2 + 3 * 1/2) */
+            seen_diag++;
+        } else if (dx > 0) {
+            assert_near(k, 20.0, 1e-12);
+            seen_x++;
+        } else {
+            assert_near(k, 30.0, 1e-12);
+            seen_y++;
+        }
+    }
+    assert_int_equal(seen_x, 2);
+    assert_int_equal(seen_y, 2);
+    assert_int_equal(seen_diag, 1);
+    ftm_mesh_destroy(m);
+}
+
+/* Loaded nodes follow the nodes already in the builder. */
+static void test_obj_appends_to_builder(void **state)
+{
+    (void)state;
+    ftm_material_def mat = test_material();
+    ftm_mesh *m = load_ok_after(ftm_load_obj, DATA("cube.obj"), &mat, 2);
+    check_counts(m, 10, 18, 12, 0);
+    check_positions(m, 2, cube_xyz, 8);
+    ftm_vec3 p = ftm_mesh_rest_position(m, ftm_mesh_node_of_input(m, 1));
+    assert_near(p.x, 101.0, 0.0);
+    ftm_mesh_destroy(m);
+}
+
+static void test_gmsh_two_tets(void **state)
+{
+    (void)state;
+    ftm_mesh *m = load_ok(ftm_load_gmsh, DATA("tet2.msh"));
+    /* 6 + 6 - 3 shared edges; the 6 boundary triangles come from the file. */
+    check_counts(m, 5, 9, 6, 2);
+    /* Sparse tags 10, 20, 30, 40, 55 in order of appearance. */
+    static const double xyz[5][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, -1}};
+    check_positions(m, 0, xyz, 5);
+    check_links_have_length(m);
+    ftm_mesh_destroy(m);
+}
+
+/* Triangles only: their edges become springs. Also has parametric nodes and
+ * skipped element types 15, 1, 3 and 5 that must not upset the parser. */
+static void test_gmsh_triangles_only(void **state)
+{
+    (void)state;
+    ftm_mesh *m = load_ok(ftm_load_gmsh, DATA("tri.msh"));
+    check_counts(m, 4, 5, 2, 0);
+    static const double xyz[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    check_positions(m, 0, xyz, 4);
+    ftm_mesh_destroy(m);
+}
+
+static void test_tetgen_two_tets(void **state)
+{
+    (void)state;
+    ftm_mesh *m = load_ok(ftm_load_tetgen, DATA("tet.node"));
+    /* No .face file: the builder takes the 6 boundary faces of the tets. */
+    check_counts(m, 5, 9, 6, 2);
+    static const double xyz[5][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, -1}};
+    check_positions(m, 0, xyz, 5);
+    check_links_have_length(m);
+    ftm_mesh_destroy(m);
+}
+
+/* 0-based indices (tetgen -z) and 10-node tetrahedra: only corners are used. */
+static void test_tetgen_zero_based_quadratic(void **state)
+{
+    (void)state;
+    const char *node = tmp_write("quad10.node", "10 3 0 0\n"
+                                                "0 0 0 0\n1 2 0 0\n2 0 2 0\n3 0 0 2\n"
+                                                "4 1 1 0\n5 0 1 0\n6 1 0 0\n"
+                                                "7 0 0 1\n8 1 0 1\n9 0 1 1\n");
+    tmp_write("quad10.ele", "1 10 0\n0 0 1 2 3 4 5 6 7 8 9\n");
+    ftm_mesh *m = load_ok(ftm_load_tetgen, node);
+    check_counts(m, 10, 6, 4, 1);
+    static const double xyz[4][3] = {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0, 0, 2}};
+    check_positions(m, 0, xyz, 4);
+    ftm_mesh_destroy(m);
+}
+
+/* The generated Gmsh cases below are variations of this file. */
+#define MSH_FORMAT "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n" /* lines 1-3 */
+#define MSH_NODES4                                                                                \
+    "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n$EndNodes\n" /* 4-15 */
+#define MSH_ELEMS(line19) "$Elements\n1 1 1 1\n3 1 4 1\n" line19 "\n$EndElements\n" /* 16-20 */
+
+static void test_gmsh_generated_base(void **state)
+{
+    (void)state;
+    const char *path = tmp_write("base.msh", MSH_FORMAT MSH_NODES4 MSH_ELEMS("1 1 2 3 4"));
+    ftm_mesh *m = load_ok(ftm_load_gmsh, path);
+    check_counts(m, 4, 6, 4, 1);
+    ftm_mesh_destroy(m);
+}
+
+static void test_load_mesh_dispatch(void **state)
+{
+    (void)state;
+    ftm_mesh *m = load_ok(ftm_load_mesh, DATA("cube.obj"));
+    check_counts(m, 8, 18, 12, 0);
+    ftm_mesh_destroy(m);
+    m = load_ok(ftm_load_mesh, DATA("tet2.msh"));
+    check_counts(m, 5, 9, 6, 2);
+    ftm_mesh_destroy(m);
+    m = load_ok(ftm_load_mesh, DATA("tet.node"));
+    check_counts(m, 5, 9, 6, 2);
+    ftm_mesh_destroy(m);
+
+    /* Extensions are case-insensitive (the .ele keeps the .node's case). */
+    m = load_ok(ftm_load_mesh, tmp_write("QUAD.OBJ", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
+    check_counts(m, 3, 3, 1, 0);
+    ftm_mesh_destroy(m);
+    tmp_write("UP.ELE", "1 4 0\n1 1 2 3 4\n");
+    m = load_ok(ftm_load_mesh,
+                tmp_write("UP.Node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n"));
+    check_counts(m, 4, 6, 4, 1);
+    ftm_mesh_destroy(m);
+
+    expect_fail(ftm_load_mesh, tmp_write("mesh.stl", "solid x\n"), FTM_EINVAL, 0, ".stl");
+    expect_fail(ftm_load_mesh, tmp_write("mesh", "v 0 0 0\n"), FTM_EINVAL, 0, "extension");
+    expect_fail(ftm_load_mesh, "/nonexistent.dir/mesh", FTM_EINVAL, 0, "extension");
+}
+
+/* ---- malformed files ---- */
+
+static void test_missing_files(void **state)
+{
+    (void)state;
+    expect_fail(ftm_load_obj, DATA("no_such_file.obj"), FTM_EIO, 0, "no_such_file.obj");
+    expect_fail(ftm_load_gmsh, DATA("no_such_file.msh"), FTM_EIO, 0, "no_such_file.msh");
+    expect_fail(ftm_load_tetgen, DATA("no_such_file.node"), FTM_EIO, 0, "no_such_file.node");
+    expect_fail(ftm_load_mesh, DATA("no_such_file.obj"), FTM_EIO, 0, NULL);
+    /* .node present, .ele missing: the message names the .ele file. */
+    char ele[256];
+    const char *node = tmp_write("lonely.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
+    snprintf(ele, sizeof ele, "%s/lonely.ele", tmp_dir);
+    expect_fail_in(ftm_load_tetgen, node, FTM_EIO, ele, 0, "lonely.ele");
+}
+
+static void test_bad_data_files(void **state)
+{
+    (void)state;
+    expect_fail(ftm_load_obj, DATA("bad_index.obj"), FTM_ERANGE, 10, "index 7 out of range");
+    expect_fail(ftm_load_obj, DATA("bad_nan.obj"), FTM_EPARSE, 3, "'nan'");
+    expect_fail(ftm_load_obj, DATA("bad_degenerate.obj"), FTM_EPARSE, 6, "repeats vertex 4");
+    expect_fail(ftm_load_gmsh, DATA("bad_binary.msh"), FTM_EPARSE, 2, "binary");
+    expect_fail(ftm_load_gmsh, DATA("bad_tag.msh"), FTM_EPARSE, 9, "node tag 2 repeated");
+    expect_fail(ftm_load_tetgen, DATA("bad_count.node"), FTM_EPARSE, 6, "after 4 of 5");
+    expect_fail_in(ftm_load_tetgen, DATA("bad_range.node"), FTM_ERANGE, DATA("bad_range.ele"), 3,
+                   "node index 4 out of range");
+}
+
+typedef struct bad_case {
+    const char *name;
+    const char *content;
+    int code;
+    int line; /* 0: a whole-file error */
+    const char *word;
+} bad_case;
+
+static void run_bad_cases(loader_fn fn, const bad_case *cases, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        const bad_case *c = &cases[i];
+        expect_fail(fn, tmp_write(c->name, c->content), c->code, c->line, c->word);
+    }
+}
+
+static void test_bad_obj(void **state)
+{
+    (void)state;
+#define TRI3 "v 0 0 0\nv 1 0 0\nv 0 1 0\n" /* lines 1-3 */
+    static const bad_case cases[] = {
+        {"empty.obj", "", FTM_EPARSE, 0, "empty"},
+        {"novertex.obj", "# only a comment\n\n", FTM_EPARSE, 0, "no vertices"},
+        {"noface.obj", TRI3, FTM_EPARSE, 0, "no faces"},
+        {"inf.obj", TRI3 "v 0 inf 0\n", FTM_EPARSE, 4, "'inf'"},
+        {"overflow.obj", "v 1e999 0 0\n", FTM_EPARSE, 1, "'1e999'"},
+        {"junk.obj", "v 0 0 0\n\n\nv 1 abc 0\n", FTM_EPARSE, 4, "'abc'"},
+        {"shortv.obj", "v 1 2\n", FTM_EPARSE, 1, "x y z"},
+        {"longv.obj", "v 1 2 3 4 5 6 7 8\n", FTM_EPARSE, 1, "too many"},
+        {"zero.obj", TRI3 "f 0 1 2\n", FTM_ERANGE, 4, "index 0"},
+        {"range.obj", TRI3 "f 1 2 4\n", FTM_ERANGE, 4, "index 4 out of range"},
+        {"negrange.obj", TRI3 "f -1 -2 -4\n", FTM_ERANGE, 4, "index -4"},
+        {"forward.obj", "f 1 2 3\n" TRI3, FTM_ERANGE, 1, "index 1 out of range"},
+        {"shortf.obj", TRI3 "f 1 2\n", FTM_EPARSE, 4, "at least 3"},
+        {"degenerate.obj", TRI3 "f 1 2 -2\n", FTM_EPARSE, 4, "repeats vertex 2"},
+        {"coincident.obj", TRI3 "v 1 0 0\nf 1 2 4\n", FTM_EPARSE, 5, "coincident"},
+        {"slash1.obj", TRI3 "f 1/ 2 3\n", FTM_EPARSE, 4, "'1/'"},
+        {"slash2.obj", TRI3 "f 1/2/3/4 2 3\n", FTM_EPARSE, 4, "'1/2/3/4'"},
+        {"slash3.obj", TRI3 "f 1// 2 3\n", FTM_EPARSE, 4, "'1//'"},
+        {"slash4.obj", TRI3 "f /1 2 3\n", FTM_EPARSE, 4, "'/1'"},
+        {"letters.obj", TRI3 "f a b c\n", FTM_EPARSE, 4, "'a'"},
+        {"texjunk.obj", TRI3 "f 1/x 2 3\n", FTM_EPARSE, 4, "'1/x'"},
+        {"hugeindex.obj", TRI3 "f 1 2 99999999999999999999\n", FTM_EPARSE, 4, "bad face vertex"},
+        {"laterbad.obj", TRI3 "f 1 2 3\n# fine so far\nf 3 2 9\n", FTM_ERANGE, 6, "index 9"},
+    };
+#undef TRI3
+    run_bad_cases(ftm_load_obj, cases, sizeof cases / sizeof cases[0]);
+}
+
+static void test_bad_gmsh(void **state)
+{
+    (void)state;
+    static const bad_case cases[] = {
+        {"empty.msh", "", FTM_EPARSE, 0, "empty"},
+        {"blank.msh", "\n  \n\n", FTM_EPARSE, 0, "empty"},
+        {"notmsh.msh", "hello world\n", FTM_EPARSE, 1, "$MeshFormat"},
+        {"v22.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n", FTM_EPARSE, 2, "'2.2'"},
+        {"fmtend.msh", "$MeshFormat\n4.1 0 8\n$Nodes\n", FTM_EPARSE, 3, "$EndMeshFormat"},
+        {"fmtshort.msh", "$MeshFormat\n4.1 0\n$EndMeshFormat\n", FTM_EPARSE, 2, "needs 3"},
+        {"noelems.msh", MSH_FORMAT MSH_NODES4, FTM_EPARSE, 0, "no $Elements"},
+        {"nonodes.msh", MSH_FORMAT "$Elements\n0 0 0 0\n$EndElements\n", FTM_EPARSE, 4,
+         "before $Nodes"},
+        {"onlyformat.msh", MSH_FORMAT, FTM_EPARSE, 0, "no $Nodes"},
+        {"twonodes.msh", MSH_FORMAT MSH_NODES4 MSH_NODES4, FTM_EPARSE, 16, "second $Nodes"},
+        {"stray.msh", MSH_FORMAT "junk\n", FTM_EPARSE, 4, "'junk'"},
+        {"strayend.msh", MSH_FORMAT "$EndNodes\n", FTM_EPARSE, 4, "unexpected"},
+        {"unclosed.msh", MSH_FORMAT "$PhysicalNames\n1\n3 1 \"body\"\n", FTM_EPARSE, 4,
+         "$EndPhysicalNames"},
+        {"truncnodes.msh", MSH_FORMAT "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n", FTM_EPARSE, 8,
+         "ends inside $Nodes"},
+        {"nodecount.msh",
+         MSH_FORMAT "$Nodes\n1 5 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n$EndNodes\n",
+         FTM_EPARSE, 15, "announces 5"},
+        {"coordshort.msh",
+         MSH_FORMAT "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n$EndNodes\n",
+         FTM_EPARSE, 14, "node coordinates"},
+        {"blocktoobig.msh", MSH_FORMAT "$Nodes\n1 4 1 4\n3 1 0 999999999999\n1\n", FTM_EPARSE, 6,
+         "exceed the 4 nodes"},
+        {"hugenodes.msh", MSH_FORMAT "$Nodes\n1 999999999999 1 4\n3 1 0 1\n", FTM_ERANGE, 5,
+         "999999999999"},
+        {"manyblocks.msh", MSH_FORMAT "$Nodes\n999999999999 0 0 0\n$EndNodes\n", FTM_EPARSE, 6,
+         "block header"},
+        {"tagline.msh", MSH_FORMAT "$Nodes\n1 4 1 4\n3 1 0 4\n1 2\n", FTM_EPARSE, 7,
+         "node tag line"},
+        {"tagzero.msh", MSH_FORMAT "$Nodes\n1 4 1 4\n3 1 0 4\n0\n", FTM_EPARSE, 7, "node tag 0"},
+        {"reptag3.msh",
+         MSH_FORMAT "$Nodes\n1 4 1 7\n3 1 0 4\n5\n7\n5\n5\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n$EndNodes\n",
+         FTM_EPARSE, 9, "node tag 5 repeated (first on line 7)"},
+        {"badcoord.msh",
+         MSH_FORMAT "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 x 0\n0 0 1\n$EndNodes\n",
+         FTM_EPARSE, 13, "'x'"},
+        {"nancoord.msh",
+         MSH_FORMAT "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\nnan 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                    "$EndNodes\n",
+         FTM_EPARSE, 11, "'nan'"},
+        {"bigcoord.msh",
+         MSH_FORMAT "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1e999 0 0\n0 1 0\n0 0 1\n"
+                    "$EndNodes\n",
+         FTM_EPARSE, 12, "'1e999'"},
+        {"parametric.msh",
+         MSH_FORMAT "$Nodes\n1 4 1 4\n2 1 1 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n$EndNodes\n",
+         FTM_EPARSE, 11, "needs 5"},
+        {"unknowntag.msh", MSH_FORMAT MSH_NODES4 MSH_ELEMS("1 1 2 3 9"), FTM_ERANGE, 19,
+         "unknown node tag 9"},
+        {"elemtag0.msh", MSH_FORMAT MSH_NODES4 MSH_ELEMS("1 1 2 3 0"), FTM_EPARSE, 19,
+         "node tag 0"},
+        {"degenerate.msh", MSH_FORMAT MSH_NODES4 MSH_ELEMS("1 1 2 3 3"), FTM_EPARSE, 19,
+         "node tag 3 repeated"},
+        {"coincident.msh",
+         MSH_FORMAT "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n1 0 0\n$EndNodes\n"
+             MSH_ELEMS("1 1 2 3 4"),
+         FTM_EPARSE, 19, "coincide"},
+        {"elemshort.msh", MSH_FORMAT MSH_NODES4 MSH_ELEMS("1 1 2 3"), FTM_EPARSE, 19, "needs"},
+        {"elemjunk.msh", MSH_FORMAT MSH_NODES4 MSH_ELEMS("1 1 2 x 4"), FTM_EPARSE, 19, "'x'"},
+        {"type99.msh",
+         MSH_FORMAT MSH_NODES4 "$Elements\n1 1 1 1\n3 1 99 1\n1 1 2 3 4\n$EndElements\n",
+         FTM_EPARSE, 18, "element type 99"},
+        {"skipjunk.msh",
+         MSH_FORMAT MSH_NODES4 "$Elements\n2 2 1 2\n1 1 1 1\n1 1 q\n3 1 4 1\n2 1 2 3 4\n"
+                               "$EndElements\n",
+         FTM_EPARSE, 19, "'q'"},
+        {"skipshort.msh",
+         MSH_FORMAT MSH_NODES4 "$Elements\n2 2 1 2\n2 1 3 1\n1 1 2 3\n3 1 4 1\n2 1 2 3 4\n"
+                               "$EndElements\n",
+         FTM_EPARSE, 19, "type 3"},
+        {"hugeelems.msh",
+         MSH_FORMAT MSH_NODES4 "$Elements\n1 999999999999 1 1\n3 1 4 999999999999\n1 1 2 3 4\n"
+                               "$EndElements\n",
+         FTM_EPARSE, 20, "element line"},
+        {"elemblockbig.msh",
+         MSH_FORMAT MSH_NODES4 "$Elements\n1 1 1 1\n3 1 4 5\n1 1 2 3 4\n$EndElements\n",
+         FTM_EPARSE, 18, "exceed the 1 elements"},
+        {"elemcount.msh",
+         MSH_FORMAT MSH_NODES4 "$Elements\n1 2 1 2\n3 1 4 1\n1 1 2 3 4\n$EndElements\n",
+         FTM_EPARSE, 20, "announces 2"},
+        {"elemblocks.msh",
+         MSH_FORMAT MSH_NODES4 "$Elements\n2 1 1 1\n3 1 4 1\n1 1 2 3 4\n$EndElements\n",
+         FTM_EPARSE, 20, "block header"},
+        {"noendelems.msh", MSH_FORMAT MSH_NODES4 "$Elements\n1 1 1 1\n3 1 4 1\n1 1 2 3 4\n",
+         FTM_EPARSE, 19, "ends inside $Elements"},
+        {"noshapes.msh", MSH_FORMAT MSH_NODES4 "$Elements\n1 1 1 1\n0 1 15 1\n1 1\n$EndElements\n",
+         FTM_EPARSE, 0, "no 4-node tetrahedra"},
+        {"tet10.msh",
+         MSH_FORMAT MSH_NODES4 "$Elements\n1 1 1 1\n3 1 11 1\n1 1 2 3 4 1 2 3 4 1 2\n"
+                               "$EndElements\n",
+         FTM_EPARSE, 0, "second-order"},
+    };
+    run_bad_cases(ftm_load_gmsh, cases, sizeof cases / sizeof cases[0]);
+
+    /* Binary MSH holds NUL bytes; the message must say what the file is. */
+    static const char nul[] = "$MeshFormat\n4.1 1 8\n\1\0\0\0\n$EndMeshFormat\n";
+    expect_fail(ftm_load_gmsh, tmp_write_n("nul.msh", nul, sizeof nul - 1), FTM_EPARSE, 0,
+                "binary");
+
+    /* A line with more tokens than any element type has. */
+    char big[4096] = MSH_FORMAT MSH_NODES4 "$Elements\n1 1 1 1\n3 1 4 1\n1";
+    for (int i = 0; i < 200; i++)
+        strcat(big, " 1");
+    strcat(big, "\n$EndElements\n");
+    expect_fail(ftm_load_gmsh, tmp_write("longline.msh", big), FTM_EPARSE, 19, "over 128");
+}
+
+typedef struct bad_tetgen {
+    const char *stem;
+    const char *node;
+    const char *ele; /* NULL: the good default */
+    int code;
+    bool in_ele; /* the message names the .ele file */
+    int line;
+    const char *word;
+} bad_tetgen;
+
+static void test_bad_tetgen(void **state)
+{
+    (void)state;
+#define NODE4 "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n" /* lines 1-5 */
+    static const bad_tetgen cases[] = {
+        {"empty", "", NULL, FTM_EPARSE, false, 0, "empty"},
+        {"comments", "# nothing here\n\n", NULL, FTM_EPARSE, false, 0, "no header"},
+        {"hdrjunk", "four 3 0 0\n", NULL, FTM_EPARSE, false, 1, "point count 'four'"},
+        {"hdrlong", "4 3 0 0 0\n", NULL, FTM_EPARSE, false, 1, "more than 4"},
+        {"zero", "0 3 0 0\n", NULL, FTM_EPARSE, false, 1, "point count 0"},
+        {"negative", "-4 3 0 0\n", NULL, FTM_EPARSE, false, 1, "point count -4"},
+        {"huge", "99999999999 3 0 0\n", NULL, FTM_ERANGE, false, 1, "99999999999"},
+        {"big", "2000000000 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n", NULL, FTM_EPARSE,
+         false, 5, "after 4 of 2000000000"},
+        {"dim2", "4 2 0 0\n", NULL, FTM_EPARSE, false, 1, "dimension 2"},
+        {"marker2", "4 3 0 2\n", NULL, FTM_EPARSE, false, 1, "marker flag 2"},
+        {"attrneg", "4 3 -1 0\n", NULL, FTM_EPARSE, false, 1, "attribute count -1"},
+        {"first2", "4 3 0 0\n2 0 0 0\n", NULL, FTM_EPARSE, false, 2, "first point index 2"},
+        {"sequence", "4 3 0 0\n1 0 0 0\n2 1 0 0\n2 0 1 0\n4 0 0 1\n", NULL, FTM_EPARSE, false, 4,
+         "index 2 out of sequence"},
+        {"extra", "3 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n", NULL, FTM_EPARSE, false, 5,
+         "data after the 3 points"},
+        {"fields", "4 3 0 0\n1 0 0 0\n2 1 0\n", NULL, FTM_EPARSE, false, 3, "needs 4"},
+        {"attrmissing", "4 3 1 0\n1 0 0 0\n", NULL, FTM_EPARSE, false, 2, "needs 5"},
+        {"attrjunk", "4 3 1 0\n1 0 0 0 q\n", NULL, FTM_EPARSE, false, 2, "'q'"},
+        {"markerjunk", "4 3 0 1\n1 0 0 0 0.5\n", NULL, FTM_EPARSE, false, 2, "'0.5'"},
+        {"inf", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 -inf 0\n", NULL, FTM_EPARSE, false, 4, "'-inf'"},
+        {"nan", "4 3 0 0\n1 NaN 0 0\n", NULL, FTM_EPARSE, false, 2, "'NaN'"},
+        {"bigcoord", "4 3 0 0\n1 0 0 0\n2 1e999 0 0\n", NULL, FTM_EPARSE, false, 3, "'1e999'"},
+        {"eempty", NODE4, "", FTM_EPARSE, true, 0, "empty"},
+        {"ezero", NODE4, "0 4 0\n", FTM_EPARSE, true, 1, "tetrahedron count 0"},
+        {"ehuge", NODE4, "99999999999 4 0\n", FTM_ERANGE, true, 1, "99999999999"},
+        {"ecorners", NODE4, "1 3 0\n1 1 2 3\n", FTM_EPARSE, true, 1, "3 nodes per tetrahedron"},
+        {"ebase", NODE4, "# 0-based by mistake\n1 4 0\n1 0 1 2 3\n", FTM_ERANGE, true, 3,
+         "node index 0 out of range"},
+        {"edegenerate", NODE4, "1 4 0\n1 1 2 3 3\n", FTM_EPARSE, true, 2, "node 3 repeated"},
+        {"ecoincide", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 1 0 0\n", "1 4 0\n1 1 2 3 4\n",
+         FTM_EPARSE, true, 2, "nodes 2 and 4 coincide"},
+        {"etrunc", NODE4, "2 4 0\n1 1 2 3 4\n", FTM_EPARSE, true, 2, "after 1 of 2"},
+        {"eextra", NODE4, "1 4 0\n1 1 2 3 4\n2 1 2 3 4\n", FTM_EPARSE, true, 3, "data after"},
+        {"efields", NODE4, "1 4 1\n1 1 2 3 4\n", FTM_EPARSE, true, 2, "needs 6"},
+        {"eattr", NODE4, "1 4 1\n1 1 2 3 4 zz\n", FTM_EPARSE, true, 2, "'zz'"},
+        {"ejunk", NODE4, "1 4 0\n1 1 two 3 4\n", FTM_EPARSE, true, 2, "'two'"},
+        {"emid", NODE4, "1 10 0\n1 1 2 3 4 1 2 3 4 1 5\n", FTM_ERANGE, true, 2,
+         "node index 5 out of range"},
+    };
+#undef NODE4
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const bad_tetgen *c = &cases[i];
+        char name[64];
+        snprintf(name, sizeof name, "%s.node", c->stem);
+        const char *node = tmp_write(name, c->node);
+        snprintf(name, sizeof name, "%s.ele", c->stem);
+        const char *ele = tmp_write(name, c->ele ? c->ele : "1 4 0\n1 1 2 3 4\n");
+        expect_fail_in(ftm_load_tetgen, node, c->code, c->in_ele ? ele : node, c->line, c->word);
+    }
+}
+
+static void test_bad_material(void **state)
+{
+    (void)state;
+    ftm_mesh_builder *b = ftm_mesh_builder_create();
+    assert_non_null(b);
+    ftm_error err = {0};
+    ftm_material_def mat = test_material();
+    mat.node_mass = 0.0;
+    assert_int_equal(ftm_load_obj(b, DATA("quad.obj"), &mat, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "node_mass"));
+    mat = test_material();
+    mat.axis_scale.y = NAN;
+    assert_int_equal(ftm_load_gmsh(b, DATA("tet2.msh"), &mat, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "axis_scale"));
+    /* Zero scale along y: the quad's y edges would get no stiffness. */
+    mat = test_material();
+    mat.axis_scale = (ftm_vec3){1.0, 0.0, 1.0};
+    assert_int_equal(ftm_load_obj(b, DATA("quad.obj"), &mat, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "quad.obj: "));
+    assert_non_null(strstr(err.message, "stiffness"));
+    assert_int_equal(ftm_mesh_builder_node_count(b), 0);
+    /* NULL arguments are refused, and err may be NULL. */
+    mat = test_material();
+    assert_int_equal(ftm_load_obj(NULL, DATA("quad.obj"), &mat, &err), FTM_EINVAL);
+    assert_int_equal(ftm_load_obj(b, NULL, &mat, &err), FTM_EINVAL);
+    assert_int_equal(ftm_load_tetgen(b, DATA("tet.node"), NULL, NULL), FTM_EINVAL);
+    assert_int_equal(ftm_load_mesh(b, DATA("bad_tag.msh"), &mat, NULL), FTM_EPARSE);
+    assert_int_equal(ftm_mesh_builder_node_count(b), 0);
+    ftm_mesh_builder_destroy(b);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_obj_cube),
+        cmocka_unit_test(test_obj_quad_crlf),
+        cmocka_unit_test(test_obj_axis_scaled_stiffness),
+        cmocka_unit_test(test_obj_appends_to_builder),
+        cmocka_unit_test(test_gmsh_two_tets),
+        cmocka_unit_test(test_gmsh_triangles_only),
+        cmocka_unit_test(test_gmsh_generated_base),
+        cmocka_unit_test(test_tetgen_two_tets),
+        cmocka_unit_test(test_tetgen_zero_based_quadratic),
+        cmocka_unit_test(test_load_mesh_dispatch),
+        cmocka_unit_test(test_missing_files),
+        cmocka_unit_test(test_bad_data_files),
+        cmocka_unit_test(test_bad_obj),
+        cmocka_unit_test(test_bad_gmsh),
+        cmocka_unit_test(test_bad_tetgen),
+        cmocka_unit_test(test_bad_material),
+    };
+    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+}

@@ -1,0 +1,56 @@
+/* The colored sweep's kernels (AVX where the CPU has it, the baseline one
+ * otherwise) must give bit-identical states: compare ftm_sim_hash. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include "ftm/ftm.h"
+#include "sim_internal.h"
+
+static ftm_sim *make(const ftm_mesh *m, bool portable)
+{
+    ftm_sim_def d = ftm_default_sim_def();
+    d.time_step = 0.1;
+    d.depth = 12;
+    ftm_sim *s = NULL;
+    assert_int_equal(ftm_sim_create(m, &d, &s, NULL), FTM_OK);
+    ftm_sim_select_kernel(s, portable);
+    ftm_contact c[2] = {
+        {.node = ftm_mesh_node_of_input(m, 20 + 50 * 25), .kind = FTM_CONTACT_FORCE,
+         .value = {0.0, -0.3, 0.0}},
+        {.node = ftm_mesh_node_of_input(m, 31 + 50 * 22), .group = 1,
+         .kind = FTM_CONTACT_DISPLACEMENT, .value = {0.1, 0.2, 0.0}}};
+    assert_int_equal(ftm_sim_set_contacts(s, c, 2, NULL), FTM_OK);
+    return s;
+}
+
+static void test_portable_kernel_matches(void **state)
+{
+    (void)state;
+    ftm_mesh_builder *mb = ftm_mesh_builder_create();
+    ftm_lattice2d_def ld = ftm_default_lattice2d_def();
+    ftm_mesh *m = NULL;
+    assert_int_equal(ftm_generate_lattice2d(mb, &ld, NULL), FTM_OK);
+    assert_int_equal(ftm_mesh_build(mb, NULL, &m, NULL), FTM_OK);
+    ftm_mesh_builder_destroy(mb);
+    ftm_sim *a = make(m, false), *b = make(m, true);
+    for (int i = 0; i < 20; i++) {
+        assert_int_equal(ftm_sim_run(a, 50), FTM_OK);
+        assert_int_equal(ftm_sim_run(b, 50), FTM_OK);
+        assert_true(ftm_sim_hash(a) == ftm_sim_hash(b));
+        ftm_vec3 ra = ftm_sim_reaction(a, 1), rb = ftm_sim_reaction(b, 1);
+        assert_memory_equal(&ra, &rb, sizeof ra);
+    }
+    ftm_sim_destroy(a);
+    ftm_sim_destroy(b);
+    ftm_mesh_destroy(m);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_portable_kernel_matches)};
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

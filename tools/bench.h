@@ -1,0 +1,20 @@
+/* Benchmarks of `ftm bench` and the timing helpers they share. */
+#ifndef FTM_TOOLS_BENCH_H
+#define FTM_TOOLS_BENCH_H
+
+#include <stdint.h>
+#include <time.h>
+
+int ftm_bench_table3(int argc, char **argv);
+
+static inline double ftm_bench_now_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec * 1e6 + (double)ts.tv_nsec * 1e-3;
+}
+
+/* Median of n samples (sorts them in place). */
+double ftm_bench_median(double *v, int n);
+
+#endif

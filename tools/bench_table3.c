@@ -1,0 +1,235 @@
+/* `ftm bench table3`: the paper's Table 3 timing experiment.
+ *
+ * 50 x 50 2D triangular lattice (paper Fig. 3), border fixed, a constant force
+ * on the centre node, penetration depth 1..20. For each depth: nodes in the
+ * region (against Eq. 9), the time of one neighbour search (BFS), of one
+ * step with the search repeated every step (as the paper timed it) and of
+ * one step with the layers cached; medians over many steps, beside the
+ * paper's figures (Pentium III 800 MHz). Then the intra-layer order variants:
+ * step time at the deepest depth and how far their equilibria differ from
+ * the paper's plain BFS order. */
+#include "bench.h"
+
+#include "ftm/ftm.h"
+#include "layers.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+double ftm_bench_median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+static const int depths[] = {1, 2, 3, 4, 5, 10, 15, 20};
+/* Choi, Sun, Heng (2004), Table 3 */
+static const int paper_nodes[] = {7, 19, 37, 61, 91, 331, 721, 1261};
+static const double paper_search_ms[] = {0.02, 0.05, 0.12, 0.23, 0.39, 2.59, 10.85, 28.79};
+static const double paper_step_ms[] = {0.14, 0.25, 0.42, 0.64, 0.96, 4.17, 13.84, 30.97};
+#define NDEPTH ((int)(sizeof depths / sizeof depths[0]))
+
+typedef struct bench_setup {
+    ftm_mesh *mesh;
+    int32_t centre;
+    ftm_sim_def def;
+    ftm_contact load;
+} bench_setup;
+
+static int setup(bench_setup *b)
+{
+    ftm_error err;
+    ftm_mesh_builder *mb = ftm_mesh_builder_create();
+    ftm_lattice2d_def ld = ftm_default_lattice2d_def(); /* 50 x 50, spacing 1, border fixed */
+    ld.material.node_mass = 1.0;
+    ld.material.node_damping = 0.5;
+    ld.material.stiffness = 1.0;
+    int rc = ftm_generate_lattice2d(mb, &ld, &err);
+    if (!rc)
+        rc = ftm_mesh_build(mb, NULL, &b->mesh, &err);
+    ftm_mesh_builder_destroy(mb);
+    if (rc) {
+        fprintf(stderr, "ftm bench table3: %s\n", err.message);
+        return rc;
+    }
+    b->centre = ftm_mesh_node_of_input(b->mesh, 25 + 50 * 25);
+    b->def = ftm_default_sim_def();
+    b->def.time_step = 0.1; /* critical: 2/sqrt(12) = 0.577 */
+    b->load = (ftm_contact){.node = b->centre, .group = 0, .kind = FTM_CONTACT_FORCE,
+                            .value = {0.0, -0.1, 0.0}};
+    return 0;
+}
+
+/* Median time of one step [us] over `steps` steps after a warm-up. */
+static double time_steps(const bench_setup *b, int depth, ftm_order order, bool cache, int steps,
+                         double *samples)
+{
+    ftm_sim_def d = b->def;
+    d.depth = depth;
+    d.order = order;
+    d.cache_layers = cache;
+    ftm_sim *sim;
+    if (ftm_sim_create(b->mesh, &d, &sim, NULL))
+        return NAN;
+    ftm_sim_set_contacts(sim, &b->load, 1, NULL);
+    ftm_sim_run(sim, 200);
+    for (int i = 0; i < steps; i++) {
+        double t0 = ftm_bench_now_us();
+        ftm_sim_step(sim);
+        samples[i] = ftm_bench_now_us() - t0;
+    }
+    ftm_sim_destroy(sim);
+    return ftm_bench_median(samples, steps);
+}
+
+static double time_search(const bench_setup *b, int depth, int reps, double *samples,
+                          int32_t *nodes)
+{
+    ftm_layering ly;
+    if (ftm_layering_init(&ly, ftm_mesh_node_count(b->mesh)))
+        return NAN;
+    for (int i = 0; i < reps; i++) {
+        double t0 = ftm_bench_now_us();
+        ftm_layering_build(&ly, b->mesh, &b->centre, 1, depth, true);
+        samples[i] = ftm_bench_now_us() - t0;
+    }
+    *nodes = ly.count;
+    ftm_layering_free(&ly);
+    return ftm_bench_median(samples, reps);
+}
+
+/* Runs to equilibrium with one order; returns positions (caller frees). */
+static double *equilibrium(const bench_setup *b, int depth, ftm_order order, int steps,
+                           double *residual)
+{
+    ftm_sim_def d = b->def;
+    d.depth = depth;
+    d.order = order;
+    ftm_sim *sim;
+    if (ftm_sim_create(b->mesh, &d, &sim, NULL))
+        return NULL;
+    ftm_sim_set_contacts(sim, &b->load, 1, NULL);
+    ftm_sim_run(sim, steps);
+    int32_t n = ftm_mesh_node_count(b->mesh);
+    double *x = malloc((size_t)n * 3 * sizeof *x);
+    memcpy(x, ftm_sim_positions(sim), (size_t)n * 3 * sizeof *x);
+    ftm_sim_step(sim);
+    const double *x2 = ftm_sim_positions(sim);
+    double r = 0.0;
+    for (int32_t i = 0; i < 3 * n; i++)
+        r = fmax(r, fabs(x2[i] - x[i]));
+    *residual = r;
+    ftm_sim_destroy(sim);
+    return x;
+}
+
+static const char *order_name(ftm_order o)
+{
+    return o == FTM_ORDER_BFS ? "bfs" : o == FTM_ORDER_LAYER_JACOBI ? "jacobi" : "colored";
+}
+
+int ftm_bench_table3(int argc, char **argv)
+{
+    bool json = false;
+    int steps = 20000, eq_steps = 40000;
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--json") == 0)
+            json = true;
+        else if (strcmp(argv[i], "--steps") == 0 && i + 1 < argc) {
+            steps = atoi(argv[++i]);
+            if (steps < 11 || steps > 10000000) {
+                fprintf(stderr, "ftm bench table3: --steps must be in 11..10000000\n");
+                return 2;
+            }
+        } else if (strcmp(argv[i], "--help") == 0) {
+            printf("usage: ftm bench table3 [--steps N] [--json]\n"
+                   "  --steps N  timed steps per measurement (default 20000)\n"
+                   "  --json     print {\"rows\":[{\"depth\":..,\"nodes\":..,\"search_us\":..,"
+                   "\"step_us\":..},...],\"orders\":[...]}\n");
+            return 0;
+        } else {
+            fprintf(stderr, "ftm bench table3: unknown option '%s' (try --help)\n", argv[i]);
+            return 2;
+        }
+    }
+    bench_setup b;
+    if (setup(&b))
+        return 1;
+    double *samples = malloc((size_t)steps * sizeof *samples);
+    double search[NDEPTH], step[NDEPTH], cached[NDEPTH];
+    int32_t nodes[NDEPTH];
+    for (int r = 0; r < NDEPTH; r++) {
+        search[r] = time_search(&b, depths[r], steps, samples, &nodes[r]);
+        step[r] = time_steps(&b, depths[r], FTM_ORDER_LAYER_COLORED, false, steps, samples);
+        cached[r] = time_steps(&b, depths[r], FTM_ORDER_LAYER_COLORED, true, steps, samples);
+    }
+    /* order variants at the deepest depth */
+    const ftm_order orders[3] = {FTM_ORDER_BFS, FTM_ORDER_LAYER_COLORED, FTM_ORDER_LAYER_JACOBI};
+    const int dmax = depths[NDEPTH - 1];
+    double ostep[3], ocached[3], odiff[3], ores[3];
+    double *ref = NULL;
+    for (int o = 0; o < 3; o++) {
+        ostep[o] = time_steps(&b, dmax, orders[o], false, steps, samples);
+        ocached[o] = time_steps(&b, dmax, orders[o], true, steps, samples);
+        double *x = equilibrium(&b, dmax, orders[o], eq_steps, &ores[o]);
+        if (!ref) {
+            ref = x;
+            odiff[o] = 0.0;
+        } else {
+            double d = 0.0;
+            for (int32_t i = 0; i < 3 * ftm_mesh_node_count(b.mesh); i++)
+                d = fmax(d, fabs(x[i] - ref[i]));
+            odiff[o] = d; /* spacing is 1: already relative to the spring length */
+            free(x);
+        }
+    }
+    free(ref);
+    free(samples);
+
+    if (json) {
+        printf("{\"bench\":\"table3\",\"steps\":%d,\"rows\":[", steps);
+        for (int r = 0; r < NDEPTH; r++)
+            printf("%s{\"depth\":%d,\"nodes\":%d,\"paper_nodes\":%d,\"search_us\":%.3f,"
+                   "\"step_us\":%.3f,\"step_cached_us\":%.3f,\"paper_search_ms\":%.2f,"
+                   "\"paper_step_ms\":%.2f,\"node_updates_per_s\":%.4g}",
+                   r ? "," : "", depths[r], (int)nodes[r], paper_nodes[r], search[r], step[r],
+                   cached[r], paper_search_ms[r], paper_step_ms[r], nodes[r] / (step[r] * 1e-6));
+        printf("],\"orders\":[");
+        for (int o = 0; o < 3; o++)
+            printf("%s{\"order\":\"%s\",\"depth\":%d,\"step_us\":%.3f,\"step_cached_us\":%.3f,"
+                   "\"max_diff_vs_bfs\":%.3e,\"residual\":%.3e}",
+                   o ? "," : "", order_name(orders[o]), dmax, ostep[o], ocached[o], odiff[o],
+                   ores[o]);
+        printf("]}\n");
+    } else {
+        printf("Paper Table 3: 50x50 2D lattice, force on the centre node; medians of %d steps\n"
+               "(step = one time step with a fresh neighbour search, as the paper timed it;\n"
+               " cached = the layers reused while the contact is unchanged, FTM's default)\n\n",
+               steps);
+        printf("%5s %6s %6s | %10s %10s %10s %12s | %10s %10s %8s\n", "depth", "nodes", "Eq.9",
+               "search us", "step us", "cached us", "updates/s", "paper srch", "paper step",
+               "speedup");
+        for (int r = 0; r < NDEPTH; r++)
+            printf("%5d %6d %6d | %10.3f %10.3f %10.3f %12.4g | %8.2fms %8.2fms %7.0fx\n",
+                   depths[r], (int)nodes[r], 3 * depths[r] * depths[r] + 3 * depths[r] + 1,
+                   search[r], step[r], cached[r], nodes[r] / (step[r] * 1e-6), paper_search_ms[r],
+                   paper_step_ms[r], paper_step_ms[r] * 1e3 / step[r]);
+        printf("\nIntra-layer order at depth %d (equilibrium after %d steps; spacing = 1):\n\n",
+               dmax, eq_steps);
+        printf("%8s | %10s %10s | %16s %12s\n", "order", "step us", "cached us",
+               "max |x - x_bfs|", "residual");
+        for (int o = 0; o < 3; o++)
+            printf("%8s | %10.3f %10.3f | %16.3e %12.3e\n", order_name(orders[o]), ostep[o],
+                   ocached[o], odiff[o], ores[o]);
+    }
+    ftm_mesh_destroy(b.mesh);
+    return 0;
+}

@@ -1,0 +1,11 @@
+/* Subcommands of the `ftm` tool. Each takes the arguments from the
+ * subcommand's name on (argv[0] is "sim", "bench", ...) and returns the
+ * process exit status: 0 success, 2 bad arguments or input, other codes as
+ * documented by the command. */
+#ifndef FTM_TOOLS_COMMANDS_H
+#define FTM_TOOLS_COMMANDS_H
+
+int ftm_cmd_sim(int argc, char **argv);
+int ftm_cmd_bench(int argc, char **argv);
+
+#endif

@@ -1,0 +1,76 @@
+/* ftm: the headless FTM tool. Dispatches to subcommands (tools/commands.h). */
+#include "commands.h"
+
+#include "ftm/ftm.h"
+
+#include <stdio.h>
+#include <string.h>
+
+typedef struct command {
+    const char *name;
+    int (*run)(int argc, char **argv);
+    const char *summary;
+} command;
+
+static const command commands[] = {
+    {"sim", ftm_cmd_sim, "run a scene (built-in or file) and report the result"},
+    {"bench", ftm_cmd_bench, "run benchmarks (e.g. the paper's Table 3)"},
+};
+
+#define COMMAND_COUNT (sizeof commands / sizeof commands[0])
+
+static void usage(FILE *out)
+{
+    fprintf(out, "usage: ftm COMMAND [ARGS...]\n"
+                 "       ftm help [COMMAND]\n"
+                 "       ftm --version\n\n"
+                 "commands:\n");
+    for (size_t i = 0; i < COMMAND_COUNT; i++)
+        fprintf(out, "  %-8s %s\n", commands[i].name, commands[i].summary);
+    fprintf(out, "  %-8s %s\n\nbuilt-in scenes:", "help", "show this text or a command's help");
+    for (const char *const *n = ftm_scene_builtin_names(); *n; n++)
+        fprintf(out, " %s", *n);
+    fprintf(out, "\n\nRun 'ftm help COMMAND' for a command's options.\n");
+}
+
+static const command *find(const char *name)
+{
+    for (size_t i = 0; i < COMMAND_COUNT; i++)
+        if (strcmp(commands[i].name, name) == 0)
+            return &commands[i];
+    return NULL;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        usage(stderr);
+        return 2;
+    }
+    const char *name = argv[1];
+    if (strcmp(name, "--version") == 0 || strcmp(name, "version") == 0) {
+        printf("ftm %d.%d.%d\n", FTM_VERSION_MAJOR, FTM_VERSION_MINOR, FTM_VERSION_PATCH);
+        return 0;
+    }
+    if (strcmp(name, "help") == 0 || strcmp(name, "--help") == 0 || strcmp(name, "-h") == 0) {
+        if (argc < 3) {
+            usage(stdout);
+            return 0;
+        }
+        const command *c = find(argv[2]);
+        if (!c) {
+            fprintf(stderr, "ftm: unknown command '%s' (try 'ftm help')\n", argv[2]);
+            return 2;
+        }
+        /* A command's help is its own --help. */
+        char help[] = "--help";
+        char *sub[] = {argv[2], help, NULL};
+        return c->run(2, sub);
+    }
+    const command *c = find(name);
+    if (!c) {
+        fprintf(stderr, "ftm: unknown command '%s' (try 'ftm help')\n", name);
+        return 2;
+    }
+    return c->run(argc - 1, argv + 1);
+}
