@@ -1132,6 +1132,36 @@ static void test_nearest_node(void **state)
     ftm_mesh_destroy(m);
 }
 
+/* Boundary conditions set after the nodes exist (scene files fix nodes of
+ * loaded meshes this way); bad indices are refused. */
+static void test_builder_set_fixed(void **state)
+{
+    (void)state;
+    ftm_mesh_builder *b = ftm_mesh_builder_create();
+    ftm_node_def nd = ftm_default_node_def();
+    for (int i = 0; i < 3; i++) {
+        nd.position = (ftm_vec3){i, 2.0 * i, 0};
+        assert_int_equal(ftm_mesh_builder_add_node(b, &nd), i);
+    }
+    ftm_vec3 p;
+    assert_int_equal(ftm_mesh_builder_node_position(b, 2, &p), FTM_OK);
+    assert_true(p.x == 2.0 && p.y == 4.0 && p.z == 0.0);
+    assert_int_equal(ftm_mesh_builder_node_position(b, 3, &p), FTM_ERANGE);
+    assert_int_equal(ftm_mesh_builder_node_position(b, -1, &p), FTM_ERANGE);
+    assert_int_equal(ftm_mesh_builder_set_fixed(b, 1, true), FTM_OK);
+    assert_int_equal(ftm_mesh_builder_set_fixed(b, 3, true), FTM_ERANGE);
+    ftm_mesh *m = NULL;
+    assert_int_equal(ftm_mesh_build(b, NULL, &m, NULL), FTM_OK);
+    for (int i = 0; i < 3; i++)
+        assert_int_equal(ftm_mesh_fixed(m, ftm_mesh_node_of_input(m, i)), i == 1);
+    ftm_mesh_destroy(m);
+    assert_int_equal(ftm_mesh_builder_set_fixed(b, 1, false), FTM_OK);
+    assert_int_equal(ftm_mesh_build(b, NULL, &m, NULL), FTM_OK);
+    assert_false(ftm_mesh_fixed(m, ftm_mesh_node_of_input(m, 1)));
+    ftm_mesh_destroy(m);
+    ftm_mesh_builder_destroy(b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1161,6 +1191,7 @@ int main(void)
         cmocka_unit_test(test_surface_two_tets_sharing_a_face),
         cmocka_unit_test(test_surface_options),
         cmocka_unit_test(test_nearest_node),
+        cmocka_unit_test(test_builder_set_fixed),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -4,7 +4,7 @@
  *
  * Each loader parses into its own arrays and validates everything before it
  * calls ftm_load_commit(), so a malformed file never touches the builder. */
-#include "ftm/load.h"
+#include "load_internal.h"
 
 #include "error.h"
 #include "text.h"
@@ -15,16 +15,6 @@
 
 /* Mesh files above this size are refused rather than read into memory. */
 #define FTM_LOAD_MAX_BYTES ((size_t)256 << 20)
-
-/* Shared by load_obj.c, load_gmsh.c and load_tetgen.c, which repeat these
- * prototypes (there is no private header for the loaders); keep them in sync. */
-int ftm_load_check_args(const ftm_mesh_builder *builder, const char *path,
-                        const ftm_material_def *material, ftm_error *err);
-int ftm_load_read_file(const char *path, char **data, size_t *length, ftm_error *err);
-void *ftm_load_grow(void *array, size_t *capacity, size_t needed, size_t elem_size);
-int ftm_load_commit(ftm_mesh_builder *builder, const char *path, const ftm_material_def *material,
-                    const double *pos, size_t node_count, const int32_t *tris, size_t tri_count,
-                    bool tri_edges, const int32_t *tets, size_t tet_count, ftm_error *err);
 
 /* Checked before any file is read, so a bad material is reported as such and
  * not as a side effect of the first spring. */

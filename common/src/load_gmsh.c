@@ -6,7 +6,7 @@
  * Node tags may be sparse; they are mapped to 0-based indices in order of
  * appearance. $Nodes must precede $Elements (as Gmsh writes it), so element
  * errors can be reported on their own line. */
-#include "ftm/load.h"
+#include "load_internal.h"
 
 #include "error.h"
 #include "text.h"
@@ -14,15 +14,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* Defined in load.c. */
-int ftm_load_check_args(const ftm_mesh_builder *builder, const char *path,
-                        const ftm_material_def *material, ftm_error *err);
-int ftm_load_read_file(const char *path, char **data, size_t *length, ftm_error *err);
-void *ftm_load_grow(void *array, size_t *capacity, size_t needed, size_t elem_size);
-int ftm_load_commit(ftm_mesh_builder *builder, const char *path, const ftm_material_def *material,
-                    const double *pos, size_t node_count, const int32_t *tris, size_t tri_count,
-                    bool tri_edges, const int32_t *tets, size_t tet_count, ftm_error *err);
 
 #define QUOTE_MAX 40
 #define QUOTE(len) ((int)((len) > QUOTE_MAX ? QUOTE_MAX : (len)))

@@ -3,22 +3,13 @@
  * Faces may only use vertices defined above them (this is what makes
  * negative, relative indices well defined, and lets every face be checked
  * with its own line number). Polygons are fanned from their first vertex. */
-#include "ftm/load.h"
+#include "load_internal.h"
 
 #include "error.h"
 #include "text.h"
 
 #include <stdlib.h>
 #include <string.h>
-
-/* Defined in load.c. */
-int ftm_load_check_args(const ftm_mesh_builder *builder, const char *path,
-                        const ftm_material_def *material, ftm_error *err);
-int ftm_load_read_file(const char *path, char **data, size_t *length, ftm_error *err);
-void *ftm_load_grow(void *array, size_t *capacity, size_t needed, size_t elem_size);
-int ftm_load_commit(ftm_mesh_builder *builder, const char *path, const ftm_material_def *material,
-                    const double *pos, size_t node_count, const int32_t *tris, size_t tri_count,
-                    bool tri_edges, const int32_t *tets, size_t tet_count, ftm_error *err);
 
 /* Longest piece of offending text quoted in a message. */
 #define QUOTE_MAX 40

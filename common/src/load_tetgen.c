@@ -7,22 +7,13 @@
  * '#' starts a comment anywhere. Point indices must run consecutively from
  * 0 or 1 (TetGen's -z switch); the .ele file must use the same base.
  * For 10-node tetrahedra only the 4 corners are used. */
-#include "ftm/load.h"
+#include "load_internal.h"
 
 #include "error.h"
 #include "text.h"
 
 #include <stdlib.h>
 #include <string.h>
-
-/* Defined in load.c. */
-int ftm_load_check_args(const ftm_mesh_builder *builder, const char *path,
-                        const ftm_material_def *material, ftm_error *err);
-int ftm_load_read_file(const char *path, char **data, size_t *length, ftm_error *err);
-void *ftm_load_grow(void *array, size_t *capacity, size_t needed, size_t elem_size);
-int ftm_load_commit(ftm_mesh_builder *builder, const char *path, const ftm_material_def *material,
-                    const double *pos, size_t node_count, const int32_t *tris, size_t tri_count,
-                    bool tri_edges, const int32_t *tets, size_t tet_count, ftm_error *err);
 
 #define QUOTE_MAX 40
 #define QUOTE(len) ((int)((len) > QUOTE_MAX ? QUOTE_MAX : (len)))

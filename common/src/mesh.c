@@ -76,6 +76,22 @@ int32_t ftm_mesh_builder_node_count(const ftm_mesh_builder *b)
     return b->node_count;
 }
 
+int ftm_mesh_builder_node_position(const ftm_mesh_builder *b, int32_t node, ftm_vec3 *out)
+{
+    if (!b || !out || node < 0 || node >= b->node_count)
+        return FTM_ERANGE;
+    *out = b->nodes[node].position;
+    return FTM_OK;
+}
+
+int ftm_mesh_builder_set_fixed(ftm_mesh_builder *b, int32_t node, bool fixed)
+{
+    if (!b || node < 0 || node >= b->node_count)
+        return FTM_ERANGE;
+    b->nodes[node].fixed = fixed;
+    return FTM_OK;
+}
+
 static bool finite3(ftm_vec3 v)
 {
     return isfinite(v.x) && isfinite(v.y) && isfinite(v.z);

@@ -921,90 +921,22 @@ static bool in_box(const fixed_box *b, ftm_vec3 x)
            x.z >= b->lo[2] && x.z <= b->hi[2];
 }
 
-/* The builder API cannot change a node once added, so fixed_nodes and
- * fixed_box are applied by building the mesh once without reordering and
- * copying it, with the extra fixed flags, into a second builder. Input
- * indices are preserved, so the result is as if the loader had fixed them. */
-static int copy_with_fixed(const parser *p, const ftm_mesh_builder *src, ftm_mesh_builder **out)
+/* fixed_nodes and fixed_box, on top of what the generator fixed. Node
+ * indices were checked against the node count already. */
+static void apply_fixed(const parser *p, ftm_mesh_builder *b)
 {
     const spec *s = &p->s;
-    ftm_error sub;
-    ftm_error_clear(&sub);
-    ftm_mesh_build_def bd = ftm_default_mesh_build_def();
-    bd.reorder = false;
-    ftm_mesh *m = NULL;
-    int rc = ftm_mesh_build(src, &bd, &m, &sub);
-    if (rc != FTM_OK)
-        return fail_at(p, section_or_end(p, SEC_MESH), rc, "%s", sub.message);
-    int32_t n = ftm_mesh_node_count(m);
-    uint8_t *fix = calloc((size_t)n, 1);
-    ftm_mesh_builder *b = ftm_mesh_builder_create();
-    if (!fix || !b) {
-        rc = fail_at(p, section_or_end(p, SEC_MESH), FTM_ENOMEM, "out of memory");
-        goto done;
-    }
     for (size_t i = 0; i < s->fixed_node_count; i++)
-        fix[s->fixed_nodes[i].input] = 1; /* indices were checked against n already */
-    for (int32_t i = 0; i < n && s->fixed_box_count; i++) {
-        ftm_vec3 x = ftm_mesh_rest_position(m, ftm_mesh_node_of_input(m, i));
+        ftm_mesh_builder_set_fixed(b, (int32_t)s->fixed_nodes[i].input, true);
+    if (!s->fixed_box_count)
+        return;
+    for (int32_t i = 0, n = ftm_mesh_builder_node_count(b); i < n; i++) {
+        ftm_vec3 x;
+        ftm_mesh_builder_node_position(b, i, &x);
         for (size_t j = 0; j < s->fixed_box_count; j++)
             if (in_box(&s->fixed_boxes[j], x))
-                fix[i] = 1;
+                ftm_mesh_builder_set_fixed(b, i, true);
     }
-    for (int32_t i = 0; i < n; i++) {
-        int32_t node = ftm_mesh_node_of_input(m, i);
-        ftm_node_def nd = ftm_default_node_def();
-        nd.position = ftm_mesh_rest_position(m, node);
-        nd.mass = ftm_mesh_mass(m, node);
-        nd.damping = ftm_mesh_damping(m, node);
-        nd.fixed = ftm_mesh_fixed(m, node) || fix[i];
-        int32_t got = ftm_mesh_builder_add_node(b, &nd);
-        if (got < 0) {
-            rc = fail_at(p, section_or_end(p, SEC_MESH), got, "copying node %d failed", (int)i);
-            goto done;
-        }
-    }
-    for (int32_t l = 0; l < ftm_mesh_link_count(m); l++) {
-        ftm_link_def ld = ftm_default_link_def();
-        int32_t a, c;
-        ftm_mesh_link(m, l, &a, &c, &ld.stiffness, &ld.rest_length);
-        ld.a = ftm_mesh_input_of_node(m, a);
-        ld.b = ftm_mesh_input_of_node(m, c);
-        if ((rc = ftm_mesh_builder_add_link(b, &ld)) != FTM_OK) {
-            rc = fail_at(p, section_or_end(p, SEC_MESH), rc, "copying link %d failed", (int)l);
-            goto done;
-        }
-    }
-    const int32_t *tri = ftm_mesh_triangles(m);
-    for (int32_t i = 0; i < ftm_mesh_triangle_count(m); i++) {
-        rc = ftm_mesh_builder_add_triangle(b, ftm_mesh_input_of_node(m, tri[3 * i]),
-                                           ftm_mesh_input_of_node(m, tri[3 * i + 1]),
-                                           ftm_mesh_input_of_node(m, tri[3 * i + 2]));
-        if (rc != FTM_OK) {
-            rc = fail_at(p, section_or_end(p, SEC_MESH), rc, "copying triangle %d failed", (int)i);
-            goto done;
-        }
-    }
-    const int32_t *tet = ftm_mesh_tetrahedra(m);
-    for (int32_t i = 0; i < ftm_mesh_tetrahedron_count(m); i++) {
-        rc = ftm_mesh_builder_add_tetrahedron(b, ftm_mesh_input_of_node(m, tet[4 * i]),
-                                              ftm_mesh_input_of_node(m, tet[4 * i + 1]),
-                                              ftm_mesh_input_of_node(m, tet[4 * i + 2]),
-                                              ftm_mesh_input_of_node(m, tet[4 * i + 3]));
-        if (rc != FTM_OK) {
-            rc = fail_at(p, section_or_end(p, SEC_MESH), rc, "copying tetrahedron %d failed",
-                         (int)i);
-            goto done;
-        }
-    }
-    *out = b;
-    b = NULL;
-    rc = FTM_OK;
-done:
-    ftm_mesh_builder_destroy(b);
-    free(fix);
-    ftm_mesh_destroy(m);
-    return rc;
 }
 
 static int build_mesh(const parser *p, ftm_mesh **out)
@@ -1025,15 +957,8 @@ static int build_mesh(const parser *p, ftm_mesh **out)
             }
         }
     }
-    if (rc == FTM_OK && (s->fixed_node_count || s->fixed_box_count)) {
-        ftm_mesh_builder *fixed = NULL;
-        rc = copy_with_fixed(p, b, &fixed);
-        if (rc == FTM_OK) {
-            ftm_mesh_builder_destroy(b);
-            b = fixed;
-        }
-    }
     if (rc == FTM_OK) {
+        apply_fixed(p, b);
         ftm_error sub;
         ftm_error_clear(&sub);
         ftm_mesh_build_def bd = ftm_default_mesh_build_def();

@@ -55,6 +55,11 @@ int ftm_mesh_builder_add_triangle(ftm_mesh_builder *builder, int32_t a, int32_t 
 int ftm_mesh_builder_add_tetrahedron(ftm_mesh_builder *builder, int32_t a, int32_t b, int32_t c,
                                      int32_t d);
 int32_t ftm_mesh_builder_node_count(const ftm_mesh_builder *builder);
+/* Rest position of a node added so far (input index); FTM_ERANGE if none. */
+int ftm_mesh_builder_node_position(const ftm_mesh_builder *builder, int32_t node, ftm_vec3 *out);
+/* Fixes or frees a node added so far: boundary conditions chosen after a
+ * generator or loader has made the nodes. */
+int ftm_mesh_builder_set_fixed(ftm_mesh_builder *builder, int32_t node, bool fixed);
 
 /* Builds the mesh; the builder may be reused or destroyed afterwards.
  * Fails (FTM_EINVAL, message in err) on an empty mesh. */
