@@ -85,7 +85,7 @@ check "--quiet prints only the hash" [ "$(cat "$tmp/out")" = "hash $first" ]
 run sim --json
 check "--json exits 0" [ "$rc" -eq 0 ]
 check "--json has the same hash" grep -q "\"hash\": \"$first\"" "$tmp/out"
-check "--json has steps" grep -q '"steps": 1000' "$tmp/out"
+check "--json has steps" grep -q '"steps": 2000' "$tmp/out"
 check "--json is one line" [ "$(wc -l <"$tmp/out")" -eq 1 ]
 for key in nodes max_displacement wall_s; do
     check "--json has $key" grep -q "\"$key\": " "$tmp/out"

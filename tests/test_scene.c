@@ -492,7 +492,7 @@ static void test_builtins(void **state)
     const ftm_mesh *mesh = ftm_scene_mesh(scene);
     assert_int_equal(ftm_mesh_node_count(mesh), 12 * 12 * 12);
     assert_int_equal(count_fixed(mesh), 12 * 12);
-    assert_int_equal(ftm_scene_steps(scene), 1000);
+    assert_int_equal(ftm_scene_steps(scene), 2000);
     assert_int_equal(ftm_scene_sim_def(scene).depth, 8);
     const ftm_scene_load *l = ftm_scene_loads(scene);
     assert_int_equal(l[0].contact.kind, FTM_CONTACT_DISPLACEMENT);

@@ -222,6 +222,12 @@ typedef struct summary {
     ftm_sim_stats stats;
     double max_disp;
     int32_t max_node; /* input index, -1 if the mesh is empty */
+    /* over the run */
+    double peak_reaction; /* largest |reaction| of any displacement group */
+    int32_t peak_reaction_step, peak_reaction_group;
+    int64_t node_updates;   /* sum of per-step node updates: the work done */
+    int32_t peak_updates;   /* most node updates in one step */
+    int32_t rest_since;     /* first step of the final idle stretch, -1 if never idle */
     uint64_t hash;
 } summary;
 
@@ -309,8 +315,13 @@ static void print_json(FILE *out, const summary *s, const ftm_sim *sim, const in
         json_number(out, f.z);
         fputs("]}", out);
     }
+    fputs("], \"peak_reaction\": ", out);
+    json_number(out, s->peak_reaction);
     fprintf(out,
-            "], \"guard_events\": %" PRIu64 ", \"substeps\": %d, \"unstable_steps\": %" PRIu64
+            ", \"node_updates\": %" PRId64 ", \"peak_updates\": %d, \"rest_since_step\": %d",
+            s->node_updates, (int)s->peak_updates, (int)s->rest_since);
+    fprintf(out,
+            ", \"guard_events\": %" PRIu64 ", \"substeps\": %d, \"unstable_steps\": %" PRIu64
             ", \"hash\": \"%016" PRIx64 "\"}\n",
             s->stats.guard_events, (int)s->stats.substeps, s->stats.unstable_steps, s->hash);
 }
@@ -342,6 +353,15 @@ static void print_human(FILE *out, const summary *s, const ftm_sim *sim, const i
         fprintf(out, "reaction         group %d: (%.6g, %.6g, %.6g) N%s\n", (int)groups[i], f.x,
                 f.y, f.z, group_active(last, last_count, groups[i]) ? "" : " (not in contact)");
     }
+    if (s->peak_reaction > 0)
+        fprintf(out, "peak reaction    %.6g N (group %d) at t = %.6g s\n", s->peak_reaction,
+                (int)s->peak_reaction_group, s->peak_reaction_step * s->h);
+    fprintf(out, "work             %" PRId64 " node updates (%.1f per step, peak %d)\n",
+            s->node_updates, s->steps ? (double)s->node_updates / s->steps : 0.0,
+            (int)s->peak_updates);
+    if (s->rest_since >= 0)
+        fprintf(out, "at rest          from t = %.6g s (step %d): idle steps update no node\n",
+                s->rest_since * s->h, (int)s->rest_since);
     fprintf(out, "guard            %" PRIu64 " events, %d substeps", s->stats.guard_events,
             (int)s->stats.substeps);
     if (s->stats.unstable_steps)
@@ -438,6 +458,8 @@ int ftm_cmd_sim(int argc, char **argv)
         fprintf(stderr, "ftm: warning: time step %.6g s exceeds the critical time step %.6g s\n",
                 s.h, s.h_crit);
 
+    int32_t group_count = displacement_groups(scene, groups);
+    s.rest_since = -1;
     int32_t prev_count = 0;
     double t0 = now_seconds();
     for (int32_t step = 0; step < s.steps; step++) {
@@ -469,13 +491,30 @@ int ftm_cmd_sim(int argc, char **argv)
             status = 1;
             goto done;
         }
+        ftm_sim_stats st;
+        ftm_sim_get_stats(sim, &st);
+        s.node_updates += st.updated_nodes;
+        if (st.updated_nodes > s.peak_updates)
+            s.peak_updates = st.updated_nodes;
+        if (st.updated_nodes > 0 || prev_count > 0)
+            s.rest_since = -1;
+        else if (s.rest_since < 0)
+            s.rest_since = step;
+        for (int32_t g = 0; g < group_count; g++) {
+            ftm_vec3 f = ftm_sim_reaction(sim, groups[g]);
+            double mag = sqrt(f.x * f.x + f.y * f.y + f.z * f.z);
+            if (mag > s.peak_reaction) {
+                s.peak_reaction = mag;
+                s.peak_reaction_step = step;
+                s.peak_reaction_group = groups[g];
+            }
+        }
     }
     s.wall = now_seconds() - t0;
 
     ftm_sim_get_stats(sim, &s.stats);
     max_displacement(sim, mesh, &s);
     s.hash = ftm_sim_hash(sim);
-    int32_t group_count = displacement_groups(scene, groups);
 
     if (csv) {
         int wrc = write_csv(csv, sim, mesh);

@@ -22,9 +22,13 @@ enum { NODE_FREE = 0, NODE_FORCE = 1, NODE_DISP = 2, NODE_FIXED = 3 };
 
 /* FTM_ORDER_LAYER_COLORED updates up to four nodes of one independent set
  * together: schedule positions first .. first+lanes-1, over `slots` padded
- * neighbour slots (the largest degree among them). */
+ * neighbour slots (the largest degree among them) stored slot-major from
+ * slot index `link` of the schedule's link arrays, so that the kernel loads
+ * each slot's four lanes with one vector load. `forced`: a lane has an
+ * external force (else all are +0.0 and the block skips reading them). */
 typedef struct block {
-    int32_t first, lanes, slots;
+    int32_t first, lanes, slots, link;
+    bool forced;
 } block;
 
 /* The update order of the contact region, rebuilt when the region changes:
@@ -36,9 +40,16 @@ typedef struct schedule {
     int32_t *group; /* group g: schedule positions group[g] .. group[g+1]-1 */
     int32_t blocks; /* colored order */
     block *block;
-    double *save;   /* rollback: previous positions overwritten in the last step */
+    /* colored order, 4 lanes per slot: 3 * neighbour (spare lanes repeat the
+     * block's last node), stiffness and rest length, as in pad_node / pad_kl */
+    int32_t *link_j;
+    double *link_k, *link_len;
+    /* rollback: previous positions overwritten in the last step; 3 per
+     * schedule position, or in the colored order x, y and z vectors of 4 per block */
+    double *save;
     double *tmp;    /* Jacobi: new positions of a group */
     int32_t cap, gcap;
+    size_t link_cap;
 } schedule;
 
 struct ftm_sim;
@@ -134,6 +145,9 @@ static void schedule_free(schedule *s)
     free(s->node);
     free(s->group);
     free(s->block);
+    free(s->link_j);
+    free(s->link_k);
+    free(s->link_len);
     free(s->save);
     free(s->tmp);
     memset(s, 0, sizeof *s);
@@ -439,7 +453,7 @@ int ftm_sim_set_depth(ftm_sim *sim, int32_t depth)
 
 /* ---- schedule ---- */
 
-static int schedule_reserve(schedule *s, int32_t count, int32_t groups)
+static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t max_degree)
 {
 #define GROW(p, n, per)                                                                       \
     do {                                                                                      \
@@ -454,9 +468,16 @@ static int schedule_reserve(schedule *s, int32_t count, int32_t groups)
             cap *= 2;
         GROW(s->node, cap, 1);
         GROW(s->block, cap, 1);
-        GROW(s->save, cap, 3);
+        GROW(s->save, cap, 12); /* blocks <= count */
         GROW(s->tmp, cap, 3);
         s->cap = cap;
+    }
+    size_t links = (size_t)count * (size_t)max_degree * 4; /* slots of all blocks, 4 lanes */
+    if (links > s->link_cap) {
+        GROW(s->link_j, links, 1);
+        GROW(s->link_k, links, 1);
+        GROW(s->link_len, links, 1);
+        s->link_cap = links;
     }
     if (groups + 1 > s->gcap) {
         int32_t cap = s->gcap ? s->gcap : 64;
@@ -525,8 +546,10 @@ static void schedule_blocks(ftm_sim *sim)
     const ftm_mesh *m = sim->m;
     const ftm_layering *ly = &sim->ly;
     schedule *s = &sim->s;
-    const int32_t *adj_start = m->adj_start;
-    int32_t kk = 0, nb = 0;
+    const int32_t *adj_start = m->adj_start, *pad_node = m->pad_node;
+    const double *pad_kl = m->pad_kl;
+    const size_t deg = (size_t)m->max_degree;
+    int32_t kk = 0, nb = 0, link = 0;
     for (int32_t set = 0; set < ly->sets; set++) {
         int32_t first = kk;
         for (int32_t k = ly->set_start[set]; k < ly->set_start[set + 1]; k++) {
@@ -537,11 +560,24 @@ static void schedule_blocks(ftm_sim *sim)
         int32_t width = ly->set_color[set] == FTM_SHARED_COLOR ? 1 : 4;
         for (int32_t p = first; p < kk; p += width) {
             int32_t lanes = kk - p < width ? kk - p : width, slots = 0;
-            for (int32_t l = 0; l < lanes; l++) {
-                int32_t i = s->node[p + l], deg = adj_start[i + 1] - adj_start[i];
-                slots = deg > slots ? deg : slots;
+            bool forced = false;
+            size_t row[4];
+            for (int32_t l = 0; l < 4; l++) {
+                int32_t i = s->node[p + (l < lanes ? l : lanes - 1)];
+                int32_t d = adj_start[i + 1] - adj_start[i];
+                slots = d > slots ? d : slots;
+                forced |= sim->kind[i] == NODE_FORCE;
+                row[l] = (size_t)i * deg;
             }
-            s->block[nb++] = (block){p, lanes, slots};
+            s->block[nb++] = (block){p, lanes, slots, link, forced};
+            for (int32_t sl = 0; sl < slots; sl++, link++)
+                for (int32_t l = 0; l < 4; l++) {
+                    size_t r = row[l] + (size_t)sl;
+                    size_t w = 4 * (size_t)link + (size_t)l;
+                    s->link_j[w] = 3 * pad_node[r];
+                    s->link_k[w] = pad_kl[2 * r];
+                    s->link_len[w] = pad_kl[2 * r + 1];
+                }
         }
     }
     s->count = kk;
@@ -572,7 +608,7 @@ static void schedule_layers(ftm_sim *sim)
 /* The update schedule from the current layers and contact kinds. */
 static int rebuild_schedule(ftm_sim *sim)
 {
-    int rc = schedule_reserve(&sim->s, sim->ly.count, sim->ly.layers);
+    int rc = schedule_reserve(&sim->s, sim->ly.count, sim->ly.layers, sim->m->max_degree);
     if (rc)
         return rc;
     if (sim->def.order == FTM_ORDER_LAYER_COLORED)
@@ -718,40 +754,38 @@ typedef int64_t v4l __attribute__((vector_size(32)));
  * reload of narrow stores stalls store forwarding. */
 #define GATHER4(p, i0, i1, i2, i3) ((v4d){(p)[i0], (p)[i1], (p)[i2], (p)[i3]})
 
+/* Four consecutive doubles, any alignment (vectors alias their elements). */
+typedef double v4du __attribute__((vector_size(32), aligned(8)));
+#define LOAD4(p) (*(const v4du *)(p))
+
 static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim, double *max_m2)
 {
-    const ftm_mesh *m = sim->m;
     const schedule *s = &sim->s;
-    const size_t deg = (size_t)m->max_degree;
-    const int32_t *restrict pad_node = m->pad_node;
-    const double *restrict pad_kl = m->pad_kl;
     const double *restrict coef = sim->coef, *restrict force = sim->force, *restrict lim2 = sim->lim2;
     double *restrict x = sim->x, *restrict xp = sim->xp;
     v4d mm = {*max_m2, *max_m2, *max_m2, *max_m2};
     v4l bad = {0, 0, 0, 0};
     for (int32_t b = 0; b < s->blocks; b++) {
-        const int32_t first = s->block[b].first, lanes = s->block[b].lanes;
-        const int32_t *sn = s->node + first;
+        const block bl = s->block[b];
+        const int32_t *sn = s->node + bl.first;
         /* spare lanes repeat the last node and are not stored */
-        const int32_t n0 = sn[0], n1 = sn[lanes > 1 ? 1 : 0], n2 = sn[lanes > 2 ? 2 : lanes - 1],
-                      n3 = sn[lanes - 1];
+        const int32_t n0 = sn[0], n1 = sn[bl.lanes > 1 ? 1 : 0],
+                      n2 = sn[bl.lanes > 2 ? 2 : bl.lanes - 1], n3 = sn[bl.lanes - 1];
         const size_t i0 = 3 * (size_t)n0, i1 = 3 * (size_t)n1, i2 = 3 * (size_t)n2,
                      i3 = 3 * (size_t)n3;
         const v4d cx = GATHER4(x, i0, i1, i2, i3), cy = GATHER4(x + 1, i0, i1, i2, i3),
                   cz = GATHER4(x + 2, i0, i1, i2, i3);
         v4d ax = {0, 0, 0, 0}, ay = ax, az = ax;
-        const int32_t *nb0 = pad_node + n0 * deg, *nb1 = pad_node + n1 * deg,
-                      *nb2 = pad_node + n2 * deg, *nb3 = pad_node + n3 * deg;
-        const double *k0 = pad_kl + 2 * n0 * deg, *k1 = pad_kl + 2 * n1 * deg,
-                     *k2 = pad_kl + 2 * n2 * deg, *k3 = pad_kl + 2 * n3 * deg;
-        for (int32_t sl = 0, slots = s->block[b].slots; sl < slots; sl++) {
-            const size_t j0 = 3 * (size_t)nb0[sl], j1 = 3 * (size_t)nb1[sl],
-                         j2 = 3 * (size_t)nb2[sl], j3 = 3 * (size_t)nb3[sl];
+        const int32_t *restrict lj = s->link_j + 4 * (size_t)bl.link;
+        const double *restrict lk = s->link_k + 4 * (size_t)bl.link,
+                               *restrict ll = s->link_len + 4 * (size_t)bl.link;
+        for (int32_t sl = 0; sl < bl.slots; sl++) {
+            const size_t j0 = (size_t)lj[4 * sl], j1 = (size_t)lj[4 * sl + 1],
+                         j2 = (size_t)lj[4 * sl + 2], j3 = (size_t)lj[4 * sl + 3];
             const v4d rx = cx - GATHER4(x, j0, j1, j2, j3),
                       ry = cy - GATHER4(x + 1, j0, j1, j2, j3),
                       rz = cz - GATHER4(x + 2, j0, j1, j2, j3);
-            const v4d k = {k0[2 * sl], k1[2 * sl], k2[2 * sl], k3[2 * sl]},
-                      rest = {k0[2 * sl + 1], k1[2 * sl + 1], k2[2 * sl + 1], k3[2 * sl + 1]};
+            const v4d k = LOAD4(lk + 4 * sl), rest = LOAD4(ll + 4 * sl);
             v4d q = rx * rx + ry * ry + rz * rz, len;
             for (int l = 0; l < 4; l++)
                 len[l] = sqrt(q[l]);
@@ -763,8 +797,12 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
         }
         const v4d ca = GATHER4(coef, i0, i1, i2, i3), cb = GATHER4(coef + 1, i0, i1, i2, i3),
                   cc = GATHER4(coef + 2, i0, i1, i2, i3);
-        const v4d fx = GATHER4(force, i0, i1, i2, i3), fy = GATHER4(force + 1, i0, i1, i2, i3),
-                  fz = GATHER4(force + 2, i0, i1, i2, i3);
+        v4d fx = {0, 0, 0, 0}, fy = fx, fz = fx;
+        if (bl.forced) {
+            fx = GATHER4(force, i0, i1, i2, i3);
+            fy = GATHER4(force + 1, i0, i1, i2, i3);
+            fz = GATHER4(force + 2, i0, i1, i2, i3);
+        }
         const v4d px = GATHER4(xp, i0, i1, i2, i3), py = GATHER4(xp + 1, i0, i1, i2, i3),
                   pz = GATHER4(xp + 2, i0, i1, i2, i3);
         const v4d lim = GATHER4(lim2, n0, n1, n2, n3);
@@ -776,12 +814,12 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
         bad |= ~(m2 <= lim); /* NaN fails too */
         v4l up = m2 > mm;
         mm = (v4d)((up & (v4l)m2) | (~up & (v4l)mm));
-        double *sv = s->save + 3 * first;
-        for (int l = 0; l < lanes; l++) {
+        double *sv = s->save + 12 * (size_t)b;
+        *(v4du *)sv = px;
+        *(v4du *)(sv + 4) = py;
+        *(v4du *)(sv + 8) = pz;
+        for (int l = 0; l < bl.lanes; l++) {
             double *xi = x + 3 * sn[l], *pi = xp + 3 * sn[l];
-            sv[3 * l] = pi[0];
-            sv[3 * l + 1] = pi[1];
-            sv[3 * l + 2] = pi[2];
             pi[0] = cx[l];
             pi[1] = cy[l];
             pi[2] = cz[l];
@@ -935,10 +973,20 @@ static void restore_state(ftm_sim *sim, double *full, bool region_ran)
             memcpy(sim->xp + 3 * sim->s.node[k], full + 6 * k + 3, 3 * sizeof(double));
         }
     } else { /* one substep: x_prev holds the old x, save the old x_prev */
-        for (int32_t k = 0; k < sim->s.count; k++) {
-            int32_t i = sim->s.node[k];
+        const schedule *s = &sim->s;
+        for (int32_t k = 0; k < s->count; k++) {
+            int32_t i = s->node[k];
             memcpy(sim->x + 3 * i, sim->xp + 3 * i, 3 * sizeof(double));
-            memcpy(sim->xp + 3 * i, sim->s.save + 3 * k, 3 * sizeof(double));
+        }
+        if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
+            for (int32_t b = 0; b < s->blocks; b++)
+                for (int32_t l = 0; l < s->block[b].lanes; l++)
+                    for (int d = 0; d < 3; d++)
+                        sim->xp[3 * s->node[s->block[b].first + l] + d] =
+                            s->save[12 * b + 4 * d + l];
+        } else {
+            for (int32_t k = 0; k < s->count; k++)
+                memcpy(sim->xp + 3 * s->node[k], s->save + 3 * k, 3 * sizeof(double));
         }
     }
 }
