@@ -1162,6 +1162,40 @@ static void test_builder_set_fixed(void **state)
     ftm_mesh_builder_destroy(b);
 }
 
+/* The 3D lattice adds its cells as hexahedra: bottom face counter-clockwise
+ * seen from +z, then the top face right above it (the FEM reference relies
+ * on this order). */
+static void test_lattice3d_hexahedra(void **state)
+{
+    (void)state;
+    ftm_mesh_builder *b = ftm_mesh_builder_create();
+    ftm_lattice3d_def d = ftm_default_lattice3d_def();
+    d.nx = 4;
+    d.ny = 3;
+    d.nz = 2;
+    d.spacing = (ftm_vec3){1.0, 2.0, 3.0};
+    assert_int_equal(ftm_generate_lattice3d(b, &d, NULL), FTM_OK);
+    ftm_mesh *m = NULL;
+    assert_int_equal(ftm_mesh_build(b, NULL, &m, NULL), FTM_OK);
+    assert_int_equal(ftm_mesh_hexahedron_count(m), 3 * 2 * 1);
+    const int32_t *h = ftm_mesh_hexahedra(m);
+    static const double corner[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                        {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+    for (int32_t c = 0; c < ftm_mesh_hexahedron_count(m); c++) {
+        ftm_vec3 o = ftm_mesh_rest_position(m, h[8 * c]);
+        for (int k = 0; k < 8; k++) {
+            ftm_vec3 p = ftm_mesh_rest_position(m, h[8 * c + k]);
+            assert_true(p.x == o.x + corner[k][0] * 1.0);
+            assert_true(p.y == o.y + corner[k][1] * 2.0);
+            assert_true(p.z == o.z + corner[k][2] * 3.0);
+        }
+    }
+    ftm_mesh_destroy(m);
+    int32_t bad[8] = {0, 1, 2, 3, 4, 5, 6, 6};
+    assert_int_equal(ftm_mesh_builder_add_hexahedron(b, bad), FTM_ERANGE);
+    ftm_mesh_builder_destroy(b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1192,6 +1226,7 @@ int main(void)
         cmocka_unit_test(test_surface_options),
         cmocka_unit_test(test_nearest_node),
         cmocka_unit_test(test_builder_set_fixed),
+        cmocka_unit_test(test_lattice3d_hexahedra),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

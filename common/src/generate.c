@@ -198,6 +198,19 @@ int ftm_generate_lattice3d(ftm_mesh_builder *b, const ftm_lattice3d_def *def, ft
                         return ftm_error_set(err, rc, "%s: cannot add link: %s", who,
                                              ftm_strerror(rc));
                 }
+    /* hexahedral cells, for the FEM reference: bottom face counter-clockwise
+     * seen from +z, then the top face */
+    for (int32_t iz = 0; iz + 1 < nz; iz++)
+        for (int32_t iy = 0; iy + 1 < ny; iy++)
+            for (int32_t ix = 0; ix + 1 < nx; ix++) {
+                int32_t c = base + ix + nx * (iy + ny * iz), up = nx * ny;
+                int32_t h[8] = {c, c + 1, c + 1 + nx, c + nx, c + up, c + 1 + up, c + 1 + nx + up,
+                                c + nx + up};
+                rc = ftm_mesh_builder_add_hexahedron(b, h);
+                if (rc)
+                    return ftm_error_set(err, rc, "%s: cannot add hexahedron: %s", who,
+                                         ftm_strerror(rc));
+            }
     /* surface triangles: two per boundary quad, outward-facing */
     for (int face = 0; face < 6; face++) {
         int ax = face / 2, hi = face & 1;          /* normal axis, max side? */

@@ -17,6 +17,8 @@ struct ftm_mesh_builder {
     int32_t *tris;
     int32_t tet_count, tet_cap;
     int32_t *tets;
+    int32_t hex_count, hex_cap;
+    int32_t *hexes;
     /* open-addressing set of link keys (a << 32 | b), for de-duplication */
     uint64_t *link_keys;
     uint32_t key_cap; /* power of two, 0 = none yet */
@@ -67,6 +69,7 @@ void ftm_mesh_builder_destroy(ftm_mesh_builder *b)
     free(b->links);
     free(b->tris);
     free(b->tets);
+    free(b->hexes);
     free(b->link_keys);
     free(b);
 }
@@ -217,6 +220,18 @@ int ftm_mesh_builder_add_tetrahedron(ftm_mesh_builder *b, int32_t a, int32_t c1,
     if (!grow((void **)&b->tets, &b->tet_cap, (b->tet_count + 1) * 4, sizeof *b->tets))
         return FTM_ENOMEM;
     memcpy(b->tets + 4 * b->tet_count++, v, sizeof v);
+    return FTM_OK;
+}
+
+int ftm_mesh_builder_add_hexahedron(ftm_mesh_builder *b, const int32_t nodes[8])
+{
+    if (!b || !nodes)
+        return FTM_EINVAL;
+    if (!distinct_in_range(nodes, 8, b->node_count))
+        return FTM_ERANGE;
+    if (!grow((void **)&b->hexes, &b->hex_cap, (b->hex_count + 1) * 8, sizeof *b->hexes))
+        return FTM_ENOMEM;
+    memcpy(b->hexes + 8 * b->hex_count++, nodes, 8 * sizeof *nodes);
     return FTM_OK;
 }
 
@@ -414,6 +429,7 @@ void ftm_mesh_destroy(ftm_mesh *m)
     free(m->link_len);
     free(m->tris);
     free(m->tets);
+    free(m->hexes);
     free(m->node_of_input);
     free(m->input_of_node);
     free(m);
@@ -582,8 +598,12 @@ int ftm_mesh_build(const ftm_mesh_builder *b, const ftm_mesh_build_def *def, ftm
     m->tris = malloc(((size_t)tri_count * 3 + 1) * sizeof *m->tris);
     m->tet_count = b->tet_count;
     m->tets = malloc(((size_t)b->tet_count * 4 + 1) * sizeof *m->tets);
-    if (!m->tris || !m->tets)
+    m->hex_count = b->hex_count;
+    m->hexes = malloc(((size_t)b->hex_count * 8 + 1) * sizeof *m->hexes);
+    if (!m->tris || !m->tets || !m->hexes)
         goto fail;
+    for (size_t i = 0; i < (size_t)b->hex_count * 8; i++)
+        m->hexes[i] = m->node_of_input[b->hexes[i]];
     for (size_t i = 0; i < (size_t)tri_count * 3; i++)
         m->tris[i] = m->node_of_input[src_tris[i]];
     for (size_t i = 0; i < (size_t)b->tet_count * 4; i++)
@@ -616,6 +636,8 @@ int32_t ftm_mesh_node_count(const ftm_mesh *m) { return m->node_count; }
 int32_t ftm_mesh_link_count(const ftm_mesh *m) { return m->link_count; }
 int32_t ftm_mesh_triangle_count(const ftm_mesh *m) { return m->tri_count; }
 int32_t ftm_mesh_tetrahedron_count(const ftm_mesh *m) { return m->tet_count; }
+int32_t ftm_mesh_hexahedron_count(const ftm_mesh *m) { return m->hex_count; }
+const int32_t *ftm_mesh_hexahedra(const ftm_mesh *m) { return m->hexes; }
 double ftm_mesh_mean_link_length(const ftm_mesh *m) { return m->mean_link_length; }
 int32_t ftm_mesh_max_degree(const ftm_mesh *m) { return m->max_degree; }
 const int32_t *ftm_mesh_triangles(const ftm_mesh *m) { return m->tris; }

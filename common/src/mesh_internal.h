@@ -11,6 +11,7 @@ struct ftm_mesh {
     int32_t link_count;
     int32_t tri_count;
     int32_t tet_count;
+    int32_t hex_count;
     int32_t max_degree;
 
     double *rest;      /* 3 per node */
@@ -37,6 +38,7 @@ struct ftm_mesh {
 
     int32_t *tris; /* 3 per triangle */
     int32_t *tets; /* 4 per tetrahedron */
+    int32_t *hexes; /* 8 per hexahedron */
 
     int32_t *node_of_input; /* input index -> mesh index */
     int32_t *input_of_node; /* mesh index -> input index */

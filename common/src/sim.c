@@ -20,11 +20,25 @@
 /* Scheduled nodes are the free and force-loaded ones (kind < NODE_DISP). */
 enum { NODE_FREE = 0, NODE_FORCE = 1, NODE_DISP = 2, NODE_FIXED = 3 };
 
+/* GCC vector extensions, for the colored order's four-lane blocks: the same
+ * source compiles to AVX or SSE2 with the same IEEE results. */
+typedef double v4d __attribute__((vector_size(32)));
+typedef int64_t v4l __attribute__((vector_size(32)));
+/* Lanes from four addresses. Built as one initialiser: element-by-element
+ * assignment makes GCC assemble the vector on the stack, and the wide
+ * reload of narrow stores stalls store forwarding. */
+#define GATHER4(p, i0, i1, i2, i3) ((v4d){(p)[i0], (p)[i1], (p)[i2], (p)[i3]})
+/* Consecutive doubles at any alignment (vectors alias their elements). */
+typedef double v4du __attribute__((vector_size(32), aligned(8)));
+typedef double v2du __attribute__((vector_size(16), aligned(8)));
+#define LOAD4(p) (*(const v4du *)(p))
+#define LOAD2(p) (*(const v2du *)(p))
+
 /* FTM_ORDER_LAYER_COLORED updates up to four nodes of one independent set
  * together: schedule positions first .. first+lanes-1, over `slots` padded
- * neighbour slots (the largest degree among them) stored slot-major from
- * slot index `link` of the schedule's link arrays, so that the kernel loads
- * each slot's four lanes with one vector load. `forced`: a lane has an
+ * neighbour slots (the largest degree among them), once linked stored
+ * slot-major from slot index `link` of the schedule's link arrays, so that
+ * the kernel loads each slot's four lanes with one vector load. `forced`: a lane has an
  * external force (else all are +0.0 and the block skips reading them). */
 typedef struct block {
     int32_t first, lanes, slots, link;
@@ -43,11 +57,13 @@ typedef struct schedule {
     /* colored order, 4 lanes per slot: 3 * neighbour (spare lanes repeat the
      * block's last node), stiffness and rest length, as in pad_node / pad_kl */
     int32_t *link_j;
-    double *link_k, *link_len;
+    double *link_kl; /* per slot: k of the 4 lanes, then len */
     /* rollback: previous positions overwritten in the last step; 3 per
      * schedule position, or in the colored order x, y and z vectors of 4 per block */
     double *save;
     double *tmp;    /* Jacobi: new positions of a group */
+    int32_t uses;   /* colored sweeps since the schedule was built */
+    bool linked;    /* link_j / link_kl hold the blocks' links */
     int32_t cap, gcap;
     size_t link_cap;
 } schedule;
@@ -146,8 +162,7 @@ static void schedule_free(schedule *s)
     free(s->group);
     free(s->block);
     free(s->link_j);
-    free(s->link_k);
-    free(s->link_len);
+    free(s->link_kl);
     free(s->save);
     free(s->tmp);
     memset(s, 0, sizeof *s);
@@ -475,8 +490,7 @@ static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t 
     size_t links = (size_t)count * (size_t)max_degree * 4; /* slots of all blocks, 4 lanes */
     if (links > s->link_cap) {
         GROW(s->link_j, links, 1);
-        GROW(s->link_k, links, 1);
-        GROW(s->link_len, links, 1);
+        GROW(s->link_kl, links, 2);
         s->link_cap = links;
     }
     if (groups + 1 > s->gcap) {
@@ -540,15 +554,14 @@ static int update_relaxing(ftm_sim *sim, int32_t *old, int32_t cand)
 
 /* Colored order: the scheduled nodes of each independent set, cut into
  * blocks of up to four (one node per block in the shared-colour set, whose
- * nodes may be adjacent). */
+ * nodes may be adjacent). Their link data is copied slot-major only on the
+ * schedule's second use (schedule_links): a schedule used once, as with
+ * cache_layers = false, is cheaper read from the mesh's padded rows. */
 static void schedule_blocks(ftm_sim *sim)
 {
-    const ftm_mesh *m = sim->m;
     const ftm_layering *ly = &sim->ly;
     schedule *s = &sim->s;
-    const int32_t *adj_start = m->adj_start, *pad_node = m->pad_node;
-    const double *pad_kl = m->pad_kl;
-    const size_t deg = (size_t)m->max_degree;
+    const int32_t *adj_start = sim->m->adj_start;
     int32_t kk = 0, nb = 0, link = 0;
     for (int32_t set = 0; set < ly->sets; set++) {
         int32_t first = kk;
@@ -561,27 +574,64 @@ static void schedule_blocks(ftm_sim *sim)
         for (int32_t p = first; p < kk; p += width) {
             int32_t lanes = kk - p < width ? kk - p : width, slots = 0;
             bool forced = false;
-            size_t row[4];
-            for (int32_t l = 0; l < 4; l++) {
-                int32_t i = s->node[p + (l < lanes ? l : lanes - 1)];
-                int32_t d = adj_start[i + 1] - adj_start[i];
+            for (int32_t l = 0; l < lanes; l++) {
+                int32_t i = s->node[p + l], d = adj_start[i + 1] - adj_start[i];
                 slots = d > slots ? d : slots;
                 forced |= sim->kind[i] == NODE_FORCE;
-                row[l] = (size_t)i * deg;
             }
             s->block[nb++] = (block){p, lanes, slots, link, forced};
-            for (int32_t sl = 0; sl < slots; sl++, link++)
-                for (int32_t l = 0; l < 4; l++) {
-                    size_t r = row[l] + (size_t)sl;
-                    size_t w = 4 * (size_t)link + (size_t)l;
-                    s->link_j[w] = 3 * pad_node[r];
-                    s->link_k[w] = pad_kl[2 * r];
-                    s->link_len[w] = pad_kl[2 * r + 1];
-                }
+            link += slots;
         }
     }
     s->count = kk;
     s->blocks = nb;
+    s->uses = 0;
+    s->linked = false;
+}
+
+/* The four lanes of a block: its nodes, spare lanes repeating the last. */
+static inline __attribute__((always_inline)) void block_lanes(const schedule *s, block bl,
+                                                              int32_t n[4])
+{
+    const int32_t *sn = s->node + bl.first;
+    n[0] = sn[0];
+    n[1] = sn[bl.lanes > 1 ? 1 : 0];
+    n[2] = sn[bl.lanes > 2 ? 2 : bl.lanes - 1];
+    n[3] = sn[bl.lanes - 1];
+}
+
+/* Copies each block's padded link rows slot-major: per slot the four lanes'
+ * 3 * neighbour, k and rest length. */
+static void schedule_links(ftm_sim *sim)
+{
+    schedule *s = &sim->s;
+    const int32_t *pad_node = sim->m->pad_node;
+    const double *pad_kl = sim->m->pad_kl;
+    const size_t deg = (size_t)sim->m->max_degree;
+    for (int32_t b = 0; b < s->blocks; b++) {
+        int32_t n[4];
+        block_lanes(s, s->block[b], n);
+        const int32_t *n0 = pad_node + n[0] * deg, *n1 = pad_node + n[1] * deg,
+                      *n2 = pad_node + n[2] * deg, *n3 = pad_node + n[3] * deg;
+        const double *kl0 = pad_kl + 2 * n[0] * deg, *kl1 = pad_kl + 2 * n[1] * deg,
+                     *kl2 = pad_kl + 2 * n[2] * deg, *kl3 = pad_kl + 2 * n[3] * deg;
+        int32_t *lj = s->link_j + 4 * (size_t)s->block[b].link;
+        double *lkl = s->link_kl + 8 * (size_t)s->block[b].link;
+        for (int32_t sl = 0; sl < s->block[b].slots; sl++) {
+            lj[4 * sl] = 3 * n0[sl];
+            lj[4 * sl + 1] = 3 * n1[sl];
+            lj[4 * sl + 2] = 3 * n2[sl];
+            lj[4 * sl + 3] = 3 * n3[sl];
+            /* the lanes' (k, len) pairs unpacked into k and len */
+            v2du p0 = LOAD2(kl0 + 2 * sl), p1 = LOAD2(kl1 + 2 * sl), p2 = LOAD2(kl2 + 2 * sl),
+                 p3 = LOAD2(kl3 + 2 * sl);
+            *(v2du *)(lkl + 8 * sl) = __builtin_shufflevector(p0, p1, 0, 2);
+            *(v2du *)(lkl + 8 * sl + 2) = __builtin_shufflevector(p2, p3, 0, 2);
+            *(v2du *)(lkl + 8 * sl + 4) = __builtin_shufflevector(p0, p1, 1, 3);
+            *(v2du *)(lkl + 8 * sl + 6) = __builtin_shufflevector(p2, p3, 1, 3);
+        }
+    }
+    s->linked = true;
 }
 
 /* Plain orders: the scheduled nodes layer by layer, one group per layer. */
@@ -747,45 +797,55 @@ static bool sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
  * updating them one by one in schedule order. GCC vector extensions: the
  * same source compiles to AVX or SSE2 with the same IEEE results (no
  * contraction, sqrt and division correctly rounded). */
-typedef double v4d __attribute__((vector_size(32)));
-typedef int64_t v4l __attribute__((vector_size(32)));
-/* Lanes from four addresses. Built as one initialiser: element-by-element
- * assignment makes GCC assemble the vector on the stack, and the wide
- * reload of narrow stores stalls store forwarding. */
-#define GATHER4(p, i0, i1, i2, i3) ((v4d){(p)[i0], (p)[i1], (p)[i2], (p)[i3]})
-
-/* Four consecutive doubles, any alignment (vectors alias their elements). */
-typedef double v4du __attribute__((vector_size(32), aligned(8)));
-#define LOAD4(p) (*(const v4du *)(p))
-
-static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim, double *max_m2)
+static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim, double *max_m2,
+                                                                  bool linked)
 {
     const schedule *s = &sim->s;
+    const size_t deg = (size_t)sim->m->max_degree;
+    const int32_t *restrict pad_node = sim->m->pad_node;
+    const double *restrict pad_kl = sim->m->pad_kl;
     const double *restrict coef = sim->coef, *restrict force = sim->force, *restrict lim2 = sim->lim2;
     double *restrict x = sim->x, *restrict xp = sim->xp;
     v4d mm = {*max_m2, *max_m2, *max_m2, *max_m2};
     v4l bad = {0, 0, 0, 0};
     for (int32_t b = 0; b < s->blocks; b++) {
         const block bl = s->block[b];
-        const int32_t *sn = s->node + bl.first;
-        /* spare lanes repeat the last node and are not stored */
-        const int32_t n0 = sn[0], n1 = sn[bl.lanes > 1 ? 1 : 0],
-                      n2 = sn[bl.lanes > 2 ? 2 : bl.lanes - 1], n3 = sn[bl.lanes - 1];
-        const size_t i0 = 3 * (size_t)n0, i1 = 3 * (size_t)n1, i2 = 3 * (size_t)n2,
-                     i3 = 3 * (size_t)n3;
+        int32_t n[4];
+        block_lanes(s, bl, n);
+        const size_t i0 = 3 * (size_t)n[0], i1 = 3 * (size_t)n[1], i2 = 3 * (size_t)n[2],
+                     i3 = 3 * (size_t)n[3];
         const v4d cx = GATHER4(x, i0, i1, i2, i3), cy = GATHER4(x + 1, i0, i1, i2, i3),
                   cz = GATHER4(x + 2, i0, i1, i2, i3);
         v4d ax = {0, 0, 0, 0}, ay = ax, az = ax;
         const int32_t *restrict lj = s->link_j + 4 * (size_t)bl.link;
-        const double *restrict lk = s->link_k + 4 * (size_t)bl.link,
-                               *restrict ll = s->link_len + 4 * (size_t)bl.link;
+        const double *restrict lkl = s->link_kl + 8 * (size_t)bl.link;
+        const int32_t *nb0 = pad_node + n[0] * deg, *nb1 = pad_node + n[1] * deg,
+                      *nb2 = pad_node + n[2] * deg, *nb3 = pad_node + n[3] * deg;
+        const double *kl0 = pad_kl + 2 * n[0] * deg, *kl1 = pad_kl + 2 * n[1] * deg,
+                     *kl2 = pad_kl + 2 * n[2] * deg, *kl3 = pad_kl + 2 * n[3] * deg;
         for (int32_t sl = 0; sl < bl.slots; sl++) {
-            const size_t j0 = (size_t)lj[4 * sl], j1 = (size_t)lj[4 * sl + 1],
-                         j2 = (size_t)lj[4 * sl + 2], j3 = (size_t)lj[4 * sl + 3];
+            size_t j0, j1, j2, j3;
+            v4d k, rest;
+            if (linked) {
+                j0 = (size_t)lj[4 * sl];
+                j1 = (size_t)lj[4 * sl + 1];
+                j2 = (size_t)lj[4 * sl + 2];
+                j3 = (size_t)lj[4 * sl + 3];
+                k = LOAD4(lkl + 8 * sl);
+                rest = LOAD4(lkl + 8 * sl + 4);
+            } else { /* the same from the padded rows: (k, len) pairs of lanes 0|2 and 1|3 */
+                j0 = 3 * (size_t)nb0[sl];
+                j1 = 3 * (size_t)nb1[sl];
+                j2 = 3 * (size_t)nb2[sl];
+                j3 = 3 * (size_t)nb3[sl];
+                v4d p02 = __builtin_shufflevector(LOAD2(kl0 + 2 * sl), LOAD2(kl2 + 2 * sl), 0, 1, 2, 3),
+                    p13 = __builtin_shufflevector(LOAD2(kl1 + 2 * sl), LOAD2(kl3 + 2 * sl), 0, 1, 2, 3);
+                k = __builtin_shufflevector(p02, p13, 0, 4, 2, 6);
+                rest = __builtin_shufflevector(p02, p13, 1, 5, 3, 7);
+            }
             const v4d rx = cx - GATHER4(x, j0, j1, j2, j3),
                       ry = cy - GATHER4(x + 1, j0, j1, j2, j3),
                       rz = cz - GATHER4(x + 2, j0, j1, j2, j3);
-            const v4d k = LOAD4(lk + 4 * sl), rest = LOAD4(ll + 4 * sl);
             v4d q = rx * rx + ry * ry + rz * rz, len;
             for (int l = 0; l < 4; l++)
                 len[l] = sqrt(q[l]);
@@ -805,7 +865,7 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
         }
         const v4d px = GATHER4(xp, i0, i1, i2, i3), py = GATHER4(xp + 1, i0, i1, i2, i3),
                   pz = GATHER4(xp + 2, i0, i1, i2, i3);
-        const v4d lim = GATHER4(lim2, n0, n1, n2, n3);
+        const v4d lim = GATHER4(lim2, n[0], n[1], n[2], n[3]);
         v4d nx = ca * (fx - ax) + cb * cx - cc * px;
         v4d ny = ca * (fy - ay) + cb * cy - cc * py;
         v4d nz = ca * (fz - az) + cb * cz - cc * pz;
@@ -818,8 +878,9 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
         *(v4du *)sv = px;
         *(v4du *)(sv + 4) = py;
         *(v4du *)(sv + 8) = pz;
-        for (int l = 0; l < bl.lanes; l++) {
-            double *xi = x + 3 * sn[l], *pi = xp + 3 * sn[l];
+        /* all four lanes: a spare lane stores what the lane it repeats stores */
+        for (int l = 0; l < 4; l++) {
+            double *xi = x + 3 * (size_t)n[l], *pi = xp + 3 * (size_t)n[l];
             pi[0] = cx[l];
             pi[1] = cy[l];
             pi[2] = cz[l];
@@ -838,13 +899,15 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
 #if defined(__x86_64__) || defined(__i386__)
 __attribute__((target("avx"))) static bool sweep_blocks_avx(ftm_sim *sim, double *max_m2)
 {
-    return sweep_blocks_body(sim, max_m2);
+    return sim->s.linked ? sweep_blocks_body(sim, max_m2, true)
+                         : sweep_blocks_body(sim, max_m2, false);
 }
 #endif
 
 static bool sweep_blocks_portable(ftm_sim *sim, double *max_m2)
 {
-    return sweep_blocks_body(sim, max_m2);
+    return sim->s.linked ? sweep_blocks_body(sim, max_m2, true)
+                         : sweep_blocks_body(sim, max_m2, false);
 }
 
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
@@ -1022,6 +1085,8 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
                 for (int32_t g = 0; g < s->groups; g++)
                     ok &= sweep_jacobi(sim, s->group[g], s->group[g + 1], region_m2);
             } else if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
+                if (!s->linked && s->uses++ > 0)
+                    schedule_links(sim);
                 ok &= sim->sweep_blocks(sim, region_m2);
             } else {
                 ok &= sweep_gs(sim, 0, s->count, region_m2);

@@ -69,7 +69,8 @@ typedef struct ftm_lattice3d_def {
 
 ftm_lattice3d_def ftm_default_lattice3d_def(void);
 
-/* Both fill a builder (created by the caller, may already hold other parts). */
+/* Both fill a builder (created by the caller, may already hold other parts).
+ * The 3D lattice also adds its (nx-1)(ny-1)(nz-1) cells as hexahedra. */
 int ftm_generate_lattice2d(ftm_mesh_builder *builder, const ftm_lattice2d_def *def, ftm_error *err);
 int ftm_generate_lattice3d(ftm_mesh_builder *builder, const ftm_lattice3d_def *def, ftm_error *err);
 

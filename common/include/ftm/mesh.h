@@ -54,6 +54,10 @@ int ftm_mesh_builder_add_link(ftm_mesh_builder *builder, const ftm_link_def *def
 int ftm_mesh_builder_add_triangle(ftm_mesh_builder *builder, int32_t a, int32_t b, int32_t c);
 int ftm_mesh_builder_add_tetrahedron(ftm_mesh_builder *builder, int32_t a, int32_t b, int32_t c,
                                      int32_t d);
+/* 8-node hexahedron (for the FEM reference; springs are added separately):
+ * nodes in the usual order, bottom face a b c d counter-clockwise seen from
+ * above, then the top face e f g h above them. */
+int ftm_mesh_builder_add_hexahedron(ftm_mesh_builder *builder, const int32_t nodes[8]);
 int32_t ftm_mesh_builder_node_count(const ftm_mesh_builder *builder);
 /* Rest position of a node added so far (input index); FTM_ERANGE if none. */
 int ftm_mesh_builder_node_position(const ftm_mesh_builder *builder, int32_t node, ftm_vec3 *out);
@@ -71,6 +75,7 @@ int32_t ftm_mesh_node_count(const ftm_mesh *mesh);
 int32_t ftm_mesh_link_count(const ftm_mesh *mesh);
 int32_t ftm_mesh_triangle_count(const ftm_mesh *mesh);
 int32_t ftm_mesh_tetrahedron_count(const ftm_mesh *mesh);
+int32_t ftm_mesh_hexahedron_count(const ftm_mesh *mesh);
 
 ftm_vec3 ftm_mesh_rest_position(const ftm_mesh *mesh, int32_t node);
 double ftm_mesh_mass(const ftm_mesh *mesh, int32_t node);
@@ -90,6 +95,8 @@ void ftm_mesh_link(const ftm_mesh *mesh, int32_t link, int32_t *a, int32_t *b, d
 const int32_t *ftm_mesh_triangles(const ftm_mesh *mesh);
 /* Tetrahedra as 4 mesh indices each (may be empty). */
 const int32_t *ftm_mesh_tetrahedra(const ftm_mesh *mesh);
+/* Hexahedra as 8 mesh indices each, in the order of the builder (may be empty). */
+const int32_t *ftm_mesh_hexahedra(const ftm_mesh *mesh);
 
 int32_t ftm_mesh_node_of_input(const ftm_mesh *mesh, int32_t input_index);
 int32_t ftm_mesh_input_of_node(const ftm_mesh *mesh, int32_t node);
