@@ -1,9 +1,151 @@
-/* Internal knobs of the integrator, for tests. */
+/* Internal: the state of an ftm_sim and the pieces of the integrator that
+ * live in separate files: sim.c (API, contacts, the step, queries),
+ * sim_schedule.c (layers -> update schedule, the relaxing set) and
+ * sim_kernel.c (the hot loop: spring forces and the sweeps). */
 #ifndef FTM_SRC_SIM_INTERNAL_H
 #define FTM_SRC_SIM_INTERNAL_H
 
 #include "ftm/sim.h"
 
+#include "layers.h"
+#include "mesh_internal.h"
+
+/* Added to a spring's length before dividing by it: exact for any length
+ * above ~1e-134, and keeps coincident nodes (r = 0) from producing 0/0. */
+#define FTM_LEN_EPS 1e-150
+
+/* Scheduled nodes are the free and force-loaded ones (kind < NODE_DISP). */
+enum { NODE_FREE = 0, NODE_FORCE = 1, NODE_DISP = 2, NODE_FIXED = 3 };
+
+/* GCC vector extensions, for the colored order's four-lane blocks: the same
+ * source compiles to AVX or SSE2 with the same IEEE results. */
+typedef double v4d __attribute__((vector_size(32)));
+typedef int64_t v4l __attribute__((vector_size(32)));
+/* Lanes from four addresses. Built as one initialiser: element-by-element
+ * assignment makes GCC assemble the vector on the stack, and the wide
+ * reload of narrow stores stalls store forwarding. */
+#define GATHER4(p, i0, i1, i2, i3) ((v4d){(p)[i0], (p)[i1], (p)[i2], (p)[i3]})
+/* Consecutive doubles at any alignment (vectors alias their elements). */
+typedef double v4du __attribute__((vector_size(32), aligned(8)));
+typedef double v2du __attribute__((vector_size(16), aligned(8)));
+#define LOAD4(p) (*(const v4du *)(p))
+#define LOAD2(p) (*(const v2du *)(p))
+
+/* FTM_ORDER_LAYER_COLORED updates up to four nodes of one independent set
+ * together: schedule positions first .. first+lanes-1, over `slots` padded
+ * neighbour slots (the largest degree among them), once linked stored
+ * slot-major from slot index `link` of the schedule's link arrays, so that
+ * the kernel loads each slot's four lanes with one vector load. `forced`: a
+ * lane has an external force (else all are +0.0 and the block skips them). */
+typedef struct block {
+    int32_t first, lanes, slots, link;
+    bool forced;
+} block;
+
+/* The update order of the contact region, rebuilt when the region changes:
+ * the free and force-loaded nodes of the layers, in update order. */
+typedef struct schedule {
+    int32_t count;  /* scheduled nodes */
+    int32_t *node;  /* mesh index */
+    int32_t groups; /* Jacobi: one per layer */
+    int32_t *group; /* group g: schedule positions group[g] .. group[g+1]-1 */
+    int32_t blocks; /* colored order */
+    block *block;
+    /* colored order, 4 lanes per slot: 3 * neighbour (spare lanes repeat the
+     * block's last node), stiffness and rest length, as in pad_node / pad_kl */
+    int32_t *link_j;
+    double *link_kl; /* per slot: k of the 4 lanes, then len */
+    /* rollback: previous positions overwritten in the last step; 3 per
+     * schedule position, or in the colored order x, y and z vectors of 4 per block */
+    double *save;
+    double *tmp;    /* Jacobi: new positions of a group */
+    int32_t uses;   /* colored sweeps since the schedule was built */
+    bool linked;    /* link_j / link_kl hold the blocks' links */
+    int32_t cap, gcap;
+    size_t link_cap;
+} schedule;
+
+struct ftm_sim;
+typedef bool (*sweep_fn)(struct ftm_sim *sim, double *max_m2);
+
+struct ftm_sim {
+    const ftm_mesh *m;
+    ftm_sim_def def;
+    int32_t n;
+    double *x, *xp; /* positions and previous positions, 3 per node */
+    double *coef;   /* per-node a, b, c for the current substep length */
+    double *force;  /* external force, 3 per node (zero but at force contacts) */
+    double *lim2;   /* guard: squared motion limit per node */
+    uint8_t *kind;  /* NODE_* per node */
+
+    ftm_contact *contacts; /* current contacts, sorted by node */
+    int32_t ncontacts, contact_cap;
+    int32_t *sources;      /* contact node ids (sorted) = layer 0 */
+    int32_t *disp;         /* displacement-contact nodes, in contact order */
+    int32_t ndisp;
+
+    ftm_layering ly;
+    bool layers_dirty;     /* node set or depth changed since the last build */
+    bool schedule_dirty;   /* only the contacts' kinds changed */
+    int32_t built_depth;
+    schedule s;
+
+    int32_t *relax; /* displaced nodes outside the region, ascending */
+    int32_t nrelax, relax_cap;
+    int32_t *relax_tmp;
+    double *relax_save; /* rollback for relaxing and displacement nodes: x, xp */
+
+    int32_t substeps;
+    int32_t steps_at_substeps;
+    double h_sub;
+
+    int32_t quiet_steps; /* consecutive steps with the region below the sleep tolerance */
+    bool region_sleeping;
+    bool warned_dt;
+
+    double *reaction; /* 3 per group */
+    int32_t reaction_groups;
+
+    double tol; /* sleep tolerance in metres */
+    sweep_fn sweep_blocks; /* the block kernel for this CPU (see select_kernel) */
+    ftm_sim_stats st;
+};
+
+static inline bool ftm_sim_at_rest(const ftm_sim *sim, int32_t i)
+{
+    const double *x = sim->x + 3 * i, *xp = sim->xp + 3 * i, *X = sim->m->rest + 3 * i;
+    return x[0] == X[0] && x[1] == X[1] && x[2] == X[2] && xp[0] == X[0] && xp[1] == X[1] &&
+           xp[2] == X[2];
+}
+
+/* The four lanes of a block: its nodes, spare lanes repeating the last. */
+static inline __attribute__((always_inline)) void ftm_block_lanes(const schedule *s, block bl,
+                                                                  int32_t n[4])
+{
+    const int32_t *sn = s->node + bl.first;
+    n[0] = sn[0];
+    n[1] = sn[bl.lanes > 1 ? 1 : 0];
+    n[2] = sn[bl.lanes > 2 ? 2 : bl.lanes - 1];
+    n[3] = sn[bl.lanes - 1];
+}
+
+/* sim.c */
+int ftm_sim_relax_reserve(ftm_sim *sim, int32_t need);
+
+/* sim_schedule.c */
+void ftm_schedule_free(schedule *s);
+/* Brings layers and schedule up to date (a search only when needed). */
+int ftm_sim_refresh_region(ftm_sim *sim);
+int ftm_sim_rebuild_region(ftm_sim *sim);
+int ftm_sim_rebuild_schedule(ftm_sim *sim);
+void ftm_sim_schedule_links(ftm_sim *sim);
+
+/* sim_kernel.c: each sweep returns false if a node moved more than its
+ * guard limit or to a non-finite position. */
+bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2);
+bool ftm_sweep_jacobi(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2);
+bool ftm_sweep_relax(ftm_sim *sim);
+void ftm_sim_compute_reactions(ftm_sim *sim);
 /* Chooses the kernel of the colored sweep: the widest this CPU supports
  * (the default), or with portable the baseline one. Both give bit-identical
  * results; tests compare them. */

@@ -1,0 +1,268 @@
+/* The hot loop of the integrator: spring forces (Eq. 6), the central
+ * difference update (Eq. 8) and the sweeps over the schedule in each order,
+ * plus reactions (Eq. 19). */
+#include "sim_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+/* Sum of the spring forces f_ij (Eq. 6) on node i placed at xi:
+ *     f_ij = t r,   t = k (|r| - l) / |r|,   r = xi - x_j,
+ * over its neighbours in adjacency order (one fixed order, so every caller
+ * and every machine rounds the same way). Written this way t is exactly 0 at
+ * the rest length (rest lengths are the rest positions' distances computed
+ * the same way), so an unloaded mesh at rest is an exact equilibrium. */
+static inline void spring_force(const ftm_mesh *restrict m, const double *restrict x, int32_t i,
+                                const double xi[3], double f[3])
+{
+    const int32_t *restrict nb = m->adj_node;
+    const double *restrict kk = m->adj_k, *restrict len = m->adj_len;
+    double fx = 0.0, fy = 0.0, fz = 0.0;
+    for (int32_t e = m->adj_start[i]; e < m->adj_start[i + 1]; e++) {
+        const double *xj = x + 3 * nb[e];
+        double rx = xi[0] - xj[0], ry = xi[1] - xj[1], rz = xi[2] - xj[2];
+        double r = sqrt(rx * rx + ry * ry + rz * rz) + FTM_LEN_EPS;
+        double t = kk[e] * (r - len[e]) / r;
+        fx += t * rx;
+        fy += t * ry;
+        fz += t * rz;
+    }
+    f[0] = fx;
+    f[1] = fy;
+    f[2] = fz;
+}
+
+/* Eq. 8 for node i: new position from the spring forces f, the external
+ * force, the current and the previous position. Returns the squared motion. */
+static inline double integrate(const ftm_sim *sim, int32_t i, const double cur[3],
+                               const double f[3], double out[3])
+{
+    const double *c = sim->coef + 3 * i, *F = sim->force + 3 * i, *p = sim->xp + 3 * i;
+    for (int d = 0; d < 3; d++)
+        out[d] = c[0] * (F[d] - f[d]) + c[1] * cur[d] - c[2] * p[d];
+    double dx = out[0] - cur[0], dy = out[1] - cur[1], dz = out[2] - cur[2];
+    return dx * dx + dy * dy + dz * dz;
+}
+
+/* Gauss-Seidel sweep over schedule positions [k0, k1): each node reads the
+ * current (already updated where earlier) positions of its neighbours.
+ * Returns false if a node moved more than its guard limit or to a non-finite
+ * position. The overwritten previous positions are saved for rollback. */
+bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
+{
+    const ftm_mesh *m = sim->m;
+    schedule *s = &sim->s;
+    double *restrict x = sim->x, *restrict xp = sim->xp;
+    bool ok = true;
+    double mm = *max_m2;
+    for (int32_t k = k0; k < k1; k++) {
+        int32_t i = s->node[k];
+        double *xi = x + 3 * i, *pi = xp + 3 * i, *sv = s->save + 3 * k;
+        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3];
+        spring_force(m, x, i, cur, f);
+        double m2 = integrate(sim, i, cur, f, nw);
+        ok &= m2 <= sim->lim2[i]; /* false for NaN too */
+        mm = m2 > mm ? m2 : mm;
+        for (int d = 0; d < 3; d++) {
+            sv[d] = pi[d];
+            pi[d] = cur[d];
+            xi[d] = nw[d];
+        }
+    }
+    *max_m2 = mm;
+    return ok;
+}
+
+/* The colored sweep, four nodes of an independent set per vector. Lane l
+ * does exactly the operations spring_force and integrate do for its node,
+ * in the same order (padding slots add -0.0, see mesh_internal.h), and the
+ * nodes of a block are not adjacent, so the result is bit-identical to
+ * updating them one by one in schedule order. GCC vector extensions: the
+ * same source compiles to AVX or SSE2 with the same IEEE results (no
+ * contraction, sqrt and division correctly rounded). */
+static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim, double *max_m2,
+                                                                  bool linked)
+{
+    const schedule *s = &sim->s;
+    const size_t deg = (size_t)sim->m->max_degree;
+    const int32_t *restrict pad_node = sim->m->pad_node;
+    const double *restrict pad_kl = sim->m->pad_kl;
+    const double *restrict coef = sim->coef, *restrict force = sim->force, *restrict lim2 = sim->lim2;
+    double *restrict x = sim->x, *restrict xp = sim->xp;
+    v4d mm = {*max_m2, *max_m2, *max_m2, *max_m2};
+    v4l bad = {0, 0, 0, 0};
+    for (int32_t b = 0; b < s->blocks; b++) {
+        const block bl = s->block[b];
+        int32_t n[4];
+        ftm_block_lanes(s, bl, n);
+        const size_t i0 = 3 * (size_t)n[0], i1 = 3 * (size_t)n[1], i2 = 3 * (size_t)n[2],
+                     i3 = 3 * (size_t)n[3];
+        const v4d cx = GATHER4(x, i0, i1, i2, i3), cy = GATHER4(x + 1, i0, i1, i2, i3),
+                  cz = GATHER4(x + 2, i0, i1, i2, i3);
+        v4d ax = {0, 0, 0, 0}, ay = ax, az = ax;
+        const int32_t *restrict lj = s->link_j + 4 * (size_t)bl.link;
+        const double *restrict lkl = s->link_kl + 8 * (size_t)bl.link;
+        const int32_t *nb0 = pad_node + n[0] * deg, *nb1 = pad_node + n[1] * deg,
+                      *nb2 = pad_node + n[2] * deg, *nb3 = pad_node + n[3] * deg;
+        const double *kl0 = pad_kl + 2 * n[0] * deg, *kl1 = pad_kl + 2 * n[1] * deg,
+                     *kl2 = pad_kl + 2 * n[2] * deg, *kl3 = pad_kl + 2 * n[3] * deg;
+        for (int32_t sl = 0; sl < bl.slots; sl++) {
+            size_t j0, j1, j2, j3;
+            v4d k, rest;
+            if (linked) {
+                j0 = (size_t)lj[4 * sl];
+                j1 = (size_t)lj[4 * sl + 1];
+                j2 = (size_t)lj[4 * sl + 2];
+                j3 = (size_t)lj[4 * sl + 3];
+                k = LOAD4(lkl + 8 * sl);
+                rest = LOAD4(lkl + 8 * sl + 4);
+            } else { /* the same from the padded rows: (k, len) pairs of lanes 0|2 and 1|3 */
+                j0 = 3 * (size_t)nb0[sl];
+                j1 = 3 * (size_t)nb1[sl];
+                j2 = 3 * (size_t)nb2[sl];
+                j3 = 3 * (size_t)nb3[sl];
+                v4d p02 = __builtin_shufflevector(LOAD2(kl0 + 2 * sl), LOAD2(kl2 + 2 * sl), 0, 1, 2, 3),
+                    p13 = __builtin_shufflevector(LOAD2(kl1 + 2 * sl), LOAD2(kl3 + 2 * sl), 0, 1, 2, 3);
+                k = __builtin_shufflevector(p02, p13, 0, 4, 2, 6);
+                rest = __builtin_shufflevector(p02, p13, 1, 5, 3, 7);
+            }
+            const v4d rx = cx - GATHER4(x, j0, j1, j2, j3),
+                      ry = cy - GATHER4(x + 1, j0, j1, j2, j3),
+                      rz = cz - GATHER4(x + 2, j0, j1, j2, j3);
+            v4d q = rx * rx + ry * ry + rz * rz, len;
+            for (int l = 0; l < 4; l++)
+                len[l] = sqrt(q[l]);
+            len += FTM_LEN_EPS;
+            v4d t = k * (len - rest) / len;
+            ax += t * rx;
+            ay += t * ry;
+            az += t * rz;
+        }
+        const v4d ca = GATHER4(coef, i0, i1, i2, i3), cb = GATHER4(coef + 1, i0, i1, i2, i3),
+                  cc = GATHER4(coef + 2, i0, i1, i2, i3);
+        v4d fx = {0, 0, 0, 0}, fy = fx, fz = fx;
+        if (bl.forced) {
+            fx = GATHER4(force, i0, i1, i2, i3);
+            fy = GATHER4(force + 1, i0, i1, i2, i3);
+            fz = GATHER4(force + 2, i0, i1, i2, i3);
+        }
+        const v4d px = GATHER4(xp, i0, i1, i2, i3), py = GATHER4(xp + 1, i0, i1, i2, i3),
+                  pz = GATHER4(xp + 2, i0, i1, i2, i3);
+        const v4d lim = GATHER4(lim2, n[0], n[1], n[2], n[3]);
+        v4d nx = ca * (fx - ax) + cb * cx - cc * px;
+        v4d ny = ca * (fy - ay) + cb * cy - cc * py;
+        v4d nz = ca * (fz - az) + cb * cz - cc * pz;
+        v4d dx = nx - cx, dy = ny - cy, dz = nz - cz;
+        v4d m2 = dx * dx + dy * dy + dz * dz;
+        bad |= ~(m2 <= lim); /* NaN fails too */
+        v4l up = m2 > mm;
+        mm = (v4d)((up & (v4l)m2) | (~up & (v4l)mm));
+        double *sv = s->save + 12 * (size_t)b;
+        *(v4du *)sv = px;
+        *(v4du *)(sv + 4) = py;
+        *(v4du *)(sv + 8) = pz;
+        /* all four lanes: a spare lane stores what the lane it repeats stores */
+        for (int l = 0; l < 4; l++) {
+            double *xi = x + 3 * (size_t)n[l], *pi = xp + 3 * (size_t)n[l];
+            pi[0] = cx[l];
+            pi[1] = cy[l];
+            pi[2] = cz[l];
+            xi[0] = nx[l];
+            xi[1] = ny[l];
+            xi[2] = nz[l];
+        }
+    }
+    double out = *max_m2;
+    for (int l = 0; l < 4; l++)
+        out = mm[l] > out ? mm[l] : out;
+    *max_m2 = out;
+    return !(bad[0] | bad[1] | bad[2] | bad[3]);
+}
+
+#if defined(__x86_64__) || defined(__i386__)
+__attribute__((target("avx"))) static bool sweep_blocks_avx(ftm_sim *sim, double *max_m2)
+{
+    return sim->s.linked ? sweep_blocks_body(sim, max_m2, true)
+                         : sweep_blocks_body(sim, max_m2, false);
+}
+#endif
+
+static bool sweep_blocks_portable(ftm_sim *sim, double *max_m2)
+{
+    return sim->s.linked ? sweep_blocks_body(sim, max_m2, true)
+                         : sweep_blocks_body(sim, max_m2, false);
+}
+
+void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
+{
+    sim->sweep_blocks = sweep_blocks_portable;
+#if defined(__x86_64__) || defined(__i386__)
+    if (!portable && __builtin_cpu_supports("avx"))
+        sim->sweep_blocks = sweep_blocks_avx;
+#endif
+}
+
+/* Jacobi variant: every node of a block computed from the state before the
+ * block, then committed. */
+bool ftm_sweep_jacobi(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
+{
+    const ftm_mesh *m = sim->m;
+    schedule *s = &sim->s;
+    bool ok = true;
+    double mm = *max_m2;
+    for (int32_t k = k0; k < k1; k++) {
+        int32_t i = s->node[k];
+        double f[3];
+        spring_force(m, sim->x, i, sim->x + 3 * i, f);
+        double m2 = integrate(sim, i, sim->x + 3 * i, f, s->tmp + 3 * k);
+        ok &= m2 <= sim->lim2[i];
+        mm = m2 > mm ? m2 : mm;
+    }
+    for (int32_t k = k0; k < k1; k++) {
+        int32_t i = s->node[k];
+        double *xi = sim->x + 3 * i, *pi = sim->xp + 3 * i, *sv = s->save + 3 * k,
+               *t = s->tmp + 3 * k;
+        for (int d = 0; d < 3; d++) {
+            sv[d] = pi[d];
+            pi[d] = xi[d];
+            xi[d] = t[d];
+        }
+    }
+    *max_m2 = mm;
+    return ok;
+}
+
+/* Relaxing nodes, in ascending order. */
+bool ftm_sweep_relax(ftm_sim *sim)
+{
+    bool ok = true;
+    for (int32_t r = 0; r < sim->nrelax; r++) {
+        int32_t i = sim->relax[r];
+        double *xi = sim->x + 3 * i, *pi = sim->xp + 3 * i;
+        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3];
+        spring_force(sim->m, sim->x, i, cur, f);
+        ok &= integrate(sim, i, cur, f, nw) <= sim->lim2[i];
+        for (int d = 0; d < 3; d++) {
+            pi[d] = cur[d];
+            xi[d] = nw[d];
+        }
+    }
+    return ok;
+}
+
+void ftm_sim_compute_reactions(ftm_sim *sim)
+{
+    if (sim->reaction_groups)
+        memset(sim->reaction, 0, (size_t)sim->reaction_groups * 3 * sizeof(double));
+    for (int32_t c = 0; c < sim->ncontacts; c++) {
+        const ftm_contact *ct = &sim->contacts[c];
+        if (ct->kind != FTM_CONTACT_DISPLACEMENT)
+            continue;
+        double f[3];
+        spring_force(sim->m, sim->x, ct->node, sim->x + 3 * ct->node, f);
+        double *r = sim->reaction + 3 * ct->group;
+        r[0] -= f[0];
+        r[1] -= f[1];
+        r[2] -= f[2];
+    }
+}

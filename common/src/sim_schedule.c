@@ -1,0 +1,266 @@
+/* From layers to an update schedule: the order in which the region's nodes
+ * are updated, the colored order's four-lane blocks and their slot-major
+ * copies, and the relaxing set kept when the region changes. */
+#include "sim_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static int cmp_i32(const void *a, const void *b)
+{
+    int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+    return (x > y) - (x < y);
+}
+
+void ftm_schedule_free(schedule *s)
+{
+    free(s->node);
+    free(s->group);
+    free(s->block);
+    free(s->link_j);
+    free(s->link_kl);
+    free(s->save);
+    free(s->tmp);
+    memset(s, 0, sizeof *s);
+}
+
+static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t max_degree)
+{
+#define GROW(p, n, per)                                                                       \
+    do {                                                                                      \
+        void *q_ = realloc((p), ((size_t)(n) * (per) + 1) * sizeof *(p));                     \
+        if (!q_)                                                                              \
+            return FTM_ENOMEM;                                                                \
+        (p) = q_;                                                                             \
+    } while (0)
+    if (count > s->cap) {
+        int32_t cap = s->cap ? s->cap : 256;
+        while (cap < count)
+            cap *= 2;
+        GROW(s->node, cap, 1);
+        GROW(s->block, cap, 1);
+        GROW(s->save, cap, 12); /* blocks <= count */
+        GROW(s->tmp, cap, 3);
+        s->cap = cap;
+    }
+    size_t links = (size_t)count * (size_t)max_degree * 4; /* slots of all blocks, 4 lanes */
+    if (links > s->link_cap) {
+        GROW(s->link_j, links, 1);
+        GROW(s->link_kl, links, 2);
+        s->link_cap = links;
+    }
+    if (groups + 1 > s->gcap) {
+        int32_t cap = s->gcap ? s->gcap : 64;
+        while (cap < groups + 1)
+            cap *= 2;
+        GROW(s->group, cap, 1);
+        s->gcap = cap;
+    }
+#undef GROW
+    return FTM_OK;
+}
+
+/* Nodes of the old region (and old relaxing set) that the new region does
+ * not cover and that are not at rest become (stay) relaxing, ascending.
+ * Called after the search; `old` holds the old region's nodes. */
+static int update_relaxing(ftm_sim *sim, int32_t *old, int32_t cand)
+{
+    const ftm_layering *ly = &sim->ly;
+    int32_t nr = 0;
+    int32_t *merged = sim->relax;
+    for (int32_t k = 0; k < cand; k++) {
+        int32_t i = old[k];
+        if (!ftm_layering_contains(ly, i) && !sim->m->fixed[i] && !ftm_sim_at_rest(sim, i))
+            old[nr++] = i;
+    }
+    int32_t nold = 0;
+    for (int32_t k = 0; k < sim->nrelax; k++) {
+        int32_t i = sim->relax[k];
+        if (!ftm_layering_contains(ly, i))
+            merged[nold++] = i;
+    }
+    /* sort the new candidates, then merge with the (sorted) survivors */
+    qsort(old, (size_t)nr, sizeof *old, cmp_i32);
+    int32_t *out = malloc(((size_t)nold + (size_t)nr + 1) * sizeof *out);
+    if (!out)
+        return FTM_ENOMEM;
+    int32_t a = 0, b = 0, w = 0;
+    while (a < nold || b < nr) {
+        int32_t v;
+        if (b >= nr || (a < nold && merged[a] < old[b]))
+            v = merged[a++];
+        else if (a >= nold || old[b] < merged[a])
+            v = old[b++];
+        else {
+            v = merged[a++];
+            b++;
+        }
+        out[w++] = v;
+    }
+    int rc = ftm_sim_relax_reserve(sim, w + 1);
+    if (rc) {
+        free(out);
+        return rc;
+    }
+    memcpy(sim->relax, out, (size_t)w * sizeof *out);
+    sim->nrelax = w;
+    free(out);
+    return FTM_OK;
+}
+
+/* Colored order: the scheduled nodes of each independent set, cut into
+ * blocks of up to four (one node per block in the shared-colour set, whose
+ * nodes may be adjacent). Their link data is copied slot-major only on the
+ * schedule's second use (schedule_links): a schedule used once, as with
+ * cache_layers = false, is cheaper read from the mesh's padded rows. */
+static void schedule_blocks(ftm_sim *sim)
+{
+    const ftm_layering *ly = &sim->ly;
+    schedule *s = &sim->s;
+    const int32_t *adj_start = sim->m->adj_start;
+    int32_t kk = 0, nb = 0, link = 0;
+    for (int32_t set = 0; set < ly->sets; set++) {
+        int32_t first = kk;
+        for (int32_t k = ly->set_start[set]; k < ly->set_start[set + 1]; k++) {
+            int32_t i = ly->order[k];
+            s->node[kk] = i;
+            kk += sim->kind[i] < NODE_DISP;
+        }
+        int32_t width = ly->set_color[set] == FTM_SHARED_COLOR ? 1 : 4;
+        for (int32_t p = first; p < kk; p += width) {
+            int32_t lanes = kk - p < width ? kk - p : width, slots = 0;
+            bool forced = false;
+            for (int32_t l = 0; l < lanes; l++) {
+                int32_t i = s->node[p + l], d = adj_start[i + 1] - adj_start[i];
+                slots = d > slots ? d : slots;
+                forced |= sim->kind[i] == NODE_FORCE;
+            }
+            s->block[nb++] = (block){p, lanes, slots, link, forced};
+            link += slots;
+        }
+    }
+    s->count = kk;
+    s->blocks = nb;
+    s->uses = 0;
+    s->linked = false;
+}
+
+/* Copies each block's padded link rows slot-major: per slot the four lanes'
+ * 3 * neighbour, k and rest length. */
+void ftm_sim_schedule_links(ftm_sim *sim)
+{
+    schedule *s = &sim->s;
+    const int32_t *pad_node = sim->m->pad_node;
+    const double *pad_kl = sim->m->pad_kl;
+    const size_t deg = (size_t)sim->m->max_degree;
+    for (int32_t b = 0; b < s->blocks; b++) {
+        int32_t n[4];
+        ftm_block_lanes(s, s->block[b], n);
+        const int32_t *n0 = pad_node + n[0] * deg, *n1 = pad_node + n[1] * deg,
+                      *n2 = pad_node + n[2] * deg, *n3 = pad_node + n[3] * deg;
+        const double *kl0 = pad_kl + 2 * n[0] * deg, *kl1 = pad_kl + 2 * n[1] * deg,
+                     *kl2 = pad_kl + 2 * n[2] * deg, *kl3 = pad_kl + 2 * n[3] * deg;
+        int32_t *lj = s->link_j + 4 * (size_t)s->block[b].link;
+        double *lkl = s->link_kl + 8 * (size_t)s->block[b].link;
+        for (int32_t sl = 0; sl < s->block[b].slots; sl++) {
+            lj[4 * sl] = 3 * n0[sl];
+            lj[4 * sl + 1] = 3 * n1[sl];
+            lj[4 * sl + 2] = 3 * n2[sl];
+            lj[4 * sl + 3] = 3 * n3[sl];
+            /* the lanes' (k, len) pairs unpacked into k and len */
+            v2du p0 = LOAD2(kl0 + 2 * sl), p1 = LOAD2(kl1 + 2 * sl), p2 = LOAD2(kl2 + 2 * sl),
+                 p3 = LOAD2(kl3 + 2 * sl);
+            *(v2du *)(lkl + 8 * sl) = __builtin_shufflevector(p0, p1, 0, 2);
+            *(v2du *)(lkl + 8 * sl + 2) = __builtin_shufflevector(p2, p3, 0, 2);
+            *(v2du *)(lkl + 8 * sl + 4) = __builtin_shufflevector(p0, p1, 1, 3);
+            *(v2du *)(lkl + 8 * sl + 6) = __builtin_shufflevector(p2, p3, 1, 3);
+        }
+    }
+    s->linked = true;
+}
+
+/* Plain orders: the scheduled nodes layer by layer, one group per layer. */
+static void schedule_layers(ftm_sim *sim)
+{
+    const ftm_layering *ly = &sim->ly;
+    schedule *s = &sim->s;
+    int32_t kk = 0, g = 0;
+    for (int32_t l = 0; l < ly->layers; l++) {
+        int32_t first = kk;
+        for (int32_t k = ly->start[l]; k < ly->start[l + 1]; k++) {
+            int32_t i = ly->order[k];
+            if (sim->kind[i] < NODE_DISP)
+                s->node[kk++] = i;
+        }
+        if (kk > first)
+            s->group[g++] = first;
+    }
+    s->group[g] = kk;
+    s->groups = g;
+    s->count = kk;
+}
+
+/* The update schedule from the current layers and contact kinds. */
+int ftm_sim_rebuild_schedule(ftm_sim *sim)
+{
+    int rc = schedule_reserve(&sim->s, sim->ly.count, sim->ly.layers, sim->m->max_degree);
+    if (rc)
+        return rc;
+    if (sim->def.order == FTM_ORDER_LAYER_COLORED)
+        schedule_blocks(sim);
+    else
+        schedule_layers(sim);
+    sim->schedule_dirty = false;
+    return FTM_OK;
+}
+
+/* Rebuilds layers and schedule; moves displaced nodes that left the region
+ * into the relaxing set. */
+int ftm_sim_rebuild_region(ftm_sim *sim)
+{
+    ftm_layering *ly = &sim->ly;
+    /* Same sources and depth as the last search (a search forced by
+     * cache_layers = false): the region is the same, so is the relaxing set. */
+    bool same_region = ly->gen && !sim->layers_dirty && sim->built_depth == sim->def.depth;
+    int32_t cand = 0;
+    if (!same_region) { /* nodes of the old region are candidates for relaxing */
+        int32_t old_count = ly->gen ? ly->count : 0;
+        int rc = ftm_sim_relax_reserve(sim, sim->nrelax + old_count + 1);
+        if (rc)
+            return rc;
+        memcpy(sim->relax_tmp, ly->order, (size_t)old_count * sizeof *ly->order);
+        cand = old_count;
+    }
+    bool colored = sim->def.order == FTM_ORDER_LAYER_COLORED;
+    int rc = ftm_layering_build(ly, sim->m, sim->sources, sim->ncontacts, sim->def.depth, colored);
+    if (rc)
+        return rc;
+    sim->st.searches++;
+    sim->built_depth = sim->def.depth;
+    if (!same_region) {
+        rc = update_relaxing(sim, sim->relax_tmp, cand);
+        if (rc)
+            return rc;
+    }
+    rc = ftm_sim_rebuild_schedule(sim);
+    if (rc)
+        return rc;
+    sim->layers_dirty = false;
+    if (!same_region) {
+        sim->region_sleeping = false;
+        sim->quiet_steps = 0;
+    }
+    return FTM_OK;
+}
+
+/* Brings layers and schedule up to date: a new search when the contact node
+ * set or the depth changed (or on every step without caching), only a new
+ * schedule when just the contacts' kinds changed. */
+int ftm_sim_refresh_region(ftm_sim *sim)
+{
+    if (sim->layers_dirty || sim->built_depth != sim->def.depth || !sim->def.cache_layers)
+        return ftm_sim_rebuild_region(sim);
+    if (sim->schedule_dirty)
+        return ftm_sim_rebuild_schedule(sim);
+    return FTM_OK;
+}

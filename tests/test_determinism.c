@@ -1,0 +1,115 @@
+/* Golden hashes: fixed scenarios whose final ftm_sim_hash is written down
+ * here. The same inputs must give the same bits on every machine, compiler
+ * version and build type; a change of numerics (even one ulp anywhere) shows
+ * up as a failure. If a change of the integrator is intended, update the
+ * constants in the same commit and say why. */
+#include "ftm/ftm.h"
+
+#include <inttypes.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+
+#include <cmocka.h>
+
+typedef struct scenario {
+    const char *name;
+    ftm_order order;
+    bool lattice3d;
+    uint64_t expected;
+} scenario;
+
+/* Runs a press / move / release / relax script and returns the final hash. */
+static uint64_t run(const scenario *sc)
+{
+    ftm_mesh_builder *b = ftm_mesh_builder_create();
+    ftm_error err;
+    int32_t a, c;
+    if (sc->lattice3d) {
+        ftm_lattice3d_def d = ftm_default_lattice3d_def();
+        d.nx = d.ny = d.nz = 10;
+        d.spacing = (ftm_vec3){0.01, 0.01, 0.01};
+        d.stencil = FTM_STENCIL_18;
+        d.material = (ftm_material_def){0.001, 0.3, 50.0, {1.0, 1.0, 2.0}};
+        assert_int_equal(ftm_generate_lattice3d(b, &d, &err), FTM_OK);
+        a = 4 + 10 * (4 + 10 * 9);
+        c = 6 + 10 * (5 + 10 * 9);
+    } else {
+        ftm_lattice2d_def d = ftm_default_lattice2d_def();
+        d.material = (ftm_material_def){1.0, 0.5, 1.0, {1.0, 1.0, 1.0}};
+        assert_int_equal(ftm_generate_lattice2d(b, &d, &err), FTM_OK);
+        a = 25 + 50 * 25;
+        c = 28 + 50 * 24;
+    }
+    ftm_mesh *m = NULL;
+    assert_int_equal(ftm_mesh_build(b, NULL, &m, &err), FTM_OK);
+    ftm_mesh_builder_destroy(b);
+    ftm_sim_def sd = ftm_default_sim_def();
+    sd.order = sc->order;
+    sd.time_step = sc->lattice3d ? 1e-3 : 0.1;
+    sd.depth = sc->lattice3d ? 6 : 12;
+    ftm_sim *sim = NULL;
+    assert_int_equal(ftm_sim_create(m, &sd, &sim, &err), FTM_OK);
+    double s = sc->lattice3d ? 0.001 : 0.1;
+    ftm_contact press[2] = {
+        {.node = ftm_mesh_node_of_input(m, a), .group = 0, .kind = FTM_CONTACT_FORCE,
+         .value = {0.0, -0.3 * s, -1.0 * s}},
+        {.node = ftm_mesh_node_of_input(m, c), .group = 1, .kind = FTM_CONTACT_DISPLACEMENT,
+         .value = {0.2 * s, 0.1 * s, -2.0 * s}},
+    };
+    assert_int_equal(ftm_sim_set_contacts(sim, press, 2, &err), FTM_OK);
+    assert_int_equal(ftm_sim_run(sim, 300), FTM_OK);
+    press[0].value.x = 0.5 * s; /* a value change: same layers */
+    assert_int_equal(ftm_sim_set_contacts(sim, press, 2, &err), FTM_OK);
+    assert_int_equal(ftm_sim_run(sim, 200), FTM_OK);
+    assert_int_equal(ftm_sim_set_contacts(sim, press + 1, 1, &err), FTM_OK); /* one released */
+    assert_int_equal(ftm_sim_run(sim, 200), FTM_OK);
+    assert_int_equal(ftm_sim_set_contacts(sim, NULL, 0, &err), FTM_OK); /* all released */
+    assert_int_equal(ftm_sim_run(sim, 300), FTM_OK);
+    uint64_t h = ftm_sim_hash(sim);
+    ftm_sim_destroy(sim);
+    ftm_mesh_destroy(m);
+    return h;
+}
+
+static const scenario scenarios[] = {
+    {"lattice2d colored", FTM_ORDER_LAYER_COLORED, false, 0xa02cab79769ba7b8ULL},
+    {"lattice2d bfs", FTM_ORDER_BFS, false, 0x0c48f4edb7d8a6ebULL},
+    {"lattice2d jacobi", FTM_ORDER_LAYER_JACOBI, false, 0x2c083d1b840c8c1cULL},
+    {"lattice3d colored", FTM_ORDER_LAYER_COLORED, true, 0x26f2b498fe6d21abULL},
+    {"lattice3d bfs", FTM_ORDER_BFS, true, 0xb81c20becd556a4eULL},
+    {"lattice3d jacobi", FTM_ORDER_LAYER_JACOBI, true, 0xf9b7dcd2a79a89b1ULL},
+};
+
+static void test_golden_hashes(void **state)
+{
+    (void)state;
+    int bad = 0;
+    for (size_t i = 0; i < sizeof scenarios / sizeof scenarios[0]; i++) {
+        uint64_t h = run(&scenarios[i]);
+        if (h != scenarios[i].expected) {
+            print_error("%s: hash 0x%016" PRIx64 "ULL, expected 0x%016" PRIx64 "ULL\n",
+                        scenarios[i].name, h, scenarios[i].expected);
+            bad++;
+        }
+    }
+    assert_int_equal(bad, 0);
+}
+
+/* The same run twice in one process, and a run on a rebuilt mesh, agree. */
+static void test_repeatable(void **state)
+{
+    (void)state;
+    assert_true(run(&scenarios[0]) == run(&scenarios[0]));
+    assert_true(run(&scenarios[3]) == run(&scenarios[3]));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_golden_hashes),
+        cmocka_unit_test(test_repeatable),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
