@@ -9,8 +9,12 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config   # toolchain
+  clang                                           # second compiler: determinism check
   libcmocka-dev                                   # unit tests
   gnuplot-nox                                     # benchmark plots in docs/
+  libsuitesparse-dev                              # FEM reference (CHOLMOD)
+  cyclonedds-dev cyclonedds-tools                 # DDS transport, idlc, ddsperf
+  libprotobuf-c-dev protobuf-c-compiler           # wire protocol codec
 )
 
 missing=()

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # All tests, from a fresh clone: installs dependencies, then builds and runs
-# the test suite twice: a release build with warnings as errors, and an
-# AddressSanitizer + UndefinedBehaviorSanitizer build.
+# the test suite twice, as a release build with warnings as errors and as an
+# AddressSanitizer + UndefinedBehaviorSanitizer build, and the determinism
+# tests a third time built with clang.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -21,5 +22,10 @@ cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTM_WERROR=ON \
 cmake --build build/asan -j "$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build/asan --output-on-failure -j "$jobs" || status=1
+
+echo "== clang build: the golden hashes must match GCC's bit for bit =="
+CC=clang cmake -S . -B build/clang -G Ninja -DCMAKE_BUILD_TYPE=Release -DFTM_WERROR=ON
+cmake --build build/clang -j "$jobs" --target test_determinism test_sim_kernel
+ctest --test-dir build/clang --output-on-failure -R 'test_determinism|test_sim_kernel' || status=1
 
 exit $status

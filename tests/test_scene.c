@@ -601,6 +601,68 @@ static void test_sequential_loads_same_node(void **state)
     ftm_scene_destroy(scene);
 }
 
+/* The optional [fem] section: Young's modulus, Poisson's ratio, density. */
+static void expect_bad(const char *text, int line, const char *needle)
+{
+    ftm_scene *scene = NULL;
+    ftm_error err;
+    memset(&err, 0, sizeof err);
+    int rc = ftm_scene_parse(text, strlen(text), "fem.scene", &scene, &err);
+    char prefix[64];
+    snprintf(prefix, sizeof prefix, "fem.scene:%d: ", line);
+    if (rc >= 0 || scene != NULL || err.code != rc ||
+        strncmp(err.message, prefix, strlen(prefix)) != 0 || !strstr(err.message, needle))
+        fail_msg("rc %d, message '%s'; wanted '%s...%s'", rc, err.message, prefix, needle);
+}
+
+static void test_fem_section(void **state)
+{
+    (void)state;
+    double e = -1, nu = -1, rho = -1;
+    ftm_scene *scene = parse_ok(MESH2D MAT "[fem]\nyoung = 6e5\npoisson = 0.45\n"
+                                           "density = 1060  # soft tissue\n");
+    assert_true(ftm_scene_fem_material(scene, &e, &nu, &rho));
+    assert_near(e, 6e5, 0);
+    assert_near(nu, 0.45, 0);
+    assert_near(rho, 1060, 0);
+    assert_true(ftm_scene_fem_material(scene, NULL, NULL, NULL));
+    ftm_scene_destroy(scene);
+    /* density is optional (0 = not given); negative Poisson ratios are valid */
+    scene = parse_ok("[fem]\npoisson = -0.2\nyoung = 1e3\n" MESH2D MAT);
+    assert_true(ftm_scene_fem_material(scene, &e, &nu, &rho));
+    assert_near(nu, -0.2, 0);
+    assert_near(rho, 0, 0);
+    ftm_scene_destroy(scene);
+    /* no [fem]: false, outputs untouched */
+    scene = parse_ok(MESH2D MAT);
+    e = 7;
+    assert_false(ftm_scene_fem_material(scene, &e, &nu, &rho));
+    assert_near(e, 7, 0);
+    ftm_scene_destroy(scene);
+
+    expect_bad(MESH2D MAT "[fem]\nyoung = 6e5\npoisson = 0.5\n", 11,
+               "poisson must be > -1 and < 0.5, got 0.5");
+    expect_bad(MESH2D MAT "[fem]\nyoung = 6e5\npoisson = -1\n", 11,
+               "poisson must be > -1 and < 0.5, got -1");
+    expect_bad(MESH2D MAT "[fem]\nyoung = 0\npoisson = 0.3\n", 10, "young must be > 0, got 0");
+    expect_bad(MESH2D MAT "[fem]\nyoung = -5\n", 10, "young must be > 0, got -5");
+    expect_bad(MESH2D MAT "[fem]\nyoung = 1e5\npoisson = 0.3\ndensity = 0\n", 12,
+               "density must be > 0");
+    expect_bad(MESH2D MAT "[fem]\nyoung = 1e5\n", 9, "[fem] needs poisson");
+    expect_bad(MESH2D MAT "[fem]\npoisson = 0.3\n", 9, "[fem] needs young");
+    expect_bad(MESH2D MAT "[fem]\nyoung = 1e5\npoisson = 0.3 0.4\n", 11,
+               "poisson: expected 1 value, got more");
+    expect_bad(MESH2D MAT "[fem]\nyoung = 1e5\npoisson = nan\n", 11,
+               "poisson: expected a finite number");
+    expect_bad(MESH2D MAT "[fem]\nyoung = 1e5\nyoung = 2e5\n", 11, "duplicate key 'young'");
+    expect_bad(MESH2D "[material]\nmass = 1\nstiffness = 1\npoisson = 0.3\n", 9,
+               "unknown key 'poisson' in [material] (it belongs in [fem])");
+    expect_bad(MESH2D MAT "[fem]\nyoung = 1e5\npoisson = 0.3\n[fem]\n", 12,
+               "duplicate section [fem]");
+    expect_bad(MESH2D MAT "[fem]\nstiffness = 3\n", 10,
+               "unknown key 'stiffness' in [fem] (it belongs in [material])");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -614,6 +676,7 @@ int main(void)
         cmocka_unit_test(test_builtins),
         cmocka_unit_test(test_contacts_at),
         cmocka_unit_test(test_sequential_loads_same_node),
+        cmocka_unit_test(test_fem_section),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -15,6 +15,9 @@ typedef struct command {
 static const command commands[] = {
     {"sim", ftm_cmd_sim, "run a scene (built-in or file) and report the result"},
     {"bench", ftm_cmd_bench, "run benchmarks (e.g. the paper's Table 3)"},
+#ifdef FTM_HAVE_FEM
+    {"fem", ftm_cmd_fem, "solve a scene's linear static FEM reference (displacements as CSV)"},
+#endif
 };
 
 #define COMMAND_COUNT (sizeof commands / sizeof commands[0])

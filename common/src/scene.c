@@ -39,6 +39,8 @@ struct ftm_scene {
     int32_t steps;
     ftm_scene_load *loads;
     int32_t load_count;
+    bool has_fem;                  /* a [fem] section was given */
+    double young, poisson, density; /* [fem]; density 0 = not given */
 };
 
 /* ---------------------------------------------------------------- keys */
@@ -50,11 +52,12 @@ typedef enum section {
     SEC_MATERIAL,
     SEC_SIM,
     SEC_LOAD,
+    SEC_FEM,
     SEC_COUNT
 } section;
 
-static const char *const section_names[SEC_COUNT] = {"", "scene", "mesh", "material", "sim",
-                                                     "load"};
+static const char *const section_names[SEC_COUNT] = {"",    "scene", "mesh", "material",
+                                                     "sim", "load",  "fem"};
 
 typedef enum key {
     K_NAME,
@@ -83,6 +86,9 @@ typedef enum key {
     K_GUARD,
     K_GUARD_MOTION,
     K_MAX_SUBSTEPS,
+    K_YOUNG,
+    K_POISSON,
+    K_DENSITY,
     K_NODE, /* first [load] key: load keys are recorded per load */
     K_KIND,
     K_VALUE,
@@ -127,6 +133,9 @@ static const struct {
     [K_GUARD] = {SEC_SIM, "guard", false},
     [K_GUARD_MOTION] = {SEC_SIM, "guard_motion", false},
     [K_MAX_SUBSTEPS] = {SEC_SIM, "max_substeps", false},
+    [K_YOUNG] = {SEC_FEM, "young", false},
+    [K_POISSON] = {SEC_FEM, "poisson", false},
+    [K_DENSITY] = {SEC_FEM, "density", false},
     [K_NODE] = {SEC_LOAD, "node", false},
     [K_KIND] = {SEC_LOAD, "kind", false},
     [K_VALUE] = {SEC_LOAD, "value", false},
@@ -181,6 +190,8 @@ typedef struct spec {
     /* [sim] */
     ftm_sim_def sim;
     int64_t steps;
+    /* [fem] */
+    double young, poisson, density;
     /* [load] */
     load_spec *loads;
     size_t load_count, load_cap;
@@ -582,6 +593,23 @@ static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
             return rc;
         s->sim.max_substeps = (int32_t)iv;
         return FTM_OK;
+    case K_YOUNG:
+        return scalar(p, kn, v, vlen, true, &s->young);
+    case K_POISSON: {
+        token t[1];
+        int n = 0;
+        double x = 0;
+        if ((rc = split(p, kn, v, vlen, t, 1, 1, &n)) != FTM_OK ||
+            (rc = number(p, kn, t[0], &x)) != FTM_OK)
+            return rc;
+        if (!(x > -1.0 && x < 0.5))
+            return fail_at(p, p->line, FTM_EINVAL, "poisson must be > -1 and < 0.5, got %.*s",
+                           shown(t[0].n), t[0].s);
+        s->poisson = x;
+        return FTM_OK;
+    }
+    case K_DENSITY:
+        return scalar(p, kn, v, vlen, true, &s->density);
     default:
         return set_mesh_key(p, k, kn, v, vlen);
     }
@@ -703,7 +731,7 @@ static int open_section(parser *p, const char *s, size_t n, section *cur)
     }
     if (sec == SEC_NONE)
         return fail_at(p, p->line, FTM_EPARSE,
-                       "unknown section [%.*s] (expected scene, mesh, material, sim or load)",
+                       "unknown section [%.*s] (expected scene, mesh, material, sim, load or fem)",
                        shown(nn), nm);
     if (sec == SEC_LOAD) {
         if (sp->load_count >= SCENE_MAX_LOADS)
@@ -984,6 +1012,21 @@ static int check_material(const parser *p)
     return FTM_OK;
 }
 
+/* [fem] is optional, but once given it needs both elastic constants. */
+static int check_fem(const parser *p)
+{
+    const spec *s = &p->s;
+    if (!s->section_line[SEC_FEM])
+        return FTM_OK;
+    if (!s->key_line[K_YOUNG])
+        return fail_at(p, s->section_line[SEC_FEM], FTM_EPARSE,
+                       "[fem] needs young (Young's modulus in Pa)");
+    if (!s->key_line[K_POISSON])
+        return fail_at(p, s->section_line[SEC_FEM], FTM_EPARSE,
+                       "[fem] needs poisson (Poisson's ratio)");
+    return FTM_OK;
+}
+
 /* Checks the times of every load (keys may come in any order, hence afterwards). */
 static int check_load_times(const parser *p, load_spec *ls)
 {
@@ -1150,6 +1193,8 @@ static int parse_scene(const char *text, size_t length, const char *name, const 
         rc = check_mesh_keys(&p);
     if (rc == FTM_OK)
         rc = check_material(&p);
+    if (rc == FTM_OK)
+        rc = check_fem(&p);
     for (size_t i = 0; rc == FTM_OK && i < p.s.load_count; i++)
         rc = check_load_times(&p, &p.s.loads[i]);
     if (rc == FTM_OK) {
@@ -1171,6 +1216,10 @@ static int parse_scene(const char *text, size_t length, const char *name, const 
         scene->sim = p.s.sim;
         scene->steps = (int32_t)p.s.steps;
         scene->load_count = (int32_t)p.s.load_count;
+        scene->has_fem = p.s.section_line[SEC_FEM] != 0;
+        scene->young = p.s.young;
+        scene->poisson = p.s.poisson;
+        scene->density = p.s.density;
         *out = scene;
         scene = NULL;
     }
@@ -1410,6 +1459,20 @@ int32_t ftm_scene_load_count(const ftm_scene *scene)
 const ftm_scene_load *ftm_scene_loads(const ftm_scene *scene)
 {
     return scene->loads;
+}
+
+bool ftm_scene_fem_material(const ftm_scene *scene, double *young, double *poisson,
+                            double *density)
+{
+    if (!scene->has_fem)
+        return false;
+    if (young)
+        *young = scene->young;
+    if (poisson)
+        *poisson = scene->poisson;
+    if (density)
+        *density = scene->density;
+    return true;
 }
 
 /* Fraction of the full value a load applies at time t (start <= t < release). */

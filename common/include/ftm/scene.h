@@ -49,6 +49,13 @@ int32_t ftm_scene_steps(const ftm_scene *scene); /* default number of steps to r
 int32_t ftm_scene_load_count(const ftm_scene *scene);
 const ftm_scene_load *ftm_scene_loads(const ftm_scene *scene);
 
+/* The elastic material of the scene's [fem] section (the linear FEM
+ * reference, `ftm fem`): Young's modulus [Pa], Poisson's ratio and density
+ * [kg/m^3] (0 when the scene gives none). Returns false, writing nothing, when
+ * the scene has no [fem] section. Any pointer may be NULL. */
+bool ftm_scene_fem_material(const ftm_scene *scene, double *young, double *poisson,
+                            double *density);
+
 /* The contacts the script prescribes at simulation time t [s]: writes at most
  * capacity entries and returns how many are active (loads not yet started or
  * already released are left out; ramps scale the value). */
