@@ -1,0 +1,704 @@
+/* The DDS transport: one Cyclone DDS participant, one topic per message kind
+ * (type ftm::wire::Envelope, keyed by session and sender), writers and
+ * readers with the QoS of docs/protocol.md, and a publishing thread so that
+ * callers never wait in dds_write (which can stall for milliseconds). No
+ * globals: every transport is self-contained. */
+#include "wire_internal.h"
+
+#include "ftm_envelope.h"
+
+#include <dds/dds.h>
+#include <dds/ddsc/dds_statistics.h>
+
+#include <errno.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define KINDS (FTM_WIRE_KIND_MAX + 1)
+#define SENDERS_MAX 1024
+
+/* QoS numbers (docs/protocol.md, "Topics and QoS"). */
+#define TICK_WRITER_DEPTH 256
+#define TICK_READER_DEPTH 1024
+#define PROBE_DEPTH 64
+#define CONTROL_DEPTH 64
+#define STATUS_DEADLINE DDS_SECS(2)
+#define MAX_BLOCKING DDS_MSECS(100)
+#define DESTROY_DRAIN_NS 2000000000LL
+
+typedef struct queue_item {
+    struct queue_item *next;
+    int kind;
+    uint64_t seq;
+    size_t size;
+    uint8_t data[];
+} queue_item;
+
+typedef struct sender_seq {
+    uint32_t sender;
+    uint64_t last;
+} sender_seq;
+
+typedef struct kind_io {
+    dds_entity_t topic, writer, reader, readcond, waitset;
+    struct dds_statistics *wstats;
+    uint64_t next_seq; /* under t->lock */
+    /* receive side: one thread per kind */
+    sender_seq *senders;
+    int nsenders, capsenders;
+    ftm_wire_stats stats; /* counters under t->lock */
+} kind_io;
+
+struct ftm_wire_transport {
+    dds_entity_t participant;
+    char session[64];
+    uint32_t id;
+    ftm_wire_limits limits;
+    ftm_log_fn log;
+    void *log_user;
+    kind_io io[KINDS];
+
+    pthread_mutex_t lock;
+    pthread_cond_t wake, drained;
+    queue_item *head, *tail;
+    int32_t queued, capacity;
+    bool busy, stop, thread_started;
+    pthread_t thread;
+};
+
+static const char *const topic_names[KINDS] = {
+    NULL,
+    "ftm_v1_scene_announce",
+    "ftm_v1_probe_input",
+    "ftm_v1_tick_frame",
+    "ftm_v1_keyframe",
+    "ftm_v1_participant_status",
+    "ftm_v1_session_control",
+};
+
+const char *ftm_wire_topic_name(int kind)
+{
+    return kind >= FTM_WIRE_KIND_MIN && kind <= FTM_WIRE_KIND_MAX ? topic_names[kind] : NULL;
+}
+
+static bool valid_kind(int kind)
+{
+    return kind >= FTM_WIRE_KIND_MIN && kind <= FTM_WIRE_KIND_MAX;
+}
+
+static void wire_log(ftm_wire_transport *t, ftm_log_level level, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void wire_log(ftm_wire_transport *t, ftm_log_level level, const char *fmt, ...)
+{
+    if (!t->log)
+        return;
+    char buf[FTM_ERROR_MESSAGE_MAX + 128];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    t->log(t->log_user, level, buf);
+}
+
+static int64_t now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+static void sleep_ns(int64_t ns)
+{
+    struct timespec ts = {(time_t)(ns / 1000000000), (long)(ns % 1000000000)};
+    while (nanosleep(&ts, &ts) == -1 && errno == EINTR) {
+    }
+}
+
+static int dds_fail(ftm_error *err, const char *call, dds_return_t rc)
+{
+    return wire_err(err, FTM_EDDS, "%s failed: %s", call, dds_strretcode(rc));
+}
+
+/* ---- QoS ---------------------------------------------------------------- */
+
+static dds_qos_t *kind_qos(int kind, bool writer)
+{
+    dds_qos_t *q = dds_create_qos();
+    /* A participant never receives what it wrote itself. */
+    dds_qset_ignorelocal(q, DDS_IGNORELOCAL_PARTICIPANT);
+    dds_qset_liveliness(q, DDS_LIVELINESS_AUTOMATIC, DDS_INFINITY);
+    switch (kind) {
+    case FTM_WIRE_ANNOUNCE:
+    case FTM_WIRE_KEYFRAME:
+        /* the latest one per (session, sender) is kept by the writer and
+         * handed to every reader that joins later */
+        dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, MAX_BLOCKING);
+        dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+        dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+        break;
+    case FTM_WIRE_PROBE_INPUT:
+        /* superseded by the next batch within a millisecond: no repairs */
+        dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
+        dds_qset_history(q, DDS_HISTORY_KEEP_LAST, PROBE_DEPTH);
+        dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
+        break;
+    case FTM_WIRE_TICK:
+        /* every frame is needed; KEEP_LAST so the writer never blocks, a
+         * reader that falls behind by more sees a sequence gap and resyncs */
+        dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, MAX_BLOCKING);
+        dds_qset_history(q, DDS_HISTORY_KEEP_LAST, writer ? TICK_WRITER_DEPTH : TICK_READER_DEPTH);
+        dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
+        break;
+    case FTM_WIRE_STATUS:
+        dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, MAX_BLOCKING);
+        dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+        dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+        dds_qset_deadline(q, STATUS_DEADLINE);
+        break;
+    case FTM_WIRE_CONTROL:
+    default:
+        dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, MAX_BLOCKING);
+        dds_qset_history(q, DDS_HISTORY_KEEP_LAST, CONTROL_DEPTH);
+        dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
+        break;
+    }
+    return q;
+}
+
+/* ---- publishing thread ---------------------------------------------------- */
+
+static void *publisher_main(void *arg)
+{
+    ftm_wire_transport *t = arg;
+    pthread_mutex_lock(&t->lock);
+    for (;;) {
+        while (!t->head && !t->stop)
+            pthread_cond_wait(&t->wake, &t->lock);
+        if (!t->head)
+            break; /* stopping and drained */
+        queue_item *it = t->head;
+        t->head = it->next;
+        if (!t->head)
+            t->tail = NULL;
+        t->queued--;
+        t->busy = true;
+        pthread_mutex_unlock(&t->lock);
+
+        ftm_wire_Envelope env;
+        memset(&env, 0, sizeof env);
+        memcpy(env.session, t->session, sizeof env.session);
+        env.sender = t->id;
+        env.kind = (uint8_t)it->kind;
+        env.seq = it->seq;
+        env.payload._maximum = (uint32_t)it->size;
+        env.payload._length = (uint32_t)it->size;
+        env.payload._buffer = it->data;
+        env.payload._release = false;
+        dds_return_t rc = dds_write(t->io[it->kind].writer, &env);
+        if (rc < 0)
+            wire_log(t, FTM_LOG_ERROR, "wire: dds_write of %s seq %llu failed: %s",
+                     ftm_wire_kind_name(it->kind), (unsigned long long)it->seq,
+                     dds_strretcode(rc));
+
+        pthread_mutex_lock(&t->lock);
+        if (rc < 0)
+            t->io[it->kind].stats.write_errors++;
+        else
+            t->io[it->kind].stats.published++;
+        t->busy = false;
+        if (!t->head)
+            pthread_cond_broadcast(&t->drained);
+        free(it);
+    }
+    pthread_mutex_unlock(&t->lock);
+    return NULL;
+}
+
+static int enqueue(ftm_wire_transport *t, int kind, uint8_t *payload, size_t size, ftm_error *err)
+{
+    queue_item *it = malloc(sizeof *it + size);
+    if (!it)
+        return wire_err(err, FTM_ENOMEM, "%s: out of memory queueing %zu bytes",
+                        ftm_wire_kind_name(kind), size);
+    it->next = NULL;
+    it->kind = kind;
+    it->size = size;
+    if (size)
+        memcpy(it->data, payload, size);
+    pthread_mutex_lock(&t->lock);
+    if (t->queued >= t->capacity) {
+        t->io[kind].stats.queue_full++;
+        pthread_mutex_unlock(&t->lock);
+        free(it);
+        return wire_err(err, FTM_EAGAIN, "%s: publishing queue full (%d messages); dropped",
+                        ftm_wire_kind_name(kind), t->capacity);
+    }
+    it->seq = ++t->io[kind].next_seq;
+    if (t->tail)
+        t->tail->next = it;
+    else
+        t->head = it;
+    t->tail = it;
+    t->queued++;
+    pthread_cond_signal(&t->wake);
+    pthread_mutex_unlock(&t->lock);
+    return FTM_OK;
+}
+
+int ftm_wire_publish(ftm_wire_transport *t, const ftm_wire_msg *msg, ftm_error *err)
+{
+    if (!t || !msg)
+        return wire_err(err, FTM_EINVAL, "ftm_wire_publish: NULL argument");
+    if (!valid_kind(msg->kind) || !t->io[msg->kind].writer)
+        return wire_err(err, FTM_EINVAL, "ftm_wire_publish: this transport does not publish %s",
+                        ftm_wire_kind_name(msg->kind));
+    uint8_t *buf = NULL;
+    size_t size = 0;
+    int rc = ftm_wire_encode(msg, &buf, &size, err);
+    if (rc)
+        return rc;
+    rc = enqueue(t, msg->kind, buf, size, err);
+    free(buf);
+    return rc;
+}
+
+int ftm_wire_publish_raw(ftm_wire_transport *t, int kind, const void *payload, size_t size,
+                         ftm_error *err)
+{
+    if (!t || (!payload && size))
+        return wire_err(err, FTM_EINVAL, "ftm_wire_publish_raw: NULL argument");
+    if (!valid_kind(kind) || !t->io[kind].writer)
+        return wire_err(err, FTM_EINVAL, "ftm_wire_publish_raw: this transport does not publish %s",
+                        ftm_wire_kind_name(kind));
+    if (size > FTM_WIRE_CAP_KEYFRAME)
+        return wire_err(err, FTM_ETOOBIG, "%s: raw payload of %zu bytes exceeds the envelope bound %u",
+                        ftm_wire_kind_name(kind), size, (unsigned)FTM_WIRE_CAP_KEYFRAME);
+    return enqueue(t, kind, (uint8_t *)payload, size, err);
+}
+
+/* Waits until the queue is empty; returns false on timeout. */
+static bool wait_drained(ftm_wire_transport *t, int64_t deadline)
+{
+    pthread_mutex_lock(&t->lock);
+    bool ok = true;
+    while (t->head || t->busy) {
+        int64_t left = deadline - now_ns();
+        if (left <= 0) {
+            ok = false;
+            break;
+        }
+        struct timespec ts;
+        clock_gettime(CLOCK_MONOTONIC, &ts);
+        int64_t step = left < 50000000 ? left : 50000000;
+        int64_t ns = ts.tv_nsec + step;
+        ts.tv_sec += (time_t)(ns / 1000000000);
+        ts.tv_nsec = (long)(ns % 1000000000);
+        pthread_cond_timedwait(&t->drained, &t->lock, &ts);
+    }
+    pthread_mutex_unlock(&t->lock);
+    return ok;
+}
+
+int ftm_wire_flush(ftm_wire_transport *t, int64_t timeout_ns, ftm_error *err)
+{
+    if (!t)
+        return wire_err(err, FTM_EINVAL, "ftm_wire_flush: NULL transport");
+    int64_t deadline = now_ns() + timeout_ns;
+    if (!wait_drained(t, deadline))
+        return wire_err(err, FTM_ETIMEDOUT, "flush: publishing queue not empty after %.3f s",
+                        (double)timeout_ns * 1e-9);
+    for (int k = FTM_WIRE_KIND_MIN; k <= FTM_WIRE_KIND_MAX; k++) {
+        if (!t->io[k].writer || k == FTM_WIRE_PROBE_INPUT)
+            continue;
+        int64_t left = deadline - now_ns();
+        dds_return_t rc = dds_wait_for_acks(t->io[k].writer, left > 0 ? left : 0);
+        if (rc == DDS_RETCODE_TIMEOUT)
+            return wire_err(err, FTM_ETIMEDOUT, "flush: %s not acknowledged by every reader in %.3f s",
+                            ftm_wire_kind_name(k), (double)timeout_ns * 1e-9);
+        if (rc < 0)
+            return dds_fail(err, "dds_wait_for_acks", rc);
+    }
+    return FTM_OK;
+}
+
+/* ---- create / destroy ------------------------------------------------------ */
+
+static int make_domain(const ftm_wire_transport_def *def, ftm_error *err)
+{
+    if (!def->config)
+        return FTM_OK; /* implicit domain: $CYCLONEDDS_URI or defaults */
+    const char *c = def->config;
+    while (*c == ' ' || *c == '\t' || *c == '\n' || *c == '\r')
+        c++;
+    char *uri = NULL;
+    if (*c != '<') {
+        FILE *f = fopen(def->config, "r");
+        if (!f)
+            return wire_err(err, FTM_EIO, "Cyclone DDS configuration %s: %s", def->config,
+                            strerror(errno));
+        fclose(f);
+        size_t n = strlen(def->config) + 8;
+        uri = malloc(n);
+        if (!uri)
+            return wire_err(err, FTM_ENOMEM, "out of memory");
+        snprintf(uri, n, "file://%s", def->config);
+    }
+    dds_entity_t dom = dds_create_domain(def->domain_id, uri ? uri : c);
+    free(uri);
+    if (dom == DDS_RETCODE_PRECONDITION_NOT_MET)
+        return FTM_OK; /* this process already has the domain: share it */
+    if (dom < 0)
+        return wire_err(err, FTM_EINVAL,
+                        "Cyclone DDS rejected the configuration %s for domain %u: %s",
+                        *c == '<' ? "(XML text)" : def->config, def->domain_id,
+                        dds_strretcode(dom));
+    return FTM_OK;
+}
+
+static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_error *err)
+{
+    kind_io *io = &t->io[k];
+    io->topic = dds_create_topic(t->participant, &ftm_wire_Envelope_desc, topic_names[k], NULL, NULL);
+    if (io->topic < 0)
+        return dds_fail(err, "dds_create_topic", io->topic);
+    if (pub) {
+        dds_qos_t *q = kind_qos(k, true);
+        io->writer = dds_create_writer(t->participant, io->topic, q, NULL);
+        dds_delete_qos(q);
+        if (io->writer < 0) {
+            int rc = dds_fail(err, "dds_create_writer", io->writer);
+            io->writer = 0;
+            return rc;
+        }
+        io->wstats = dds_create_statistics(io->writer); /* NULL is fine */
+    }
+    if (sub) {
+        dds_qos_t *q = kind_qos(k, false);
+        io->reader = dds_create_reader(t->participant, io->topic, q, NULL);
+        dds_delete_qos(q);
+        if (io->reader < 0) {
+            int rc = dds_fail(err, "dds_create_reader", io->reader);
+            io->reader = 0;
+            return rc;
+        }
+        io->readcond = dds_create_readcondition(io->reader, DDS_ANY_STATE);
+        if (io->readcond < 0)
+            return dds_fail(err, "dds_create_readcondition", io->readcond);
+        io->waitset = dds_create_waitset(t->participant);
+        if (io->waitset < 0)
+            return dds_fail(err, "dds_create_waitset", io->waitset);
+        dds_return_t rc = dds_waitset_attach(io->waitset, io->readcond, (dds_attach_t)k);
+        if (rc < 0)
+            return dds_fail(err, "dds_waitset_attach", rc);
+    }
+    return FTM_OK;
+}
+
+static void delete_participant(ftm_wire_transport *t)
+{
+    for (int k = 0; k < KINDS; k++) {
+        if (t->io[k].wstats)
+            dds_delete_statistics(t->io[k].wstats);
+        t->io[k].wstats = NULL;
+    }
+    if (t->participant > 0) {
+        dds_entity_t dom = dds_get_parent(t->participant);
+        dds_delete(t->participant);
+        /* The last transport of a domain this library created deletes it. */
+        if (dom > 0 && dds_get_children(dom, NULL, 0) == 0)
+            dds_delete(dom);
+    }
+    t->participant = 0;
+}
+
+int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transport **out,
+                              ftm_error *err)
+{
+    if (!def || !out)
+        return wire_err(err, FTM_EINVAL, "ftm_wire_transport_create: NULL argument");
+    if (!def->session || !def->session[0] || strlen(def->session) > 63)
+        return wire_err(err, FTM_EINVAL, "transport: session name must have 1..63 bytes");
+    if (def->participant_id == 0)
+        return wire_err(err, FTM_EINVAL, "transport: participant_id must not be 0");
+    if ((def->publish | def->subscribe) & ~(uint32_t)FTM_WIRE_ALL_KINDS)
+        return wire_err(err, FTM_EINVAL, "transport: publish/subscribe masks name unknown kinds");
+    if (def->queue_capacity < 0)
+        return wire_err(err, FTM_EINVAL, "transport: negative queue_capacity");
+
+    ftm_wire_transport *t = calloc(1, sizeof *t);
+    if (!t)
+        return wire_err(err, FTM_ENOMEM, "transport: out of memory");
+    snprintf(t->session, sizeof t->session, "%s", def->session);
+    t->id = def->participant_id;
+    t->limits = def->limits;
+    t->log = def->log;
+    t->log_user = def->log_user;
+    t->capacity = def->queue_capacity ? def->queue_capacity : 4096;
+
+    pthread_condattr_t ca;
+    pthread_condattr_init(&ca);
+    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
+    pthread_mutex_init(&t->lock, NULL);
+    pthread_cond_init(&t->wake, NULL);
+    pthread_cond_init(&t->drained, &ca);
+    pthread_condattr_destroy(&ca);
+
+    int rc = make_domain(def, err);
+    if (rc == FTM_OK) {
+        t->participant = dds_create_participant(def->domain_id, NULL, NULL);
+        if (t->participant < 0) {
+            rc = dds_fail(err, "dds_create_participant", t->participant);
+            t->participant = 0;
+        }
+    }
+    for (int k = FTM_WIRE_KIND_MIN; rc == FTM_OK && k <= FTM_WIRE_KIND_MAX; k++) {
+        bool pub = def->publish & FTM_WIRE_KIND_BIT(k), sub = def->subscribe & FTM_WIRE_KIND_BIT(k);
+        if (pub || sub)
+            rc = make_endpoints(t, k, pub, sub, err);
+    }
+    if (rc == FTM_OK) {
+        if (pthread_create(&t->thread, NULL, publisher_main, t) != 0)
+            rc = wire_err(err, FTM_ENOMEM, "transport: cannot start the publishing thread");
+        else
+            t->thread_started = true;
+    }
+    if (rc != FTM_OK) {
+        ftm_wire_transport_destroy(t);
+        return rc;
+    }
+    *out = t;
+    return FTM_OK;
+}
+
+void ftm_wire_transport_destroy(ftm_wire_transport *t)
+{
+    if (!t)
+        return;
+    if (t->thread_started) {
+        if (!wait_drained(t, now_ns() + DESTROY_DRAIN_NS))
+            wire_log(t, FTM_LOG_WARN, "wire: destroying with %d messages still queued", t->queued);
+        pthread_mutex_lock(&t->lock);
+        t->stop = true;
+        pthread_cond_broadcast(&t->wake);
+        pthread_mutex_unlock(&t->lock);
+        pthread_join(t->thread, NULL);
+    }
+    delete_participant(t);
+    while (t->head) {
+        queue_item *it = t->head;
+        t->head = it->next;
+        free(it);
+    }
+    for (int k = 0; k < KINDS; k++)
+        free(t->io[k].senders);
+    pthread_cond_destroy(&t->wake);
+    pthread_cond_destroy(&t->drained);
+    pthread_mutex_destroy(&t->lock);
+    free(t);
+}
+
+/* ---- matching --------------------------------------------------------------- */
+
+static int32_t matched_count(kind_io *io)
+{
+    if (io->writer) {
+        dds_publication_matched_status_t st;
+        if (dds_get_publication_matched_status(io->writer, &st) == DDS_RETCODE_OK)
+            return (int32_t)st.current_count;
+    } else if (io->reader) {
+        dds_subscription_matched_status_t st;
+        if (dds_get_subscription_matched_status(io->reader, &st) == DDS_RETCODE_OK)
+            return (int32_t)st.current_count;
+    }
+    return 0;
+}
+
+int ftm_wire_wait_matched(ftm_wire_transport *t, int kind, int32_t count, int64_t timeout_ns,
+                          ftm_error *err)
+{
+    if (!t || !valid_kind(kind) || (!t->io[kind].writer && !t->io[kind].reader))
+        return wire_err(err, FTM_EINVAL, "wait_matched: this transport neither writes nor reads %s",
+                        ftm_wire_kind_name(kind));
+    int64_t deadline = now_ns() + timeout_ns;
+    for (;;) {
+        int32_t n = matched_count(&t->io[kind]);
+        if (n >= count)
+            return FTM_OK;
+        if (now_ns() >= deadline)
+            return wire_err(err, FTM_ETIMEDOUT, "%s: %d of %d peers matched after %.3f s",
+                            ftm_wire_kind_name(kind), n, count, (double)timeout_ns * 1e-9);
+        sleep_ns(5000000);
+    }
+}
+
+/* ---- receive ----------------------------------------------------------------- */
+
+/* The gap before seq from sender; updates the baseline. */
+static uint64_t track(kind_io *io, uint32_t sender, uint64_t seq)
+{
+    for (int i = 0; i < io->nsenders; i++) {
+        if (io->senders[i].sender == sender) {
+            uint64_t last = io->senders[i].last;
+            io->senders[i].last = seq;
+            return seq > last ? seq - last - 1 : 0; /* seq <= last: sender restarted */
+        }
+    }
+    if (io->nsenders == io->capsenders) {
+        int cap = io->capsenders ? 2 * io->capsenders : 8;
+        if (cap > SENDERS_MAX) {
+            io->nsenders = 0; /* forget everyone rather than grow without bound */
+        } else {
+            sender_seq *s = realloc(io->senders, (size_t)cap * sizeof *s);
+            if (!s)
+                return 0;
+            io->senders = s;
+            io->capsenders = cap;
+        }
+    }
+    io->senders[io->nsenders++] = (sender_seq){sender, seq};
+    return 0;
+}
+
+static void reject(ftm_wire_transport *t, int kind, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void reject(ftm_wire_transport *t, int kind, const char *fmt, ...)
+{
+    char buf[FTM_ERROR_MESSAGE_MAX];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    pthread_mutex_lock(&t->lock);
+    t->io[kind].stats.rejected++;
+    snprintf(t->io[kind].stats.last_reject, sizeof t->io[kind].stats.last_reject, "%s", buf);
+    pthread_mutex_unlock(&t->lock);
+    wire_log(t, FTM_LOG_WARN, "wire: rejected %s", buf);
+}
+
+/* Handles one taken sample: 1 if *out now holds a message, 0 if skipped. */
+static int handle_sample(ftm_wire_transport *t, int kind, const ftm_wire_Envelope *env,
+                         const dds_sample_info_t *info, ftm_wire_received *out)
+{
+    kind_io *io = &t->io[kind];
+    if (strncmp(env->session, t->session, sizeof env->session) != 0)
+        return 0; /* another session on the same domain */
+    if (!info->valid_data) {
+        if (kind == FTM_WIRE_STATUS && info->instance_state != DDS_IST_ALIVE) {
+            memset(out, 0, sizeof *out);
+            out->msg.kind = FTM_WIRE_STATUS;
+            out->sender = env->sender;
+            out->gone = true;
+            out->source_time_ns = info->source_timestamp;
+            return 1;
+        }
+        return 0;
+    }
+    const char *what = ftm_wire_kind_name(kind);
+    if (env->kind != kind) {
+        reject(t, kind, "%s topic: message from participant %u seq %llu says it is a %s (kind %u)",
+               what, env->sender, (unsigned long long)env->seq, ftm_wire_kind_name(env->kind),
+               env->kind);
+        return 0;
+    }
+    ftm_error e = {0, ""};
+    ftm_wire_msg msg;
+    int rc = ftm_wire_decode(kind, env->payload._buffer, env->payload._length, &t->limits, &msg, &e);
+    if (rc) {
+        reject(t, kind, "message from participant %u seq %llu: %s", env->sender,
+               (unsigned long long)env->seq, e.message);
+        return 0;
+    }
+    memset(out, 0, sizeof *out);
+    out->msg = msg;
+    out->sender = env->sender;
+    out->seq = env->seq;
+    out->source_time_ns = info->source_timestamp;
+    out->gap = track(io, env->sender, env->seq);
+    pthread_mutex_lock(&t->lock);
+    io->stats.received++;
+    io->stats.missing += out->gap;
+    pthread_mutex_unlock(&t->lock);
+    if (out->gap)
+        wire_log(t, FTM_LOG_INFO, "wire: %s from participant %u: %llu missing before seq %llu", what,
+                 env->sender, (unsigned long long)out->gap, (unsigned long long)env->seq);
+    return 1;
+}
+
+int ftm_wire_receive(ftm_wire_transport *t, int kind, ftm_wire_received *out, int64_t timeout_ns,
+                     ftm_error *err)
+{
+    if (!t || !out)
+        return wire_err(err, FTM_EINVAL, "ftm_wire_receive: NULL argument");
+    memset(out, 0, sizeof *out);
+    if (!valid_kind(kind) || !t->io[kind].reader)
+        return wire_err(err, FTM_EINVAL, "ftm_wire_receive: this transport does not read %s",
+                        ftm_wire_kind_name(kind));
+    kind_io *io = &t->io[kind];
+    int64_t deadline = now_ns() + (timeout_ns > 0 ? timeout_ns : 0);
+    for (;;) {
+        void *samples[1] = {NULL};
+        dds_sample_info_t info;
+        dds_return_t n = dds_take(io->reader, samples, &info, 1, 1);
+        if (n < 0)
+            return dds_fail(err, "dds_take", n);
+        if (n > 0) {
+            int got = handle_sample(t, kind, samples[0], &info, out);
+            dds_return_loan(io->reader, samples, n);
+            if (got)
+                return FTM_OK;
+            continue; /* skipped one: look at the next without waiting */
+        }
+        int64_t left = deadline - now_ns();
+        if (left <= 0)
+            return wire_err(err, FTM_ETIMEDOUT, "%s: nothing received in %.3f s",
+                            ftm_wire_kind_name(kind), (double)timeout_ns * 1e-9);
+        dds_return_t rc = dds_waitset_wait(io->waitset, NULL, 0, left);
+        if (rc < 0)
+            return dds_fail(err, "dds_waitset_wait", rc);
+    }
+}
+
+void ftm_wire_received_free(ftm_wire_received *r)
+{
+    if (r)
+        ftm_wire_msg_free(&r->msg);
+}
+
+/* ---- statistics -------------------------------------------------------------- */
+
+static uint64_t stat_value(const struct dds_statistics *s, const char *name)
+{
+    const struct dds_stat_keyvalue *kv = dds_lookup_statistic(s, name);
+    if (!kv)
+        return 0;
+    switch (kv->kind) {
+    case DDS_STAT_KIND_UINT32: return kv->u.u32;
+    case DDS_STAT_KIND_UINT64: return kv->u.u64;
+    default: return kv->u.lengthtime;
+    }
+}
+
+int ftm_wire_get_stats(ftm_wire_transport *t, int kind, ftm_wire_stats *stats, ftm_error *err)
+{
+    if (!t || !stats || !valid_kind(kind))
+        return wire_err(err, FTM_EINVAL, "ftm_wire_get_stats: bad argument");
+    kind_io *io = &t->io[kind];
+    pthread_mutex_lock(&t->lock);
+    *stats = io->stats;
+    pthread_mutex_unlock(&t->lock);
+    if (io->wstats && dds_refresh_statistics(io->wstats) == DDS_RETCODE_OK) {
+        stats->rexmit_bytes = stat_value(io->wstats, "rexmit_bytes");
+        stats->throttle_count = stat_value(io->wstats, "throttle_count");
+    }
+    if (io->reader && kind == FTM_WIRE_STATUS) {
+        dds_requested_deadline_missed_status_t st;
+        if (dds_get_requested_deadline_missed_status(io->reader, &st) == DDS_RETCODE_OK)
+            stats->deadline_missed = st.total_count;
+    }
+    stats->matched = matched_count(io);
+    return FTM_OK;
+}

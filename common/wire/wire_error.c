@@ -1,0 +1,42 @@
+#include "wire_internal.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+
+int wire_err(ftm_error *err, int code, const char *fmt, ...)
+{
+    if (err) {
+        err->code = code;
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err->message, sizeof err->message, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
+const char *ftm_wire_strerror(int code)
+{
+    switch (code) {
+    case FTM_ETOOBIG: return "message too large";
+    case FTM_EBUDGET: return "decoding memory budget exceeded";
+    case FTM_EVERSION: return "protocol version mismatch";
+    case FTM_ETIMEDOUT: return "timed out";
+    case FTM_EDDS: return "DDS error";
+    case FTM_EAGAIN: return "queue full";
+    default: return ftm_strerror(code);
+    }
+}
+
+const char *ftm_wire_kind_name(int kind)
+{
+    switch (kind) {
+    case FTM_WIRE_ANNOUNCE: return "scene announcement";
+    case FTM_WIRE_PROBE_INPUT: return "probe input";
+    case FTM_WIRE_TICK: return "tick frame";
+    case FTM_WIRE_KEYFRAME: return "keyframe";
+    case FTM_WIRE_STATUS: return "participant status";
+    case FTM_WIRE_CONTROL: return "session control";
+    default: return "unknown kind";
+    }
+}

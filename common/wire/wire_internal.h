@@ -1,0 +1,23 @@
+/* Internals of ftm_wire shared by codec.c, scan.c and transport.c. */
+#ifndef FTM_WIRE_INTERNAL_H
+#define FTM_WIRE_INTERNAL_H
+
+#include "ftm/wire.h"
+
+#include <protobuf-c/protobuf-c.h>
+
+/* Sets err (if any) and returns code. */
+int wire_err(ftm_error *err, int code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* Walks a protobuf encoding against its descriptor without allocating and
+ * reports the first structural problem with its byte offset and field:
+ * truncated varint/length, wire type that does not fit the field, groups,
+ * invalid wire types, nesting deeper than 32. FTM_OK if well-formed. */
+int wire_scan(const ProtobufCMessageDescriptor *desc, const uint8_t *data, size_t size,
+              const char *what, ftm_error *err);
+
+/* The protobuf-c descriptor of a kind's top-level message, NULL if none. */
+const ProtobufCMessageDescriptor *wire_descriptor(int kind);
+
+#endif
