@@ -15,6 +15,7 @@ packages=(
   libsuitesparse-dev                              # FEM reference (CHOLMOD)
   cyclonedds-dev cyclonedds-tools                 # DDS transport, idlc, ddsperf
   libprotobuf-c-dev protobuf-c-compiler           # wire protocol codec
+  libuv1-dev                                      # ftm-server event loop
 )
 
 missing=()

@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
 # The main job, from a fresh clone: installs dependencies, builds, and runs a
-# headless simulation of the default scene, printing its summary.
-# Extra arguments go to `ftm sim` (e.g. a scene name or file, --steps N).
+# headless training session on loopback — ftm-server with two scripted
+# trainees and an observer (deploy/run-session.sh) — printing what every
+# participant ended on. (With a display this will open the GL client once it
+# exists; until then the session is headless everywhere.)
+#   deploy/run-main.sh [SECONDS]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 deploy/install-deps.sh >&2
 cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release >&2
 cmake --build build/release -j "$(nproc 2>/dev/null || echo 2)" >&2
-exec build/release/tools/ftm sim "$@"
+exec deploy/run-session.sh build/release "${1:-6}"

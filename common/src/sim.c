@@ -697,3 +697,95 @@ void ftm_sim_reset(ftm_sim *sim)
     sim->st.depth = sim->def.depth;
     sim->st.substeps = 1;
 }
+
+/* ---- keyframes ---- */
+
+void ftm_sim_get_mode(const ftm_sim *sim, ftm_sim_mode *mode)
+{
+    mode->substeps = sim->substeps;
+    mode->steps_at_substeps = sim->steps_at_substeps;
+    mode->quiet_steps = sim->quiet_steps;
+    mode->region_sleeping = sim->region_sleeping;
+}
+
+const double *ftm_sim_previous_positions(const ftm_sim *sim) { return sim->xp; }
+
+int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t *nodes,
+                       const double *x, const double *xp, int32_t count,
+                       const ftm_contact *contacts, int32_t ncontacts, const ftm_sim_mode *mode,
+                       ftm_error *err)
+{
+    if (!sim || count < 0 || (count > 0 && (!nodes || !x || !xp)))
+        return ftm_error_set(err, FTM_EINVAL, "load state: null argument or negative count");
+    if (depth < 0 || depth > FTM_MAX_DEPTH)
+        return ftm_error_set(err, FTM_EINVAL, "load state: depth %d out of range 0..%d",
+                             (int)depth, FTM_MAX_DEPTH);
+    ftm_sim_mode md = {1, 0, 0, false};
+    if (mode)
+        md = *mode;
+    if (md.substeps < 1 || md.substeps > sim->def.max_substeps || md.steps_at_substeps < 0 ||
+        md.quiet_steps < 0)
+        return ftm_error_set(err, FTM_EINVAL,
+                             "load state: mode out of range (substeps %d of at most %d)",
+                             (int)md.substeps, (int)sim->def.max_substeps);
+    for (int32_t k = 0; k < count; k++) {
+        int32_t i = nodes[k];
+        if (i < 0 || i >= sim->n)
+            return ftm_error_set(err, FTM_ERANGE, "load state: node %d out of range 0..%d",
+                                 (int)i, (int)sim->n - 1);
+        if (k > 0 && i <= nodes[k - 1])
+            return ftm_error_set(err, FTM_EINVAL, "load state: nodes not strictly ascending at %d",
+                                 (int)k);
+        if (sim->m->fixed[i])
+            return ftm_error_set(err, FTM_EINVAL, "load state: node %d is fixed", (int)i);
+        for (int d = 0; d < 3; d++)
+            if (!isfinite(x[3 * k + d]) || !isfinite(xp[3 * k + d]))
+                return ftm_error_set(err, FTM_EINVAL, "load state: node %d: value not finite",
+                                     (int)i);
+    }
+    int rc = ftm_sim_relax_reserve(sim, count + 1);
+    if (rc)
+        return ftm_error_set(err, rc, "load state: out of memory");
+    /* validates the contacts; the first change to the state */
+    rc = ftm_sim_set_contacts(sim, contacts, ncontacts, err);
+    if (rc)
+        return rc;
+    size_t n = (size_t)sim->n;
+    memcpy(sim->x, sim->m->rest, n * 3 * sizeof(double));
+    memcpy(sim->xp, sim->m->rest, n * 3 * sizeof(double));
+    for (int32_t k = 0; k < count; k++) {
+        memcpy(sim->x + 3 * nodes[k], x + 3 * k, 3 * sizeof(double));
+        memcpy(sim->xp + 3 * nodes[k], xp + 3 * k, 3 * sizeof(double));
+    }
+    sim->def.depth = depth;
+    sim->st.depth = depth;
+    /* the substep length without rescaling x_prev: it is already in that frame */
+    if (md.substeps != sim->substeps) {
+        sim->substeps = md.substeps;
+        set_substep_length(sim, sim->def.time_step / md.substeps);
+    }
+    sim->st.substeps = md.substeps;
+    /* Region from the contacts, then the relaxing set: every node not at
+     * rest outside the region, ascending (the invariant after any step). */
+    sim->nrelax = 0;
+    sim->layers_dirty = true;
+    rc = ftm_sim_rebuild_region(sim);
+    if (rc)
+        return ftm_error_set(err, rc, "load state: %s", ftm_strerror(rc));
+    int32_t nr = 0;
+    for (int32_t k = 0; k < count; k++) {
+        int32_t i = nodes[k];
+        if (!ftm_layering_contains(&sim->ly, i) && !ftm_sim_at_rest(sim, i))
+            sim->relax[nr++] = i;
+    }
+    sim->nrelax = nr;
+    sim->steps_at_substeps = md.steps_at_substeps;
+    sim->quiet_steps = md.quiet_steps;
+    sim->region_sleeping = md.region_sleeping;
+    if (sim->reaction_groups > 0)
+        memset(sim->reaction, 0, (size_t)sim->reaction_groups * 3 * sizeof *sim->reaction);
+    sim->st.step = step;
+    sim->st.updated_nodes = 0;
+    ftm_error_clear(err);
+    return FTM_OK;
+}

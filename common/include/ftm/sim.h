@@ -150,6 +150,36 @@ void ftm_sim_reset(ftm_sim *sim);
 
 const ftm_mesh *ftm_sim_mesh(const ftm_sim *sim);
 
+/* ---- keyframes: saving and restoring the dynamic state ----
+ * For deterministic replay (server -> clients, docs/protocol.md): a state
+ * saved on one simulation and loaded into another of the same mesh and
+ * definition continues bit-identically. That state is: position and previous
+ * position of every node not at rest, the contacts, the depth, the step
+ * counter and the integrator's mode below. */
+
+/* The integrator's internal mode (stability guard and region sleep). */
+typedef struct ftm_sim_mode {
+    int32_t substeps;          /* substeps per step, 1..max_substeps */
+    int32_t steps_at_substeps; /* clean steps since substeps last changed */
+    int32_t quiet_steps;       /* region sleep: consecutive quiet steps */
+    bool region_sleeping;      /* region sleep: the region is asleep */
+} ftm_sim_mode;
+
+void ftm_sim_get_mode(const ftm_sim *sim, ftm_sim_mode *mode);
+
+/* Previous positions (x_prev), 3 doubles per node, like ftm_sim_positions. */
+const double *ftm_sim_previous_positions(const ftm_sim *sim);
+
+/* Replaces the dynamic state: every node at rest except nodes[0..count-1]
+ * (strictly ascending, not fixed) with positions x and previous positions xp
+ * (3 per listed node); the contacts (as for ftm_sim_set_contacts), the depth,
+ * the step counter and the mode (NULL: one substep, region awake). Validates
+ * everything first and changes nothing on error. Cost O(node count). */
+int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t *nodes,
+                       const double *x, const double *xp, int32_t count,
+                       const ftm_contact *contacts, int32_t ncontacts, const ftm_sim_mode *mode,
+                       ftm_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -1,0 +1,635 @@
+/* ftm-bot: a scripted headless participant (docs/bot-script.md).
+ *
+ * Joins a session as trainee, observer or instructor, replays the server's
+ * tick frames with ftm_replay like a real client, drives a probe along a
+ * scripted HIP trajectory (trainee) or issues scripted session commands
+ * (instructor), publishes its status every 500 ms, and logs reaction forces,
+ * latency and hashes. Exit status: 0 synced at the end; 1 a hash mismatch or
+ * gap that did not recover (or never synced); 2 usage; 3 set-up failure. */
+#include "replay.h"
+
+#include "ftm/scene.h"
+#include "ftm/wire.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#define SEC 1000000000LL
+
+typedef struct point {
+    double t;
+    ftm_vec3 p;
+} point;
+
+typedef struct command {
+    double t;
+    ftm_wire_command cmd;
+    bool done;
+} command;
+
+typedef struct script {
+    point *pts;
+    int32_t npts, cap;
+    command cmds[64];
+    int32_t ncmds;
+    double join, leave; /* leave < 0: none */
+} script;
+
+typedef struct options {
+    const char *role, *script, *scene, *session, *config, *log_path, *name;
+    uint32_t domain, id;
+    double duration, resync_timeout, input_period;
+} options;
+
+static volatile sig_atomic_t g_stop;
+static void on_signal(int sig) { (void)sig; g_stop = 1; }
+
+static int64_t mono_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * SEC + ts.tv_nsec;
+}
+
+static int64_t real_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (int64_t)ts.tv_sec * SEC + ts.tv_nsec;
+}
+
+static int64_t g_t0;
+static uint32_t g_id;
+
+static void blog(const char *fmt, ...)
+{
+    char buf[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    fprintf(stderr, "ftm-bot %u [%8.3f] %s\n", g_id, (double)(mono_ns() - g_t0) * 1e-9, buf);
+}
+
+static void log_hook(void *user, ftm_log_level level, const char *message)
+{
+    (void)user;
+    if (level >= FTM_LOG_INFO)
+        blog("%s", message);
+}
+
+/* ---- script ---------------------------------------------------------------------- */
+
+static int parse_script(const char *path, script *sc)
+{
+    memset(sc, 0, sizeof *sc);
+    sc->leave = -1.0;
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        fprintf(stderr, "ftm-bot: cannot open script %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    char line[512];
+    int lineno = 0;
+    while (fgets(line, sizeof line, f)) {
+        lineno++;
+        char *hash = strchr(line, '#');
+        if (hash)
+            *hash = '\0';
+        char *p = line;
+        while (isspace((unsigned char)*p))
+            p++;
+        if (!*p)
+            continue;
+        char word[32];
+        double v[4];
+        int n;
+        if (isalpha((unsigned char)*p)) {
+            if (sscanf(p, "%31s %lf %n", word, &v[0], &n) < 2) {
+                fprintf(stderr, "%s:%d: expected '<keyword> <time>'\n", path, lineno);
+                goto bad;
+            }
+            if (p[n] != '\0') {
+                fprintf(stderr, "%s:%d: extra text after '%s <time>'\n", path, lineno, word);
+                goto bad;
+            }
+            if (!(v[0] >= 0) || !isfinite(v[0])) {
+                fprintf(stderr, "%s:%d: time must be >= 0\n", path, lineno);
+                goto bad;
+            }
+            if (strcmp(word, "join") == 0) {
+                sc->join = v[0];
+            } else if (strcmp(word, "leave") == 0) {
+                sc->leave = v[0];
+            } else if (strcmp(word, "pause") == 0 || strcmp(word, "resume") == 0 ||
+                       strcmp(word, "reset") == 0) {
+                if (sc->ncmds == 64) {
+                    fprintf(stderr, "%s:%d: more than 64 commands\n", path, lineno);
+                    goto bad;
+                }
+                ftm_wire_command c = strcmp(word, "pause") == 0   ? FTM_WIRE_CMD_PAUSE
+                                     : strcmp(word, "reset") == 0 ? FTM_WIRE_CMD_RESET
+                                                                  : FTM_WIRE_CMD_RESUME;
+                sc->cmds[sc->ncmds++] = (command){v[0], c, false};
+            } else {
+                fprintf(stderr, "%s:%d: unknown keyword '%s' (join, leave, pause, resume, reset)\n",
+                        path, lineno, word);
+                goto bad;
+            }
+            continue;
+        }
+        if (sscanf(p, "%lf %lf %lf %lf %n", &v[0], &v[1], &v[2], &v[3], &n) < 4 || p[n] != '\0') {
+            fprintf(stderr, "%s:%d: expected 't x y z' (4 numbers)\n", path, lineno);
+            goto bad;
+        }
+        for (int i = 0; i < 4; i++)
+            if (!isfinite(v[i])) {
+                fprintf(stderr, "%s:%d: not a finite number\n", path, lineno);
+                goto bad;
+            }
+        if (sc->npts > 0 && !(v[0] > sc->pts[sc->npts - 1].t)) {
+            fprintf(stderr, "%s:%d: times must increase\n", path, lineno);
+            goto bad;
+        }
+        if (sc->npts == sc->cap) {
+            int32_t cap = sc->cap ? 2 * sc->cap : 64;
+            point *q = realloc(sc->pts, (size_t)cap * sizeof *q);
+            if (!q)
+                goto bad;
+            sc->pts = q;
+            sc->cap = cap;
+        }
+        sc->pts[sc->npts++] = (point){v[0], {v[1], v[2], v[3]}};
+    }
+    fclose(f);
+    return 0;
+bad:
+    fclose(f);
+    free(sc->pts);
+    sc->pts = NULL;
+    return -1;
+}
+
+/* Linear interpolation; held before the first and after the last point. */
+static ftm_vec3 script_at(const script *sc, double t)
+{
+    if (t <= sc->pts[0].t)
+        return sc->pts[0].p;
+    for (int32_t i = 1; i < sc->npts; i++)
+        if (t <= sc->pts[i].t) {
+            const point *a = &sc->pts[i - 1], *b = &sc->pts[i];
+            double w = (t - a->t) / (b->t - a->t);
+            return (ftm_vec3){a->p.x + w * (b->p.x - a->p.x), a->p.y + w * (b->p.y - a->p.y),
+                              a->p.z + w * (b->p.z - a->p.z)};
+        }
+    return sc->pts[sc->npts - 1].p;
+}
+
+/* ---- options ------------------------------------------------------------------------ */
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: ftm-bot --role trainee|observer|instructor [options]\n"
+            "  --script FILE          HIP trajectory / commands (docs/bot-script.md)\n"
+            "  --scene NAME|FILE      local scene (default: the announced scene id)\n"
+            "  --session NAME         session name (default: ftm)\n"
+            "  --domain N             DDS domain id (default 0)\n"
+            "  --config FILE          Cyclone DDS configuration\n"
+            "  --id N                 participant id (default: from pid and time)\n"
+            "  --name TEXT            display name\n"
+            "  --duration S           stop after S seconds (default 10; also when the server leaves)\n"
+            "  --resync-timeout S     fail if not synced for S seconds (default 5)\n"
+            "  --input-period S       probe input batch period (default 0.001)\n"
+            "  --log FILE             CSV: one line per applied frame\n");
+}
+
+static int parse(int argc, char **argv, options *o)
+{
+    *o = (options){NULL, NULL, NULL, "ftm", NULL, NULL, NULL, 0, 0, 10.0, 5.0, 0.001};
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            usage(stdout);
+            exit(0);
+        }
+        if (i + 1 >= argc) {
+            fprintf(stderr, "ftm-bot: %s needs a value (or unknown option)\n", a);
+            return -1;
+        }
+        const char *v = argv[++i];
+        char *end = NULL;
+        errno = 0;
+        if (strcmp(a, "--role") == 0)
+            o->role = v;
+        else if (strcmp(a, "--script") == 0)
+            o->script = v;
+        else if (strcmp(a, "--scene") == 0)
+            o->scene = v;
+        else if (strcmp(a, "--session") == 0)
+            o->session = v;
+        else if (strcmp(a, "--config") == 0)
+            o->config = v;
+        else if (strcmp(a, "--log") == 0)
+            o->log_path = v;
+        else if (strcmp(a, "--name") == 0)
+            o->name = v;
+        else if (strcmp(a, "--domain") == 0)
+            o->domain = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--id") == 0)
+            o->id = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--duration") == 0)
+            o->duration = strtod(v, &end);
+        else if (strcmp(a, "--resync-timeout") == 0)
+            o->resync_timeout = strtod(v, &end);
+        else if (strcmp(a, "--input-period") == 0)
+            o->input_period = strtod(v, &end);
+        else {
+            fprintf(stderr, "ftm-bot: unknown option %s\n", a);
+            return -1;
+        }
+        if (end && (*end || errno)) {
+            fprintf(stderr, "ftm-bot: %s: bad number '%s'\n", a, v);
+            return -1;
+        }
+    }
+    if (!o->role) {
+        fprintf(stderr, "ftm-bot: --role is required\n");
+        return -1;
+    }
+    if (!(o->duration > 0) || !(o->resync_timeout > 0) || !(o->input_period > 0)) {
+        fprintf(stderr, "ftm-bot: --duration, --resync-timeout, --input-period must be > 0\n");
+        return -1;
+    }
+    return 0;
+}
+
+/* ---- the bot ---------------------------------------------------------------------------- */
+
+typedef struct bot {
+    options o;
+    ftm_wire_role role;
+    script sc;
+    bool have_script;
+    ftm_wire_transport *wire;
+    ftm_scene *scene;
+    ftm_replay *rep;
+    FILE *csv;
+    uint32_t server_id;
+    bool server_left;
+    int64_t server_left_ns;
+    int64_t last_frame_ns;
+    uint64_t command_id;
+    double lat_sum_us, lat_max_us;
+    uint64_t lat_n;
+    bool ever_synced;
+    int64_t unsynced_since;
+} bot;
+
+static void publish_status(bot *b, ftm_wire_state state)
+{
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_STATUS;
+    ftm_wire_status *st = &m.u.status;
+    st->participant = b->o.id;
+    st->role = b->role;
+    st->state = state;
+    if (b->rep) {
+        ftm_replay_stats rs;
+        ftm_replay_get_stats(b->rep, &rs);
+        st->last_applied_tick = ftm_replay_tick(b->rep);
+        st->state_hash = ftm_replay_hash(b->rep);
+        st->replay_ns_per_tick =
+            rs.frames_applied ? rs.replay_ns_total / (double)(rs.frames_applied + rs.idle_ticks) : 0;
+        st->replay_ns_max = ftm_replay_take_max(b->rep);
+    }
+    snprintf(st->name, sizeof st->name, "%s", b->o.name ? b->o.name : b->o.role);
+    ftm_error err = {0, ""};
+    if (ftm_wire_publish(b->wire, &m, &err))
+        blog("status: %s", err.message);
+}
+
+static ftm_wire_state cur_state(const bot *b)
+{
+    return b->rep ? ftm_replay_state(b->rep) : FTM_WIRE_STATE_JOINING;
+}
+
+static void on_announce(bot *b, const ftm_wire_announce *a)
+{
+    ftm_error err = {0, ""};
+    if (!b->scene) {
+        const char *name = b->o.scene ? b->o.scene : a->scene_id;
+        if (ftm_scene_open(name, &b->scene, &err)) {
+            blog("cannot load scene '%s': %s", name, err.message);
+            return;
+        }
+        if (ftm_replay_create(b->scene, log_hook, NULL, &b->rep, &err)) {
+            blog("replay: %s", err.message);
+            ftm_scene_destroy(b->scene);
+            b->scene = NULL;
+            return;
+        }
+        blog("joined session: scene '%s', %u Hz, tick %" PRIu64 "%s", a->scene_id,
+             a->tick_rate_hz, a->tick, a->paused ? " (paused)" : "");
+        /* keyframes that came before the replica existed are lost: ask again */
+        publish_status(b, FTM_WIRE_STATE_JOINING);
+    }
+    if (ftm_replay_check_announce(b->rep, a, &err)) {
+        blog("%s", err.message);
+        ftm_replay_destroy(b->rep);
+        b->rep = NULL;
+        ftm_scene_destroy(b->scene);
+        b->scene = NULL;
+    }
+}
+
+static void log_frame(bot *b, const ftm_wire_received *rx)
+{
+    if (!b->csv || !b->rep)
+        return;
+    const ftm_wire_tick *t = ftm_replay_last_frame(b->rep);
+    ftm_vec3 f = {0, 0, 0};
+    for (int32_t i = 0; i < t->reaction_count; i++)
+        if (t->reactions[i].participant == b->o.id && t->reactions[i].probe == 0)
+            f = t->reactions[i].force;
+    double lat_us = (double)(real_ns() - rx->source_time_ns) * 1e-3;
+    fprintf(b->csv, "%.6f,%" PRIu64 ",%016" PRIx64 ",%016" PRIx64 ",%d,%d,%.9g,%.9g,%.9g,%.1f\n",
+            (double)(mono_ns() - g_t0) * 1e-9, t->tick, t->state_hash, ftm_replay_hash(b->rep),
+            (int)ftm_replay_state(b->rep), (int)t->contact_count, f.x, f.y, f.z, lat_us);
+}
+
+static void on_tick(bot *b, const ftm_wire_received *rx)
+{
+    b->last_frame_ns = mono_ns();
+    if (!b->rep)
+        return;
+    ftm_wire_state before = ftm_replay_state(b->rep);
+    uint64_t applied = ftm_replay_last_frame(b->rep)->tick;
+    if (ftm_replay_on_tick(b->rep, rx))
+        blog("replay: out of memory");
+    double lat_us = (double)(real_ns() - rx->source_time_ns) * 1e-3;
+    b->lat_sum_us += lat_us;
+    b->lat_n++;
+    if (lat_us > b->lat_max_us)
+        b->lat_max_us = lat_us;
+    if (ftm_replay_last_frame(b->rep)->tick != applied)
+        log_frame(b, rx);
+    if (ftm_replay_state(b->rep) != before)
+        publish_status(b, ftm_replay_state(b->rep));
+}
+
+static void on_keyframe(bot *b, const ftm_wire_keyframe *k)
+{
+    if (!b->rep)
+        return;
+    ftm_wire_state before = ftm_replay_state(b->rep);
+    if (ftm_replay_on_keyframe(b->rep, k))
+        blog("replay: out of memory");
+    if (ftm_replay_state(b->rep) != before)
+        publish_status(b, ftm_replay_state(b->rep));
+}
+
+static void send_probe(bot *b, double t)
+{
+    ftm_wire_probe_sample smp = {0, (uint64_t)mono_ns(), script_at(&b->sc, t)};
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_PROBE_INPUT;
+    m.u.probe_input.participant = b->o.id;
+    m.u.probe_input.last_tick_seen = b->rep ? ftm_replay_tick(b->rep) : 0;
+    m.u.probe_input.sample_count = 1;
+    m.u.probe_input.samples = &smp;
+    ftm_error err = {0, ""};
+    if (ftm_wire_publish(b->wire, &m, &err))
+        blog("probe input: %s", err.message);
+}
+
+static void send_commands(bot *b, double t)
+{
+    for (int32_t i = 0; i < b->sc.ncmds; i++) {
+        command *c = &b->sc.cmds[i];
+        if (c->done || t < c->t)
+            continue;
+        c->done = true;
+        ftm_wire_msg m;
+        memset(&m, 0, sizeof m);
+        m.kind = FTM_WIRE_CONTROL;
+        m.u.control.issuer = b->o.id;
+        m.u.control.command_id = ++b->command_id;
+        m.u.control.command = c->cmd;
+        ftm_error err = {0, ""};
+        if (ftm_wire_publish(b->wire, &m, &err))
+            blog("control: %s", err.message);
+        else
+            blog("sent %s", c->cmd == FTM_WIRE_CMD_PAUSE ? "pause"
+                            : c->cmd == FTM_WIRE_CMD_RESUME ? "resume" : "reset");
+    }
+}
+
+static void on_status(bot *b, const ftm_wire_received *rx)
+{
+    if (rx->gone) {
+        if (rx->sender == b->server_id && !b->server_left) {
+            blog("server %u gone", rx->sender);
+            b->server_left = true;
+            b->server_left_ns = mono_ns();
+        }
+        return;
+    }
+    const ftm_wire_status *st = &rx->msg.u.status;
+    if (st->role == FTM_WIRE_ROLE_SERVER) {
+        b->server_id = rx->sender;
+        if (st->state == FTM_WIRE_STATE_LEAVING && !b->server_left) {
+            blog("server %u leaving at tick %" PRIu64, rx->sender, st->last_applied_tick);
+            b->server_left = true;
+            b->server_left_ns = mono_ns();
+        }
+    }
+}
+
+int main(int argc, char **argv)
+{
+    static bot bb;
+    bot *b = &bb;
+    g_t0 = mono_ns();
+    if (parse(argc, argv, &b->o)) {
+        usage(stderr);
+        return 2;
+    }
+    if (strcmp(b->o.role, "trainee") == 0)
+        b->role = FTM_WIRE_ROLE_TRAINEE;
+    else if (strcmp(b->o.role, "observer") == 0)
+        b->role = FTM_WIRE_ROLE_OBSERVER;
+    else if (strcmp(b->o.role, "instructor") == 0)
+        b->role = FTM_WIRE_ROLE_INSTRUCTOR;
+    else {
+        fprintf(stderr, "ftm-bot: --role must be trainee, observer or instructor\n");
+        return 2;
+    }
+    if (b->o.script) {
+        if (parse_script(b->o.script, &b->sc))
+            return 2;
+        b->have_script = true;
+    } else {
+        b->sc.leave = -1.0;
+    }
+    if (b->role == FTM_WIRE_ROLE_TRAINEE && (!b->have_script || b->sc.npts == 0)) {
+        fprintf(stderr, "ftm-bot: a trainee needs a --script with HIP positions\n");
+        return 2;
+    }
+    if (b->o.id == 0)
+        b->o.id = (uint32_t)(((uint64_t)getpid() * 2654435761u) ^ (uint64_t)real_ns()) | 1u;
+    g_id = b->o.id;
+    if (b->o.log_path) {
+        b->csv = fopen(b->o.log_path, "w");
+        if (!b->csv) {
+            fprintf(stderr, "ftm-bot: cannot open %s: %s\n", b->o.log_path, strerror(errno));
+            return 3;
+        }
+        fprintf(b->csv, "time_s,tick,server_hash,replica_hash,state,contacts,fx,fy,fz,"
+                        "latency_us\n");
+    }
+    signal(SIGINT, on_signal);
+    signal(SIGTERM, on_signal);
+    int64_t end_ns = g_t0 + (int64_t)(b->o.duration * 1e9);
+
+    /* wait for the join time */
+    int64_t join_ns = g_t0 + (int64_t)(b->sc.join * 1e9);
+    while (!g_stop && mono_ns() < join_ns && mono_ns() < end_ns) {
+        struct timespec ts = {0, 5000000};
+        nanosleep(&ts, NULL);
+    }
+    ftm_wire_transport_def wd;
+    memset(&wd, 0, sizeof wd);
+    wd.config = b->o.config;
+    wd.domain_id = b->o.domain;
+    wd.session = b->o.session;
+    wd.participant_id = b->o.id;
+    wd.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS);
+    if (b->role == FTM_WIRE_ROLE_TRAINEE)
+        wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT);
+    if (b->role == FTM_WIRE_ROLE_INSTRUCTOR)
+        wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL);
+    wd.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE) | FTM_WIRE_KIND_BIT(FTM_WIRE_TICK) |
+                   FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME) | FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS);
+    wd.log = log_hook;
+    ftm_error err = {0, ""};
+    if (ftm_wire_transport_create(&wd, &b->wire, &err)) {
+        blog("%s", err.message);
+        return 3;
+    }
+    blog("%s joining session '%s' on domain %u", b->o.role, b->o.session, b->o.domain);
+    publish_status(b, FTM_WIRE_STATE_JOINING);
+    int64_t next_status = mono_ns() + SEC / 2, next_input = mono_ns();
+    int64_t leave_ns = b->sc.leave >= 0 ? g_t0 + (int64_t)(b->sc.leave * 1e9) : INT64_MAX;
+    b->unsynced_since = mono_ns();
+    int rc_exit = 0;
+    const char *why = "duration reached";
+    while (!g_stop) {
+        int64_t now = mono_ns();
+        if (now >= end_ns)
+            break;
+        if (now >= leave_ns) {
+            why = "script leave time";
+            break;
+        }
+        /* the server has left: take what is still in flight, then stop */
+        if (b->server_left && now - b->server_left_ns > SEC / 2 && now - b->last_frame_ns > SEC / 5) {
+            why = "server left";
+            break;
+        }
+        ftm_wire_received rx;
+        if (ftm_wire_receive(b->wire, FTM_WIRE_ANNOUNCE, &rx, 0, NULL) == FTM_OK) {
+            on_announce(b, &rx.msg.u.announce);
+            ftm_wire_received_free(&rx);
+        }
+        while (ftm_wire_receive(b->wire, FTM_WIRE_STATUS, &rx, 0, NULL) == FTM_OK) {
+            on_status(b, &rx);
+            ftm_wire_received_free(&rx);
+        }
+        if (ftm_wire_receive(b->wire, FTM_WIRE_KEYFRAME, &rx, 0, NULL) == FTM_OK) {
+            on_keyframe(b, &rx.msg.u.keyframe);
+            ftm_wire_received_free(&rx);
+        }
+        int64_t wait = b->role == FTM_WIRE_ROLE_TRAINEE ? next_input - mono_ns() : SEC / 1000;
+        if (wait < 0)
+            wait = 0;
+        if (wait > SEC / 1000)
+            wait = SEC / 1000;
+        for (int n = 0; n < 1000; n++) {
+            if (ftm_wire_receive(b->wire, FTM_WIRE_TICK, &rx, n == 0 ? wait : 0, NULL) != FTM_OK)
+                break;
+            on_tick(b, &rx);
+            ftm_wire_received_free(&rx);
+        }
+        now = mono_ns();
+        double t = (double)(now - g_t0) * 1e-9;
+        if (b->role == FTM_WIRE_ROLE_TRAINEE && now >= next_input) {
+            send_probe(b, t);
+            next_input += (int64_t)(b->o.input_period * 1e9);
+            if (next_input < now)
+                next_input = now;
+        }
+        if (b->role == FTM_WIRE_ROLE_INSTRUCTOR && b->ever_synced)
+            send_commands(b, t);
+        ftm_wire_state st = cur_state(b);
+        if (st == FTM_WIRE_STATE_SYNCED) {
+            if (!b->ever_synced)
+                blog("synced at tick %" PRIu64, ftm_replay_tick(b->rep));
+            b->ever_synced = true;
+            b->unsynced_since = now;
+        } else if (now - b->unsynced_since > (int64_t)(b->o.resync_timeout * 1e9)) {
+            blog("not synced for %.1f s (%s): giving up", b->o.resync_timeout,
+                 b->ever_synced ? "hash mismatch or gap did not recover" : "never synced");
+            rc_exit = 1;
+            why = "resync timeout";
+            break;
+        }
+        if (now >= next_status) {
+            publish_status(b, st);
+            next_status += SEC / 2;
+            if (next_status < now)
+                next_status = now + SEC / 2;
+        }
+    }
+    if (g_stop)
+        why = "signal";
+    publish_status(b, FTM_WIRE_STATE_LEAVING);
+    ftm_wire_flush(b->wire, SEC, NULL);
+    ftm_replay_stats rs;
+    memset(&rs, 0, sizeof rs);
+    if (b->rep)
+        ftm_replay_get_stats(b->rep, &rs);
+    ftm_wire_state st = cur_state(b);
+    if (st != FTM_WIRE_STATE_SYNCED)
+        rc_exit = 1;
+    blog("stopping (%s): %s, %" PRIu64 " frames received, %" PRIu64 " applied, %" PRIu64
+         " idle ticks, %" PRIu64 " mismatches, %" PRIu64 " gaps, %" PRIu64 " resyncs, %" PRIu64
+         " keyframes loaded; latency mean %.0f us max %.0f us; replay %.2f us/tick",
+         why, st == FTM_WIRE_STATE_SYNCED ? "synced" : "NOT synced", rs.frames_received,
+         rs.frames_applied, rs.idle_ticks, rs.mismatches, rs.gaps, rs.resyncs,
+         rs.keyframes_loaded, b->lat_n ? b->lat_sum_us / (double)b->lat_n : 0.0, b->lat_max_us,
+         rs.frames_applied ? rs.replay_ns_total / (double)(rs.frames_applied + rs.idle_ticks) * 1e-3
+                           : 0.0);
+    printf("ftm-bot %u: final tick %" PRIu64 " hash %016" PRIx64 " %s\n", b->o.id,
+           b->rep ? ftm_replay_tick(b->rep) : 0, b->rep ? ftm_replay_hash(b->rep) : 0,
+           st == FTM_WIRE_STATE_SYNCED ? "synced" : "not-synced");
+    fflush(stdout);
+    ftm_wire_transport_destroy(b->wire);
+    ftm_replay_destroy(b->rep);
+    ftm_scene_destroy(b->scene);
+    free(b->sc.pts);
+    if (b->csv)
+        fclose(b->csv);
+    return rc_exit;
+}

@@ -1,0 +1,100 @@
+/* Deterministic replay of a session's tick frames (docs/protocol.md,
+ * "Ticks, heartbeats and replay").
+ *
+ * A replica holds its own copy of the scene and applies the server's tick
+ * frames with libftm exactly as the server ran them (ftm_replay_step: set
+ * depth, set contacts, step), checks the frame's state hash after every
+ * tick, finds lost frames from the envelope's sequence gaps, and resyncs from
+ * a keyframe when it can no longer be trusted. Used by ftm-bot and, later,
+ * the GL client; the server uses ftm_replay_step, ftm_replay_sim_def and
+ * ftm_replay_scene_digest so both sides run the same code.
+ *
+ * Library ftm_replay: libftm + ftm_wire, no GL, no threads of its own. One
+ * thread per ftm_replay. */
+#ifndef FTM_CLIENT_REPLAY_H
+#define FTM_CLIENT_REPLAY_H
+
+#include "ftm/scene.h"
+#include "ftm/wire.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define FTM_REPLAY_DIGEST_SIZE 32
+
+/* The simulation definition a session runs a scene with (server and every
+ * replica): the scene's, with region sleep off (keyframes do not carry the
+ * region-sleep state yet, see docs/protocol.md). */
+ftm_sim_def ftm_replay_sim_def(const ftm_scene *scene);
+
+/* SHA-256 over a canonical encoding of what determines the dynamics: the
+ * mesh as built (rest positions, masses, damping, fixed flags, adjacency with
+ * stiffness and rest lengths, surface triangles) and the session's sim
+ * definition. Two peers with equal digests replay bit-identically. */
+void ftm_replay_scene_digest(const ftm_scene *scene, uint8_t out[FTM_REPLAY_DIGEST_SIZE]);
+
+/* SHA-256 of arbitrary bytes (FIPS 180-4). */
+void ftm_sha256(const void *data, size_t size, uint8_t out[32]);
+
+/* One tick, exactly as the server runs it: ftm_sim_set_depth(depth),
+ * ftm_sim_set_contacts(contacts), ftm_sim_step(). */
+int ftm_replay_step(ftm_sim *sim, int32_t depth, const ftm_contact *contacts, int32_t count,
+                    ftm_error *err);
+
+/* The keyframe message of a simulation's current state (nodes not at rest).
+ * Arrays are malloc'ed into *out (free with ftm_replay_keyframe_free). */
+int ftm_replay_make_keyframe(const ftm_sim *sim, ftm_wire_keyframe *out, ftm_error *err);
+void ftm_replay_keyframe_free(ftm_wire_keyframe *k);
+
+typedef struct ftm_replay ftm_replay;
+
+typedef struct ftm_replay_stats {
+    uint64_t frames_received;  /* tick frames handed to ftm_replay_on_tick */
+    uint64_t frames_applied;   /* frames stepped (re-applications included) */
+    uint64_t idle_ticks;       /* ticks the server did not send (idle), stepped here */
+    uint64_t stale_frames;     /* frames at or before the current tick, ignored */
+    uint64_t mismatches;       /* hash mismatches */
+    uint64_t gaps;             /* frames with a sequence gap */
+    uint64_t resyncs;          /* times the replica entered RESYNCING */
+    uint64_t keyframes_loaded; /* keyframes restored */
+    uint64_t keyframes_unusable; /* keyframes that could not be continued from */
+    double replay_ns_total;    /* time spent in ftm_replay_step */
+    double replay_ns_max;      /* worst ftm_replay_step since ftm_replay_take_max */
+} ftm_replay_stats;
+
+/* The replica of scene (which must outlive it). log may be NULL. */
+int ftm_replay_create(const ftm_scene *scene, ftm_log_fn log, void *log_user, ftm_replay **out,
+                      ftm_error *err);
+void ftm_replay_destroy(ftm_replay *r);
+
+/* Checks an announcement against the local scene (digest, node count,
+ * time step). FTM_EINVAL with a message on a mismatch. */
+int ftm_replay_check_announce(const ftm_replay *r, const ftm_wire_announce *a, ftm_error *err);
+
+/* A received tick frame (r->msg.kind == FTM_WIRE_TICK). Synced: applies it
+ * (after stepping any ticks the server left out as idle), checks the hash;
+ * a sequence gap or a mismatch switches to RESYNCING. Not synced: keeps it
+ * for after the keyframe. Returns FTM_OK or FTM_ENOMEM. */
+int ftm_replay_on_tick(ftm_replay *r, const ftm_wire_received *rx);
+
+/* A received keyframe. Not synced: restores it if the frames received since
+ * can continue it, and applies those; synced: checks it against the state
+ * at its tick and restores it if the server's state differs (reset). */
+int ftm_replay_on_keyframe(ftm_replay *r, const ftm_wire_keyframe *k);
+
+ftm_wire_state ftm_replay_state(const ftm_replay *r);
+uint64_t ftm_replay_tick(const ftm_replay *r);   /* last applied tick */
+uint64_t ftm_replay_hash(const ftm_replay *r);   /* ftm_sim_hash now */
+/* Server tick and hash of the last frame applied (hash is what the server
+ * said; equal to ftm_replay_hash when synced). */
+const ftm_wire_tick *ftm_replay_last_frame(const ftm_replay *r);
+void ftm_replay_get_stats(const ftm_replay *r, ftm_replay_stats *stats);
+/* Returns replay_ns_max and starts a new maximum (per status period). */
+double ftm_replay_take_max(ftm_replay *r);
+ftm_sim *ftm_replay_sim(ftm_replay *r);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

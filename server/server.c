@@ -1,0 +1,890 @@
+/* ftm-server: the authoritative session server (docs/server.md).
+ *
+ * One libuv loop, one thread for everything but DDS writes (ftm_wire's
+ * publishing thread does those): a 1 ms timer runs the ticks that are due by
+ * the monotonic clock, after draining received status, probe input and
+ * session control without waiting. Each tick: probe HIPs -> contacts (point
+ * collision with the deformed surface, collide.h) -> ftm_replay_step (the
+ * same call sequence every replica makes) -> tick frame, unless the scene is
+ * idle (then a heartbeat frame every 100 ms). */
+#include "collide.h"
+#include "replay.h"
+
+#include "ftm/scene.h"
+#include "ftm/wire.h"
+
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+#include <uv.h>
+
+#define MAX_PARTICIPANTS 64
+#define MAX_PROBES 4 /* per trainee; group = slot * MAX_PROBES + probe */
+#define MAX_CATCHUP 50 /* ticks run in one timer callback before we call them missed */
+
+typedef struct options {
+    const char *scene;
+    const char *session;
+    const char *config;
+    const char *log_path;
+    uint32_t domain;
+    uint32_t id;
+    double rate;
+    double keyframe_every;
+    double heartbeat;
+    double duration;
+    int32_t depth; /* -1: the scene's */
+} options;
+
+typedef struct probe {
+    bool have, have_prev, contact;
+    ftm_vec3 hip, prev;
+    int32_t tri;
+    ftm_vec3 anchor; /* crossing point in rest coordinates */
+    ftm_vec3 normal; /* the triangle's rest normal, pointing to where the HIP came from */
+} probe;
+
+typedef struct participant {
+    bool used, gone;
+    uint32_t id;
+    ftm_wire_role role;
+    ftm_wire_state state;
+    char name[FTM_WIRE_DISPLAY_MAX];
+    uint64_t last_tick, inputs, rejected;
+    uint64_t last_status_ns; /* monotonic time of the last status received */
+    bool silent;             /* no status for longer than the deadline */
+    uint64_t hash;
+    probe probes[MAX_PROBES];
+} participant;
+
+typedef struct server {
+    options o;
+    FILE *logf;
+    uint64_t t_start_ns;
+    ftm_scene *scene;
+    const ftm_mesh *mesh;
+    ftm_sim *sim;
+    ftm_collide *collide;
+    ftm_wire_transport *wire;
+    uint8_t digest[FTM_REPLAY_DIGEST_SIZE];
+    int32_t depth;
+    bool paused;
+
+    uv_loop_t *loop;
+    uv_timer_t tick_timer, status_timer, stop_timer;
+    uv_signal_t sigint, sigterm;
+    bool stopping;
+
+    uint64_t base_ns;    /* wall time of tick `base_tick` */
+    uint64_t base_tick;
+    uint64_t loop_start_ns, stop_ns;
+    uint64_t tick;       /* ticks run (= sim step counter) */
+    double period_ns;
+
+    participant parts[MAX_PARTICIPANTS];
+
+    ftm_contact *contacts;
+    ftm_wire_reaction *reactions;
+    int32_t contact_cap;
+
+    /* what replicas hold: the last published frame's contacts and depth */
+    int32_t pub_n, pub_depth;
+    uint64_t pub_tick, pub_ns;
+    bool published_any;
+
+    bool keyframe_due;
+    uint64_t keyframe_deferred;
+    uint64_t next_keyframe_ns;
+
+    /* statistics */
+    uint64_t frames, heartbeats, idle_ticks, keyframes, bytes_frames, bytes_keyframes;
+    uint64_t missed_ticks, unstable, publish_fail;
+    double step_ns_total, step_ns_max;
+} server;
+
+static uint64_t mono_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
+}
+
+static server *g_log_server; /* for the log hooks of libftm/ftm_wire */
+
+static void slog(server *s, const char *level, const char *fmt, ...)
+{
+    char buf[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    double t = (double)(mono_ns() - s->t_start_ns) * 1e-9;
+    fprintf(stderr, "ftm-server [%8.3f] %s: %s\n", t, level, buf);
+    if (s->logf) {
+        fprintf(s->logf, "[%8.3f] %s: %s\n", t, level, buf);
+        fflush(s->logf);
+    }
+}
+
+static void log_hook(void *user, ftm_log_level level, const char *message)
+{
+    server *s = user ? user : g_log_server;
+    static const char *names[] = {"debug", "info", "warn", "error"};
+    slog(s, names[level < 4 ? level : 3], "%s", message);
+}
+
+static const char *role_name(ftm_wire_role r)
+{
+    switch (r) {
+    case FTM_WIRE_ROLE_SERVER: return "server";
+    case FTM_WIRE_ROLE_TRAINEE: return "trainee";
+    case FTM_WIRE_ROLE_INSTRUCTOR: return "instructor";
+    case FTM_WIRE_ROLE_OBSERVER: return "observer";
+    case FTM_WIRE_ROLE_BOT: return "bot";
+    }
+    return "unknown";
+}
+
+static const char *state_name(ftm_wire_state st)
+{
+    switch (st) {
+    case FTM_WIRE_STATE_JOINING: return "joining";
+    case FTM_WIRE_STATE_SYNCED: return "synced";
+    case FTM_WIRE_STATE_RESYNCING: return "resyncing";
+    case FTM_WIRE_STATE_LEAVING: return "leaving";
+    }
+    return "unknown";
+}
+
+/* ---- publishing ------------------------------------------------------------------ */
+
+/* Encodes here (to count the bytes) and queues the payload. */
+static int publish(server *s, const ftm_wire_msg *m, uint64_t *bytes)
+{
+    uint8_t *buf = NULL;
+    size_t size = 0;
+    ftm_error err = {0, ""};
+    int rc = ftm_wire_encode(m, &buf, &size, &err);
+    if (rc == FTM_OK)
+        rc = ftm_wire_publish_raw(s->wire, (int)m->kind, buf, size, &err);
+    free(buf);
+    if (rc) {
+        s->publish_fail++;
+        slog(s, "warn", "publishing %s failed: %s", ftm_wire_kind_name((int)m->kind), err.message);
+        return rc;
+    }
+    if (bytes)
+        *bytes += size;
+    return FTM_OK;
+}
+
+static void publish_announce(server *s)
+{
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_ANNOUNCE;
+    ftm_wire_announce *a = &m.u.announce;
+    snprintf(a->scene_id, sizeof a->scene_id, "%s", s->o.scene);
+    memcpy(a->digest, s->digest, sizeof s->digest);
+    a->digest_len = FTM_REPLAY_DIGEST_SIZE;
+    a->tick_rate_hz = (uint32_t)(s->o.rate + 0.5);
+    a->time_step = ftm_replay_sim_def(s->scene).time_step;
+    a->depth = s->depth;
+    a->depth_min = 0;
+    a->depth_max = s->depth;
+    a->tissue.node_mass = ftm_mesh_mass(s->mesh, 0);
+    a->tissue.node_damping = ftm_mesh_damping(s->mesh, 0);
+    const int32_t *nb;
+    const double *k = NULL, *l;
+    double stiff = 1.0;
+    for (int32_t i = 0; i < ftm_mesh_node_count(s->mesh); i++)
+        if (ftm_mesh_neighbors(s->mesh, i, &nb, &k, &l) > 0) {
+            stiff = k[0];
+            break;
+        }
+    a->tissue.stiffness = stiff;
+    a->tissue.axis_scale = (ftm_vec3){1, 1, 1};
+    a->node_count = ftm_mesh_node_count(s->mesh);
+    a->tick = s->tick;
+    a->paused = s->paused;
+    publish(s, &m, NULL);
+}
+
+static void publish_status(server *s, ftm_wire_state state)
+{
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_STATUS;
+    ftm_wire_status *st = &m.u.status;
+    st->participant = s->o.id;
+    st->role = FTM_WIRE_ROLE_SERVER;
+    st->state = state;
+    st->last_applied_tick = s->tick;
+    st->state_hash = ftm_sim_hash(s->sim);
+    st->replay_ns_per_tick = s->tick ? s->step_ns_total / (double)s->tick : 0.0;
+    st->replay_ns_max = s->step_ns_max;
+    snprintf(st->name, sizeof st->name, "ftm-server");
+    publish(s, &m, NULL);
+}
+
+/* Only with the integrator in its plain mode: keyframes do not carry the
+ * guard's substeps (docs/protocol.md). */
+static bool publish_keyframe(server *s)
+{
+    ftm_sim_mode mode;
+    ftm_sim_get_mode(s->sim, &mode);
+    if (mode.substeps != 1 || mode.region_sleeping || mode.quiet_steps != 0) {
+        if (s->keyframe_deferred++ == 0)
+            slog(s, "info", "keyframe deferred: the stability guard runs %d substeps",
+                 (int)mode.substeps);
+        return false;
+    }
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_KEYFRAME;
+    ftm_error err = {0, ""};
+    if (ftm_replay_make_keyframe(s->sim, &m.u.keyframe, &err)) {
+        slog(s, "error", "keyframe: %s", err.message);
+        return false;
+    }
+    publish(s, &m, &s->bytes_keyframes);
+    s->keyframes++;
+    ftm_replay_keyframe_free(&m.u.keyframe);
+    s->keyframe_deferred = 0;
+    return true;
+}
+
+static void publish_frame(server *s, int32_t n, int32_t nreact, bool heartbeat)
+{
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_TICK;
+    ftm_wire_tick *t = &m.u.tick;
+    t->tick = s->tick;
+    t->depth = s->depth;
+    t->contact_count = n;
+    t->contacts = s->contacts;
+    t->reaction_count = nreact;
+    t->reactions = s->reactions;
+    t->state_hash = ftm_sim_hash(s->sim);
+    if (publish(s, &m, &s->bytes_frames) == FTM_OK) {
+        s->frames++;
+        s->heartbeats += heartbeat;
+    }
+    s->pub_n = n;
+    s->pub_depth = s->depth;
+    s->pub_tick = s->tick;
+    s->pub_ns = mono_ns();
+    s->published_any = true;
+}
+
+/* ---- participants ---------------------------------------------------------------- */
+
+static participant *find_part(server *s, uint32_t id, bool create)
+{
+    participant *free_slot = NULL;
+    for (int i = 0; i < MAX_PARTICIPANTS; i++) {
+        if (s->parts[i].used && s->parts[i].id == id)
+            return &s->parts[i];
+        if (!s->parts[i].used && !free_slot)
+            free_slot = &s->parts[i];
+    }
+    if (!create || !free_slot)
+        return NULL;
+    memset(free_slot, 0, sizeof *free_slot);
+    free_slot->used = true;
+    free_slot->id = id;
+    return free_slot;
+}
+
+static void release_probes(participant *p)
+{
+    for (int k = 0; k < MAX_PROBES; k++)
+        memset(&p->probes[k], 0, sizeof p->probes[k]);
+}
+
+static void on_status(server *s, ftm_wire_received *rx)
+{
+    if (rx->gone) {
+        participant *p = find_part(s, rx->sender, false);
+        if (!p) {
+            slog(s, "info", "participant %u gone", rx->sender);
+            return;
+        }
+        if (!p->gone)
+            slog(s, "info", "participant %u (%s '%s') gone: %s", p->id, role_name(p->role),
+                 p->name,
+                 p->state == FTM_WIRE_STATE_LEAVING ? "left"
+                                                   : "lost without leaving (lease expired)");
+        release_probes(p);
+        p->used = false;
+        return;
+    }
+    const ftm_wire_status *st = &rx->msg.u.status;
+    if (st->participant != rx->sender) {
+        slog(s, "warn", "status from %u names participant %u: ignored", rx->sender,
+             st->participant);
+        return;
+    }
+    participant *p = find_part(s, rx->sender, true);
+    if (!p) {
+        slog(s, "warn", "participant %u: table full (%d), ignored", rx->sender, MAX_PARTICIPANTS);
+        return;
+    }
+    bool fresh = p->role == 0;
+    if (fresh || p->state != st->state || p->role != st->role)
+        slog(s, "info", "participant %u (%s '%s'): %s at tick %" PRIu64, rx->sender,
+             role_name(st->role), st->name, state_name(st->state), st->last_applied_tick);
+    if (!fresh && p->role != st->role) {
+        release_probes(p);
+    }
+    if (p->silent)
+        slog(s, "info", "participant %u (%s '%s') is back", p->id, role_name(st->role), st->name);
+    p->silent = false;
+    p->last_status_ns = mono_ns();
+    p->role = st->role;
+    p->state = st->state;
+    p->last_tick = st->last_applied_tick;
+    p->hash = st->state_hash;
+    snprintf(p->name, sizeof p->name, "%s", st->name);
+    if (st->state == FTM_WIRE_STATE_JOINING || st->state == FTM_WIRE_STATE_RESYNCING)
+        s->keyframe_due = true;
+    if (st->state == FTM_WIRE_STATE_LEAVING)
+        release_probes(p);
+}
+
+static void reject(server *s, participant *p, uint32_t id, const char *what, const char *why)
+{
+    static uint64_t unknown;
+    uint64_t n = p ? ++p->rejected : ++unknown;
+    if (n <= 3 || (n & (n - 1)) == 0) /* 1, 2, 3, 4, 8, 16, ... */
+        slog(s, "warn", "%s from participant %u rejected (%" PRIu64 " so far): %s", what, id, n,
+             why);
+}
+
+static void on_probe_input(server *s, ftm_wire_received *rx)
+{
+    participant *p = find_part(s, rx->sender, false);
+    if (!p || p->role == 0)
+        { reject(s, NULL, rx->sender, "probe input", "unknown participant (no status yet)"); return; }
+    if (p->role != FTM_WIRE_ROLE_TRAINEE)
+        { reject(s, p, rx->sender, "probe input", "only trainees may move tissue"); return; }
+    if (p->state == FTM_WIRE_STATE_LEAVING)
+        { reject(s, p, rx->sender, "probe input", "participant is leaving"); return; }
+    if (p->silent)
+        { reject(s, p, rx->sender, "probe input", "participant missed its status deadline"); return; }
+    const ftm_wire_probe_input *in = &rx->msg.u.probe_input;
+    if (in->participant != rx->sender)
+        { reject(s, p, rx->sender, "probe input", "participant id differs from the sender"); return; }
+    for (int32_t i = 0; i < in->sample_count; i++) {
+        const ftm_wire_probe_sample *smp = &in->samples[i];
+        if (smp->probe < 0 || smp->probe >= MAX_PROBES) {
+            reject(s, p, rx->sender, "probe sample", "probe index out of range 0..3");
+            continue;
+        }
+        probe *pr = &p->probes[smp->probe];
+        pr->hip = smp->position; /* samples are oldest first: the newest wins */
+        pr->have = true;
+    }
+    p->inputs++;
+}
+
+/* Puts the tissue back at rest, keeping the tick counter. With publish_now
+ * (between ticks): first the frame of the current tick if it was not sent
+ * (replicas must reach it), then the keyframe of the reset state at that tick,
+ * which replicas restore because its hash differs from the frame's. */
+static void do_reset(server *s, bool publish_now)
+{
+    if (publish_now && (!s->published_any || s->pub_tick != s->tick))
+        publish_frame(s, 0, 0, true); /* an unsent tick was idle: no contacts */
+    ftm_error err = {0, ""};
+    if (ftm_sim_load_state(s->sim, s->tick, s->depth, NULL, NULL, NULL, 0, NULL, 0, NULL, &err))
+        slog(s, "error", "reset: %s", err.message);
+    for (int i = 0; i < MAX_PARTICIPANTS; i++)
+        for (int k = 0; k < MAX_PROBES; k++)
+            s->parts[i].probes[k].contact = false;
+    ftm_collide_update(s->collide, ftm_sim_positions(s->sim), NULL, 0);
+    s->pub_n = 0; /* replicas restore the keyframe: no contacts */
+    s->keyframe_due = true;
+    if (publish_now && publish_keyframe(s)) {
+        s->keyframe_due = false;
+        s->next_keyframe_ns = mono_ns() + (uint64_t)(s->o.keyframe_every * 1e9);
+    }
+}
+
+static void on_control(server *s, ftm_wire_received *rx)
+{
+    participant *p = find_part(s, rx->sender, false);
+    const ftm_wire_control *c = &rx->msg.u.control;
+    if (!p || p->role == 0)
+        { reject(s, NULL, rx->sender, "session control", "unknown participant (no status yet)"); return; }
+    if (p->role != FTM_WIRE_ROLE_INSTRUCTOR)
+        { reject(s, p, rx->sender, "session control", "only the instructor controls the session"); return; }
+    switch (c->command) {
+    case FTM_WIRE_CMD_PAUSE:
+        if (!s->paused) {
+            s->paused = true;
+            slog(s, "info", "paused at tick %" PRIu64 " by instructor %u", s->tick, rx->sender);
+            publish_announce(s);
+        }
+        break;
+    case FTM_WIRE_CMD_RESUME:
+        if (s->paused) {
+            s->paused = false;
+            s->base_ns = mono_ns();
+            s->base_tick = s->tick;
+            slog(s, "info", "resumed at tick %" PRIu64 " by instructor %u", s->tick, rx->sender);
+            publish_announce(s);
+        }
+        break;
+    case FTM_WIRE_CMD_RESET:
+        slog(s, "info", "reset at tick %" PRIu64 " by instructor %u", s->tick, rx->sender);
+        do_reset(s, true);
+        break;
+    default:
+        slog(s, "warn", "session control %d from %u: not supported yet, ignored", (int)c->command,
+             rx->sender);
+    }
+}
+
+static void drain(server *s)
+{
+    static const int kinds[3] = {FTM_WIRE_STATUS, FTM_WIRE_CONTROL, FTM_WIRE_PROBE_INPUT};
+    for (int k = 0; k < 3; k++)
+        for (int n = 0; n < 256; n++) {
+            ftm_wire_received rx;
+            if (ftm_wire_receive(s->wire, kinds[k], &rx, 0, NULL) != FTM_OK)
+                break;
+            if (kinds[k] == FTM_WIRE_STATUS)
+                on_status(s, &rx);
+            else if (kinds[k] == FTM_WIRE_CONTROL)
+                on_control(s, &rx);
+            else
+                on_probe_input(s, &rx);
+            ftm_wire_received_free(&rx);
+        }
+}
+
+/* ---- one tick ---------------------------------------------------------------------- */
+
+static ftm_vec3 v_sub(ftm_vec3 a, ftm_vec3 b) { return (ftm_vec3){a.x - b.x, a.y - b.y, a.z - b.z}; }
+static double v_dot(ftm_vec3 a, ftm_vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+static int reserve_contacts(server *s, int32_t need)
+{
+    if (need <= s->contact_cap)
+        return 0;
+    int32_t cap = s->contact_cap ? 2 * s->contact_cap : 64;
+    while (cap < need)
+        cap *= 2;
+    ftm_contact *c = realloc(s->contacts, (size_t)cap * sizeof *c);
+    if (!c)
+        return -1;
+    s->contacts = c;
+    ftm_wire_reaction *r = realloc(s->reactions, (size_t)cap * sizeof *r);
+    if (!r)
+        return -1;
+    s->reactions = r;
+    s->contact_cap = cap;
+    return 0;
+}
+
+/* Outward normal of a surface triangle at rest (not normalised): surface
+ * triangles are oriented outward (generators, tetrahedra boundaries; OBJ
+ * files must be too). */
+static ftm_vec3 rest_normal(server *s, int32_t tr)
+{
+    const int32_t *v = ftm_mesh_triangles(s->mesh) + 3 * tr;
+    ftm_vec3 X0 = ftm_mesh_rest_position(s->mesh, v[0]);
+    ftm_vec3 e1 = v_sub(ftm_mesh_rest_position(s->mesh, v[1]), X0);
+    ftm_vec3 e2 = v_sub(ftm_mesh_rest_position(s->mesh, v[2]), X0);
+    return (ftm_vec3){e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z,
+                      e1.x * e2.y - e1.y * e2.x};
+}
+
+/* Whether a HIP moving by d crosses the triangle from outside to inside. */
+static bool entering(server *s, int32_t tr, ftm_vec3 d) { return v_dot(rest_normal(s, tr), d) < 0.0; }
+
+/* Probe HIPs -> displacement contacts on the collided triangles' vertices.
+ * Returns the contact count; *nreact the probes in contact. */
+static int32_t probe_contacts(server *s, int32_t *nreact)
+{
+    const double *x = ftm_sim_positions(s->sim);
+    const int32_t *tris = ftm_mesh_triangles(s->mesh);
+    int32_t n = 0, nr = 0;
+    for (int i = 0; i < MAX_PARTICIPANTS; i++) {
+        participant *p = &s->parts[i];
+        if (!p->used || p->role != FTM_WIRE_ROLE_TRAINEE)
+            continue;
+        for (int k = 0; k < MAX_PROBES; k++) {
+            probe *pr = &p->probes[k];
+            if (!pr->have)
+                continue;
+            if (pr->contact) {
+                ftm_vec3 pen = v_sub(pr->hip, pr->anchor);
+                if (v_dot(pen, pr->normal) >= 0.0)
+                    pr->contact = false; /* back on the side it came from: released */
+            } else if (pr->have_prev) {
+                double t, w[3];
+                int32_t tr = ftm_collide_segment(s->collide, x, pr->prev, pr->hip, &t, w);
+                if (tr >= 0 && !entering(s, tr, v_sub(pr->hip, pr->prev)))
+                    tr = -1; /* leaving the tissue through the surface: no contact */
+                if (tr >= 0) {
+                    const int32_t *v = tris + 3 * tr;
+                    ftm_vec3 X[3];
+                    for (int q = 0; q < 3; q++)
+                        X[q] = ftm_mesh_rest_position(s->mesh, v[q]);
+                    pr->anchor = (ftm_vec3){w[0] * X[0].x + w[1] * X[1].x + w[2] * X[2].x,
+                                            w[0] * X[0].y + w[1] * X[1].y + w[2] * X[2].y,
+                                            w[0] * X[0].z + w[1] * X[1].z + w[2] * X[2].z};
+                    pr->normal = rest_normal(s, tr);
+                    pr->tri = tr;
+                    pr->contact = true;
+                    slog(s, "info", "participant %u probe %d: contact on triangle %d", p->id, k,
+                         (int)tr);
+                }
+            }
+            pr->prev = pr->hip;
+            pr->have_prev = true;
+            if (!pr->contact)
+                continue;
+            if (reserve_contacts(s, n + 3))
+                return n;
+            int32_t group = i * MAX_PROBES + k;
+            ftm_vec3 pen = v_sub(pr->hip, pr->anchor);
+            const int32_t *v = tris + 3 * pr->tri;
+            for (int q = 0; q < 3; q++) {
+                bool taken = ftm_mesh_fixed(s->mesh, v[q]);
+                for (int32_t j = 0; j < n && !taken; j++)
+                    taken = s->contacts[j].node == v[q]; /* an earlier probe has it */
+                if (!taken)
+                    s->contacts[n++] = (ftm_contact){v[q], group, FTM_CONTACT_DISPLACEMENT, pen};
+            }
+            s->reactions[nr++] = (ftm_wire_reaction){group, p->id, k, {0, 0, 0}};
+        }
+    }
+    *nreact = nr;
+    return n;
+}
+
+static void run_tick(server *s)
+{
+    int32_t nreact = 0;
+    int32_t n = probe_contacts(s, &nreact);
+    uint64_t t0 = mono_ns();
+    ftm_error err = {0, ""};
+    int rc = ftm_replay_step(s->sim, s->depth, s->contacts, n, &err);
+    double dt = (double)(mono_ns() - t0);
+    s->step_ns_total += dt;
+    if (dt > s->step_ns_max)
+        s->step_ns_max = dt;
+    if (rc) {
+        /* Deterministic, so every replica fails the same way; start over from
+         * rest at the next tick number and send the state as a keyframe. */
+        s->unstable++;
+        slog(s, "error", "tick %" PRIu64 ": %s; tissue reset to rest", s->tick + 1, err.message);
+        s->tick++;
+        do_reset(s, false);
+        n = nreact = 0;
+    } else {
+        s->tick++;
+    }
+    for (int32_t r = 0; r < nreact; r++)
+        s->reactions[r].force = ftm_sim_reaction(s->sim, s->reactions[r].group);
+    /* keep the collision grid current: the region's nodes may have moved */
+    const int32_t *order = NULL, *start = NULL;
+    int32_t layers = ftm_sim_layers(s->sim, &order, &start);
+    ftm_collide_update(s->collide, ftm_sim_positions(s->sim), order,
+                       layers > 0 && order ? start[layers] : 0);
+
+    ftm_sim_stats st;
+    ftm_sim_get_stats(s->sim, &st);
+    uint64_t now = mono_ns();
+    if (!s->keyframe_due && now >= s->next_keyframe_ns) {
+        s->keyframe_due = true;
+    }
+    bool idle = n == 0 && st.updated_nodes == 0 && s->pub_n == 0 && s->pub_depth == s->depth &&
+                s->published_any;
+    bool heartbeat = (double)(now - s->pub_ns) >= s->o.heartbeat * 1e9;
+    if (!idle || heartbeat || s->keyframe_due)
+        publish_frame(s, n, nreact, idle);
+    else
+        s->idle_ticks++;
+    if (s->keyframe_due && publish_keyframe(s)) {
+        s->keyframe_due = false;
+        s->next_keyframe_ns = now + (uint64_t)(s->o.keyframe_every * 1e9);
+    }
+}
+
+/* ---- loop --------------------------------------------------------------------------- */
+
+static void on_tick_timer(uv_timer_t *h)
+{
+    server *s = h->data;
+    if (s->stopping)
+        return;
+    drain(s);
+    if (s->paused)
+        return;
+    uint64_t now = mono_ns();
+    uint64_t due = s->base_tick + (uint64_t)((double)(now - s->base_ns) / s->period_ns);
+    int32_t ran = 0;
+    while (s->tick < due && ran < MAX_CATCHUP) {
+        run_tick(s);
+        ran++;
+    }
+    if (s->tick < due) { /* fell behind: skip, do not burst */
+        s->missed_ticks += due - s->tick;
+        s->base_ns = now;
+        s->base_tick = s->tick;
+    }
+}
+
+/* Statuses come every 500 ms (docs/protocol.md): a participant silent for
+ * the status deadline (2 s) is taken as lost, its probes released. DDS also
+ * reports a vanished participant (a `gone` status event, on_status), but
+ * that was not observed for a SIGKILLed process with Cyclone 0.10.2 here, so
+ * the server does not rely on it alone. */
+#define STATUS_DEADLINE_NS 2000000000u
+
+static void on_status_timer(uv_timer_t *h)
+{
+    server *s = h->data;
+    publish_status(s, FTM_WIRE_STATE_SYNCED);
+    uint64_t now = mono_ns();
+    for (int i = 0; i < MAX_PARTICIPANTS; i++) {
+        participant *p = &s->parts[i];
+        if (!p->used || p->silent || now - p->last_status_ns <= STATUS_DEADLINE_NS)
+            continue;
+        p->silent = true;
+        slog(s, "warn",
+             "participant %u (%s '%s') lost: no status for %.1f s (deadline 2 s); its probes "
+             "are released",
+             p->id, role_name(p->role), p->name, (double)(now - p->last_status_ns) * 1e-9);
+        release_probes(p);
+    }
+}
+
+static void shutdown_server(server *s, const char *why)
+{
+    if (s->stopping)
+        return;
+    s->stopping = true;
+    s->stop_ns = mono_ns();
+    slog(s, "info", "shutting down (%s) at tick %" PRIu64, why, s->tick);
+    /* replicas end on the final state: a frame for the last tick */
+    if (!s->published_any || s->pub_tick != s->tick) {
+        publish_frame(s, 0, 0, true);
+    }
+    publish_status(s, FTM_WIRE_STATE_LEAVING);
+    ftm_error err = {0, ""};
+    if (ftm_wire_flush(s->wire, 2000000000LL, &err))
+        slog(s, "warn", "flush: %s", err.message);
+    uv_timer_stop(&s->tick_timer);
+    uv_timer_stop(&s->status_timer);
+    uv_timer_stop(&s->stop_timer);
+    uv_signal_stop(&s->sigint);
+    uv_signal_stop(&s->sigterm);
+    uv_close((uv_handle_t *)&s->tick_timer, NULL);
+    uv_close((uv_handle_t *)&s->status_timer, NULL);
+    uv_close((uv_handle_t *)&s->stop_timer, NULL);
+    uv_close((uv_handle_t *)&s->sigint, NULL);
+    uv_close((uv_handle_t *)&s->sigterm, NULL);
+}
+
+static void on_signal(uv_signal_t *h, int signum)
+{
+    shutdown_server(h->data, signum == SIGINT ? "SIGINT" : "SIGTERM");
+}
+
+static void on_stop_timer(uv_timer_t *h) { shutdown_server(h->data, "duration reached"); }
+
+/* ---- main ----------------------------------------------------------------------------- */
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: ftm-server [options]\n"
+            "  --scene NAME|FILE      scene to serve (default: default)\n"
+            "  --session NAME         session name (default: ftm)\n"
+            "  --domain N             DDS domain id (default 0)\n"
+            "  --config FILE          Cyclone DDS configuration (default: $CYCLONEDDS_URI)\n"
+            "  --rate HZ              tick rate (default 1000)\n"
+            "  --keyframe-every S     periodic keyframe interval in seconds (default 1)\n"
+            "  --heartbeat S          idle heartbeat interval in seconds (default 0.1)\n"
+            "  --depth N              penetration depth (default: the scene's)\n"
+            "  --duration S           stop after S seconds (default: until SIGINT/SIGTERM)\n"
+            "  --id N                 participant id (default 1)\n"
+            "  --log FILE             also write the log to FILE\n");
+}
+
+static int parse(int argc, char **argv, options *o)
+{
+    *o = (options){"default", "ftm", NULL, NULL, 0, 1, 1000.0, 1.0, 0.1, 0.0, -1};
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            usage(stdout);
+            exit(0);
+        }
+        if (i + 1 >= argc) {
+            fprintf(stderr, "ftm-server: %s needs a value (or unknown option)\n", a);
+            return -1;
+        }
+        const char *v = argv[++i];
+        char *end = NULL;
+        errno = 0;
+        if (strcmp(a, "--scene") == 0)
+            o->scene = v;
+        else if (strcmp(a, "--session") == 0)
+            o->session = v;
+        else if (strcmp(a, "--config") == 0)
+            o->config = v;
+        else if (strcmp(a, "--log") == 0)
+            o->log_path = v;
+        else if (strcmp(a, "--domain") == 0)
+            o->domain = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--id") == 0)
+            o->id = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--rate") == 0)
+            o->rate = strtod(v, &end);
+        else if (strcmp(a, "--keyframe-every") == 0)
+            o->keyframe_every = strtod(v, &end);
+        else if (strcmp(a, "--heartbeat") == 0)
+            o->heartbeat = strtod(v, &end);
+        else if (strcmp(a, "--duration") == 0)
+            o->duration = strtod(v, &end);
+        else if (strcmp(a, "--depth") == 0)
+            o->depth = (int32_t)strtol(v, &end, 10);
+        else {
+            fprintf(stderr, "ftm-server: unknown option %s\n", a);
+            return -1;
+        }
+        if (end && (*end || errno)) {
+            fprintf(stderr, "ftm-server: %s: bad number '%s'\n", a, v);
+            return -1;
+        }
+    }
+    if (!(o->rate > 0 && o->rate <= 100000) || !(o->keyframe_every > 0) ||
+        !(o->heartbeat > 0) || o->duration < 0 || o->id == 0) {
+        fprintf(stderr, "ftm-server: --rate, --keyframe-every, --heartbeat must be > 0, "
+                        "--id non-zero\n");
+        return -1;
+    }
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    static server srv;
+    server *s = &srv;
+    if (parse(argc, argv, &s->o))
+        return 2;
+    s->t_start_ns = mono_ns();
+    g_log_server = s;
+    if (s->o.log_path && !(s->logf = fopen(s->o.log_path, "w"))) {
+        fprintf(stderr, "ftm-server: cannot open %s: %s\n", s->o.log_path, strerror(errno));
+        return 3;
+    }
+    ftm_error err = {0, ""};
+    if (ftm_scene_open(s->o.scene, &s->scene, &err)) {
+        slog(s, "error", "%s", err.message);
+        return 3;
+    }
+    s->mesh = ftm_scene_mesh(s->scene);
+    ftm_sim_def def = ftm_replay_sim_def(s->scene);
+    if (ftm_scene_sim_def(s->scene).region_sleep_steps > 0)
+        slog(s, "info", "region sleep off in sessions (keyframes do not carry it yet)");
+    def.log = log_hook;
+    def.log_user = s;
+    s->depth = s->o.depth >= 0 ? s->o.depth : def.depth;
+    if (ftm_sim_create(s->mesh, &def, &s->sim, &err) ||
+        ftm_collide_create(s->mesh, &s->collide, &err)) {
+        slog(s, "error", "%s", err.message);
+        return 3;
+    }
+    ftm_replay_scene_digest(s->scene, s->digest);
+    ftm_collide_stats cs;
+    ftm_collide_get_stats(s->collide, &cs);
+    slog(s, "info",
+         "scene '%s': %d nodes, %d surface triangles; collision grid %dx%dx%d cells of %.4g m",
+         ftm_scene_name(s->scene), (int)ftm_mesh_node_count(s->mesh), (int)cs.triangles,
+         (int)cs.dims[0], (int)cs.dims[1], (int)cs.dims[2], cs.cell_size);
+
+    ftm_wire_transport_def wd;
+    memset(&wd, 0, sizeof wd);
+    wd.config = s->o.config;
+    wd.domain_id = s->o.domain;
+    wd.session = s->o.session;
+    wd.participant_id = s->o.id;
+    wd.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE) | FTM_WIRE_KIND_BIT(FTM_WIRE_TICK) |
+                 FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME) | FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS);
+    wd.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT) |
+                   FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL);
+    wd.limits.node_count = ftm_mesh_node_count(s->mesh);
+    wd.log = log_hook;
+    wd.log_user = s;
+    if (ftm_wire_transport_create(&wd, &s->wire, &err)) {
+        slog(s, "error", "%s", err.message);
+        return 3;
+    }
+    s->period_ns = 1e9 / s->o.rate;
+    publish_announce(s);
+    publish_keyframe(s); /* the rest state at tick 0, for joiners */
+    publish_status(s, FTM_WIRE_STATE_SYNCED);
+    s->next_keyframe_ns = mono_ns() + (uint64_t)(s->o.keyframe_every * 1e9);
+    slog(s, "info", "session '%s' on domain %u: %.0f Hz, depth %d, keyframe every %g s", s->o.session,
+         s->o.domain, s->o.rate, (int)s->depth, s->o.keyframe_every);
+
+    s->loop = uv_default_loop();
+    uv_timer_init(s->loop, &s->tick_timer);
+    uv_timer_init(s->loop, &s->status_timer);
+    uv_timer_init(s->loop, &s->stop_timer);
+    uv_signal_init(s->loop, &s->sigint);
+    uv_signal_init(s->loop, &s->sigterm);
+    s->tick_timer.data = s->status_timer.data = s->stop_timer.data = s;
+    s->sigint.data = s->sigterm.data = s;
+    s->base_ns = mono_ns();
+    s->base_tick = 0;
+    s->loop_start_ns = s->base_ns;
+    uv_timer_start(&s->tick_timer, on_tick_timer, 1, 1);
+    uv_timer_start(&s->status_timer, on_status_timer, 500, 500);
+    if (s->o.duration > 0)
+        uv_timer_start(&s->stop_timer, on_stop_timer, (uint64_t)(s->o.duration * 1000.0), 0);
+    uv_signal_start(&s->sigint, on_signal, SIGINT);
+    uv_signal_start(&s->sigterm, on_signal, SIGTERM);
+    uv_run(s->loop, UV_RUN_DEFAULT);
+
+    double run_s = (double)((s->stop_ns ? s->stop_ns : mono_ns()) - s->loop_start_ns) * 1e-9;
+    ftm_wire_stats ws;
+    ftm_wire_get_stats(s->wire, FTM_WIRE_TICK, &ws, NULL);
+    slog(s, "info",
+         "%" PRIu64 " ticks in %.2f s (%.1f ticks/s), %" PRIu64 " missed; %" PRIu64
+         " frames (%" PRIu64 " heartbeats, %" PRIu64 " idle ticks not sent), %.1f bytes/frame, "
+         "%.1f bytes/tick; %" PRIu64 " keyframes (%" PRIu64 " bytes); step mean %.1f us max "
+         "%.1f us; rexmit %" PRIu64 " bytes",
+         s->tick, run_s, (double)s->tick / run_s, s->missed_ticks, s->frames, s->heartbeats,
+         s->idle_ticks, s->frames ? (double)s->bytes_frames / (double)s->frames : 0.0,
+         s->tick ? (double)s->bytes_frames / (double)s->tick : 0.0, s->keyframes,
+         s->bytes_keyframes, s->tick ? s->step_ns_total / (double)s->tick * 1e-3 : 0.0,
+         s->step_ns_max * 1e-3, ws.rexmit_bytes);
+    printf("ftm-server: final tick %" PRIu64 " hash %016" PRIx64 "\n", s->tick,
+           ftm_sim_hash(s->sim));
+    fflush(stdout);
+    ftm_wire_transport_destroy(s->wire);
+    uv_loop_close(s->loop);
+    ftm_collide_destroy(s->collide);
+    ftm_sim_destroy(s->sim);
+    ftm_scene_destroy(s->scene);
+    free(s->contacts);
+    free(s->reactions);
+    if (s->logf)
+        fclose(s->logf);
+    return 0;
+}

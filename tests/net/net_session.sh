@@ -1,0 +1,86 @@
+#!/bin/sh
+# Session tests on loopback: ftm-server + ftm-bot processes.
+#   basic: server + 2 trainees + 1 observer; every bot ends on the server's
+#          final tick and hash.
+#   late:  as basic, plus an observer joining 2 s late: it converges too.
+#   kill:  one trainee is killed with SIGKILL mid-session: the other bots end
+#          on the server's hash and the server logs that the trainee was lost.
+# Every process runs under `timeout`; the test itself has a CTest TIMEOUT.
+set -u
+mode=${1:?mode}
+: "${FTM_SERVER:?}" "${FTM_BOT:?}" "${FTM_CONFIG:?}" "${FTM_SCRIPTS:?}"
+dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-net-$mode.XXXXXX")
+trap 'rm -rf "$dir"' EXIT
+# A domain of our own (the wire tests use 100..219) and a unique session.
+domain=$(( 1 + $$ % 97 ))
+session="net-$mode-$$"
+rate=200
+duration=4.5
+[ "$mode" = kill ] && duration=5.5
+common="--session $session --domain $domain --config $FTM_CONFIG"
+fail() { echo "FAIL: $*"; for f in "$dir"/*.out "$dir"/*.err; do echo "== $f"; tail -n 25 "$f"; done; exit 1; }
+
+timeout 30 "$FTM_SERVER" --scene default $common --rate $rate --duration $duration \
+    --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
+server=$!
+# wait (bounded) for the server to be up before the bots start
+i=0
+until grep -q "session '$session'" "$dir/server.log" 2>/dev/null; do
+    i=$((i + 1)); [ $i -gt 100 ] && fail "server did not start"
+    sleep 0.05
+done
+
+# (the trainee to be killed runs without `timeout`, so that $b11 is the bot
+# itself; its own --duration bounds it)
+victim=timeout
+[ "$mode" = kill ] && victim=
+$victim ${victim:+30} "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
+    --duration 15 --log "$dir/bot11.csv" >"$dir/bot11.out" 2>"$dir/bot11.err" &
+b11=$!
+timeout 30 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee2.bot" $common --id 12 \
+    --duration 15 >"$dir/bot12.out" 2>"$dir/bot12.err" &
+b12=$!
+timeout 30 "$FTM_BOT" --role observer $common --id 13 --duration 15 \
+    >"$dir/bot13.out" 2>"$dir/bot13.err" &
+b13=$!
+bots="11 12 13"
+b14=
+if [ "$mode" = late ]; then
+    timeout 30 "$FTM_BOT" --role observer --script "$FTM_SCRIPTS/observer-late.bot" $common \
+        --id 14 --duration 15 >"$dir/bot14.out" 2>"$dir/bot14.err" &
+    b14=$!
+    bots="11 12 13 14"
+fi
+if [ "$mode" = kill ]; then
+    sleep 1.5
+    kill -KILL $b11 2>/dev/null || fail "trainee 11 was not running at 1.5 s"
+    bots="12 13"
+fi
+
+wait $server; rc=$?
+[ $rc -eq 0 ] || fail "server exited with $rc"
+for b in $bots; do
+    eval "pid=\$b$b"
+    wait "$pid"; rc=$?
+    [ $rc -eq 0 ] || fail "bot $b exited with $rc"
+done
+[ "$mode" = kill ] && wait $b11 2>/dev/null
+
+want=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/server.out")
+[ -n "$want" ] || fail "no final line from the server"
+for b in $bots; do
+    got=$(sed -n "s/^ftm-bot $b: \\(final tick .*\\) synced\$/\\1/p" "$dir/bot$b.out")
+    [ "$got" = "$want" ] || fail "bot $b: '$got', server: '$want'"
+    grep -q "0 mismatches" "$dir/bot$b.err" || fail "bot $b saw hash mismatches"
+done
+grep -q "contact on triangle" "$dir/server.log" || fail "no probe contact on the server"
+case $mode in
+late)
+    grep -q "replay: synced from keyframe" "$dir/bot14.err" || fail "late observer did not sync"
+    ;;
+kill)
+    grep -q "participant 11 (trainee.* lost" "$dir/server.log" ||
+        fail "server did not notice the killed trainee"
+    ;;
+esac
+echo "PASS $mode: $want; $(grep -o '[0-9]* ticks in.*' "$dir/server.log")"
