@@ -15,6 +15,8 @@ typedef struct command {
 static const command commands[] = {
     {"sim", ftm_cmd_sim, "run a scene (built-in or file) and report the result"},
     {"bench", ftm_cmd_bench, "run benchmarks (e.g. the paper's Table 3)"},
+    {"experiment", ftm_cmd_experiment, "the paper's experiments: depth, tissue, anisotropy"},
+    {"stability", ftm_cmd_stability, "stability sweep: measured boundary vs critical time step"},
 #ifdef FTM_HAVE_FEM
     {"fem", ftm_cmd_fem, "solve a scene's linear static FEM reference (displacements as CSV)"},
 #endif
@@ -29,8 +31,8 @@ static void usage(FILE *out)
                  "       ftm --version\n\n"
                  "commands:\n");
     for (size_t i = 0; i < COMMAND_COUNT; i++)
-        fprintf(out, "  %-8s %s\n", commands[i].name, commands[i].summary);
-    fprintf(out, "  %-8s %s\n\nbuilt-in scenes:", "help", "show this text or a command's help");
+        fprintf(out, "  %-11s %s\n", commands[i].name, commands[i].summary);
+    fprintf(out, "  %-11s %s\n\nbuilt-in scenes:", "help", "show this text or a command's help");
     for (const char *const *n = ftm_scene_builtin_names(); *n; n++)
         fprintf(out, " %s", *n);
     fprintf(out, "\n\nRun 'ftm help COMMAND' for a command's options.\n");

@@ -95,35 +95,40 @@ static void set_substep_length(ftm_sim *sim, double h)
 }
 
 /* The layer-by-layer (Gauss-Seidel) update is not time-reversible like plain
- * central differences: without damping a mode of frequency w grows roughly
- * like exp(0.025 w t) whatever the time step (measured on chains and
- * lattices; see docs/core.md), so nodal damping must outweigh it:
- * d / 2m > 0.025 w_max. Warns once, naming the worst node. */
+ * central differences: a node's update sees its earlier neighbours' new
+ * positions, a velocity coupling of order h^3 (k/m) v that feeds energy into
+ * smooth modes, so nodal damping must outweigh it. The stability sweep
+ * (docs/stability.md) finds the damping needed grows with the time step:
+ * d/2m >= 0.11 w_max h/h_crit, i.e. 0.055 lambda h with lambda = w_max^2 the
+ * Gershgorin bound. Warns once, naming the worst node. */
 static void warn_low_damping(const ftm_sim *sim)
 {
     const ftm_mesh *m = sim->m;
+    const double h = sim->def.time_step;
     int32_t worst = -1;
-    double worst_ratio = INFINITY;
+    double worst_ratio = INFINITY, need = 0.0;
     for (int32_t i = 0; i < m->node_count; i++) {
         if (m->fixed[i])
             continue;
         double lambda = 0.0;
         for (int32_t e = m->adj_start[i]; e < m->adj_start[i + 1]; e++)
-            lambda += m->adj_k[e] * (1.0 / m->mass[i] + 1.0 / sqrt(m->mass[i] * m->mass[m->adj_node[e]]));
+            lambda += m->adj_k[e] *
+                      (1.0 / m->mass[i] + 1.0 / sqrt(m->mass[i] * m->mass[m->adj_node[e]]));
         if (lambda <= 0.0)
             continue;
-        double ratio = m->damping[i] / (2.0 * m->mass[i]) / (0.025 * sqrt(lambda));
+        double required = 0.055 * lambda * h, ratio = m->damping[i] / (2.0 * m->mass[i]) / required;
         if (ratio < worst_ratio) {
             worst_ratio = ratio;
             worst = i;
+            need = required;
         }
     }
     if (worst >= 0 && worst_ratio < 1.0)
         ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
-                 "nodal damping is low for the layer-by-layer update (node %d: d/2m = %g, "
-                 "0.025 w_max = %g): the scene may gain energy slowly; raise damping",
-                 (int)worst, m->damping[worst] / (2.0 * m->mass[worst]),
-                 m->damping[worst] / (2.0 * m->mass[worst]) / worst_ratio);
+                 "nodal damping is low for the layer-by-layer update at this time step (node %d: "
+                 "d/2m = %g, needs about %g): the scene may slowly gain energy; raise damping or "
+                 "shorten the time step (docs/stability.md)",
+                 (int)worst, m->damping[worst] / (2.0 * m->mass[worst]), need);
 }
 
 int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm_error *err)
