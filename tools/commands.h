@@ -8,6 +8,7 @@
 int ftm_cmd_sim(int argc, char **argv);
 int ftm_cmd_bench(int argc, char **argv);
 int ftm_cmd_fem(int argc, char **argv); /* only with FTM_HAVE_FEM (ftm_fem linked) */
+int ftm_cmd_fit(int argc, char **argv); /* only with FTM_HAVE_FEM: parameter identification */
 int ftm_cmd_experiment(int argc, char **argv);
 int ftm_cmd_stability(int argc, char **argv);
 

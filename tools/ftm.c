@@ -19,6 +19,7 @@ static const command commands[] = {
     {"stability", ftm_cmd_stability, "stability sweep: measured boundary vs critical time step"},
 #ifdef FTM_HAVE_FEM
     {"fem", ftm_cmd_fem, "solve a scene's linear static FEM reference (displacements as CSV)"},
+    {"fit", ftm_cmd_fit, "identify spring parameters against the FEM reference (paper Tables 1-2)"},
 #endif
 };
 
