@@ -28,7 +28,7 @@ typedef struct ftm_fem_material {
     double poisson; /* Poisson's ratio nu */
 } ftm_fem_material;
 
-/* E = 1 Pa, nu = 0.3: a placeholder, set real values. */
+/* E = 1 Pa, nu = 0.3: unit defaults for tests; scenes give real tissue values ([fem]). */
 ftm_fem_material ftm_default_fem_material(void);
 
 /* Checks a material; on failure the message names `what` (e.g. "hexahedron 12"). */
