@@ -4,7 +4,6 @@
 #
 #   deploy/install-deps.sh          build + test dependencies
 #
-# Later parts of the product (server, client) add their packages here.
 set -euo pipefail
 
 packages=(
@@ -16,6 +15,9 @@ packages=(
   cyclonedds-dev cyclonedds-tools                 # DDS transport, idlc, ddsperf
   libprotobuf-c-dev protobuf-c-compiler           # wire protocol codec
   libuv1-dev                                      # ftm-server event loop
+  libmicrohttpd-dev                               # ftm-server Prometheus metrics endpoint
+  libglfw3-dev libgl-dev libgl1-mesa-dri libpng-dev  # ftm-client: window, OpenGL 3.3, screenshots
+  xvfb xauth                                      # headless X server for client tests
 )
 
 missing=()
