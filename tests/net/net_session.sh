@@ -5,6 +5,10 @@
 #   late:  as basic, plus an observer joining 2 s late: it converges too.
 #   kill:  one trainee is killed with SIGKILL mid-session: the other bots end
 #          on the server's hash and the server logs that the trainee was lost.
+#   lossy: as basic, with Cyclone dropping 5 % of all outgoing datagrams
+#          (FTM_LOSSY_CONFIG, Internal/Test/XmitLossiness): every bot still
+#          ends on the server's hash (reliable repair; a sequence gap would
+#          make it resync from a keyframe).
 # Every process runs under `timeout`; the test itself has a CTest TIMEOUT.
 set -u
 mode=${1:?mode}
@@ -17,7 +21,9 @@ session="net-$mode-$$"
 rate=200
 duration=4.5
 [ "$mode" = kill ] && duration=5.5
-common="--session $session --domain $domain --config $FTM_CONFIG"
+config=$FTM_CONFIG
+[ "$mode" = lossy ] && config=${FTM_LOSSY_CONFIG:?}
+common="--session $session --domain $domain --config $config"
 fail() { echo "FAIL: $*"; for f in "$dir"/*.out "$dir"/*.err; do echo "== $f"; tail -n 25 "$f"; done; exit 1; }
 
 timeout 30 "$FTM_SERVER" --scene default $common --rate $rate --duration $duration \
@@ -81,6 +87,14 @@ late)
 kill)
     grep -q "participant 11 (trainee.* lost" "$dir/server.log" ||
         fail "server did not notice the killed trainee"
+    ;;
+lossy)
+    # the injection was on: the server's writer had to retransmit
+    rexmit=$(sed -n 's/.*rexmit \([0-9]*\) bytes.*/\1/p' "$dir/server.log")
+    [ "${rexmit:-0}" -gt 0 ] || fail "no retransmits: was loss injection active?"
+    for b in $bots; do
+        echo "bot $b: $(grep -o '[0-9]* gaps, [0-9]* resyncs' "$dir/bot$b.err")"
+    done
     ;;
 esac
 echo "PASS $mode: $want; $(grep -o '[0-9]* ticks in.*' "$dir/server.log")"
