@@ -284,7 +284,8 @@ typedef struct bot {
     ftm_scene *scene;
     ftm_replay *rep;
     FILE *csv;
-    uint32_t server_id;
+    uint32_t server_id; /* 0 until known; frames from anyone else are ignored */
+    uint64_t foreign;   /* messages ignored: not from the server */
     bool server_left;
     int64_t server_left_ns;
     int64_t last_frame_ns;
@@ -436,6 +437,25 @@ static void send_commands(bot *b, double t)
     }
 }
 
+/* Announcements, tick frames, keyframes and server statuses are taken from
+ * one sender only: the one whose announcement came first (DDS has no
+ * authentication here; any participant can write on any topic, so a replica
+ * must not step frames from whoever sends them). */
+static bool from_server(bot *b, const ftm_wire_received *rx)
+{
+    if (b->server_id == 0 && rx->msg.kind == FTM_WIRE_ANNOUNCE)
+        b->server_id = rx->sender;
+    if (rx->sender == b->server_id)
+        return true;
+    if (b->server_id == 0)
+        return false; /* no announcement yet: nothing to follow */
+    b->foreign++;
+    if (b->foreign <= 3 || (b->foreign & (b->foreign - 1)) == 0) /* 1, 2, 3, 4, 8, ... */
+        blog("%s from participant %u ignored (%" PRIu64 " so far): not from the server %u",
+             ftm_wire_kind_name((int)rx->msg.kind), rx->sender, b->foreign, b->server_id);
+    return false;
+}
+
 static void on_status(bot *b, const ftm_wire_received *rx)
 {
     if (rx->gone) {
@@ -447,8 +467,7 @@ static void on_status(bot *b, const ftm_wire_received *rx)
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
-    if (st->role == FTM_WIRE_ROLE_SERVER) {
-        b->server_id = rx->sender;
+    if (st->role == FTM_WIRE_ROLE_SERVER && from_server(b, rx)) {
         if (st->state == FTM_WIRE_STATE_LEAVING && !b->server_left) {
             blog("server %u leaving at tick %" PRIu64, rx->sender, st->last_applied_tick);
             b->server_left = true;
@@ -550,7 +569,8 @@ int main(int argc, char **argv)
         }
         ftm_wire_received rx;
         if (ftm_wire_receive(b->wire, FTM_WIRE_ANNOUNCE, &rx, 0, NULL) == FTM_OK) {
-            on_announce(b, &rx.msg.u.announce);
+            if (from_server(b, &rx))
+                on_announce(b, &rx.msg.u.announce);
             ftm_wire_received_free(&rx);
         }
         while (ftm_wire_receive(b->wire, FTM_WIRE_STATUS, &rx, 0, NULL) == FTM_OK) {
@@ -558,7 +578,8 @@ int main(int argc, char **argv)
             ftm_wire_received_free(&rx);
         }
         if (ftm_wire_receive(b->wire, FTM_WIRE_KEYFRAME, &rx, 0, NULL) == FTM_OK) {
-            on_keyframe(b, &rx.msg.u.keyframe);
+            if (from_server(b, &rx))
+                on_keyframe(b, &rx.msg.u.keyframe);
             ftm_wire_received_free(&rx);
         }
         int64_t wait = b->role == FTM_WIRE_ROLE_TRAINEE ? next_input - mono_ns() : SEC / 1000;
@@ -569,7 +590,8 @@ int main(int argc, char **argv)
         for (int n = 0; n < 1000; n++) {
             if (ftm_wire_receive(b->wire, FTM_WIRE_TICK, &rx, n == 0 ? wait : 0, NULL) != FTM_OK)
                 break;
-            on_tick(b, &rx);
+            if (from_server(b, &rx))
+                on_tick(b, &rx);
             ftm_wire_received_free(&rx);
         }
         now = mono_ns();

@@ -9,6 +9,10 @@
 #          (FTM_LOSSY_CONFIG, Internal/Test/XmitLossiness): every bot still
 #          ends on the server's hash (reliable repair; a sequence gap would
 #          make it resync from a keyframe).
+#   rogue: as basic, plus a hostile participant (ftm-rogue, FTM_ROGUE) sending
+#          malformed, oversized and forbidden messages mid-session: each is
+#          rejected with its reason in the server's log, the forged frames
+#          are ignored by the bots, and every bot ends on the server's hash.
 # Every process runs under `timeout`; the test itself has a CTest TIMEOUT.
 set -u
 mode=${1:?mode}
@@ -21,6 +25,7 @@ session="net-$mode-$$"
 rate=200
 duration=4.5
 [ "$mode" = kill ] && duration=5.5
+[ "$mode" = rogue ] && duration=6
 config=$FTM_CONFIG
 [ "$mode" = lossy ] && config=${FTM_LOSSY_CONFIG:?}
 common="--session $session --domain $domain --config $config"
@@ -57,6 +62,11 @@ if [ "$mode" = late ]; then
     b14=$!
     bots="11 12 13 14"
 fi
+if [ "$mode" = rogue ]; then
+    sleep 1.0
+    timeout 20 "${FTM_ROGUE:?}" $common --id 91 --victim 11 >"$dir/rogue.out" 2>"$dir/rogue.err" ||
+        fail "ftm-rogue failed"
+fi
 if [ "$mode" = kill ]; then
     sleep 1.5
     kill -KILL $b11 2>/dev/null || fail "trainee 11 was not running at 1.5 s"
@@ -87,6 +97,34 @@ late)
 kill)
     grep -q "participant 11 (trainee.* lost" "$dir/server.log" ||
         fail "server did not notice the killed trainee"
+    ;;
+rogue)
+    # every hostile message was rejected with its reason ...
+    n=$(grep -c "rejected message from participant 91 .*probe input: malformed" "$dir/server.log")
+    [ "$n" -ge 2 ] || fail "garbage and truncated payloads: $n rejections logged, want 2"
+    for want in \
+        "from participant 91 .*probe input: .*not finite" \
+        "from participant 91 .*probe input: payload of [0-9]* bytes exceeds" \
+        "from participant 91 .*participant status: payload of [0-9]* bytes exceeds" \
+        "from participant 91 .*probe input: .*memory budget" \
+        "probe input topic: message from participant 91 .*session control" \
+        "probe input from participant 91 rejected.*only trainees" \
+        "session control from participant 91 rejected.*only the instructor" \
+        "status from 91 names participant 11: ignored" \
+        "session control from participant 92 rejected.*only the instructor" \
+        "probe input from participant 92 rejected.*differs from the sender" \
+        "probe sample from participant 92 rejected.*out of range"; do
+        grep -q "$want" "$dir/server.log" || fail "server log lacks: $want"
+    done
+    # ... none of them took effect ...
+    ! grep -q "paused at\|reset at" "$dir/server.log" || fail "a rogue command was obeyed"
+    # ... and the replicas ignored the forged frames
+    for b in $bots; do
+        for k in "tick frame" keyframe; do
+            grep -q "$k from participant 91 ignored" "$dir/bot$b.err" ||
+                fail "bot $b did not ignore the forged $k"
+        done
+    done
     ;;
 lossy)
     # the injection was on: the server's writer had to retransmit

@@ -1,0 +1,382 @@
+/* ftm-rogue: a hostile participant for the session tests (tests/net,
+ * mode rogue). It joins a running session and sends, one after the other,
+ * every kind of bad input the protocol must survive: garbage bytes, a
+ * well-formed envelope whose payload does not decode (truncated, NaN), an
+ * oversized payload, a payload of huge repeated counts, a message of the
+ * wrong kind on a topic, and well-formed messages that its role forbids or
+ * that forge another participant's id. Each step is printed on stdout as
+ * `rogue: STEP` so the test can match it with the server's logged reason.
+ *
+ * The wrong-kind envelope needs a raw DDS writer (ftm_wire always writes a
+ * kind on its own topic); everything else goes through ftm_wire, raw
+ * payloads with ftm_wire_publish_raw. */
+#include "ftm/wire.h"
+
+#include "ftm_envelope.h"
+
+#include <dds/dds.h>
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+typedef struct buf {
+    uint8_t *p;
+    size_t n, cap;
+} buf;
+
+static void put(buf *b, const void *d, size_t n)
+{
+    if (b->n + n > b->cap) {
+        size_t cap = b->cap ? b->cap : 256;
+        while (cap < b->n + n)
+            cap *= 2;
+        uint8_t *q = realloc(b->p, cap);
+        if (!q) {
+            fprintf(stderr, "rogue: out of memory\n");
+            exit(3);
+        }
+        b->p = q;
+        b->cap = cap;
+    }
+    memcpy(b->p + b->n, d, n);
+    b->n += n;
+}
+
+static void varint(buf *b, uint64_t v)
+{
+    uint8_t c[10];
+    size_t n = 0;
+    do {
+        c[n++] = (uint8_t)((v & 0x7f) | (v > 0x7f ? 0x80 : 0));
+        v >>= 7;
+    } while (v);
+    put(b, c, n);
+}
+
+static void key(buf *b, uint32_t field, uint32_t wire) { varint(b, (uint64_t)field << 3 | wire); }
+
+static void f64(buf *b, uint32_t field, double d)
+{
+    uint64_t u;
+    memcpy(&u, &d, sizeof u);
+    key(b, field, 1);
+    uint8_t c[8];
+    for (int i = 0; i < 8; i++)
+        c[i] = (uint8_t)(u >> (8 * i));
+    put(b, c, 8);
+}
+
+/* A ProbeInput (proto/ftm.proto) with one sample, encoded by hand so that
+ * it can carry what the encoder refuses (a NaN coordinate). */
+static void probe_input_bytes(buf *b, uint32_t participant, double x, double y, double z)
+{
+    buf vec = {0}, smp = {0};
+    f64(&vec, 1, x);
+    f64(&vec, 2, y);
+    f64(&vec, 3, z);
+    key(&smp, 1, 0);
+    varint(&smp, 0);
+    key(&smp, 2, 0);
+    varint(&smp, 12345);
+    key(&smp, 3, 2);
+    varint(&smp, vec.n);
+    put(&smp, vec.p, vec.n);
+    key(b, 1, 0);
+    varint(b, FTM_WIRE_VERSION);
+    key(b, 2, 0);
+    varint(b, participant);
+    key(b, 3, 0);
+    varint(b, 0);
+    key(b, 4, 2);
+    varint(b, smp.n);
+    put(b, smp.p, smp.n);
+    free(vec.p);
+    free(smp.p);
+}
+
+static void pause_ms(int ms)
+{
+    struct timespec ts = {ms / 1000, (long)(ms % 1000) * 1000000L};
+    nanosleep(&ts, NULL);
+}
+
+static int fails;
+
+static void step(const char *what, int rc, const ftm_error *err)
+{
+    if (rc) {
+        fprintf(stderr, "rogue: %s: could not send: %s\n", what, err->message);
+        fails++;
+    }
+    printf("rogue: %s\n", what);
+    fflush(stdout);
+    pause_ms(60); /* one step per server drain, easy to read in the log */
+}
+
+static int raw(ftm_wire_transport *t, int kind, const void *p, size_t n, const char *what)
+{
+    ftm_error err = {0, ""};
+    int rc = ftm_wire_publish_raw(t, kind, p, n, &err);
+    step(what, rc, &err);
+    return rc;
+}
+
+static void msg(ftm_wire_transport *t, const ftm_wire_msg *m, const char *what)
+{
+    ftm_error err = {0, ""};
+    step(what, ftm_wire_publish(t, m, &err), &err);
+}
+
+static void status(ftm_wire_transport *t, uint32_t id, uint32_t named, ftm_wire_role role,
+                   ftm_wire_state state)
+{
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_STATUS;
+    m.u.status.participant = named ? named : id;
+    m.u.status.role = role;
+    m.u.status.state = state;
+    snprintf(m.u.status.name, sizeof m.u.status.name, "rogue");
+    ftm_error err = {0, ""};
+    if (ftm_wire_publish(t, &m, &err))
+        fprintf(stderr, "rogue: status: %s\n", err.message);
+}
+
+static ftm_wire_transport *join(const char *config, uint32_t domain, const char *session,
+                                uint32_t id, ftm_wire_role role)
+{
+    ftm_wire_transport_def d;
+    memset(&d, 0, sizeof d);
+    d.config = config;
+    d.domain_id = domain;
+    d.session = session;
+    d.participant_id = id;
+    d.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT) |
+                FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL) | FTM_WIRE_KIND_BIT(FTM_WIRE_TICK) |
+                FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME);
+    d.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE);
+    ftm_wire_transport *t = NULL;
+    ftm_error err = {0, ""};
+    if (ftm_wire_transport_create(&d, &t, &err)) {
+        fprintf(stderr, "rogue: %s\n", err.message);
+        exit(3);
+    }
+    /* the server's readers must see us before anything is sent */
+    if (ftm_wire_wait_matched(t, FTM_WIRE_PROBE_INPUT, 1, 5000000000LL, &err) ||
+        ftm_wire_wait_matched(t, FTM_WIRE_CONTROL, 1, 5000000000LL, &err)) {
+        fprintf(stderr, "rogue: %s\n", err.message);
+        exit(3);
+    }
+    status(t, id, 0, role, FTM_WIRE_STATE_SYNCED);
+    pause_ms(300); /* the server learns our role */
+    return t;
+}
+
+/* The wrong kind on a topic: an envelope saying "session control" written
+ * on the probe input topic, through a DDS writer of our own. */
+static void wrong_kind(uint32_t domain, const char *session, uint32_t id)
+{
+    dds_entity_t pp = dds_create_participant(domain, NULL, NULL);
+    dds_entity_t tp = pp > 0 ? dds_create_topic(pp, &ftm_wire_Envelope_desc,
+                                                ftm_wire_topic_name(FTM_WIRE_PROBE_INPUT), NULL, NULL)
+                             : pp;
+    dds_entity_t wr = tp > 0 ? dds_create_writer(pp, tp, NULL, NULL) : tp;
+    if (wr < 0) {
+        fprintf(stderr, "rogue: raw DDS writer: %s\n", dds_strretcode(wr));
+        fails++;
+        if (pp > 0)
+            dds_delete(pp);
+        return;
+    }
+    for (int i = 0; i < 100; i++) { /* wait for the server's reader */
+        dds_publication_matched_status_t ms;
+        if (dds_get_publication_matched_status(wr, &ms) == 0 && ms.current_count > 0)
+            break;
+        pause_ms(20);
+    }
+    /* the server's best-effort reader drops samples of a writer it has not
+     * discovered yet: give discovery the other way round time too */
+    pause_ms(500);
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_CONTROL;
+    m.u.control.issuer = id;
+    m.u.control.command_id = 1;
+    m.u.control.command = FTM_WIRE_CMD_RESET;
+    uint8_t *payload = NULL;
+    size_t size = 0;
+    ftm_error err = {0, ""};
+    if (ftm_wire_encode(&m, &payload, &size, &err)) {
+        fprintf(stderr, "rogue: %s\n", err.message);
+        exit(3);
+    }
+    ftm_wire_Envelope env;
+    memset(&env, 0, sizeof env);
+    snprintf(env.session, sizeof env.session, "%s", session);
+    env.sender = id;
+    env.kind = FTM_WIRE_CONTROL;
+    env.seq = 1;
+    env.payload._length = env.payload._maximum = (uint32_t)size;
+    env.payload._buffer = payload;
+    env.payload._release = false;
+    dds_return_t rc = dds_write(wr, &env);
+    if (rc < 0) {
+        fprintf(stderr, "rogue: dds_write: %s\n", dds_strretcode(rc));
+        fails++;
+    }
+    printf("rogue: wrong kind on the probe input topic\n");
+    fflush(stdout);
+    pause_ms(200); /* best effort: let it go out before the writer is deleted */
+    free(payload);
+    dds_delete(pp);
+}
+
+int main(int argc, char **argv)
+{
+    const char *config = NULL, *session = "ftm";
+    uint32_t domain = 0, id = 0, victim = 0;
+    for (int i = 1; i + 1 < argc; i += 2) {
+        const char *a = argv[i], *v = argv[i + 1];
+        char *end = NULL;
+        errno = 0;
+        if (strcmp(a, "--config") == 0)
+            config = v;
+        else if (strcmp(a, "--session") == 0)
+            session = v;
+        else if (strcmp(a, "--domain") == 0)
+            domain = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--id") == 0)
+            id = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--victim") == 0)
+            victim = (uint32_t)strtoul(v, &end, 10);
+        else {
+            fprintf(stderr, "rogue: unknown option %s\n", a);
+            return 2;
+        }
+        if (end && (*end || errno)) {
+            fprintf(stderr, "rogue: %s: bad number '%s'\n", a, v);
+            return 2;
+        }
+    }
+    if (argc % 2 != 1 || id == 0 || victim == 0 || victim == id || victim == id + 1) {
+        fprintf(stderr, "usage: ftm-rogue --id N --victim M [--config F] [--domain D] "
+                        "[--session S]   (uses ids N and N+1; M is a trainee to impersonate)\n");
+        return 2;
+    }
+
+    /* 1. as an observer */
+    ftm_wire_transport *t = join(config, domain, session, id, FTM_WIRE_ROLE_OBSERVER);
+    uint8_t garbage[97];
+    uint32_t lcg = 12345u;
+    for (size_t i = 0; i < sizeof garbage; i++) {
+        lcg = lcg * 1103515245u + 12345u;
+        garbage[i] = (uint8_t)(lcg >> 23);
+    }
+    raw(t, FTM_WIRE_PROBE_INPUT, garbage, sizeof garbage, "garbage bytes");
+
+    buf b = {0};
+    probe_input_bytes(&b, id, 0.035, NAN, 0.105);
+    raw(t, FTM_WIRE_PROBE_INPUT, b.p, b.n, "NaN coordinate");
+    raw(t, FTM_WIRE_PROBE_INPUT, b.p, b.n - 5, "truncated payload");
+    free(b.p);
+
+    size_t big = FTM_WIRE_CAP_PROBE_INPUT + 4096;
+    uint8_t *zeros = calloc(big, 1);
+    if (!zeros)
+        return 3;
+    raw(t, FTM_WIRE_PROBE_INPUT, zeros, big, "oversized probe input");
+    raw(t, FTM_WIRE_STATUS, zeros, FTM_WIRE_CAP_STATUS + 1, "oversized status");
+    free(zeros);
+
+    /* 100 000 empty samples in 200 kB: each unpacks into a whole
+     * ProbeSample, far beyond the decoder's memory budget */
+    buf huge = {0};
+    for (int i = 0; i < 100000; i++) {
+        key(&huge, 4, 2);
+        varint(&huge, 0);
+    }
+    raw(t, FTM_WIRE_PROBE_INPUT, huge.p, huge.n, "huge repeated count");
+    free(huge.p);
+
+    wrong_kind(domain, session, id);
+
+    ftm_wire_probe_sample smp = {0, 1, {0.035, 0.035, 0.100}};
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_PROBE_INPUT;
+    m.u.probe_input.participant = id;
+    m.u.probe_input.sample_count = 1;
+    m.u.probe_input.samples = &smp;
+    msg(t, &m, "observer sends probe input");
+
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_CONTROL;
+    m.u.control.issuer = id;
+    m.u.control.command_id = 1;
+    m.u.control.command = FTM_WIRE_CMD_RESET;
+    msg(t, &m, "observer sends session control");
+
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_STATUS;
+    m.u.status.participant = victim;
+    m.u.status.role = FTM_WIRE_ROLE_INSTRUCTOR;
+    m.u.status.state = FTM_WIRE_STATE_SYNCED;
+    msg(t, &m, "status naming another participant");
+
+    /* a forged tick frame and keyframe: replicas must follow the server only */
+    ftm_contact c = {0, 0, FTM_CONTACT_DISPLACEMENT, {0, 0, 0.01}};
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_TICK;
+    m.u.tick.tick = 1000000;
+    m.u.tick.contact_count = 1;
+    m.u.tick.contacts = &c;
+    m.u.tick.state_hash = 42;
+    msg(t, &m, "forged tick frame");
+    int32_t node = 0;
+    double pos[3] = {0, 0, 0.5};
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_KEYFRAME;
+    m.u.keyframe.tick = 1000000;
+    m.u.keyframe.state_hash = 42;
+    m.u.keyframe.node_count = 1728;
+    m.u.keyframe.count = 1;
+    m.u.keyframe.nodes = &node;
+    m.u.keyframe.positions = pos;
+    m.u.keyframe.previous = pos;
+    msg(t, &m, "forged keyframe");
+
+    /* 2. as a trainee (id + 1) */
+    ftm_wire_transport *t2 = join(config, domain, session, id + 1, FTM_WIRE_ROLE_TRAINEE);
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_CONTROL;
+    m.u.control.issuer = id + 1;
+    m.u.control.command_id = 1;
+    m.u.control.command = FTM_WIRE_CMD_PAUSE;
+    msg(t2, &m, "trainee sends session control");
+
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_PROBE_INPUT;
+    m.u.probe_input.participant = victim;
+    m.u.probe_input.sample_count = 1;
+    m.u.probe_input.samples = &smp;
+    msg(t2, &m, "probe input in another participant's name");
+
+    ftm_wire_probe_sample bad = {9, 1, {0.035, 0.035, 0.100}};
+    m.u.probe_input.participant = id + 1;
+    m.u.probe_input.samples = &bad;
+    msg(t2, &m, "probe index out of range");
+
+    /* leave in order; the forged keyframe dies with its writer */
+    status(t, id, 0, FTM_WIRE_ROLE_OBSERVER, FTM_WIRE_STATE_LEAVING);
+    status(t2, id + 1, 0, FTM_WIRE_ROLE_TRAINEE, FTM_WIRE_STATE_LEAVING);
+    ftm_wire_flush(t, 2000000000LL, NULL);
+    ftm_wire_flush(t2, 2000000000LL, NULL);
+    ftm_wire_transport_destroy(t2);
+    ftm_wire_transport_destroy(t);
+    printf("rogue: done (%d steps not sent)\n", fails);
+    return fails ? 1 : 0;
+}
