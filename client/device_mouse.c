@@ -1,0 +1,194 @@
+/* The mouse probe (device.h): cursor events from the GL thread move a target
+ * HIP; the haptic thread follows it through a first-order low-pass. */
+#include "device.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+typedef struct mouse {
+    pthread_mutex_t lock;
+    ftm_device_def def;
+    ftm_mouse_view view;
+    bool have_view;
+    bool dragging;
+    double px, py;   /* cursor at the last event of the drag */
+    ftm_vec3 target; /* scene coordinates */
+    double step, tau;
+    /* haptic thread only */
+    bool have_out;
+    ftm_vec3 out;
+    double out_time;
+} mouse;
+
+static const ftm_device_ops mouse_ops;
+
+static mouse *as_mouse(ftm_device *d) { return d && d->ops == &mouse_ops ? d->self : NULL; }
+
+static bool fin(ftm_vec3 v) { return isfinite(v.x) && isfinite(v.y) && isfinite(v.z); }
+
+static int mouse_read(void *self, double now, ftm_vec3 *hip)
+{
+    mouse *m = self;
+    pthread_mutex_lock(&m->lock);
+    ftm_vec3 t = m->target;
+    pthread_mutex_unlock(&m->lock);
+    if (!m->have_out || m->tau <= 0) {
+        m->out = t;
+    } else {
+        double dt = now - m->out_time;
+        double a = dt > 0 ? 1.0 - exp(-dt / m->tau) : 0.0;
+        m->out = (ftm_vec3){m->out.x + a * (t.x - m->out.x), m->out.y + a * (t.y - m->out.y),
+                            m->out.z + a * (t.z - m->out.z)};
+    }
+    m->have_out = true;
+    m->out_time = now;
+    /* device coordinates: the wrapper maps them back to the scene */
+    double s = m->def.position_scale;
+    *hip = (ftm_vec3){(m->out.x - m->def.offset.x) / s, (m->out.y - m->def.offset.y) / s,
+                      (m->out.z - m->def.offset.z) / s};
+    return FTM_OK;
+}
+
+static void mouse_write(void *self, double now, ftm_vec3 force) {} /* a mouse has no motor */
+
+static void mouse_destroy(void *self)
+{
+    mouse *m = self;
+    pthread_mutex_destroy(&m->lock);
+    free(m);
+}
+
+static const ftm_device_ops mouse_ops = {
+    .name = "mouse", .read = mouse_read, .write = mouse_write, .destroy = mouse_destroy};
+
+int ftm_mouse_create(const ftm_device_def *def, ftm_vec3 hip0, double scroll_step,
+                     double smoothing, ftm_device **out, ftm_error *err)
+{
+    if (!fin(hip0) || !isfinite(scroll_step) || !isfinite(smoothing)) {
+        if (err) {
+            err->code = FTM_EINVAL;
+            snprintf(err->message, sizeof err->message,
+                     "mouse probe: start HIP, scroll step and smoothing must be finite");
+        }
+        return FTM_EINVAL;
+    }
+    mouse *m = calloc(1, sizeof *m);
+    if (!m || pthread_mutex_init(&m->lock, NULL)) {
+        free(m);
+        if (err) {
+            err->code = FTM_ENOMEM;
+            snprintf(err->message, sizeof err->message, "mouse probe: out of memory");
+        }
+        return FTM_ENOMEM;
+    }
+    m->def = def ? *def : ftm_default_device_def();
+    m->target = hip0;
+    m->step = scroll_step > 0 ? scroll_step : 1e-3;
+    m->tau = smoothing < 0 ? 0.015 : smoothing;
+    int rc = ftm_device_create(&mouse_ops, m, &m->def, out, err);
+    if (rc)
+        mouse_destroy(m);
+    return rc;
+}
+
+int ftm_mouse_set_view(ftm_device *d, const ftm_mouse_view *v)
+{
+    mouse *m = as_mouse(d);
+    if (!m || !v || !fin(v->eye) || !fin(v->forward) || !fin(v->right) || !fin(v->up) ||
+        !(v->fov_y > 0 && v->fov_y < 3.14159) || !(v->width > 0) || !(v->height > 0) ||
+        !isfinite(v->width) || !isfinite(v->height))
+        return FTM_EINVAL;
+    pthread_mutex_lock(&m->lock);
+    m->view = *v;
+    m->have_view = true;
+    pthread_mutex_unlock(&m->lock);
+    return FTM_OK;
+}
+
+/* The point under cursor (px, py) at depth `depth` along the viewing
+ * direction (a pinhole camera: the ray through the pixel, scaled so that its
+ * forward component is depth). */
+static ftm_vec3 unproject(const ftm_mouse_view *v, double px, double py, double depth)
+{
+    double ty = tan(0.5 * v->fov_y), tx = ty * v->width / v->height;
+    double nx = 2.0 * px / v->width - 1.0, ny = 1.0 - 2.0 * py / v->height;
+    double a = nx * tx * depth, b = ny * ty * depth;
+    return (ftm_vec3){v->eye.x + depth * v->forward.x + a * v->right.x + b * v->up.x,
+                      v->eye.y + depth * v->forward.y + a * v->right.y + b * v->up.y,
+                      v->eye.z + depth * v->forward.z + a * v->right.z + b * v->up.z};
+}
+
+int ftm_mouse_button(ftm_device *d, bool down, double px, double py)
+{
+    mouse *m = as_mouse(d);
+    if (!m || !isfinite(px) || !isfinite(py))
+        return FTM_EINVAL;
+    pthread_mutex_lock(&m->lock);
+    m->dragging = down;
+    m->px = px;
+    m->py = py;
+    pthread_mutex_unlock(&m->lock);
+    return FTM_OK;
+}
+
+int ftm_mouse_motion(ftm_device *d, double px, double py)
+{
+    mouse *m = as_mouse(d);
+    if (!m || !isfinite(px) || !isfinite(py))
+        return FTM_EINVAL;
+    pthread_mutex_lock(&m->lock);
+    if (m->dragging && m->have_view) {
+        const ftm_mouse_view *v = &m->view;
+        ftm_vec3 e = {m->target.x - v->eye.x, m->target.y - v->eye.y, m->target.z - v->eye.z};
+        double depth = e.x * v->forward.x + e.y * v->forward.y + e.z * v->forward.z;
+        if (depth > 1e-6) { /* behind the camera the plane makes no sense */
+            ftm_vec3 a = unproject(v, m->px, m->py, depth), b = unproject(v, px, py, depth);
+            m->target = (ftm_vec3){m->target.x + b.x - a.x, m->target.y + b.y - a.y,
+                                   m->target.z + b.z - a.z};
+        }
+    }
+    m->px = px;
+    m->py = py;
+    pthread_mutex_unlock(&m->lock);
+    return FTM_OK;
+}
+
+int ftm_mouse_scroll(ftm_device *d, double dy)
+{
+    mouse *m = as_mouse(d);
+    if (!m || !isfinite(dy))
+        return FTM_EINVAL;
+    pthread_mutex_lock(&m->lock);
+    if (m->have_view) {
+        double s = dy * m->step;
+        m->target = (ftm_vec3){m->target.x + s * m->view.forward.x,
+                               m->target.y + s * m->view.forward.y,
+                               m->target.z + s * m->view.forward.z};
+    }
+    pthread_mutex_unlock(&m->lock);
+    return FTM_OK;
+}
+
+int ftm_mouse_set_hip(ftm_device *d, ftm_vec3 hip)
+{
+    mouse *m = as_mouse(d);
+    if (!m || !fin(hip))
+        return FTM_EINVAL;
+    pthread_mutex_lock(&m->lock);
+    m->target = hip;
+    pthread_mutex_unlock(&m->lock);
+    return FTM_OK;
+}
+
+int ftm_mouse_target(ftm_device *d, ftm_vec3 *hip)
+{
+    mouse *m = as_mouse(d);
+    if (!m)
+        return FTM_EINVAL;
+    pthread_mutex_lock(&m->lock);
+    *hip = m->target;
+    pthread_mutex_unlock(&m->lock);
+    return FTM_OK;
+}
