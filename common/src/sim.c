@@ -4,6 +4,7 @@
 #include "ftm/sim.h"
 
 #include "error.h"
+#include "sim_elem.h"
 #include "sim_internal.h"
 
 #include <math.h>
@@ -73,14 +74,15 @@ void ftm_sim_destroy(ftm_sim *sim)
     free(sim->relax_tmp);
     free(sim->relax_save);
     free(sim->reaction);
+    ftm_elem_free(sim->elem);
     free(sim);
 }
 
 /* a = 1/(m/h^2 + d/2h), b = 2m/h^2 * a, c = (m/h^2 - d/2h) * a, so that
  * x_new = a (F - sum f) + b x - c x_prev  (Eq. 8 written for positions). */
-static void node_coef(const ftm_mesh *m, int32_t i, double h, double *out)
+static void node_coef(const ftm_mesh *m, const double *mass, int32_t i, double h, double *out)
 {
-    double mh = m->mass[i] / (h * h), dh = m->damping[i] / (2.0 * h);
+    double mh = mass[i] / (h * h), dh = m->damping[i] / (2.0 * h);
     double a = 1.0 / (mh + dh);
     out[0] = a;
     out[1] = 2.0 * mh * a;
@@ -91,7 +93,7 @@ static void set_substep_length(ftm_sim *sim, double h)
 {
     sim->h_sub = h;
     for (int32_t i = 0; i < sim->n; i++)
-        node_coef(sim->m, i, h, sim->coef + 3 * i);
+        node_coef(sim->m, ftm_sim_masses(sim), i, h, sim->coef + 3 * i);
 }
 
 /* The layer-by-layer (Gauss-Seidel) update is not time-reversible like plain
@@ -167,14 +169,19 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
         double lim = d.guard_motion * m->min_link[i];
         sim->lim2[i] = isfinite(lim) ? lim * lim : INFINITY;
     }
+    if (d.forces != FTM_FORCES_SPRINGS && (rc = ftm_elem_create(sim, err)) != FTM_OK) {
+        ftm_sim_destroy(sim);
+        return rc;
+    }
     sim->substeps = 1;
     set_substep_length(sim, d.time_step);
     sim->tol = d.sleep_tolerance * m->mean_link_length;
     sim->layers_dirty = true;
     sim->st.depth = d.depth;
     sim->st.substeps = 1;
-    warn_low_damping(sim);
-    double hc = ftm_mesh_critical_time_step(m);
+    if (!sim->elem)
+        warn_low_damping(sim); /* element forces warn in ftm_elem_create */
+    double hc = ftm_sim_critical_time_step(sim);
     if (d.time_step > hc) {
         ftm_logf(d.log, d.log_user, FTM_LOG_WARN,
                  "time step %g s exceeds the critical time step %g s of this mesh: the stability "
@@ -462,7 +469,9 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
     for (int32_t sub = 0; sub < sim->substeps; sub++) {
         if (region_active) {
             impose_displacements(sim);
-            if (sim->def.order == FTM_ORDER_LAYER_JACOBI) {
+            if (sim->elem) {
+                ok &= ftm_elem_sweep(sim, region_m2);
+            } else if (sim->def.order == FTM_ORDER_LAYER_JACOBI) {
                 for (int32_t g = 0; g < s->groups; g++)
                     ok &= ftm_sweep_jacobi(sim, s->group[g], s->group[g + 1], region_m2);
             } else if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
@@ -473,7 +482,7 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
                 ok &= ftm_sweep_gs(sim, 0, s->count, region_m2);
             }
         }
-        ok &= ftm_sweep_relax(sim);
+        ok &= sim->elem ? ftm_elem_sweep_relax(sim) : ftm_sweep_relax(sim);
         if (!sim->def.guard)
             ok = true;
         if (!ok)
@@ -545,7 +554,10 @@ int ftm_sim_step(ftm_sim *sim)
     sim->st.updated_nodes = (region_active ? sim->s.count : 0) + sim->nrelax;
     sim->st.updated_nodes *= sim->substeps;
     sleep_relaxed(sim);
-    ftm_sim_compute_reactions(sim);
+    if (sim->elem)
+        ftm_elem_reactions(sim);
+    else
+        ftm_sim_compute_reactions(sim);
     if (sim->def.region_sleep_steps > 0 && region_active) {
         if (region_m2 <= sim->tol * sim->tol && sim->nrelax == 0) {
             if (++sim->quiet_steps >= sim->def.region_sleep_steps) {

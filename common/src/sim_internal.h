@@ -109,6 +109,7 @@ struct ftm_sim {
     double tol; /* sleep tolerance in metres */
     sweep_fn sweep_blocks; /* the block kernel for this CPU (see select_kernel) */
     ftm_sim_stats st;
+    struct ftm_elem *elem; /* element forces (sim_elem.c); NULL = springs */
 };
 
 static inline bool ftm_sim_at_rest(const ftm_sim *sim, int32_t i)

@@ -114,6 +114,34 @@ double ftm_mesh_critical_time_step(const ftm_mesh *mesh);
 /* Nearest node to a point (linear scan; for scene set-up, not per tick). */
 int32_t ftm_mesh_nearest_node(const ftm_mesh *mesh, ftm_vec3 point);
 
+/* ---- linear elastic elements (FEM forces of ftm_sim, and the FEM reference) ----
+ * Small strains, isotropic Hooke's law in Voigt order (xx yy zz xy yz zx),
+ * engineering shear strains; formulation in docs/fem.md. Matrices row-major,
+ * dof 3a+i = element node a, axis i. Hexahedron node order as in
+ * ftm_mesh_builder_add_hexahedron. No material validation here. */
+
+/* The 6x6 constitutive matrix D for Young's modulus E and Poisson's ratio nu. */
+void ftm_elasticity_matrix(double young, double poisson, double d[36]);
+/* 8-node hexahedron, 2x2x2 Gauss: K_e = sum_q B^T D B det J. FTM_EINVAL if
+ * det J <= 0 at a Gauss point; *min_det (may be NULL) gets the smallest. */
+int ftm_hex8_stiffness(const ftm_vec3 x[8], double young, double poisson, double ke[576],
+                       double *min_det);
+/* Shape-function gradients dN_a/dx at the element centre (3 per node). */
+int ftm_hex8_centre_gradients(const ftm_vec3 x[8], double grad[24]);
+/* Row-sum lumped masses int rho N_a dV (2x2x2 Gauss). */
+int ftm_hex8_lumped_mass(const ftm_vec3 x[8], double density, double mass[8]);
+/* 4-node tetrahedron: K_e = V B^T D B, V = |signed volume|. FTM_EINVAL if
+ * degenerate (|6V| <= 1e-12 longest edge^3); *signed_volume may be NULL. */
+int ftm_tet4_stiffness(const ftm_vec3 x[4], double young, double poisson, double ke[144],
+                       double *signed_volume);
+/* Constant shape-function gradients dN_a/dx (3 per node). */
+int ftm_tet4_gradients(const ftm_vec3 x[4], double grad[12]);
+/* Lumped nodal masses of the mesh's hexahedra and tetrahedra at density
+ * [kg/m^3]: mass_out[i] (mesh order) = sum over the elements of node i of
+ * int rho N_i dV (rho V / 4 for a tetrahedron). Nodes in no element get 0. */
+int ftm_mesh_lumped_masses(const ftm_mesh *mesh, double density, double *mass_out,
+                           ftm_error *err);
+
 #ifdef __cplusplus
 }
 #endif

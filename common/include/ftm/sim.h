@@ -45,6 +45,15 @@ typedef enum ftm_order {
     FTM_ORDER_LAYER_JACOBI = 2,
 } ftm_order;
 
+/* Internal forces of the integrator. The paper's model is springs; the
+ * element forces use the mesh's hexahedra and tetrahedra with the linear
+ * elastic element stiffness of the FEM reference (docs/accuracy.md). */
+typedef enum ftm_forces {
+    FTM_FORCES_SPRINGS = 0,    /* Voigt links (Eq. 6), the default */
+    FTM_FORCES_LINEAR_FEM = 1, /* f_e = K_e (x_e - X_e): small displacements */
+    FTM_FORCES_COROT_FEM = 2,  /* co-rotational f_e = R K_e (R^T x_e - X_e): large rotations */
+} ftm_forces;
+
 typedef struct ftm_sim_def {
     double time_step;       /* h [s], > 0 (default 1e-3) */
     int32_t depth;          /* penetration depth n >= 0 (default 10) */
@@ -69,6 +78,13 @@ typedef struct ftm_sim_def {
     bool cache_layers;
     ftm_log_fn log; /* warnings (time step above critical) and guard events */
     void *log_user;
+    /* Internal forces (default FTM_FORCES_SPRINGS). With element forces a
+     * node's force is the sum of its elements' rows of K_e (x_e - X_e) (or the
+     * co-rotated form), links only shape the layers and the guard; young > 0
+     * and -1 < poisson < 0.5 are required, and density > 0 [kg/m^3] replaces
+     * the mesh's node masses by lumped element masses (0 keeps them). */
+    ftm_forces forces;
+    double young, poisson, density;
 } ftm_sim_def;
 
 ftm_sim_def ftm_default_sim_def(void);
@@ -179,6 +195,39 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
                        const double *x, const double *xp, int32_t count,
                        const ftm_contact *contacts, int32_t ncontacts, const ftm_sim_mode *mode,
                        ftm_error *err);
+
+/* ---- element forces (docs/accuracy.md) ---- */
+
+/* The critical time step of the simulation's forces: ftm_mesh_critical_time_step
+ * for springs; for element forces the Gershgorin bound on M^-1 K with the
+ * assembled element stiffness and the simulation's (lumped) masses. */
+double ftm_sim_critical_time_step(const ftm_sim *sim);
+
+/* Node masses the simulation uses (lumped element masses when set), 1 per node. */
+const double *ftm_sim_masses(const ftm_sim *sim);
+
+/* Internal forces at positions x (3 per node, mesh order) into f_out (3 per
+ * node): the spring forces sum_j f_ij, or the element forces, as the
+ * integrator computes them (co-rotational: rotations from x). A node at
+ * equilibrium has f = external force. Fixed nodes get their reactions'
+ * negatives like any other node. FTM_ENOMEM possible. */
+int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f_out);
+
+/* ---- contact stiffness (for haptic force models, docs/haptics.md) ---- */
+
+/* K = dF/dx [N/m], 3x3 row-major, of the reaction F of a contact group
+ * (ftm_sim_reaction) with respect to a rigid motion dx of all the group's
+ * displacement contacts (how a probe moves them), the rest of the tissue held
+ * at its current positions: the tangent stiffness of the springs joining the
+ * group's nodes to the others (Eq. 6), at the current state. Returns the
+ * number of displacement contacts of the group (0: K is zero). Springs only. */
+int32_t ftm_sim_contact_stiffness(const ftm_sim *sim, int32_t group, double K[9]);
+
+/* Projects a stiffness onto the passive ones in place: its symmetric part
+ * with positive eigenvalues (force growing along the motion, e.g. from
+ * compressed springs' transverse terms) set to zero. F0 + K dx with such a
+ * K derives from a potential that only resists motion. */
+void ftm_stiffness_make_passive(double K[9]);
 
 #ifdef __cplusplus
 }
