@@ -220,7 +220,8 @@ int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f_out);
  * displacement contacts (how a probe moves them), the rest of the tissue held
  * at its current positions: the tangent stiffness of the springs joining the
  * group's nodes to the others (Eq. 6), at the current state. Returns the
- * number of displacement contacts of the group (0: K is zero). Springs only. */
+ * number of displacement contacts of the group (0: K is zero). Springs only:
+ * with element forces (ftm_sim_def.forces) it returns 0. */
 int32_t ftm_sim_contact_stiffness(const ftm_sim *sim, int32_t group, double K[9]);
 
 /* Projects a stiffness onto the passive ones in place: its symmetric part
