@@ -7,6 +7,7 @@
  * latency and hashes. Exit status: 0 synced at the end; 1 a hash mismatch or
  * gap that did not recover (or never synced); 2 usage; 3 set-up failure. */
 #include "replay.h"
+#include "script.h"
 
 #include "ftm/scene.h"
 #include "ftm/wire.h"
@@ -24,25 +25,6 @@
 #include <unistd.h>
 
 #define SEC 1000000000LL
-
-typedef struct point {
-    double t;
-    ftm_vec3 p;
-} point;
-
-typedef struct command {
-    double t;
-    ftm_wire_command cmd;
-    bool done;
-} command;
-
-typedef struct script {
-    point *pts;
-    int32_t npts, cap;
-    command cmds[64];
-    int32_t ncmds;
-    double join, leave; /* leave < 0: none */
-} script;
 
 typedef struct options {
     const char *role, *script, *scene, *session, *config, *log_path, *name;
@@ -85,113 +67,6 @@ static void log_hook(void *user, ftm_log_level level, const char *message)
     (void)user;
     if (level >= FTM_LOG_INFO)
         blog("%s", message);
-}
-
-/* ---- script ---------------------------------------------------------------------- */
-
-static int parse_script(const char *path, script *sc)
-{
-    memset(sc, 0, sizeof *sc);
-    sc->leave = -1.0;
-    FILE *f = fopen(path, "r");
-    if (!f) {
-        fprintf(stderr, "ftm-bot: cannot open script %s: %s\n", path, strerror(errno));
-        return -1;
-    }
-    char line[512];
-    int lineno = 0;
-    while (fgets(line, sizeof line, f)) {
-        lineno++;
-        char *hash = strchr(line, '#');
-        if (hash)
-            *hash = '\0';
-        char *p = line;
-        while (isspace((unsigned char)*p))
-            p++;
-        if (!*p)
-            continue;
-        char word[32];
-        double v[4];
-        int n;
-        if (isalpha((unsigned char)*p)) {
-            if (sscanf(p, "%31s %lf %n", word, &v[0], &n) < 2) {
-                fprintf(stderr, "%s:%d: expected '<keyword> <time>'\n", path, lineno);
-                goto bad;
-            }
-            if (p[n] != '\0') {
-                fprintf(stderr, "%s:%d: extra text after '%s <time>'\n", path, lineno, word);
-                goto bad;
-            }
-            if (!(v[0] >= 0) || !isfinite(v[0])) {
-                fprintf(stderr, "%s:%d: time must be >= 0\n", path, lineno);
-                goto bad;
-            }
-            if (strcmp(word, "join") == 0) {
-                sc->join = v[0];
-            } else if (strcmp(word, "leave") == 0) {
-                sc->leave = v[0];
-            } else if (strcmp(word, "pause") == 0 || strcmp(word, "resume") == 0 ||
-                       strcmp(word, "reset") == 0) {
-                if (sc->ncmds == 64) {
-                    fprintf(stderr, "%s:%d: more than 64 commands\n", path, lineno);
-                    goto bad;
-                }
-                ftm_wire_command c = strcmp(word, "pause") == 0   ? FTM_WIRE_CMD_PAUSE
-                                     : strcmp(word, "reset") == 0 ? FTM_WIRE_CMD_RESET
-                                                                  : FTM_WIRE_CMD_RESUME;
-                sc->cmds[sc->ncmds++] = (command){v[0], c, false};
-            } else {
-                fprintf(stderr, "%s:%d: unknown keyword '%s' (join, leave, pause, resume, reset)\n",
-                        path, lineno, word);
-                goto bad;
-            }
-            continue;
-        }
-        if (sscanf(p, "%lf %lf %lf %lf %n", &v[0], &v[1], &v[2], &v[3], &n) < 4 || p[n] != '\0') {
-            fprintf(stderr, "%s:%d: expected 't x y z' (4 numbers)\n", path, lineno);
-            goto bad;
-        }
-        for (int i = 0; i < 4; i++)
-            if (!isfinite(v[i])) {
-                fprintf(stderr, "%s:%d: not a finite number\n", path, lineno);
-                goto bad;
-            }
-        if (sc->npts > 0 && !(v[0] > sc->pts[sc->npts - 1].t)) {
-            fprintf(stderr, "%s:%d: times must increase\n", path, lineno);
-            goto bad;
-        }
-        if (sc->npts == sc->cap) {
-            int32_t cap = sc->cap ? 2 * sc->cap : 64;
-            point *q = realloc(sc->pts, (size_t)cap * sizeof *q);
-            if (!q)
-                goto bad;
-            sc->pts = q;
-            sc->cap = cap;
-        }
-        sc->pts[sc->npts++] = (point){v[0], {v[1], v[2], v[3]}};
-    }
-    fclose(f);
-    return 0;
-bad:
-    fclose(f);
-    free(sc->pts);
-    sc->pts = NULL;
-    return -1;
-}
-
-/* Linear interpolation; held before the first and after the last point. */
-static ftm_vec3 script_at(const script *sc, double t)
-{
-    if (t <= sc->pts[0].t)
-        return sc->pts[0].p;
-    for (int32_t i = 1; i < sc->npts; i++)
-        if (t <= sc->pts[i].t) {
-            const point *a = &sc->pts[i - 1], *b = &sc->pts[i];
-            double w = (t - a->t) / (b->t - a->t);
-            return (ftm_vec3){a->p.x + w * (b->p.x - a->p.x), a->p.y + w * (b->p.y - a->p.y),
-                              a->p.z + w * (b->p.z - a->p.z)};
-        }
-    return sc->pts[sc->npts - 1].p;
 }
 
 /* ---- options ------------------------------------------------------------------------ */
@@ -278,7 +153,7 @@ static int parse(int argc, char **argv, options *o)
 typedef struct bot {
     options o;
     ftm_wire_role role;
-    script sc;
+    ftm_script sc;
     bool have_script;
     ftm_wire_transport *wire;
     ftm_scene *scene;
@@ -354,6 +229,15 @@ static void on_announce(bot *b, const ftm_wire_announce *a)
     }
 }
 
+/* Server-to-bot latency of a frame [us]: from the server's send time in
+ * the frame (when the tick queued it) if present, else from the DDS source
+ * timestamp (when the publishing thread wrote it); same host clock. */
+static double frame_latency_us(const ftm_wire_received *rx)
+{
+    uint64_t sent = rx->msg.u.tick.send_time_ns;
+    return (double)(real_ns() - (sent ? (int64_t)sent : rx->source_time_ns)) * 1e-3;
+}
+
 static void log_frame(bot *b, const ftm_wire_received *rx)
 {
     if (!b->csv || !b->rep)
@@ -363,10 +247,14 @@ static void log_frame(bot *b, const ftm_wire_received *rx)
     for (int32_t i = 0; i < t->reaction_count; i++)
         if (t->reactions[i].participant == b->o.id && t->reactions[i].probe == 0)
             f = t->reactions[i].force;
-    double lat_us = (double)(real_ns() - rx->source_time_ns) * 1e-3;
-    fprintf(b->csv, "%.6f,%" PRIu64 ",%016" PRIx64 ",%016" PRIx64 ",%d,%d,%.9g,%.9g,%.9g,%.1f\n",
+    double lat_us = frame_latency_us(rx);
+    ftm_sim_stats st;
+    ftm_sim_get_stats(ftm_replay_sim(b->rep), &st);
+    fprintf(b->csv,
+            "%.6f,%" PRIu64 ",%016" PRIx64 ",%016" PRIx64 ",%d,%d,%.9g,%.9g,%.9g,%.1f,%d\n",
             (double)(mono_ns() - g_t0) * 1e-9, t->tick, t->state_hash, ftm_replay_hash(b->rep),
-            (int)ftm_replay_state(b->rep), (int)t->contact_count, f.x, f.y, f.z, lat_us);
+            (int)ftm_replay_state(b->rep), (int)t->contact_count, f.x, f.y, f.z, lat_us,
+            (int)st.updated_nodes);
 }
 
 static void on_tick(bot *b, const ftm_wire_received *rx)
@@ -378,7 +266,7 @@ static void on_tick(bot *b, const ftm_wire_received *rx)
     uint64_t applied = ftm_replay_last_frame(b->rep)->tick;
     if (ftm_replay_on_tick(b->rep, rx))
         blog("replay: out of memory");
-    double lat_us = (double)(real_ns() - rx->source_time_ns) * 1e-3;
+    double lat_us = frame_latency_us(rx);
     b->lat_sum_us += lat_us;
     b->lat_n++;
     if (lat_us > b->lat_max_us)
@@ -402,7 +290,7 @@ static void on_keyframe(bot *b, const ftm_wire_keyframe *k)
 
 static void send_probe(bot *b, double t)
 {
-    ftm_wire_probe_sample smp = {0, (uint64_t)mono_ns(), script_at(&b->sc, t)};
+    ftm_wire_probe_sample smp = {0, (uint64_t)mono_ns(), ftm_script_at(&b->sc, t)};
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_PROBE_INPUT;
@@ -418,7 +306,7 @@ static void send_probe(bot *b, double t)
 static void send_commands(bot *b, double t)
 {
     for (int32_t i = 0; i < b->sc.ncmds; i++) {
-        command *c = &b->sc.cmds[i];
+        ftm_script_command *c = &b->sc.cmds[i];
         if (c->done || t < c->t)
             continue;
         c->done = true;
@@ -496,7 +384,7 @@ int main(int argc, char **argv)
         return 2;
     }
     if (b->o.script) {
-        if (parse_script(b->o.script, &b->sc))
+        if (ftm_script_load(b->o.script, &b->sc))
             return 2;
         b->have_script = true;
     } else {
@@ -516,7 +404,7 @@ int main(int argc, char **argv)
             return 3;
         }
         fprintf(b->csv, "time_s,tick,server_hash,replica_hash,state,contacts,fx,fy,fz,"
-                        "latency_us\n");
+                        "latency_us,updated_nodes\n");
     }
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
@@ -650,7 +538,7 @@ int main(int argc, char **argv)
     ftm_wire_transport_destroy(b->wire);
     ftm_replay_destroy(b->rep);
     ftm_scene_destroy(b->scene);
-    free(b->sc.pts);
+    ftm_script_free(&b->sc);
     if (b->csv)
         fclose(b->csv);
     return rc_exit;

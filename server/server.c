@@ -9,6 +9,7 @@
  * idle (then a heartbeat frame every 100 ms). */
 #include "collide.h"
 #include "replay.h"
+#include "script.h"
 
 #include "ftm/scene.h"
 #include "ftm/wire.h"
@@ -40,6 +41,12 @@ typedef struct options {
     double heartbeat;
     double duration;
     int32_t depth; /* -1: the scene's */
+    /* --offline N: N ticks without DDS, trainees played from scripts on
+     * the tick clock (run_offline) */
+    int64_t offline_ticks;
+    const char *trainees[8]; /* "ID:OFFSET:SCRIPT" */
+    int ntrainees;
+    const char *reactions_csv;
 } options;
 
 typedef struct probe {
@@ -106,6 +113,11 @@ typedef struct server {
     uint64_t frames, heartbeats, idle_ticks, keyframes, bytes_frames, bytes_keyframes;
     uint64_t missed_ticks, unstable, publish_fail;
     double step_ns_total, step_ns_max;
+    /* tick period (start to start) and lateness (start - due), 10 us bins */
+#define TICK_HIST_BINS 5000
+    uint32_t period_hist[TICK_HIST_BINS], late_hist[TICK_HIST_BINS];
+    uint64_t last_tick_ns;
+    FILE *reactions_csv; /* --offline: one line per probe reaction */
 } server;
 
 static uint64_t mono_ns(void)
@@ -113,6 +125,31 @@ static uint64_t mono_ns(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
+}
+
+static uint64_t real_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
+}
+
+static void hist_add(uint32_t *h, double ns)
+{
+    int64_t b = ns > 0 ? (int64_t)(ns / 10000.0) : 0;
+    h[b < TICK_HIST_BINS ? b : TICK_HIST_BINS - 1]++;
+}
+
+/* The q-quantile [ms] of a 10 us histogram (upper edge of its bin). */
+static double hist_quantile(const uint32_t *h, double q)
+{
+    uint64_t n = 0, acc = 0;
+    for (int i = 0; i < TICK_HIST_BINS; i++)
+        n += h[i];
+    for (int i = 0; i < TICK_HIST_BINS && n; i++)
+        if ((acc += h[i]) >= (uint64_t)ceil(q * (double)n))
+            return (i + 1) * 0.01;
+    return 0.0;
 }
 
 static server *g_log_server; /* for the log hooks of libftm/ftm_wire */
@@ -171,7 +208,7 @@ static int publish(server *s, const ftm_wire_msg *m, uint64_t *bytes)
     size_t size = 0;
     ftm_error err = {0, ""};
     int rc = ftm_wire_encode(m, &buf, &size, &err);
-    if (rc == FTM_OK)
+    if (rc == FTM_OK && s->wire) /* --offline: encoded and counted only */
         rc = ftm_wire_publish_raw(s->wire, (int)m->kind, buf, size, &err);
     free(buf);
     if (rc) {
@@ -273,6 +310,12 @@ static void publish_frame(server *s, int32_t n, int32_t nreact, bool heartbeat)
     t->reaction_count = nreact;
     t->reactions = s->reactions;
     t->state_hash = ftm_sim_hash(s->sim);
+    t->send_time_ns = real_ns();
+    if (s->reactions_csv)
+        for (int32_t r = 0; r < nreact; r++)
+            fprintf(s->reactions_csv, "%" PRIu64 ",%u,%d,%.17g,%.17g,%.17g\n", s->tick,
+                    s->reactions[r].participant, (int)s->reactions[r].probe,
+                    s->reactions[r].force.x, s->reactions[r].force.y, s->reactions[r].force.z);
     if (publish(s, &m, &s->bytes_frames) == FTM_OK) {
         s->frames++;
         s->heartbeats += heartbeat;
@@ -575,6 +618,12 @@ static int32_t probe_contacts(server *s, int32_t *nreact)
 
 static void run_tick(server *s)
 {
+    uint64_t begin = mono_ns();
+    if (s->last_tick_ns)
+        hist_add(s->period_hist, (double)(begin - s->last_tick_ns));
+    s->last_tick_ns = begin;
+    hist_add(s->late_hist, (double)begin - ((double)s->base_ns +
+                                            (double)(s->tick + 1 - s->base_tick) * s->period_ns));
     int32_t nreact = 0;
     int32_t n = probe_contacts(s, &nreact);
     uint64_t t0 = mono_ns();
@@ -721,12 +770,16 @@ static void usage(FILE *f)
             "  --depth N              penetration depth (default: the scene's)\n"
             "  --duration S           stop after S seconds (default: until SIGINT/SIGTERM)\n"
             "  --id N                 participant id (default 1)\n"
-            "  --log FILE             also write the log to FILE\n");
+            "  --log FILE             also write the log to FILE\n"
+            "  --offline N            run N ticks without DDS, trainees from --trainee scripts\n"
+            "  --trainee ID:T0:FILE   (offline) trainee ID plays bot script FILE; tick k uses\n"
+            "                         the HIP at script time T0 + k / rate (repeatable, <= 8)\n"
+            "  --reactions FILE       (offline) CSV tick,participant,probe,fx,fy,fz\n");
 }
 
 static int parse(int argc, char **argv, options *o)
 {
-    *o = (options){"default", "ftm", NULL, NULL, 0, 1, 1000.0, 1.0, 0.1, 0.0, -1};
+    *o = (options){"default", "ftm", NULL, NULL, 0, 1, 1000.0, 1.0, 0.1, 0.0, -1, 0, {NULL}, 0, NULL};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -762,6 +815,12 @@ static int parse(int argc, char **argv, options *o)
             o->duration = strtod(v, &end);
         else if (strcmp(a, "--depth") == 0)
             o->depth = (int32_t)strtol(v, &end, 10);
+        else if (strcmp(a, "--offline") == 0)
+            o->offline_ticks = strtoll(v, &end, 10);
+        else if (strcmp(a, "--trainee") == 0 && o->ntrainees < 8)
+            o->trainees[o->ntrainees++] = v;
+        else if (strcmp(a, "--reactions") == 0)
+            o->reactions_csv = v;
         else {
             fprintf(stderr, "ftm-server: unknown option %s\n", a);
             return -1;
@@ -777,7 +836,84 @@ static int parse(int argc, char **argv, options *o)
                         "--id non-zero\n");
         return -1;
     }
+    if (o->offline_ticks < 0 || ((o->ntrainees || o->reactions_csv) && !o->offline_ticks)) {
+        fprintf(stderr, "ftm-server: --offline needs a tick count > 0; --trainee and "
+                        "--reactions go with --offline\n");
+        return -1;
+    }
     return 0;
+}
+
+/* --offline: the session's tick logic without DDS or the clock. Each
+ * trainee is a participant slot (in the order given) whose probe 0 is at
+ * its script's HIP for the tick; then run_tick does what it does online —
+ * collision, contacts, ftm_replay_step, reactions, the frame (encoded and
+ * counted, not sent). The reference for ftm-bot sessions (tests/net). */
+static int run_offline(server *s)
+{
+    ftm_script sc[8];
+    double t0[8];
+    participant *who[8];
+    int n = s->o.ntrainees, rc = 0;
+    for (int i = 0; i < n; i++) {
+        const char *arg = s->o.trainees[i];
+        char *end = NULL;
+        unsigned long id = strtoul(arg, &end, 10);
+        double off = *end == ':' ? strtod(end + 1, &end) : NAN;
+        if (id == 0 || id == s->o.id || *end != ':' || !isfinite(off) || find_part(s, (uint32_t)id, false)) {
+            fprintf(stderr, "ftm-server: --trainee '%s': expected ID:T0:FILE with a new non-zero ID\n",
+                    arg);
+            for (int j = 0; j < i; j++)
+                ftm_script_free(&sc[j]);
+            return 2;
+        }
+        if (ftm_script_load(end + 1, &sc[i]) || sc[i].npts == 0) {
+            if (sc[i].pts)
+                fprintf(stderr, "ftm-server: %s: no HIP positions\n", end + 1);
+            for (int j = 0; j <= i; j++)
+                ftm_script_free(&sc[j]);
+            return 2;
+        }
+        t0[i] = off;
+        who[i] = find_part(s, (uint32_t)id, true);
+        who[i]->role = FTM_WIRE_ROLE_TRAINEE;
+        who[i]->state = FTM_WIRE_STATE_SYNCED;
+        snprintf(who[i]->name, sizeof who[i]->name, "offline");
+    }
+    if (s->o.reactions_csv && !(s->reactions_csv = fopen(s->o.reactions_csv, "w"))) {
+        fprintf(stderr, "ftm-server: cannot open %s: %s\n", s->o.reactions_csv, strerror(errno));
+        rc = 3;
+    }
+    if (s->reactions_csv)
+        fprintf(s->reactions_csv, "tick,participant,probe,fx,fy,fz\n");
+    s->period_ns = 1e9 / s->o.rate;
+    slog(s, "info", "offline: %" PRId64 " ticks at %.0f Hz, %d trainees, depth %d",
+         s->o.offline_ticks, s->o.rate, n, (int)s->depth);
+    for (int64_t k = 0; k < s->o.offline_ticks && rc == 0; k++) {
+        /* tick k + 1 runs at (k + 1) / rate after the start */
+        double t = (double)(k + 1) / s->o.rate;
+        for (int i = 0; i < n; i++) {
+            who[i]->probes[0].hip = ftm_script_at(&sc[i], t0[i] + t);
+            who[i]->probes[0].have = true;
+        }
+        s->base_ns = s->last_tick_ns = 0; /* no clock: no period statistics */
+        run_tick(s);
+    }
+    slog(s, "info",
+         "offline: %" PRIu64 " ticks, %" PRIu64 " frames (%" PRIu64 " idle ticks not sent), "
+         "%.1f bytes/tick; step mean %.1f us",
+         s->tick, s->frames, s->idle_ticks,
+         s->tick ? (double)s->bytes_frames / (double)s->tick : 0.0,
+         s->tick ? s->step_ns_total / (double)s->tick * 1e-3 : 0.0);
+    if (rc == 0)
+        printf("ftm-server: final tick %" PRIu64 " hash %016" PRIx64 "\n", s->tick,
+               ftm_sim_hash(s->sim));
+    if (s->reactions_csv && fclose(s->reactions_csv) != 0)
+        rc = 3;
+    s->reactions_csv = NULL;
+    for (int i = 0; i < n; i++)
+        ftm_script_free(&sc[i]);
+    return rc;
 }
 
 int main(int argc, char **argv)
@@ -816,6 +952,18 @@ int main(int argc, char **argv)
          "scene '%s': %d nodes, %d surface triangles; collision grid %dx%dx%d cells of %.4g m",
          ftm_scene_name(s->scene), (int)ftm_mesh_node_count(s->mesh), (int)cs.triangles,
          (int)cs.dims[0], (int)cs.dims[1], (int)cs.dims[2], cs.cell_size);
+
+    if (s->o.offline_ticks > 0) {
+        int rc = run_offline(s);
+        ftm_collide_destroy(s->collide);
+        ftm_sim_destroy(s->sim);
+        ftm_scene_destroy(s->scene);
+        free(s->contacts);
+        free(s->reactions);
+        if (s->logf)
+            fclose(s->logf);
+        return rc;
+    }
 
     ftm_wire_transport_def wd;
     memset(&wd, 0, sizeof wd);
@@ -874,6 +1022,11 @@ int main(int argc, char **argv)
          s->tick ? (double)s->bytes_frames / (double)s->tick : 0.0, s->keyframes,
          s->bytes_keyframes, s->tick ? s->step_ns_total / (double)s->tick * 1e-3 : 0.0,
          s->step_ns_max * 1e-3, ws.rexmit_bytes);
+    slog(s, "info",
+         "tick period p50 %.2f ms p99 %.2f ms; start after due p50 %.2f ms p99 %.2f ms "
+         "(10 us bins)",
+         hist_quantile(s->period_hist, 0.5), hist_quantile(s->period_hist, 0.99),
+         hist_quantile(s->late_hist, 0.5), hist_quantile(s->late_hist, 0.99));
     printf("ftm-server: final tick %" PRIu64 " hash %016" PRIx64 "\n", s->tick,
            ftm_sim_hash(s->sim));
     fflush(stdout);

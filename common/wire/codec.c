@@ -531,6 +531,7 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         t->tick = m->tick;
         t->depth = (int32_t)m->depth;
         t->state_hash = m->state_hash;
+        t->send_time_ns = m->has_send_time_ns ? m->send_time_ns : 0;
         t->contact_count = (int32_t)m->n_contact_node;
         for (size_t i = 0; i < m->n_contact_node; i++) {
             t->contacts[i] = (ftm_contact){
@@ -846,6 +847,8 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         m->depth = (uint32_t)t->depth;
         m->has_state_hash = 1;
         m->state_hash = t->state_hash;
+        m->has_send_time_ns = t->send_time_ns != 0;
+        m->send_time_ns = t->send_time_ns;
         uint32_t *groups = nodes + n;
         for (size_t i = 0; i < n; i++) {
             const ftm_contact *c = &t->contacts[i];

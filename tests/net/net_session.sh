@@ -1,7 +1,9 @@
 #!/bin/sh
 # Session tests on loopback: ftm-server + ftm-bot processes.
 #   basic: server + 2 trainees + 1 observer; every bot ends on the server's
-#          final tick and hash.
+#          final tick and hash, and each trainee's reaction-force profile
+#          matches the same scripts run offline (ftm-server --offline: the
+#          server's tick code without DDS, scripts played on the tick clock).
 #   late:  as basic, plus an observer joining 2 s late: it converges too.
 #   kill:  one trainee is killed with SIGKILL mid-session: the other bots end
 #          on the server's hash and the server logs that the trainee was lost.
@@ -29,6 +31,9 @@ duration=4.5
 config=$FTM_CONFIG
 [ "$mode" = lossy ] && config=${FTM_LOSSY_CONFIG:?}
 common="--session $session --domain $domain --config $config"
+# the online HIP at a tick is the newest sample that arrived, so it is off by
+# the input's timing (< 1-2 ms of HIP travel) from the offline one
+PROFILE_TOL=${PROFILE_TOL:-0.05}
 fail() { echo "FAIL: $*"; for f in "$dir"/*.out "$dir"/*.err; do echo "== $f"; tail -n 25 "$f"; done; exit 1; }
 
 timeout 30 "$FTM_SERVER" --scene default $common --rate $rate --duration $duration \
@@ -49,7 +54,7 @@ $victim ${victim:+30} "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.
     --duration 15 --log "$dir/bot11.csv" >"$dir/bot11.out" 2>"$dir/bot11.err" &
 b11=$!
 timeout 30 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee2.bot" $common --id 12 \
-    --duration 15 >"$dir/bot12.out" 2>"$dir/bot12.err" &
+    --duration 15 --log "$dir/bot12.csv" >"$dir/bot12.out" 2>"$dir/bot12.err" &
 b12=$!
 timeout 30 "$FTM_BOT" --role observer $common --id 13 --duration 15 \
     >"$dir/bot13.out" 2>"$dir/bot13.err" &
@@ -90,7 +95,52 @@ for b in $bots; do
     grep -q "0 mismatches" "$dir/bot$b.err" || fail "bot $b saw hash mismatches"
 done
 grep -q "contact on triangle" "$dir/server.log" || fail "no probe contact on the server"
+# Script time of tick 0 for a trainee, from its log: frame T reached the bot
+# at time_s (bot clock = script clock) after latency_us; the HIP the server
+# used for it was sampled about 0.9 ms before (half the 1 ms input period,
+# the input's own latency, the step). Median over the frames.
+script_t0() {
+    awk -F, -v rate=$rate 'NR > 1 && $5 == 2 { printf "%.9f\n", $1 - $10 * 1e-6 - 0.0009 - $2 / rate }' \
+        "$1" | sort -g | awk '{ v[NR] = $1 } END { if (NR) printf "%.6f", v[int((NR + 1) / 2)] }'
+}
+# Largest difference of the reaction force (vector norm) at equal ticks between
+# the bot's log ($1, participant $2) and the offline run ($3), over the peak
+# of the offline profile. Ticks missing on one side count as zero force.
+profile_diff() {
+    awk -F, -v id=$2 '
+        FNR == 1 { file++; next }
+        file == 1 && $5 == 2 { on[$2] = $7 " " $8 " " $9; ticks[$2] = 1 }
+        file == 2 && $2 == id { off[$1] = $4 " " $5 " " $6; ticks[$1] = 1 }
+        END {
+            for (t in ticks) {
+                split((t in on) ? on[t] : "0 0 0", a, " "); split((t in off) ? off[t] : "0 0 0", b, " ")
+                d = sqrt((a[1]-b[1])^2 + (a[2]-b[2])^2 + (a[3]-b[3])^2)
+                m = sqrt(b[1]^2 + b[2]^2 + b[3]^2)
+                if (d > dmax) dmax = d
+                if (m > peak) peak = m
+                if (t in off) n++
+            }
+            printf "%d %.6g %.6g %.4f\n", n, peak, dmax, (peak > 0 ? dmax / peak : 1)
+        }' "$1" "$3"
+}
+
 case $mode in
+basic)
+    ticks=$(echo "$want" | awk '{ print $3 }')
+    t11=$(script_t0 "$dir/bot11.csv"); t12=$(script_t0 "$dir/bot12.csv")
+    [ -n "$t11" ] && [ -n "$t12" ] || fail "no synced frames in the trainees' logs"
+    timeout 30 "$FTM_SERVER" --scene default --rate $rate --offline "$ticks" \
+        --trainee "11:$t11:$FTM_SCRIPTS/trainee1.bot" --trainee "12:$t12:$FTM_SCRIPTS/trainee2.bot" \
+        --reactions "$dir/offline.csv" >"$dir/offline.out" 2>"$dir/offline.err" ||
+        fail "offline run failed"
+    for b in 11 12; do
+        set -- $(profile_diff "$dir/bot$b.csv" $b "$dir/offline.csv")
+        echo "trainee $b: $1 ticks in contact offline, peak $2 N, largest difference $3 N ($4 of the peak)"
+        [ "$1" -ge 100 ] || fail "trainee $b: only $1 ticks in contact offline"
+        awk -v r=$4 -v tol=$PROFILE_TOL 'BEGIN { exit !(r <= tol) }' ||
+            fail "trainee $b: reaction profile differs from the offline run by $4 of its peak (> $PROFILE_TOL)"
+    done
+    ;;
 late)
     grep -q "replay: synced from keyframe" "$dir/bot14.err" || fail "late observer did not sync"
     ;;

@@ -177,7 +177,7 @@ static bool server_tick(fake_server *s, uint64_t t, ftm_wire_received *rx, ftm_c
     memcpy(store, s->c, sizeof s->c);
     memset(rx, 0, sizeof *rx);
     rx->msg.kind = FTM_WIRE_TICK;
-    rx->msg.u.tick = (ftm_wire_tick){t, 8, n, store, 0, NULL, ftm_sim_hash(s->sim)};
+    rx->msg.u.tick = (ftm_wire_tick){t, 8, n, store, 0, NULL, ftm_sim_hash(s->sim), 0};
     rx->sender = 1;
     rx->seq = ++s->seq;
     s->pub_n = n;
@@ -249,7 +249,7 @@ static void test_replica(void **state)
     for (int i = 0; i < 30; i++) {
         t++;
         assert_int_equal(ftm_replay_step(s.sim, 8, &c, 1, NULL), FTM_OK);
-        rx.msg.u.tick = (ftm_wire_tick){t, 8, 1, &c, 0, NULL, ftm_sim_hash(s.sim)};
+        rx.msg.u.tick = (ftm_wire_tick){t, 8, 1, &c, 0, NULL, ftm_sim_hash(s.sim), 0};
         rx.seq = ++s.seq;
         rx.gap = 0;
         assert_int_equal(ftm_replay_on_tick(r, &rx), FTM_OK);

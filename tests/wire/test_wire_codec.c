@@ -109,7 +109,7 @@ static ftm_wire_msg sample_tick(int n, uint64_t tick)
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_TICK;
     m.u.tick = (ftm_wire_tick){tick, 10, n, tick_contacts, 2, tick_reactions,
-                               0xfedcba9876543210u ^ tick};
+                               0xfedcba9876543210u ^ tick, 0};
     return m;
 }
 

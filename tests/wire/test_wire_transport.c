@@ -81,7 +81,7 @@ static ftm_wire_msg make_tick(uint64_t tick, ftm_contact *c)
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_TICK;
-    m.u.tick = (ftm_wire_tick){tick, 10, 1, c, 0, NULL, tick * 0x9e3779b97f4a7c15u};
+    m.u.tick = (ftm_wire_tick){tick, 10, 1, c, 0, NULL, tick * 0x9e3779b97f4a7c15u, 0};
     return m;
 }
 

@@ -112,6 +112,7 @@ typedef struct ftm_wire_tick {
     int32_t reaction_count; /* 0..FTM_WIRE_REACTIONS_MAX */
     ftm_wire_reaction *reactions;
     uint64_t state_hash;
+    uint64_t send_time_ns; /* server CLOCK_REALTIME at publish; 0: absent */
 } ftm_wire_tick;
 
 typedef struct ftm_wire_keyframe {

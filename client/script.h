@@ -1,0 +1,40 @@
+/* ftm-bot scripts (docs/bot-script.md): a probe's HIP trajectory over time
+ * and timed session commands. Shared by ftm-bot, which plays a script on
+ * the wall clock, and ftm-server --offline, which plays it on the tick
+ * clock without DDS (the reference the session tests compare against). */
+#ifndef FTM_CLIENT_SCRIPT_H
+#define FTM_CLIENT_SCRIPT_H
+
+#include "ftm/wire.h"
+
+#define FTM_SCRIPT_COMMANDS_MAX 64
+
+typedef struct ftm_script_point {
+    double t;   /* [s] */
+    ftm_vec3 p; /* HIP [m] */
+} ftm_script_point;
+
+typedef struct ftm_script_command {
+    double t;
+    ftm_wire_command cmd;
+    bool done;
+} ftm_script_command;
+
+typedef struct ftm_script {
+    ftm_script_point *pts; /* times strictly increasing */
+    int32_t npts, cap;
+    ftm_script_command cmds[FTM_SCRIPT_COMMANDS_MAX];
+    int32_t ncmds;
+    double join, leave; /* leave < 0: none */
+} ftm_script;
+
+/* Reads a script file. On error prints `FILE:LINE: reason` to stderr and
+ * returns -1 (nothing to free). */
+int ftm_script_load(const char *path, ftm_script *sc);
+void ftm_script_free(ftm_script *sc);
+
+/* The HIP at time t: linear between points, held before the first and
+ * after the last. The script must have at least one point. */
+ftm_vec3 ftm_script_at(const ftm_script *sc, double t);
+
+#endif
