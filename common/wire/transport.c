@@ -157,7 +157,12 @@ static dds_qos_t *kind_qos(int kind, bool writer)
         dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, MAX_BLOCKING);
         dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
         dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
-        dds_qset_deadline(q, STATUS_DEADLINE);
+        /* Offered by writers only: with a deadline on the reader, Cyclone
+         * 0.10.2 never delivers the NOT_ALIVE_NO_WRITERS sample of an
+         * instance whose writer's lease expired (a crashed participant's
+         * `gone` event; checked on this machine, docs/protocol.md). */
+        if (writer)
+            dds_qset_deadline(q, STATUS_DEADLINE);
         break;
     case FTM_WIRE_CONTROL:
     default:

@@ -1,0 +1,204 @@
+/* Session recording file (server/record.h): round trip, and the reader's
+ * clear errors on truncated, oversized and corrupted files. */
+#include "record.h"
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+static char path[256], bad[256];
+
+static void write_sample(void)
+{
+    ftm_record_header h;
+    memset(&h, 0, sizeof h);
+    snprintf(h.scene_id, sizeof h.scene_id, "default");
+    for (int i = 0; i < 32; i++)
+        h.digest[i] = (uint8_t)i;
+    h.digest_len = 32;
+    h.tick_rate_hz = 1000;
+    h.depth_max = 8;
+    h.depth_min = 2;
+    h.node_count = 1728;
+    ftm_record_writer *w = NULL;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_record_create(path, &h, &w, &err), FTM_OK);
+    uint8_t payload[300];
+    for (int i = 0; i < 300; i++)
+        payload[i] = (uint8_t)(i * 7);
+    for (int i = 0; i < 10; i++) {
+        ftm_record_entry e = {.tick = (uint64_t)i, .kind = 3, .sender = 1, .incoming = i % 2,
+                              .gone = i == 9, .time_ns = (uint64_t)i * 1000, .payload = payload,
+                              .size = (size_t)(i == 9 ? 0 : 1 + i * 30)};
+        assert_int_equal(ftm_record_write(w, &e, &err), FTM_OK);
+    }
+    assert_true(ftm_record_bytes(w) > 8);
+    assert_int_equal(ftm_record_close(w, &err), FTM_OK);
+}
+
+static long file_size(const char *p)
+{
+    FILE *f = fopen(p, "rb");
+    assert_non_null(f);
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fclose(f);
+    return n;
+}
+
+/* Copies the first n bytes of path to bad, with byte at `at` xor'ed by x. */
+static void copy_bad(long n, long at, uint8_t x)
+{
+    FILE *in = fopen(path, "rb"), *out = fopen(bad, "wb");
+    assert_non_null(in);
+    assert_non_null(out);
+    for (long i = 0; i < n; i++) {
+        int c = fgetc(in);
+        assert_true(c != EOF);
+        fputc(i == at ? (c ^ x) : c, out);
+    }
+    fclose(in);
+    fclose(out);
+}
+
+/* Reads a whole file: 0 if clean, the error code otherwise (message in err). */
+static int read_all(const char *p, int *entries, ftm_error *err)
+{
+    ftm_record_header h;
+    ftm_record_reader *r = NULL;
+    int rc = ftm_record_open(p, &h, &r, err);
+    *entries = 0;
+    if (rc)
+        return rc;
+    ftm_record_entry e;
+    while ((rc = ftm_record_next(r, &e, err)) == 1)
+        (*entries)++;
+    ftm_record_close_reader(r);
+    return rc;
+}
+
+static void round_trip(void **state)
+{
+    (void)state;
+    write_sample();
+    ftm_record_header h;
+    ftm_record_reader *r = NULL;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_record_open(path, &h, &r, &err), FTM_OK);
+    assert_string_equal(h.scene_id, "default");
+    assert_int_equal(h.digest_len, 32);
+    assert_int_equal(h.digest[31], 31);
+    assert_int_equal(h.tick_rate_hz, 1000);
+    assert_int_equal(h.depth_max, 8);
+    assert_int_equal(h.depth_min, 2);
+    assert_int_equal(h.node_count, 1728);
+    ftm_record_entry e;
+    for (int i = 0; i < 10; i++) {
+        assert_int_equal(ftm_record_next(r, &e, &err), 1);
+        assert_int_equal(e.tick, (uint64_t)i);
+        assert_int_equal(e.kind, 3);
+        assert_int_equal(e.incoming, i % 2);
+        assert_int_equal(e.gone, i == 9);
+        assert_int_equal(e.index, (uint64_t)i + 1);
+        assert_int_equal(e.size, (size_t)(i == 9 ? 0 : 1 + i * 30));
+        for (size_t k = 0; k < e.size; k++)
+            assert_int_equal(e.payload[k], (uint8_t)(k * 7));
+    }
+    assert_int_equal(ftm_record_next(r, &e, &err), 0);
+    ftm_record_close_reader(r);
+}
+
+static void truncated_everywhere(void **state)
+{
+    (void)state;
+    write_sample();
+    long n = file_size(path);
+    int entries = 0;
+    ftm_error err = {0, ""};
+    assert_int_equal(read_all(path, &entries, &err), 0);
+    assert_int_equal(entries, 10);
+    /* every cut is an error, except those that fall between two entries,
+     * which leave fewer entries (a recording stopped by a crash is usable up
+     * to its last whole entry) */
+    int clean_cuts = 0;
+    for (long cut = 0; cut < n; cut++) {
+        copy_bad(cut, -1, 0);
+        memset(&err, 0, sizeof err);
+        int rc = read_all(bad, &entries, &err);
+        if (rc == 0) {
+            clean_cuts++;
+            assert_true(entries < 10);
+            continue;
+        }
+        assert_int_equal(rc, FTM_EPARSE);
+        assert_non_null(strstr(err.message, bad));
+        if (cut >= 8)
+            assert_true(strstr(err.message, "truncated") != NULL);
+        else
+            assert_non_null(strstr(err.message, "not an FTM recording"));
+    }
+    assert_int_equal(clean_cuts, 10); /* after the header and after entries 1..9 */
+}
+
+static void corrupted(void **state)
+{
+    (void)state;
+    write_sample();
+    long n = file_size(path);
+    int entries = 0;
+    ftm_error err = {0, ""};
+    /* the magic */
+    copy_bad(n, 0, 0x20);
+    assert_int_equal(read_all(bad, &entries, &err), FTM_EPARSE);
+    assert_non_null(strstr(err.message, "not an FTM recording"));
+    /* the header's length prefix: now far too long for the file */
+    copy_bad(n, 8, 0x40);
+    assert_int_equal(read_all(bad, &entries, &err), FTM_EPARSE);
+    /* an overlong varint length */
+    FILE *f = fopen(bad, "wb");
+    fwrite(FTM_RECORD_MAGIC "\xff\xff\xff\xff\xff\xff\x01", 1, 15, f);
+    fclose(f);
+    assert_int_equal(read_all(bad, &entries, &err), FTM_EPARSE);
+    assert_non_null(strstr(err.message, "length prefix too long"));
+    /* a 4 GiB length */
+    f = fopen(bad, "wb");
+    fwrite(FTM_RECORD_MAGIC "\x80\x80\x80\x80\x10", 1, 13, f);
+    fclose(f);
+    assert_int_equal(read_all(bad, &entries, &err), FTM_EPARSE);
+    assert_non_null(strstr(err.message, "out of range"));
+    /* flipping any single byte never crashes; it is an error or changes data */
+    int errors = 0;
+    for (long at = 8; at < n; at++) {
+        copy_bad(n, at, 0xa5);
+        if (read_all(bad, &entries, &err) != 0) {
+            errors++;
+            assert_true(err.message[0] != '\0');
+        }
+    }
+    assert_true(errors > 0);
+    /* a missing file */
+    assert_int_equal(read_all("/nonexistent/ftm.rec", &entries, &err), FTM_EIO);
+    assert_non_null(strstr(err.message, "cannot open"));
+}
+
+int main(void)
+{
+    snprintf(path, sizeof path, "/tmp/ftm-test-record-%d.rec", (int)getpid());
+    snprintf(bad, sizeof bad, "/tmp/ftm-test-record-%d.bad", (int)getpid());
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(round_trip),
+        cmocka_unit_test(truncated_everywhere),
+        cmocka_unit_test(corrupted),
+    };
+    int rc = cmocka_run_group_tests(tests, NULL, NULL);
+    unlink(path);
+    unlink(bad);
+    return rc;
+}
