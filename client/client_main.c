@@ -1,0 +1,827 @@
+/* ftm-client: the thin GLFW/OpenGL client (docs/client.md).
+ *
+ * Threads, as in the paper's Fig. 14: the haptic loop (haptic.h, 1 kHz,
+ * highest priority; trainees only), the session thread (client_session.h:
+ * DDS, replay of the server's tick frames, watchdog) and rendering on the
+ * main thread (GLFW wants it there). The render thread only ever sees a
+ * copy of the replayed state (ftm_client_session_snapshot).
+ *
+ * Exit status: 0 done; 1 --screenshot/--bench could not finish in time
+ * (a screenshot is still written); 2 usage; 3 set-up failure. */
+#define GLFW_INCLUDE_NONE
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
+#include <GLFW/glfw3.h>
+
+#include "camera.h"
+#include "client_session.h"
+#include "device.h"
+#include "haptic.h"
+#include "hud.h"
+#include "render.h"
+#include "screenshot.h"
+
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#define SEC 1000000000LL
+
+typedef struct options {
+    const char *role, *scene, *session, *config, *name, *log_path, *device, *renderer;
+    uint32_t domain, id;
+    double server_timeout, duration;
+    int width, height, swap_interval;
+    const char *screenshot;
+    bool shot_hold;
+    uint64_t shot_tick;
+    int64_t shot_contact; /* < 0: not asked */
+    double shot_after;    /* > 0: at this time whatever the state */
+    double shot_timeout;
+    double bench;
+    bool json;
+    bool colormap, region, hud, verbose;
+    double colormap_full;
+} options;
+
+typedef struct app {
+    options o;
+    ftm_wire_role role;
+    int64_t t0;
+    FILE *logf;
+    ftm_client_session *sess;
+    ftm_device *dev;
+    ftm_haptic *hap;
+    bool hap_connected; /* session thread only */
+    GLFWwindow *win;
+    ftm_render *ren;
+    ftm_camera cam;
+    bool cam_set;
+    const ftm_mesh *drawn_mesh;
+    ftm_client_view view;
+    ftm_render_opts ropts;
+    double mx, my;
+    int drag; /* 0 none, 1 orbit, 2 pan, 3 probe */
+    char last_cmd[96];
+} app;
+
+static volatile sig_atomic_t g_stop;
+static void on_signal(int sig) { (void)sig; g_stop = 1; }
+
+static int64_t mono_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * SEC + ts.tv_nsec;
+}
+
+static void app_log(void *user, ftm_log_level level, const char *msg)
+{
+    app *a = user;
+    if (level < FTM_LOG_INFO && !a->o.verbose)
+        return;
+    const char *tag = level >= FTM_LOG_ERROR ? "error: " : level == FTM_LOG_WARN ? "warning: " : "";
+    double t = (double)(mono_ns() - a->t0) * 1e-9;
+    fprintf(stderr, "ftm-client %u [%8.3f] %s%s\n", a->o.id, t, tag, msg);
+    if (a->logf) {
+        fprintf(a->logf, "[%8.3f] %s%s\n", t, tag, msg);
+        fflush(a->logf);
+    }
+}
+
+static void alog(app *a, ftm_log_level level, const char *fmt, ...)
+{
+    char buf[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    app_log(a, level, buf);
+}
+
+/* ---- haptics wiring (session thread -> haptic loop) ------------------------------------- */
+
+static void on_force(void *user, uint64_t tick, const ftm_wire_reaction *r, bool valid,
+                     const char *why)
+{
+    app *a = user;
+    if (!a->hap)
+        return;
+    if (!valid) {
+        if (a->hap_connected)
+            ftm_haptic_set_connected(a->hap, false); /* zero force at once */
+        a->hap_connected = false;
+        return;
+    }
+    if (!a->hap_connected)
+        ftm_haptic_set_connected(a->hap, true);
+    a->hap_connected = true;
+    ftm_haptic_state st;
+    ftm_haptic_get_state(a->hap, &st);
+    ftm_haptic_sample s;
+    memset(&s, 0, sizeof s);
+    s.time = ftm_haptic_clock(); /* arrival time: the server's tick clock is not mapped */
+    s.hip = st.hip;
+    if (r)
+        s.force = r->force; /* no reaction: not in contact, zero force */
+    if (ftm_haptic_push(a->hap, &s))
+        alog(a, FTM_LOG_WARN, "haptic: reaction force of tick %" PRIu64 " rejected", tick);
+}
+
+static int take_hips(void *user, ftm_wire_probe_sample *out, int max)
+{
+    app *a = user;
+    ftm_haptic_hip h[64];
+    int n = ftm_haptic_take_hips(a->hap, h, max < 64 ? max : 64);
+    for (int i = 0; i < n; i++)
+        out[i] = (ftm_wire_probe_sample){0, (uint64_t)(h[i].time * 1e9), h[i].hip};
+    return n;
+}
+
+/* ---- input ------------------------------------------------------------------------------- */
+
+static void send_command(app *a, ftm_wire_command cmd, const char *what)
+{
+    if (a->role != FTM_WIRE_ROLE_INSTRUCTOR) {
+        alog(a, FTM_LOG_INFO, "%s: only an instructor sends session commands", what);
+        return;
+    }
+    ftm_wire_control c;
+    memset(&c, 0, sizeof c);
+    c.command = cmd;
+    c.tissue = a->view.tissue;
+    c.depth_min = a->view.depth_min;
+    c.depth_max = a->view.depth_max;
+    if (cmd == FTM_WIRE_CMD_TISSUE && strcmp(what, "stiffer") == 0)
+        c.tissue.stiffness *= 1.25;
+    if (cmd == FTM_WIRE_CMD_TISSUE && strcmp(what, "softer") == 0)
+        c.tissue.stiffness /= 1.25;
+    if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS && strcmp(what, "depth max +1") == 0)
+        c.depth_max++;
+    if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS && strcmp(what, "depth max -1") == 0 &&
+        c.depth_max > c.depth_min)
+        c.depth_max--;
+    ftm_error err = {0, ""};
+    if (ftm_client_session_control(a->sess, &c, &err)) {
+        alog(a, FTM_LOG_WARN, "%s: %s", what, err.message);
+        snprintf(a->last_cmd, sizeof a->last_cmd, "%s FAILED", what);
+        return;
+    }
+    if (cmd == FTM_WIRE_CMD_TISSUE)
+        snprintf(a->last_cmd, sizeof a->last_cmd, "%s (k = %.4g N/m)", what, c.tissue.stiffness);
+    else if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS)
+        snprintf(a->last_cmd, sizeof a->last_cmd, "depth limits %d..%d", (int)c.depth_min,
+                 (int)c.depth_max);
+    else
+        snprintf(a->last_cmd, sizeof a->last_cmd, "%s", what);
+    alog(a, FTM_LOG_INFO, "sent %s", a->last_cmd);
+}
+
+static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
+{
+    app *a = glfwGetWindowUserPointer(w);
+    if (action == GLFW_RELEASE)
+        return;
+    switch (key) {
+    case GLFW_KEY_ESCAPE:
+    case GLFW_KEY_Q: glfwSetWindowShouldClose(w, GLFW_TRUE); break;
+    case GLFW_KEY_C: a->ropts.colormap = !a->ropts.colormap; break;
+    case GLFW_KEY_B:
+        a->ropts.region = !a->ropts.region;
+        ftm_client_session_want_region(a->sess, a->ropts.region);
+        break;
+    case GLFW_KEY_H: a->ropts.hud = !a->ropts.hud; break;
+    case GLFW_KEY_LEFT_BRACKET: a->ropts.colormap_full /= 1.5; break;
+    case GLFW_KEY_RIGHT_BRACKET: a->ropts.colormap_full *= 1.5; break;
+    case GLFW_KEY_HOME: a->cam_set = false; break;
+    case GLFW_KEY_LEFT: ftm_camera_orbit(&a->cam, -20, 0); break;
+    case GLFW_KEY_RIGHT: ftm_camera_orbit(&a->cam, 20, 0); break;
+    case GLFW_KEY_UP: ftm_camera_orbit(&a->cam, 0, 20); break;
+    case GLFW_KEY_DOWN: ftm_camera_orbit(&a->cam, 0, -20); break;
+    case GLFW_KEY_PAGE_UP: ftm_camera_zoom(&a->cam, 1); break;
+    case GLFW_KEY_PAGE_DOWN: ftm_camera_zoom(&a->cam, -1); break;
+    case GLFW_KEY_M:
+        if (a->hap) {
+            ftm_haptic_state st;
+            ftm_haptic_get_state(a->hap, &st);
+            ftm_haptic_set_renderer(a->hap, st.renderer == FTM_HAPTIC_EXTRAPOLATE
+                                                ? FTM_HAPTIC_FORCE_MODEL
+                                                : FTM_HAPTIC_EXTRAPOLATE);
+        }
+        break;
+    /* instructor */
+    case GLFW_KEY_SPACE:
+        if (action == GLFW_PRESS)
+            send_command(a, a->view.paused ? FTM_WIRE_CMD_RESUME : FTM_WIRE_CMD_PAUSE,
+                         a->view.paused ? "resume" : "pause");
+        break;
+    case GLFW_KEY_BACKSPACE:
+        if (action == GLFW_PRESS)
+            send_command(a, FTM_WIRE_CMD_RESET, "reset");
+        break;
+    case GLFW_KEY_EQUAL:
+    case GLFW_KEY_KP_ADD: send_command(a, FTM_WIRE_CMD_DEPTH_LIMITS, "depth max +1"); break;
+    case GLFW_KEY_MINUS:
+    case GLFW_KEY_KP_SUBTRACT: send_command(a, FTM_WIRE_CMD_DEPTH_LIMITS, "depth max -1"); break;
+    case GLFW_KEY_K: send_command(a, FTM_WIRE_CMD_TISSUE, "stiffer"); break;
+    case GLFW_KEY_J: send_command(a, FTM_WIRE_CMD_TISSUE, "softer"); break;
+    default: break;
+    }
+}
+
+static bool mouse_probe(const app *a) { return a->dev && a->o.device && strcmp(a->o.device, "mouse") == 0; }
+
+static void on_button(GLFWwindow *w, int button, int action, int mods)
+{
+    app *a = glfwGetWindowUserPointer(w);
+    glfwGetCursorPos(w, &a->mx, &a->my);
+    if (action == GLFW_RELEASE) {
+        if (a->drag == 3)
+            ftm_mouse_button(a->dev, false, a->mx, a->my);
+        a->drag = 0;
+        return;
+    }
+    bool shift = mods & GLFW_MOD_SHIFT;
+    if (button == GLFW_MOUSE_BUTTON_LEFT && shift)
+        a->drag = 2;
+    else if (button == GLFW_MOUSE_BUTTON_LEFT && mouse_probe(a)) {
+        a->drag = 3;
+        ftm_mouse_button(a->dev, true, a->mx, a->my);
+    } else if (button == GLFW_MOUSE_BUTTON_LEFT)
+        a->drag = 1;
+    else if (button == GLFW_MOUSE_BUTTON_RIGHT)
+        a->drag = mouse_probe(a) ? 1 : 2;
+    else if (button == GLFW_MOUSE_BUTTON_MIDDLE)
+        a->drag = 2;
+}
+
+static void on_cursor(GLFWwindow *w, double x, double y)
+{
+    app *a = glfwGetWindowUserPointer(w);
+    double dx = x - a->mx, dy = y - a->my;
+    a->mx = x;
+    a->my = y;
+    int fh;
+    glfwGetWindowSize(w, NULL, &fh);
+    if (a->drag == 1)
+        ftm_camera_orbit(&a->cam, dx, dy);
+    else if (a->drag == 2)
+        ftm_camera_pan(&a->cam, dx, dy, fh);
+    else if (a->drag == 3)
+        ftm_mouse_motion(a->dev, x, y);
+}
+
+static void on_scroll(GLFWwindow *w, double dx, double dy)
+{
+    app *a = glfwGetWindowUserPointer(w);
+    if (mouse_probe(a) && !(glfwGetKey(w, GLFW_KEY_LEFT_CONTROL) == GLFW_PRESS))
+        ftm_mouse_scroll(a->dev, -dy); /* wheel up pulls the probe back */
+    else
+        ftm_camera_zoom(&a->cam, dy);
+}
+
+static void on_glfw_error(int code, const char *msg)
+{
+    fprintf(stderr, "ftm-client: GLFW error 0x%x: %s\n", code, msg);
+}
+
+/* ---- options ------------------------------------------------------------------------------ */
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: ftm-client [--role trainee|instructor|observer] [options]\n"
+            "session:\n"
+            "  --session NAME           session name (default ftm)\n"
+            "  --domain N               DDS domain (default 0)\n"
+            "  --config FILE            Cyclone DDS configuration (deploy/cyclonedds-*.xml)\n"
+            "  --scene NAME|FILE        local scene (default: the announced scene id)\n"
+            "  --id N  --name TEXT      participant id (default: from pid and time), display name\n"
+            "  --server-timeout S       no tick frames for S s: server counted as gone (default 3)\n"
+            "trainee:\n"
+            "  --device mouse|script:FILE  probe device (default mouse)\n"
+            "  --renderer model|extrapolate haptic force renderer (default model)\n"
+            "view:\n"
+            "  --size WxH               window size (default 1280x800)\n"
+            "  --no-colormap --region --no-hud   initial display toggles (keys c, b, h)\n"
+            "  --colormap-full MM       displacement at the top of the colour map\n"
+            "  --swap-interval N        0: no vsync (default 1)\n"
+            "headless:\n"
+            "  --screenshot FILE.png    render until the latest tick is applied, save, exit\n"
+            "  --screenshot-tick T      ... stop replaying at the first tick >= T instead\n"
+            "  --screenshot-contact N   ... wait until a contact has lasted N ticks\n"
+            "  --screenshot-after S     ... take it S s after start, whatever the state\n"
+            "  --screenshot-timeout S   give up after S s: save what is shown, exit 1 (default 60)\n"
+            "  --bench S                measure the frame rate for S s once synced, exit\n"
+            "  --json                   --bench result as JSON too\n"
+            "  --duration S             exit after S s\n"
+            "  --log FILE               also write the log there\n"
+            "  --verbose                debug messages\n");
+}
+
+static int parse(int argc, char **argv, options *o)
+{
+    *o = (options){0};
+    o->role = "observer";
+    o->session = "ftm";
+    o->server_timeout = 3.0;
+    o->width = 1280;
+    o->height = 800;
+    o->swap_interval = 1;
+    o->shot_contact = -1;
+    o->shot_timeout = 60.0;
+    o->colormap = o->hud = true;
+    o->device = "mouse";
+    o->renderer = "model";
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            usage(stdout);
+            exit(0);
+        }
+        bool flag = true;
+        if (strcmp(a, "--no-colormap") == 0)
+            o->colormap = false;
+        else if (strcmp(a, "--region") == 0)
+            o->region = true;
+        else if (strcmp(a, "--no-hud") == 0)
+            o->hud = false;
+        else if (strcmp(a, "--json") == 0)
+            o->json = true;
+        else if (strcmp(a, "--verbose") == 0)
+            o->verbose = true;
+        else
+            flag = false;
+        if (flag)
+            continue;
+        if (i + 1 >= argc) {
+            fprintf(stderr, "ftm-client: %s needs a value (or unknown option)\n", a);
+            return -1;
+        }
+        const char *v = argv[++i];
+        char *end = NULL;
+        errno = 0;
+        if (strcmp(a, "--role") == 0)
+            o->role = v;
+        else if (strcmp(a, "--scene") == 0)
+            o->scene = v;
+        else if (strcmp(a, "--session") == 0)
+            o->session = v;
+        else if (strcmp(a, "--config") == 0)
+            o->config = v;
+        else if (strcmp(a, "--name") == 0)
+            o->name = v;
+        else if (strcmp(a, "--log") == 0)
+            o->log_path = v;
+        else if (strcmp(a, "--device") == 0)
+            o->device = v;
+        else if (strcmp(a, "--renderer") == 0)
+            o->renderer = v;
+        else if (strcmp(a, "--screenshot") == 0)
+            o->screenshot = v;
+        else if (strcmp(a, "--domain") == 0)
+            o->domain = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--id") == 0)
+            o->id = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--server-timeout") == 0)
+            o->server_timeout = strtod(v, &end);
+        else if (strcmp(a, "--duration") == 0)
+            o->duration = strtod(v, &end);
+        else if (strcmp(a, "--screenshot-tick") == 0) {
+            o->shot_tick = strtoull(v, &end, 10);
+            o->shot_hold = true;
+        } else if (strcmp(a, "--screenshot-contact") == 0)
+            o->shot_contact = strtoll(v, &end, 10);
+        else if (strcmp(a, "--screenshot-after") == 0)
+            o->shot_after = strtod(v, &end);
+        else if (strcmp(a, "--screenshot-timeout") == 0)
+            o->shot_timeout = strtod(v, &end);
+        else if (strcmp(a, "--bench") == 0)
+            o->bench = strtod(v, &end);
+        else if (strcmp(a, "--colormap-full") == 0)
+            o->colormap_full = strtod(v, &end) * 1e-3;
+        else if (strcmp(a, "--swap-interval") == 0)
+            o->swap_interval = (int)strtol(v, &end, 10);
+        else if (strcmp(a, "--size") == 0) {
+            if (sscanf(v, "%dx%d", &o->width, &o->height) != 2 || o->width < 64 ||
+                o->height < 64 || o->width > 8192 || o->height > 8192) {
+                fprintf(stderr, "ftm-client: --size: expected WxH (64..8192), got '%s'\n", v);
+                return -1;
+            }
+        } else {
+            fprintf(stderr, "ftm-client: unknown option %s\n", a);
+            return -1;
+        }
+        if (end && (*end || errno)) {
+            fprintf(stderr, "ftm-client: %s: bad number '%s'\n", a, v);
+            return -1;
+        }
+    }
+    if (!(o->server_timeout > 0) || o->duration < 0 || !(o->shot_timeout > 0) || o->bench < 0 ||
+        o->colormap_full < 0 || o->shot_after < 0) {
+        fprintf(stderr, "ftm-client: --server-timeout, --screenshot-timeout must be > 0; "
+                        "--duration, --bench, --colormap-full >= 0\n");
+        return -1;
+    }
+    return 0;
+}
+
+/* ---- the render loop ----------------------------------------------------------------------- */
+
+static void mesh_box(const ftm_mesh *m, ftm_vec3 *lo, ftm_vec3 *hi)
+{
+    int32_t n = ftm_mesh_node_count(m);
+    *lo = *hi = ftm_mesh_rest_position(m, 0);
+    for (int32_t i = 1; i < n; i++) {
+        ftm_vec3 p = ftm_mesh_rest_position(m, i);
+        lo->x = fmin(lo->x, p.x), lo->y = fmin(lo->y, p.y), lo->z = fmin(lo->z, p.z);
+        hi->x = fmax(hi->x, p.x), hi->y = fmax(hi->y, p.y), hi->z = fmax(hi->z, p.z);
+    }
+}
+
+static void new_mesh(app *a)
+{
+    ftm_error err = {0, ""};
+    if (ftm_render_set_mesh(a->ren, a->view.mesh, &err))
+        alog(a, FTM_LOG_ERROR, "%s", err.message);
+    a->drawn_mesh = a->view.mesh;
+    a->cam_set = false;
+    if (!a->view.mesh)
+        return;
+    alog(a, FTM_LOG_INFO, "drawing %d surface triangles", (int)ftm_render_triangle_count(a->ren));
+    if (mouse_probe(a)) { /* the probe starts above the middle of the top */
+        ftm_vec3 lo, hi;
+        mesh_box(a->view.mesh, &lo, &hi);
+        double l = ftm_render_link_length(a->ren);
+        ftm_mouse_set_hip(a->dev, (ftm_vec3){0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), hi.z + 3 * l});
+    }
+}
+
+static int cmp_double(const void *x, const void *y)
+{
+    double a = *(const double *)x, b = *(const double *)y;
+    return a < b ? -1 : a > b;
+}
+
+static double quantile(double *v, size_t n, double q)
+{
+    if (!n)
+        return 0;
+    qsort(v, n, sizeof *v, cmp_double);
+    size_t k = (size_t)(q * (double)(n - 1) + 0.5);
+    return v[k];
+}
+
+static int save_screenshot(app *a, const ftm_client_view *v, int w, int h)
+{
+    uint8_t *px = malloc((size_t)w * (size_t)h * 3);
+    if (!px) {
+        alog(a, FTM_LOG_ERROR, "screenshot: out of memory");
+        return -1;
+    }
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadBuffer(GL_BACK);
+    glReadPixels(0, 0, w, h, GL_RGB, GL_UNSIGNED_BYTE, px);
+    ftm_error err = {0, ""};
+    int rc = ftm_screenshot_write_png(a->o.screenshot, w, h, px, &err);
+    free(px);
+    if (rc) {
+        alog(a, FTM_LOG_ERROR, "%s", err.message);
+        return -1;
+    }
+    /* where the first contact is on screen, for tests that look there */
+    char where[64] = "contact none";
+    for (int32_t i = 0; i < v->nprobes; i++) {
+        double x, y;
+        if (v->probes[i].in_contact &&
+            ftm_camera_project(&a->cam, w, h, v->probes[i].contact, &x, &y)) {
+            snprintf(where, sizeof where, "contact %.0f %.0f", x, y);
+            break;
+        }
+    }
+    printf("screenshot %s %dx%d tick %" PRIu64 " %s\n", a->o.screenshot, w, h, v->tick, where);
+    fflush(stdout);
+    alog(a, FTM_LOG_INFO, "screenshot %s: %dx%d, tick %" PRIu64 ", %s", a->o.screenshot, w, h,
+         v->tick, where);
+    return 0;
+}
+
+static bool shot_ready(const app *a, const ftm_client_view *v, double elapsed)
+{
+    if (a->o.shot_after > 0)
+        return elapsed >= a->o.shot_after;
+    if (!v->caught_up || !v->mesh || a->drawn_mesh != v->mesh || v->node_count == 0)
+        return false;
+    if (a->o.shot_hold && v->tick < a->o.shot_tick)
+        return false;
+    if (a->o.shot_contact >= 0 && v->contact_ticks < (uint64_t)a->o.shot_contact)
+        return false;
+    return true;
+}
+
+static int run(app *a)
+{
+    int rc_exit = 0;
+    int64_t start = mono_ns(), last = start;
+    double fps = 0, frame_ms = 0, *bench_dt = NULL;
+    size_t nbench = 0, bench_cap = 0;
+    int64_t bench_start = 0;
+    char lines[FTM_HUD_LINES][FTM_HUD_WIDTH];
+    const char *hud[FTM_HUD_LINES];
+    ftm_client_view draw;
+    const char *gl_renderer = (const char *)glGetString(GL_RENDERER);
+    while (!glfwWindowShouldClose(a->win) && !g_stop) {
+        glfwPollEvents();
+        int64_t now = mono_ns();
+        double dt = (double)(now - last) * 1e-9;
+        last = now;
+        if (dt > 0) {
+            fps = fps > 0 ? 0.9 * fps + 0.1 / dt : 1.0 / dt;
+            frame_ms = 1e3 / fps;
+        }
+        bool changed = ftm_client_session_snapshot(a->sess, &a->view);
+        if (a->view.mesh != a->drawn_mesh)
+            new_mesh(a);
+        if (changed)
+            ftm_render_update(a->ren, &a->view);
+        if (!a->cam_set && a->view.mesh) {
+            ftm_vec3 lo, hi;
+            mesh_box(a->view.mesh, &lo, &hi);
+            ftm_camera_frame(&a->cam, lo, hi);
+            a->cam_set = true;
+        }
+        int w, h;
+        glfwGetFramebufferSize(a->win, &w, &h);
+        if (w <= 0 || h <= 0) {
+            glfwWaitEventsTimeout(0.05);
+            continue;
+        }
+        /* the own probe's HIP comes straight from the haptic loop, no delay */
+        draw = a->view;
+        ftm_hud_info info;
+        memset(&info, 0, sizeof info);
+        if (a->hap) {
+            ftm_haptic_state st;
+            ftm_haptic_get_state(a->hap, &st);
+            int32_t j = 0;
+            while (j < draw.nprobes && !(draw.probes[j].own && draw.probes[j].probe == 0))
+                j++;
+            if (j == draw.nprobes && j < FTM_CLIENT_MAX_PROBES) {
+                memset(&draw.probes[j], 0, sizeof draw.probes[j]);
+                draw.probes[j].own = true;
+                draw.probes[j].participant = a->o.id;
+                draw.nprobes++;
+            }
+            if (j < draw.nprobes && st.ticks > 0) {
+                draw.probes[j].have_hip = true;
+                draw.probes[j].hip = st.hip;
+            }
+            info.haptic = true;
+            info.force = st.force;
+            info.haptic_flags = st.flags;
+            info.renderer = ftm_haptic_renderer_name(st.renderer);
+        }
+        if (mouse_probe(a)) {
+            ftm_mouse_view mv;
+            mv.eye = ftm_camera_eye(&a->cam);
+            ftm_camera_basis(&a->cam, &mv.right, &mv.up, &mv.forward);
+            mv.fov_y = a->cam.fovy;
+            int ww, wh;
+            glfwGetWindowSize(a->win, &ww, &wh);
+            mv.width = ww > 0 ? ww : 1;
+            mv.height = wh > 0 ? wh : 1;
+            ftm_mouse_set_view(a->dev, &mv);
+        }
+        info.role = a->role;
+        info.id = a->o.id;
+        info.fps = fps;
+        info.frame_ms = frame_ms;
+        info.triangles = ftm_render_triangle_count(a->ren);
+        info.colormap = a->ropts.colormap;
+        info.region = a->ropts.region;
+        info.colormap_full =
+            a->ropts.colormap_full > 0 ? a->ropts.colormap_full : 0.5 * ftm_render_link_length(a->ren);
+        info.last_command = a->last_cmd[0] ? a->last_cmd : NULL;
+        int nhud = ftm_hud_lines(&draw, &info, lines);
+        for (int i = 0; i < nhud; i++)
+            hud[i] = lines[i];
+        ftm_render_draw(a->ren, &draw, &a->cam, w, h, &a->ropts, hud, nhud);
+
+        if (a->o.screenshot) {
+            double el = (double)(now - start) * 1e-9;
+            bool late = el > a->o.shot_timeout && !(a->o.shot_after > 0);
+            if (shot_ready(a, &draw, el) || late) {
+                if (late)
+                    alog(a, FTM_LOG_ERROR,
+                         "screenshot: condition not met in %.0f s (%s); saving what is shown",
+                         a->o.shot_timeout, draw.banner[0] ? draw.banner : "no banner");
+                if (save_screenshot(a, &draw, w, h) || late)
+                    rc_exit = 1;
+                break;
+            }
+        }
+        glfwSwapBuffers(a->win);
+
+        if (a->o.bench > 0 && draw.synced_once && a->drawn_mesh) {
+            if (!bench_start) {
+                bench_start = mono_ns();
+            } else {
+                if (nbench == bench_cap) {
+                    size_t c = bench_cap ? 2 * bench_cap : 4096;
+                    double *q = realloc(bench_dt, c * sizeof *q);
+                    if (!q)
+                        break;
+                    bench_dt = q;
+                    bench_cap = c;
+                }
+                bench_dt[nbench++] = dt;
+            }
+            double el = (double)(mono_ns() - bench_start) * 1e-9;
+            if (el >= a->o.bench) {
+                double sum = 0;
+                for (size_t i = 0; i < nbench; i++)
+                    sum += bench_dt[i];
+                double med = quantile(bench_dt, nbench, 0.5), p90 = quantile(bench_dt, nbench, 0.9);
+                double p10 = quantile(bench_dt, nbench, 0.1);
+                printf("bench: %d triangles, %dx%d, %s: %zu frames in %.1f s = %.1f fps; frame "
+                       "time median %.2f ms (%.1f fps), p10 %.2f ms, p90 %.2f ms\n",
+                       (int)ftm_render_triangle_count(a->ren), w, h, gl_renderer, nbench, sum,
+                       sum > 0 ? (double)nbench / sum : 0.0, med * 1e3, med > 0 ? 1.0 / med : 0.0,
+                       p10 * 1e3, p90 * 1e3);
+                if (a->o.json)
+                    printf("{\"triangles\": %d, \"width\": %d, \"height\": %d, \"renderer\": \"%s\", "
+                           "\"frames\": %zu, \"seconds\": %.3f, \"fps_mean\": %.2f, "
+                           "\"frame_ms_median\": %.3f, \"fps_median\": %.2f, \"frame_ms_p10\": %.3f, "
+                           "\"frame_ms_p90\": %.3f}\n",
+                           (int)ftm_render_triangle_count(a->ren), w, h, gl_renderer, nbench, sum,
+                           sum > 0 ? (double)nbench / sum : 0.0, med * 1e3,
+                           med > 0 ? 1.0 / med : 0.0, p10 * 1e3, p90 * 1e3);
+                fflush(stdout);
+                break;
+            }
+        } else if (a->o.bench > 0 && (double)(now - start) * 1e-9 > 60.0) {
+            alog(a, FTM_LOG_ERROR, "bench: not synced with a scene after 60 s");
+            rc_exit = 1;
+            break;
+        }
+        if (a->o.duration > 0 && (double)(now - start) * 1e-9 >= a->o.duration)
+            break;
+    }
+    free(bench_dt);
+    return rc_exit;
+}
+
+int main(int argc, char **argv)
+{
+    static app aa;
+    app *a = &aa;
+    a->t0 = mono_ns();
+    if (parse(argc, argv, &a->o)) {
+        usage(stderr);
+        return 2;
+    }
+    if (strcmp(a->o.role, "trainee") == 0)
+        a->role = FTM_WIRE_ROLE_TRAINEE;
+    else if (strcmp(a->o.role, "instructor") == 0)
+        a->role = FTM_WIRE_ROLE_INSTRUCTOR;
+    else if (strcmp(a->o.role, "observer") == 0)
+        a->role = FTM_WIRE_ROLE_OBSERVER;
+    else {
+        fprintf(stderr, "ftm-client: --role must be trainee, instructor or observer\n");
+        return 2;
+    }
+    ftm_haptic_renderer_kind rkind;
+    if (ftm_haptic_renderer_parse(a->o.renderer, &rkind)) {
+        fprintf(stderr, "ftm-client: --renderer must be model or extrapolate\n");
+        return 2;
+    }
+    if (strcmp(a->o.device, "mouse") != 0 && strncmp(a->o.device, "script:", 7) != 0) {
+        fprintf(stderr, "ftm-client: --device must be mouse or script:FILE\n");
+        return 2;
+    }
+    if (a->o.id == 0)
+        a->o.id = (uint32_t)(((uint64_t)getpid() * 2654435761u) ^ (uint64_t)time(NULL)) | 1u;
+    if (a->o.log_path) {
+        a->logf = fopen(a->o.log_path, "w");
+        if (!a->logf) {
+            fprintf(stderr, "ftm-client: cannot open %s: %s\n", a->o.log_path, strerror(errno));
+            return 3;
+        }
+    }
+    signal(SIGINT, on_signal);
+    signal(SIGTERM, on_signal);
+    a->ropts = ftm_render_default_opts();
+    a->ropts.colormap = a->o.colormap;
+    a->ropts.region = a->o.region;
+    a->ropts.hud = a->o.hud;
+    a->ropts.colormap_full = a->o.colormap_full;
+    int rc = 3;
+    ftm_error err = {0, ""};
+
+    /* window and GL first: without a display there is nothing to join for */
+    glfwSetErrorCallback(on_glfw_error);
+    if (!glfwInit()) {
+        alog(a, FTM_LOG_ERROR, "cannot initialise GLFW (no display? try xvfb-run)");
+        goto out;
+    }
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+    glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+    glfwWindowHint(GLFW_SAMPLES, 4);
+    char title[160];
+    snprintf(title, sizeof title, "ftm-client: %s, session %s", a->o.role, a->o.session);
+    a->win = glfwCreateWindow(a->o.width, a->o.height, title, NULL, NULL);
+    if (!a->win) {
+        alog(a, FTM_LOG_ERROR, "cannot open an OpenGL 3.3 core window");
+        goto out_glfw;
+    }
+    glfwMakeContextCurrent(a->win);
+    glfwSwapInterval(a->o.bench > 0 ? 0 : a->o.swap_interval);
+    glEnable(GL_MULTISAMPLE);
+    alog(a, FTM_LOG_INFO, "OpenGL %s on %s", (const char *)glGetString(GL_VERSION),
+         (const char *)glGetString(GL_RENDERER));
+    if (ftm_render_create(&a->ren, &err)) {
+        alog(a, FTM_LOG_ERROR, "%s", err.message);
+        goto out_win;
+    }
+    glfwSetWindowUserPointer(a->win, a);
+    glfwSetKeyCallback(a->win, on_key);
+    glfwSetMouseButtonCallback(a->win, on_button);
+    glfwSetCursorPosCallback(a->win, on_cursor);
+    glfwSetScrollCallback(a->win, on_scroll);
+
+    /* trainee: the device and the 1 kHz haptic loop (highest priority) */
+    if (a->role == FTM_WIRE_ROLE_TRAINEE) {
+        int drc;
+        if (strcmp(a->o.device, "mouse") == 0)
+            drc = ftm_mouse_create(NULL, (ftm_vec3){0, 0, 1}, 0.0, -1.0, &a->dev, &err);
+        else
+            drc = ftm_script_device_open(a->o.device + 7, NULL, &a->dev, &err);
+        if (drc) {
+            alog(a, FTM_LOG_ERROR, "device: %s", err.message);
+            goto out_render;
+        }
+        ftm_haptic_def hd = ftm_default_haptic_def();
+        hd.renderer = rkind;
+        hd.log = app_log;
+        hd.log_user = a;
+        if (ftm_haptic_create(&hd, a->dev, &a->hap, &err) || ftm_haptic_start(a->hap, &err)) {
+            alog(a, FTM_LOG_ERROR, "haptic loop: %s", err.message);
+            goto out_dev;
+        }
+        ftm_haptic_set_connected(a->hap, false); /* no force before the replica is synced */
+    }
+
+    ftm_client_config cc;
+    memset(&cc, 0, sizeof cc);
+    cc.role = a->role;
+    cc.scene = a->o.scene;
+    cc.session = a->o.session;
+    cc.dds_config = a->o.config;
+    cc.domain = a->o.domain;
+    cc.id = a->o.id;
+    cc.name = a->o.name ? a->o.name : a->o.role;
+    cc.server_timeout = a->o.server_timeout;
+    cc.hold = a->o.shot_hold;
+    cc.hold_tick = a->o.shot_tick;
+    cc.log = app_log;
+    cc.log_user = a;
+    cc.on_force = on_force;
+    cc.force_user = a;
+    if (a->hap) {
+        cc.take_hips = take_hips;
+        cc.hip_user = a;
+    }
+    if (ftm_client_session_start(&cc, &a->sess, &err)) {
+        alog(a, FTM_LOG_ERROR, "%s", err.message);
+        goto out_hap;
+    }
+    ftm_client_session_want_region(a->sess, a->ropts.region);
+    alog(a, FTM_LOG_INFO, "%s %u joining session '%s' on domain %u", a->o.role, a->o.id,
+         a->o.session, a->o.domain);
+    rc = run(a);
+    ftm_client_session_stop(a->sess);
+out_hap:
+    ftm_haptic_destroy(a->hap);
+out_dev:
+    ftm_device_destroy(a->dev);
+out_render:
+    ftm_client_view_free(&a->view);
+    ftm_render_destroy(a->ren);
+out_win:
+    glfwDestroyWindow(a->win);
+out_glfw:
+    glfwTerminate();
+out:
+    if (a->logf)
+        fclose(a->logf);
+    return rc;
+}

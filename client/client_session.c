@@ -1,0 +1,741 @@
+/* The client's session thread; see client_session.h and docs/client.md. */
+#include "client_session.h"
+
+#include "replay.h"
+
+#include <inttypes.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define SEC 1000000000LL
+#define PUBLISH_EVERY_NS (4 * 1000000LL) /* view updates: 250 Hz is plenty for 60 Hz drawing */
+#define HIP_STALE_NS (2 * SEC)            /* a remote HIP not updated for this long is dropped */
+#define REJECT_BANNER_NS (5 * SEC)
+
+typedef struct remote_hip {
+    uint32_t participant;
+    int32_t probe;
+    ftm_vec3 hip;
+    int64_t seen_ns;
+} remote_hip;
+
+struct ftm_client_session {
+    ftm_client_config cfg;
+    ftm_wire_transport *wire;
+    pthread_t thread;
+    atomic_bool stop;
+    atomic_bool want_region;
+    atomic_uint_fast64_t command_id;
+
+    /* session thread only */
+    ftm_scene *scene;
+    ftm_replay *rep;
+    char failed_scene[FTM_WIRE_NAME_MAX]; /* announced id we could not load */
+    ftm_wire_announce ann;
+    bool have_ann;
+    uint32_t server_id; /* 0 until the first announcement */
+    uint64_t foreign;   /* messages ignored: not from the server */
+    bool server_left;
+    int64_t last_frame_ns, last_status_ns, last_input_ns, last_publish_ns;
+    uint64_t newest_rx_tick;
+    int64_t last_latency_ns;
+    remote_hip hips[FTM_CLIENT_MAX_PROBES];
+    int32_t nhips;
+    ftm_client_part parts[FTM_CLIENT_MAX_PARTS];
+    int32_t nparts;
+    uint64_t rejected_seen;
+    int64_t reject_until_ns;
+    char reject_msg[200];
+    bool silent_reported;
+    bool force_valid;
+    uint64_t contact_ticks, counted_tick;
+    bool dirty;
+    ftm_wire_state last_state;
+
+    /* shared with the render thread: under lock */
+    pthread_mutex_t lock;
+    ftm_client_view shared;
+};
+
+static int64_t mono_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * SEC + ts.tv_nsec;
+}
+
+static int64_t real_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (int64_t)ts.tv_sec * SEC + ts.tv_nsec;
+}
+
+static void slog(ftm_client_session *s, ftm_log_level level, const char *fmt, ...)
+{
+    if (!s->cfg.log)
+        return;
+    char buf[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    s->cfg.log(s->cfg.log_user, level, buf);
+}
+
+static void force_off(ftm_client_session *s, const char *why)
+{
+    if (s->force_valid && s->cfg.role == FTM_WIRE_ROLE_TRAINEE)
+        slog(s, FTM_LOG_WARN, "force off: %s", why);
+    s->force_valid = false;
+    if (s->cfg.on_force)
+        s->cfg.on_force(s->cfg.force_user, s->rep ? ftm_replay_tick(s->rep) : 0, NULL, false, why);
+}
+
+/* Announcements, frames, keyframes and server statuses are taken from one
+ * sender: the one whose announcement came first. Any participant can write
+ * on any topic (DDS has no authentication here), so a replica must not step
+ * frames from whoever sends them. */
+static bool from_server(ftm_client_session *s, const ftm_wire_received *rx)
+{
+    if (s->server_id == 0 && rx->msg.kind == FTM_WIRE_ANNOUNCE)
+        s->server_id = rx->sender;
+    if (s->server_id != 0 && rx->sender == s->server_id)
+        return true;
+    if (s->server_id == 0)
+        return false;
+    s->foreign++;
+    if (s->foreign <= 3 || (s->foreign & (s->foreign - 1)) == 0)
+        slog(s, FTM_LOG_WARN, "%s from participant %u ignored (%" PRIu64 " so far): not from the server %u",
+             ftm_wire_kind_name((int)rx->msg.kind), rx->sender, s->foreign, s->server_id);
+    return false;
+}
+
+/* ---- messages ----------------------------------------------------------------------- */
+
+static void publish_status(ftm_client_session *s, ftm_wire_state state)
+{
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_STATUS;
+    ftm_wire_status *st = &m.u.status;
+    st->participant = s->cfg.id;
+    st->role = s->cfg.role;
+    st->state = state;
+    if (s->rep) {
+        ftm_replay_stats rs;
+        ftm_replay_get_stats(s->rep, &rs);
+        st->last_applied_tick = ftm_replay_tick(s->rep);
+        st->state_hash = ftm_replay_hash(s->rep);
+        uint64_t n = rs.frames_applied + rs.idle_ticks;
+        st->replay_ns_per_tick = n ? rs.replay_ns_total / (double)n : 0.0;
+        st->replay_ns_max = ftm_replay_take_max(s->rep);
+    }
+    snprintf(st->name, sizeof st->name, "%s", s->cfg.name ? s->cfg.name : "ftm-client");
+    ftm_error err = {0, ""};
+    if (ftm_wire_publish(s->wire, &m, &err))
+        slog(s, FTM_LOG_WARN, "status: %s", err.message);
+    s->last_status_ns = mono_ns();
+}
+
+static void drop_scene(ftm_client_session *s)
+{
+    /* the mesh pointer may be in the render thread's view: keep the scene
+     * (scenes are only destroyed at stop); just stop replaying */
+    ftm_replay_destroy(s->rep);
+    s->rep = NULL;
+}
+
+static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
+{
+    ftm_error err = {0, ""};
+    s->ann = *a;
+    s->have_ann = true;
+    s->dirty = true;
+    if (s->scene && !s->rep)
+        return; /* rejected before (digest mismatch): the banner stays */
+    if (!s->scene) {
+        const char *name = s->cfg.scene ? s->cfg.scene : a->scene_id;
+        if (strcmp(s->failed_scene, name) == 0)
+            return;
+        if (ftm_scene_open(name, &s->scene, &err)) {
+            snprintf(s->failed_scene, sizeof s->failed_scene, "%s", name);
+            slog(s, FTM_LOG_ERROR, "cannot load scene '%s': %s", name, err.message);
+            pthread_mutex_lock(&s->lock);
+            snprintf(s->shared.banner, sizeof s->shared.banner, "CANNOT LOAD SCENE '%.60s': %.180s",
+                     name, err.message);
+            s->shared.banner_error = true;
+            s->shared.version++;
+            pthread_mutex_unlock(&s->lock);
+            force_off(s, "no scene");
+            return;
+        }
+        if (ftm_replay_create(s->scene, s->cfg.log, s->cfg.log_user, &s->rep, &err)) {
+            slog(s, FTM_LOG_ERROR, "replay: %s", err.message);
+            return;
+        }
+        slog(s, FTM_LOG_INFO, "joined session: scene '%s', %u Hz, tick %" PRIu64 "%s",
+             a->scene_id, a->tick_rate_hz, a->tick, a->paused ? " (paused)" : "");
+        const ftm_mesh *m = ftm_scene_mesh(s->scene);
+        pthread_mutex_lock(&s->lock);
+        s->shared.mesh = m;
+        snprintf(s->shared.scene_name, sizeof s->shared.scene_name, "%s", name);
+        pthread_mutex_unlock(&s->lock);
+        publish_status(s, FTM_WIRE_STATE_JOINING); /* ask for a fresh keyframe */
+    }
+    if (ftm_replay_check_announce(s->rep, a, &err)) {
+        slog(s, FTM_LOG_ERROR, "%s", err.message);
+        pthread_mutex_lock(&s->lock);
+        snprintf(s->shared.banner, sizeof s->shared.banner, "SCENE MISMATCH: %.230s", err.message);
+        s->shared.banner_error = true;
+        s->shared.version++;
+        pthread_mutex_unlock(&s->lock);
+        drop_scene(s);
+        force_off(s, "scene mismatch");
+    }
+}
+
+static ftm_client_part *find_part(ftm_client_session *s, uint32_t id, bool add)
+{
+    for (int32_t i = 0; i < s->nparts; i++)
+        if (s->parts[i].id == id)
+            return &s->parts[i];
+    if (!add || s->nparts == FTM_CLIENT_MAX_PARTS)
+        return NULL;
+    ftm_client_part *p = &s->parts[s->nparts++];
+    memset(p, 0, sizeof *p);
+    p->id = id;
+    return p;
+}
+
+static void server_gone(ftm_client_session *s, const char *why)
+{
+    if (s->server_left)
+        return;
+    s->server_left = true;
+    slog(s, FTM_LOG_WARN, "server %u %s", s->server_id, why);
+    force_off(s, "server gone");
+}
+
+static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
+{
+    s->dirty = true;
+    if (rx->gone) {
+        ftm_client_part *p = find_part(s, rx->sender, false);
+        if (p)
+            *p = s->parts[--s->nparts];
+        if (s->server_id != 0 && rx->sender == s->server_id)
+            server_gone(s, "gone (lease expired or left)");
+        return;
+    }
+    const ftm_wire_status *st = &rx->msg.u.status;
+    if (st->role == FTM_WIRE_ROLE_SERVER && from_server(s, rx) &&
+        st->state == FTM_WIRE_STATE_LEAVING)
+        server_gone(s, "leaving");
+    ftm_client_part *p = find_part(s, rx->sender, true);
+    if (p) {
+        p->role = st->role;
+        p->state = st->state;
+        p->tick = st->last_applied_tick;
+        snprintf(p->name, sizeof p->name, "%s", st->name);
+    }
+}
+
+static void on_probe_input(ftm_client_session *s, const ftm_wire_received *rx)
+{
+    const ftm_wire_probe_input *in = &rx->msg.u.probe_input;
+    if (in->sample_count <= 0)
+        return;
+    const ftm_wire_probe_sample *smp = &in->samples[in->sample_count - 1]; /* newest */
+    int32_t k = 0;
+    while (k < s->nhips &&
+           !(s->hips[k].participant == rx->sender && s->hips[k].probe == smp->probe))
+        k++;
+    if (k == s->nhips) {
+        if (s->nhips == FTM_CLIENT_MAX_PROBES)
+            return;
+        s->nhips++;
+    }
+    s->hips[k] = (remote_hip){rx->sender, smp->probe, smp->position, mono_ns()};
+    s->dirty = true;
+}
+
+static void after_frames(ftm_client_session *s)
+{
+    const ftm_wire_tick *t = ftm_replay_last_frame(s->rep);
+    const ftm_wire_reaction *mine = NULL;
+    for (int32_t i = 0; i < t->reaction_count; i++)
+        if (t->reactions[i].participant == s->cfg.id && t->reactions[i].probe == 0)
+            mine = &t->reactions[i];
+    uint64_t tick = ftm_replay_tick(s->rep);
+    if (ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED && !s->server_left) {
+        if (!s->force_valid && s->cfg.role == FTM_WIRE_ROLE_TRAINEE)
+            slog(s, FTM_LOG_INFO, "force on at tick %" PRIu64, tick);
+        s->force_valid = true;
+        if (s->cfg.on_force)
+            s->cfg.on_force(s->cfg.force_user, t->tick, t->tick == tick ? mine : NULL, true, NULL);
+    }
+    if (tick != s->counted_tick) {
+        if (t->contact_count > 0 && t->tick == tick)
+            s->contact_ticks += tick - s->counted_tick;
+        else
+            s->contact_ticks = 0;
+        s->counted_tick = tick;
+    }
+    s->dirty = true;
+}
+
+static void on_tick(ftm_client_session *s, const ftm_wire_received *rx)
+{
+    s->last_frame_ns = mono_ns();
+    if (s->silent_reported) {
+        slog(s, FTM_LOG_INFO, "tick frames again from the server");
+        s->silent_reported = false;
+    }
+    const ftm_wire_tick *t = &rx->msg.u.tick;
+    if (t->tick > s->newest_rx_tick)
+        s->newest_rx_tick = t->tick;
+    s->last_latency_ns = real_ns() - rx->source_time_ns;
+    if (!s->rep)
+        return;
+    uint64_t before = ftm_replay_tick(s->rep);
+    if (ftm_replay_on_tick(s->rep, rx))
+        slog(s, FTM_LOG_ERROR, "replay: out of memory");
+    if (ftm_replay_tick(s->rep) != before)
+        after_frames(s);
+}
+
+static void on_keyframe(ftm_client_session *s, const ftm_wire_keyframe *k)
+{
+    if (!s->rep)
+        return;
+    uint64_t before = ftm_replay_tick(s->rep);
+    if (ftm_replay_on_keyframe(s->rep, k))
+        slog(s, FTM_LOG_ERROR, "replay: out of memory");
+    if (ftm_replay_tick(s->rep) != before)
+        after_frames(s);
+    s->dirty = true;
+}
+
+#define HIP_BATCH 64
+
+static void send_probe(ftm_client_session *s)
+{
+    ftm_wire_probe_sample smp[HIP_BATCH];
+    int n = s->cfg.take_hips(s->cfg.hip_user, smp, HIP_BATCH);
+    if (n <= 0)
+        return;
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_PROBE_INPUT;
+    m.u.probe_input.participant = s->cfg.id;
+    m.u.probe_input.last_tick_seen = s->rep ? ftm_replay_tick(s->rep) : 0;
+    m.u.probe_input.sample_count = n;
+    m.u.probe_input.samples = smp;
+    ftm_error err = {0, ""};
+    if (ftm_wire_publish(s->wire, &m, &err))
+        slog(s, FTM_LOG_WARN, "probe input: %s", err.message);
+}
+
+/* ---- watchdog: silent server, malformed frames ----------------------------------------- */
+
+static void watchdog(ftm_client_session *s, int64_t now)
+{
+    ftm_wire_stats ws;
+    if (ftm_wire_get_stats(s->wire, FTM_WIRE_TICK, &ws, NULL) == FTM_OK &&
+        ws.rejected > s->rejected_seen) {
+        slog(s, FTM_LOG_ERROR, "malformed tick frame rejected (%" PRIu64 " so far): %s",
+             ws.rejected, ws.last_reject);
+        snprintf(s->reject_msg, sizeof s->reject_msg, "MALFORMED TICK FRAME REJECTED: %.160s",
+                 ws.last_reject);
+        s->rejected_seen = ws.rejected;
+        s->reject_until_ns = now + REJECT_BANNER_NS;
+        force_off(s, "malformed frame");
+        s->dirty = true;
+    }
+    double silent_s = (double)(now - s->last_frame_ns) * 1e-9;
+    if (s->have_ann && !s->server_left && silent_s > s->cfg.server_timeout && !s->silent_reported) {
+        s->silent_reported = true;
+        slog(s, FTM_LOG_WARN, "no tick frames from the server for %.1f s", silent_s);
+        force_off(s, "server silent");
+        s->dirty = true;
+    }
+    if (s->rep && ftm_replay_state(s->rep) != FTM_WIRE_STATE_SYNCED && s->force_valid)
+        force_off(s, "replica not synced");
+
+    /* the banner: the most serious condition wins */
+    char banner[256] = "";
+    bool error = true;
+    if (s->have_ann && !s->scene && s->failed_scene[0])
+        return; /* the scene banner set in on_announce stays */
+    if (s->scene && !s->rep)
+        return; /* scene mismatch banner stays */
+    if (s->server_left)
+        snprintf(banner, sizeof banner, "SERVER LEFT THE SESSION: FORCE OFF");
+    else if (s->silent_reported)
+        snprintf(banner, sizeof banner, "SERVER SILENT FOR %.0f S: FORCE OFF", silent_s);
+    else if (now < s->reject_until_ns)
+        snprintf(banner, sizeof banner, "%s", s->reject_msg);
+    else if (!s->have_ann) {
+        snprintf(banner, sizeof banner, "WAITING FOR SESSION '%s'...", s->cfg.session);
+        error = false;
+    } else if (s->rep && ftm_replay_state(s->rep) != FTM_WIRE_STATE_SYNCED) {
+        snprintf(banner, sizeof banner, "%s...",
+                 ftm_replay_state(s->rep) == FTM_WIRE_STATE_JOINING ? "JOINING" : "RESYNCING");
+        error = false;
+    }
+    pthread_mutex_lock(&s->lock);
+    if (strcmp(banner, s->shared.banner) != 0 || error != s->shared.banner_error) {
+        snprintf(s->shared.banner, sizeof s->shared.banner, "%s", banner);
+        s->shared.banner_error = error;
+        s->shared.version++;
+    }
+    pthread_mutex_unlock(&s->lock);
+}
+
+/* ---- the view -------------------------------------------------------------------------- */
+
+static int grow(void **p, int32_t *cap, int32_t need, size_t elem)
+{
+    if (need <= *cap)
+        return 0;
+    int32_t c = need + need / 2 + 16;
+    void *q = realloc(*p, (size_t)c * elem);
+    if (!q)
+        return -1;
+    *p = q;
+    *cap = c;
+    return 0;
+}
+
+static ftm_vec3 contact_centroid(const double *x, const ftm_wire_tick *t, int32_t group, bool *any)
+{
+    ftm_vec3 c = {0, 0, 0};
+    int32_t n = 0;
+    for (int32_t i = 0; i < t->contact_count; i++)
+        if (t->contacts[i].group == group) {
+            const double *p = x + 3 * t->contacts[i].node;
+            c.x += p[0];
+            c.y += p[1];
+            c.z += p[2];
+            n++;
+        }
+    *any = n > 0;
+    if (n) {
+        c.x /= n;
+        c.y /= n;
+        c.z /= n;
+    }
+    return c;
+}
+
+static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
+{
+    ftm_client_view *v = &s->shared;
+    const double *x = NULL;
+    int32_t n = 0;
+    const int32_t *order = NULL, *start = NULL;
+    int32_t layers = 0;
+    if (s->rep) {
+        ftm_sim *sim = ftm_replay_sim(s->rep);
+        x = ftm_sim_positions(sim);
+        n = ftm_mesh_node_count(ftm_sim_mesh(sim));
+        if (atomic_load(&s->want_region))
+            layers = ftm_sim_layers(sim, &order, &start);
+    }
+    pthread_mutex_lock(&s->lock);
+    v->version++;
+    if (n && grow((void **)&v->pos, &v->pos_cap, 3 * n, sizeof *v->pos) == 0) {
+        memcpy(v->pos, x, (size_t)n * 3 * sizeof *x);
+        v->node_count = n;
+    }
+    v->region_count = 0;
+    if (layers > 0 && grow((void **)&v->region, &v->region_cap, start[layers], sizeof(int32_t)) == 0) {
+        memcpy(v->region, order, (size_t)start[layers] * sizeof(int32_t));
+        v->region_count = start[layers];
+    }
+    v->announced = s->have_ann;
+    if (s->have_ann) {
+        v->paused = s->ann.paused;
+        v->depth_min = s->ann.depth_min;
+        v->depth_max = s->ann.depth_max;
+        v->rate_hz = s->ann.tick_rate_hz;
+        v->tissue = s->ann.tissue;
+    }
+    v->state = s->rep ? ftm_replay_state(s->rep) : FTM_WIRE_STATE_JOINING;
+    if (v->state == FTM_WIRE_STATE_SYNCED)
+        v->synced_once = true;
+    v->caught_up = caught_up;
+    v->contact_ticks = s->contact_ticks;
+    v->force_valid = s->force_valid;
+    v->nprobes = 0;
+    v->own_force = (ftm_vec3){0, 0, 0};
+    if (s->rep) {
+        const ftm_wire_tick *t = ftm_replay_last_frame(s->rep);
+        v->tick = ftm_replay_tick(s->rep);
+        v->depth = t->depth;
+        int64_t lat = s->last_latency_ns > 0 ? s->last_latency_ns : 0;
+        v->latency_ms = (double)lat * 1e-6;
+        int64_t behind = s->newest_rx_tick > v->tick ? (int64_t)(s->newest_rx_tick - v->tick) : 0;
+        v->lag_ticks = behind + (int64_t)((double)lat * 1e-9 * v->rate_hz + 0.5);
+        ftm_replay_stats rs;
+        ftm_replay_get_stats(s->rep, &rs);
+        v->frames = rs.frames_received;
+        v->mismatches = rs.mismatches;
+        v->resyncs = rs.resyncs;
+        /* probes in contact: from the reactions of the last frame */
+        for (int32_t i = 0; i < t->reaction_count && v->nprobes < FTM_CLIENT_MAX_PROBES; i++) {
+            const ftm_wire_reaction *r = &t->reactions[i];
+            ftm_client_probe *p = &v->probes[v->nprobes++];
+            memset(p, 0, sizeof *p);
+            p->participant = r->participant;
+            p->probe = r->probe;
+            p->own = r->participant == s->cfg.id;
+            p->force = r->force;
+            p->contact = contact_centroid(x, t, r->group, &p->in_contact);
+            if (p->own && r->probe == 0 && s->force_valid)
+                v->own_force = r->force;
+        }
+    }
+    v->rejected = s->rejected_seen;
+    /* the others' HIPs, from their probe input */
+    for (int32_t k = 0; k < s->nhips; k++) {
+        const remote_hip *rh = &s->hips[k];
+        if (now - rh->seen_ns > HIP_STALE_NS)
+            continue;
+        int32_t j = 0;
+        while (j < v->nprobes &&
+               !(v->probes[j].participant == rh->participant && v->probes[j].probe == rh->probe))
+            j++;
+        if (j == v->nprobes) {
+            if (v->nprobes == FTM_CLIENT_MAX_PROBES)
+                continue;
+            memset(&v->probes[v->nprobes++], 0, sizeof v->probes[0]);
+            v->probes[j].participant = rh->participant;
+            v->probes[j].probe = rh->probe;
+        }
+        v->probes[j].have_hip = true;
+        v->probes[j].hip = rh->hip;
+    }
+    v->nparts = s->nparts;
+    memcpy(v->parts, s->parts, (size_t)s->nparts * sizeof s->parts[0]);
+    pthread_mutex_unlock(&s->lock);
+    s->last_publish_ns = now;
+    s->dirty = false;
+}
+
+/* ---- the thread -------------------------------------------------------------------------- */
+
+static bool hold_reached(const ftm_client_session *s)
+{
+    return s->cfg.hold && s->rep && ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED &&
+           ftm_replay_tick(s->rep) >= s->cfg.hold_tick;
+}
+
+static void *session_main(void *arg)
+{
+    ftm_client_session *s = arg;
+    int64_t t0 = mono_ns();
+    s->last_frame_ns = t0;
+    publish_status(s, FTM_WIRE_STATE_JOINING);
+    while (!atomic_load(&s->stop)) {
+        ftm_wire_received rx;
+        if (ftm_wire_receive(s->wire, FTM_WIRE_ANNOUNCE, &rx, 0, NULL) == FTM_OK) {
+            if (from_server(s, &rx))
+                on_announce(s, &rx.msg.u.announce);
+            ftm_wire_received_free(&rx);
+        }
+        for (int i = 0; i < 64 && ftm_wire_receive(s->wire, FTM_WIRE_STATUS, &rx, 0, NULL) == FTM_OK;
+             i++) {
+            on_status(s, &rx);
+            ftm_wire_received_free(&rx);
+        }
+        for (int i = 0;
+             i < 256 && ftm_wire_receive(s->wire, FTM_WIRE_PROBE_INPUT, &rx, 0, NULL) == FTM_OK;
+             i++) {
+            on_probe_input(s, &rx);
+            ftm_wire_received_free(&rx);
+        }
+        if (!hold_reached(s) &&
+            ftm_wire_receive(s->wire, FTM_WIRE_KEYFRAME, &rx, 0, NULL) == FTM_OK) {
+            if (from_server(s, &rx))
+                on_keyframe(s, &rx.msg.u.keyframe);
+            ftm_wire_received_free(&rx);
+        }
+        bool caught_up = false;
+        if (hold_reached(s)) {
+            struct timespec ts = {0, 1000000};
+            nanosleep(&ts, NULL);
+            caught_up = true;
+        } else {
+            int n = 0;
+            for (; n < 2000 && !hold_reached(s); n++) {
+                if (ftm_wire_receive(s->wire, FTM_WIRE_TICK, &rx, n == 0 ? SEC / 1000 : 0, NULL) !=
+                    FTM_OK)
+                    break;
+                if (from_server(s, &rx))
+                    on_tick(s, &rx);
+                ftm_wire_received_free(&rx);
+            }
+            caught_up = n < 2000 && s->rep && ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED &&
+                        ftm_replay_tick(s->rep) >= s->newest_rx_tick;
+        }
+        int64_t now = mono_ns();
+        if (s->cfg.take_hips && now - s->last_input_ns >= SEC / 1000) {
+            send_probe(s);
+            s->last_input_ns = now;
+        }
+        ftm_wire_state st = s->rep ? ftm_replay_state(s->rep) : FTM_WIRE_STATE_JOINING;
+        if (st != s->last_state || now - s->last_status_ns >= SEC / 2) {
+            if (st != s->last_state && st == FTM_WIRE_STATE_SYNCED)
+                slog(s, FTM_LOG_INFO, "synced at tick %" PRIu64, ftm_replay_tick(s->rep));
+            s->last_state = st;
+            publish_status(s, st);
+            s->dirty = true;
+        }
+        watchdog(s, now);
+        if (s->dirty && (now - s->last_publish_ns >= PUBLISH_EVERY_NS || caught_up))
+            publish_view(s, now, caught_up);
+        else if (caught_up != s->shared.caught_up)
+            publish_view(s, now, caught_up); /* (read without lock: only this thread writes it) */
+    }
+    force_off(s, "client stopping");
+    publish_status(s, FTM_WIRE_STATE_LEAVING);
+    ftm_wire_flush(s->wire, SEC, NULL);
+    return NULL;
+}
+
+int ftm_client_session_start(const ftm_client_config *cfg, ftm_client_session **out,
+                             ftm_error *err)
+{
+    ftm_client_session *s = calloc(1, sizeof *s);
+    if (!s) {
+        if (err) {
+            err->code = FTM_ENOMEM;
+            snprintf(err->message, sizeof err->message, "client session: out of memory");
+        }
+        return FTM_ENOMEM;
+    }
+    s->cfg = *cfg;
+    if (!s->cfg.session)
+        s->cfg.session = "ftm";
+    if (!(s->cfg.server_timeout > 0))
+        s->cfg.server_timeout = 3.0;
+    s->last_state = FTM_WIRE_STATE_JOINING;
+    atomic_init(&s->stop, false);
+    atomic_init(&s->want_region, false);
+    atomic_init(&s->command_id, 0);
+    pthread_mutex_init(&s->lock, NULL);
+    s->shared.state = FTM_WIRE_STATE_JOINING;
+
+    ftm_wire_transport_def wd;
+    memset(&wd, 0, sizeof wd);
+    wd.config = s->cfg.dds_config;
+    wd.domain_id = s->cfg.domain;
+    wd.session = s->cfg.session;
+    wd.participant_id = s->cfg.id;
+    wd.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS);
+    if (s->cfg.role == FTM_WIRE_ROLE_TRAINEE)
+        wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT);
+    if (s->cfg.role == FTM_WIRE_ROLE_INSTRUCTOR)
+        wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL);
+    /* probe input of the others, to draw their HIPs */
+    wd.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE) | FTM_WIRE_KIND_BIT(FTM_WIRE_TICK) |
+                   FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME) | FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) |
+                   FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT);
+    wd.log = s->cfg.log;
+    wd.log_user = s->cfg.log_user;
+    int rc = ftm_wire_transport_create(&wd, &s->wire, err);
+    if (rc) {
+        pthread_mutex_destroy(&s->lock);
+        free(s);
+        return rc;
+    }
+    if (pthread_create(&s->thread, NULL, session_main, s) != 0) {
+        ftm_wire_transport_destroy(s->wire);
+        pthread_mutex_destroy(&s->lock);
+        free(s);
+        if (err) {
+            err->code = FTM_ENOMEM;
+            snprintf(err->message, sizeof err->message, "client session: cannot start thread");
+        }
+        return FTM_ENOMEM;
+    }
+    *out = s;
+    return FTM_OK;
+}
+
+void ftm_client_session_stop(ftm_client_session *s)
+{
+    if (!s)
+        return;
+    atomic_store(&s->stop, true);
+    pthread_join(s->thread, NULL);
+    ftm_wire_transport_destroy(s->wire);
+    ftm_replay_destroy(s->rep);
+    ftm_scene_destroy(s->scene);
+    ftm_client_view_free(&s->shared);
+    pthread_mutex_destroy(&s->lock);
+    free(s);
+}
+
+bool ftm_client_session_snapshot(ftm_client_session *s, ftm_client_view *dst)
+{
+    pthread_mutex_lock(&s->lock);
+    const ftm_client_view *v = &s->shared;
+    bool changed = dst->version != v->version;
+    if (changed) {
+        double *pos = dst->pos;
+        int32_t pos_cap = dst->pos_cap;
+        int32_t *region = dst->region;
+        int32_t region_cap = dst->region_cap;
+        bool ok = grow((void **)&pos, &pos_cap, 3 * v->node_count, sizeof *pos) == 0 &&
+                  grow((void **)&region, &region_cap, v->region_count, sizeof *region) == 0;
+        *dst = *v;
+        dst->pos = pos;
+        dst->pos_cap = pos_cap;
+        dst->region = region;
+        dst->region_cap = region_cap;
+        if (ok) {
+            if (v->node_count)
+                memcpy(pos, v->pos, (size_t)v->node_count * 3 * sizeof *pos);
+            if (v->region_count)
+                memcpy(region, v->region, (size_t)v->region_count * sizeof *region);
+        } else {
+            dst->node_count = 0;
+            dst->region_count = 0;
+        }
+    }
+    pthread_mutex_unlock(&s->lock);
+    return changed;
+}
+
+void ftm_client_view_free(ftm_client_view *v)
+{
+    free(v->pos);
+    free(v->region);
+    v->pos = NULL;
+    v->region = NULL;
+    v->pos_cap = v->region_cap = 0;
+}
+
+void ftm_client_session_want_region(ftm_client_session *s, bool on)
+{
+    atomic_store(&s->want_region, on);
+}
+
+int ftm_client_session_control(ftm_client_session *s, ftm_wire_control *c, ftm_error *err)
+{
+    c->issuer = s->cfg.id;
+    c->command_id = (uint64_t)atomic_fetch_add(&s->command_id, 1) + 1;
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_CONTROL;
+    m.u.control = *c;
+    return ftm_wire_publish(s->wire, &m, err);
+}

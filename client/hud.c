@@ -1,0 +1,85 @@
+/* HUD text; see hud.h. */
+#include "hud.h"
+
+#include "haptic.h"
+
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+
+const char *ftm_hud_role_name(ftm_wire_role role)
+{
+    switch (role) {
+    case FTM_WIRE_ROLE_SERVER: return "server";
+    case FTM_WIRE_ROLE_TRAINEE: return "trainee";
+    case FTM_WIRE_ROLE_INSTRUCTOR: return "instructor";
+    case FTM_WIRE_ROLE_OBSERVER: return "observer";
+    case FTM_WIRE_ROLE_BOT: return "bot";
+    }
+    return "?";
+}
+
+const char *ftm_hud_state_name(ftm_wire_state state)
+{
+    switch (state) {
+    case FTM_WIRE_STATE_JOINING: return "joining";
+    case FTM_WIRE_STATE_SYNCED: return "synced";
+    case FTM_WIRE_STATE_RESYNCING: return "resyncing";
+    case FTM_WIRE_STATE_LEAVING: return "leaving";
+    }
+    return "?";
+}
+
+static double norm(ftm_vec3 f) { return sqrt(f.x * f.x + f.y * f.y + f.z * f.z); }
+
+int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
+                  char lines[FTM_HUD_LINES][FTM_HUD_WIDTH])
+{
+    int n = 0;
+#define LINE(...) snprintf(lines[n++], FTM_HUD_WIDTH, __VA_ARGS__)
+    LINE("%s %u  %s  scene %s", ftm_hud_role_name(in->role), in->id,
+         ftm_hud_state_name(v->state), v->scene_name[0] ? v->scene_name : "-");
+    LINE("tick %" PRIu64 "%s  depth %d [%d..%d]  lag %" PRId64 " ticks (%.1f ms)", v->tick,
+         v->paused ? " paused" : "", (int)v->depth, (int)v->depth_min, (int)v->depth_max,
+         v->lag_ticks, v->latency_ms);
+    LINE("fps %.1f (%.1f ms)  %d triangles", in->fps, in->frame_ms, (int)in->triangles);
+    if (in->haptic) {
+        const char *why = "";
+        if (in->haptic_flags & (FTM_HAPTIC_DISCONNECTED | FTM_HAPTIC_DEVICE_LOST))
+            why = "  OFF";
+        else if (in->haptic_flags & FTM_HAPTIC_STALE)
+            why = "  fading";
+        else if (in->haptic_flags & FTM_HAPTIC_CLAMPED)
+            why = "  clamped";
+        LINE("force %.3f N (%.2f %.2f %.2f)  %s%s", norm(in->force), in->force.x, in->force.y,
+             in->force.z, in->renderer ? in->renderer : "", why);
+    }
+    /* reaction forces of every probe in contact (what the server computed) */
+    for (int32_t i = 0; i < v->nprobes && n < FTM_HUD_LINES - 12; i++) {
+        const ftm_client_probe *p = &v->probes[i];
+        if (!p->in_contact)
+            continue;
+        LINE("reaction %u/%d %.3f N%s", p->participant, (int)p->probe, norm(p->force),
+             p->own ? " (you)" : "");
+    }
+    if (v->mismatches || v->resyncs || v->rejected)
+        LINE("mismatches %" PRIu64 "  resyncs %" PRIu64 "  rejected %" PRIu64, v->mismatches,
+             v->resyncs, v->rejected);
+    if (in->role == FTM_WIRE_ROLE_INSTRUCTOR) {
+        LINE("tissue k %.4g N/m  d %.4g N s/m  m %.4g kg", v->tissue.stiffness,
+             v->tissue.node_damping, v->tissue.node_mass);
+        LINE("participants:");
+        for (int32_t i = 0; i < v->nparts && n < FTM_HUD_LINES - 4; i++) {
+            const ftm_client_part *p = &v->parts[i];
+            LINE("  %u %s %s tick %" PRIu64 " %s", p->id, ftm_hud_role_name(p->role),
+                 ftm_hud_state_name(p->state), p->tick, p->name);
+        }
+        LINE("keys: space pause/resume  backspace reset  +/- depth max  k/j stiffness");
+        if (in->last_command)
+            LINE("sent: %s", in->last_command);
+    }
+    LINE("map %s (full %.1f mm)  region %s   c/b/h [ ] home", in->colormap ? "on" : "off",
+         in->colormap_full * 1e3, in->region ? "on" : "off");
+#undef LINE
+    return n;
+}

@@ -1,0 +1,704 @@
+/* OpenGL 3.3 core drawing; see render.h. Mesa provides the entry points
+ * directly (GL_GLEXT_PROTOTYPES), so no loader is needed. */
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
+
+#include "render.h"
+
+#include "font.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define VERT_FLOATS 7 /* position 3, normal 3, displacement 1 */
+#define TEXT_FLOATS 8 /* x y u v r g b a */
+
+struct ftm_render {
+    GLuint lit, flat, text; /* programs */
+    GLint lit_mvp, lit_model, lit_eye, lit_color, lit_usemap, lit_full;
+    GLint flat_mvp, flat_color, flat_size;
+    GLint text_screen, text_tex;
+
+    GLuint surf_vao, surf_vbo, surf_ibo;
+    GLuint sph_vao, sph_vbo, sph_ibo;
+    GLint sph_count;
+    GLuint dyn_vao, dyn_vbo; /* lines and points */
+    GLuint text_vao, text_vbo, font_tex;
+
+    const ftm_mesh *mesh;
+    int32_t ntri, nvert;
+    int32_t *tri;    /* 3 * ntri render-vertex indices */
+    int32_t *node;   /* render vertex -> mesh node */
+    float *rest;     /* 3 * nvert */
+    float *verts;    /* VERT_FLOATS * nvert */
+    double link;
+
+    float *scratch; /* dynamic vertices */
+    size_t scratch_cap;
+};
+
+ftm_render_opts ftm_render_default_opts(void)
+{
+    return (ftm_render_opts){true, 0.0, false, true, 2};
+}
+
+/* ---- shaders --------------------------------------------------------------------------- */
+
+static const char *lit_vs =
+    "#version 330 core\n"
+    "layout(location=0) in vec3 a_pos;\n"
+    "layout(location=1) in vec3 a_nrm;\n"
+    "layout(location=2) in float a_disp;\n"
+    "uniform mat4 u_mvp;\n"
+    "uniform mat4 u_model;\n"
+    "out vec3 v_pos; out vec3 v_nrm; out float v_disp;\n"
+    "void main() {\n"
+    "  vec4 w = u_model * vec4(a_pos, 1.0);\n"
+    "  v_pos = w.xyz; v_nrm = mat3(u_model) * a_nrm; v_disp = a_disp;\n"
+    "  gl_Position = u_mvp * w;\n"
+    "}\n";
+
+/* Two lights: a head light and a key light from above; both sides lit, so
+ * open meshes look right from behind. The map runs blue-teal-yellow-red. */
+static const char *lit_fs =
+    "#version 330 core\n"
+    "in vec3 v_pos; in vec3 v_nrm; in float v_disp;\n"
+    "uniform vec3 u_eye; uniform vec3 u_color; uniform int u_usemap; uniform float u_full;\n"
+    "out vec4 o_color;\n"
+    "vec3 ramp(float t) {\n"
+    "  t = clamp(t, 0.0, 1.0);\n"
+    "  vec3 c0 = vec3(0.22,0.33,0.72), c1 = vec3(0.16,0.66,0.62), c2 = vec3(0.95,0.84,0.25),\n"
+    "       c3 = vec3(0.86,0.14,0.10);\n"
+    "  if (t < 1.0/3.0) return mix(c0, c1, t * 3.0);\n"
+    "  if (t < 2.0/3.0) return mix(c1, c2, t * 3.0 - 1.0);\n"
+    "  return mix(c2, c3, t * 3.0 - 2.0);\n"
+    "}\n"
+    "void main() {\n"
+    "  vec3 n = normalize(v_nrm);\n"
+    "  vec3 v = normalize(u_eye - v_pos);\n"
+    "  if (dot(n, v) < 0.0) n = -n;\n"
+    "  vec3 base = u_usemap != 0 ? ramp(v_disp / u_full) : u_color;\n"
+    "  vec3 key = normalize(vec3(0.3, -0.4, 1.0));\n"
+    "  float d = 0.55 * max(dot(n, v), 0.0) + 0.35 * max(dot(n, key), 0.0);\n"
+    "  vec3 h = normalize(key + v);\n"
+    "  float sp = 0.25 * pow(max(dot(n, h), 0.0), 40.0);\n"
+    "  o_color = vec4(base * (0.22 + d) + vec3(sp), 1.0);\n"
+    "}\n";
+
+static const char *flat_vs =
+    "#version 330 core\n"
+    "layout(location=0) in vec3 a_pos;\n"
+    "uniform mat4 u_mvp; uniform float u_size;\n"
+    "void main() { gl_Position = u_mvp * vec4(a_pos, 1.0); gl_PointSize = u_size; }\n";
+
+static const char *flat_fs =
+    "#version 330 core\n"
+    "uniform vec4 u_color; out vec4 o_color;\n"
+    "void main() { o_color = u_color; }\n";
+
+static const char *text_vs =
+    "#version 330 core\n"
+    "layout(location=0) in vec2 a_pos;\n"
+    "layout(location=1) in vec2 a_uv;\n"
+    "layout(location=2) in vec4 a_color;\n"
+    "uniform vec2 u_screen;\n"
+    "out vec2 v_uv; out vec4 v_color;\n"
+    "void main() {\n"
+    "  v_uv = a_uv; v_color = a_color;\n"
+    "  gl_Position = vec4(a_pos.x / u_screen.x * 2.0 - 1.0, 1.0 - a_pos.y / u_screen.y * 2.0, 0.0, 1.0);\n"
+    "}\n";
+
+static const char *text_fs =
+    "#version 330 core\n"
+    "in vec2 v_uv; in vec4 v_color; uniform sampler2D u_tex; out vec4 o_color;\n"
+    "void main() { float a = texture(u_tex, v_uv).r; o_color = vec4(v_color.rgb, v_color.a * a); }\n";
+
+static int gl_fail(ftm_error *err, const char *what, const char *log)
+{
+    if (err) {
+        err->code = FTM_EINVAL;
+        snprintf(err->message, sizeof err->message, "OpenGL: %s: %s", what, log);
+    }
+    return FTM_EINVAL;
+}
+
+static GLuint shader(GLenum type, const char *src, const char *what, ftm_error *err)
+{
+    GLuint s = glCreateShader(type);
+    glShaderSource(s, 1, &src, NULL);
+    glCompileShader(s);
+    GLint ok = 0;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        char log[400];
+        glGetShaderInfoLog(s, sizeof log, NULL, log);
+        gl_fail(err, what, log);
+        glDeleteShader(s);
+        return 0;
+    }
+    return s;
+}
+
+static GLuint program(const char *vs, const char *fs, const char *what, ftm_error *err)
+{
+    GLuint v = shader(GL_VERTEX_SHADER, vs, what, err);
+    if (!v)
+        return 0;
+    GLuint f = shader(GL_FRAGMENT_SHADER, fs, what, err);
+    if (!f) {
+        glDeleteShader(v);
+        return 0;
+    }
+    GLuint p = glCreateProgram();
+    glAttachShader(p, v);
+    glAttachShader(p, f);
+    glLinkProgram(p);
+    glDeleteShader(v);
+    glDeleteShader(f);
+    GLint ok = 0;
+    glGetProgramiv(p, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[400];
+        glGetProgramInfoLog(p, sizeof log, NULL, log);
+        gl_fail(err, what, log);
+        glDeleteProgram(p);
+        return 0;
+    }
+    return p;
+}
+
+/* ---- a unit sphere for markers (subdivided octahedron) ----------------------------------- */
+
+static void make_sphere(ftm_render *r)
+{
+    enum { LEVEL = 3 };
+    int ntri = 8 << (2 * LEVEL);
+    float *v = malloc((size_t)ntri * 3 * VERT_FLOATS * sizeof *v);
+    GLuint *idx = malloc((size_t)ntri * 3 * sizeof *idx);
+    if (!v || !idx) {
+        free(v);
+        free(idx);
+        r->sph_count = 0;
+        return;
+    }
+    /* each octant face split into a LEVEL-times subdivided grid, projected */
+    static const int oct[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+                                  {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+    static const float axes[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1},
+                                     {0, 0, -1}};
+    int k = 0, div = 1 << LEVEL;
+    for (int f = 0; f < 8; f++) {
+        const float *A = axes[oct[f][0]], *B = axes[oct[f][1]], *C = axes[oct[f][2]];
+        for (int i = 0; i < div; i++)
+            for (int j = 0; j < div - i; j++)
+                for (int t = 0; t < 2; t++) {
+                    int uv[3][2];
+                    if (t == 0) {
+                        uv[0][0] = i, uv[0][1] = j;
+                        uv[1][0] = i + 1, uv[1][1] = j;
+                        uv[2][0] = i, uv[2][1] = j + 1;
+                    } else {
+                        if (j + i + 1 >= div)
+                            continue;
+                        uv[0][0] = i + 1, uv[0][1] = j;
+                        uv[1][0] = i + 1, uv[1][1] = j + 1;
+                        uv[2][0] = i, uv[2][1] = j + 1;
+                    }
+                    for (int c = 0; c < 3; c++) {
+                        float a = (float)uv[c][0] / div, b = (float)uv[c][1] / div, w = 1 - a - b;
+                        float p[3];
+                        for (int d = 0; d < 3; d++)
+                            p[d] = w * A[d] + a * B[d] + b * C[d];
+                        float len = sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+                        float *o = v + (size_t)k * VERT_FLOATS;
+                        for (int d = 0; d < 3; d++)
+                            o[d] = o[3 + d] = p[d] / len;
+                        o[6] = 0;
+                        idx[k] = (GLuint)k;
+                        k++;
+                    }
+                }
+    }
+    r->sph_count = k;
+    glBindVertexArray(r->sph_vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->sph_vbo);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((size_t)k * VERT_FLOATS * sizeof *v), v,
+                 GL_STATIC_DRAW);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->sph_ibo);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((size_t)k * sizeof *idx), idx,
+                 GL_STATIC_DRAW);
+    free(v);
+    free(idx);
+}
+
+static void lit_layout(void)
+{
+    GLsizei stride = VERT_FLOATS * sizeof(float);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, (void *)0);
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, (void *)(3 * sizeof(float)));
+    glEnableVertexAttribArray(2);
+    glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, stride, (void *)(6 * sizeof(float)));
+}
+
+int ftm_render_create(ftm_render **out, ftm_error *err)
+{
+    ftm_render *r = calloc(1, sizeof *r);
+    if (!r)
+        return gl_fail(err, "render", "out of memory");
+    r->lit = program(lit_vs, lit_fs, "surface shader", err);
+    r->flat = r->lit ? program(flat_vs, flat_fs, "line shader", err) : 0;
+    r->text = r->flat ? program(text_vs, text_fs, "text shader", err) : 0;
+    if (!r->text) {
+        ftm_render_destroy(r);
+        return FTM_EINVAL;
+    }
+    r->lit_mvp = glGetUniformLocation(r->lit, "u_mvp");
+    r->lit_model = glGetUniformLocation(r->lit, "u_model");
+    r->lit_eye = glGetUniformLocation(r->lit, "u_eye");
+    r->lit_color = glGetUniformLocation(r->lit, "u_color");
+    r->lit_usemap = glGetUniformLocation(r->lit, "u_usemap");
+    r->lit_full = glGetUniformLocation(r->lit, "u_full");
+    r->flat_mvp = glGetUniformLocation(r->flat, "u_mvp");
+    r->flat_color = glGetUniformLocation(r->flat, "u_color");
+    r->flat_size = glGetUniformLocation(r->flat, "u_size");
+    r->text_screen = glGetUniformLocation(r->text, "u_screen");
+    r->text_tex = glGetUniformLocation(r->text, "u_tex");
+
+    glGenVertexArrays(1, &r->surf_vao);
+    glGenBuffers(1, &r->surf_vbo);
+    glGenBuffers(1, &r->surf_ibo);
+    glBindVertexArray(r->surf_vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->surf_vbo);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->surf_ibo);
+    lit_layout();
+
+    glGenVertexArrays(1, &r->sph_vao);
+    glGenBuffers(1, &r->sph_vbo);
+    glGenBuffers(1, &r->sph_ibo);
+    glBindVertexArray(r->sph_vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->sph_vbo);
+    lit_layout();
+    make_sphere(r);
+
+    glGenVertexArrays(1, &r->dyn_vao);
+    glGenBuffers(1, &r->dyn_vbo);
+    glBindVertexArray(r->dyn_vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->dyn_vbo);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), (void *)0);
+
+    glGenVertexArrays(1, &r->text_vao);
+    glGenBuffers(1, &r->text_vbo);
+    glBindVertexArray(r->text_vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->text_vbo);
+    GLsizei ts = TEXT_FLOATS * sizeof(float);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, ts, (void *)0);
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 2, GL_FLOAT, GL_FALSE, ts, (void *)(2 * sizeof(float)));
+    glEnableVertexAttribArray(2);
+    glVertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, ts, (void *)(4 * sizeof(float)));
+    glBindVertexArray(0);
+
+    enum { AW = FTM_FONT_COUNT * FTM_FONT_CELL_W, AH = FTM_FONT_CELL_H };
+    static uint8_t atlas[AW * AH];
+    ftm_font_pixels(atlas);
+    glGenTextures(1, &r->font_tex);
+    glBindTexture(GL_TEXTURE_2D, r->font_tex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R8, AW, AH, 0, GL_RED, GL_UNSIGNED_BYTE, atlas);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    GLenum e = glGetError();
+    if (e != GL_NO_ERROR) {
+        char msg[64];
+        snprintf(msg, sizeof msg, "GL error 0x%x", e);
+        ftm_render_destroy(r);
+        return gl_fail(err, "set-up", msg);
+    }
+    *out = r;
+    return FTM_OK;
+}
+
+static void free_mesh(ftm_render *r)
+{
+    free(r->tri);
+    free(r->node);
+    free(r->rest);
+    free(r->verts);
+    r->tri = r->node = NULL;
+    r->rest = r->verts = NULL;
+    r->ntri = r->nvert = 0;
+    r->mesh = NULL;
+}
+
+void ftm_render_destroy(ftm_render *r)
+{
+    if (!r)
+        return;
+    free_mesh(r);
+    free(r->scratch);
+    GLuint bufs[] = {r->surf_vbo, r->surf_ibo, r->sph_vbo, r->sph_ibo, r->dyn_vbo, r->text_vbo};
+    glDeleteBuffers(6, bufs);
+    GLuint vaos[] = {r->surf_vao, r->sph_vao, r->dyn_vao, r->text_vao};
+    glDeleteVertexArrays(4, vaos);
+    glDeleteTextures(1, &r->font_tex);
+    glDeleteProgram(r->lit);
+    glDeleteProgram(r->flat);
+    glDeleteProgram(r->text);
+    free(r);
+}
+
+int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, ftm_error *err)
+{
+    free_mesh(r);
+    if (!mesh)
+        return FTM_OK;
+    int32_t n = ftm_mesh_node_count(mesh), nt = ftm_mesh_triangle_count(mesh);
+    const int32_t *t = ftm_mesh_triangles(mesh);
+    int32_t *map = malloc((size_t)n * sizeof *map);
+    r->tri = malloc(((size_t)nt * 3 + 1) * sizeof *r->tri);
+    r->node = malloc(((size_t)n + 1) * sizeof *r->node);
+    if (!map || !r->tri || !r->node) {
+        free(map);
+        free_mesh(r);
+        return gl_fail(err, "mesh", "out of memory");
+    }
+    /* only surface nodes are drawn: compact them to render vertices */
+    for (int32_t i = 0; i < n; i++)
+        map[i] = -1;
+    int32_t nv = 0;
+    for (int32_t i = 0; i < 3 * nt; i++) {
+        int32_t a = t[i];
+        if (map[a] < 0) {
+            map[a] = nv;
+            r->node[nv++] = a;
+        }
+        r->tri[i] = map[a];
+    }
+    free(map);
+    r->rest = malloc(((size_t)nv * 3 + 1) * sizeof *r->rest);
+    r->verts = malloc(((size_t)nv * VERT_FLOATS + 1) * sizeof *r->verts);
+    if (!r->rest || !r->verts) {
+        free_mesh(r);
+        return gl_fail(err, "mesh", "out of memory");
+    }
+    for (int32_t i = 0; i < nv; i++) {
+        ftm_vec3 p = ftm_mesh_rest_position(mesh, r->node[i]);
+        r->rest[3 * i] = (float)p.x;
+        r->rest[3 * i + 1] = (float)p.y;
+        r->rest[3 * i + 2] = (float)p.z;
+    }
+    r->mesh = mesh;
+    r->ntri = nt;
+    r->nvert = nv;
+    r->link = ftm_mesh_mean_link_length(mesh);
+    glBindVertexArray(r->surf_vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->surf_vbo);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((size_t)nv * VERT_FLOATS * sizeof(float)), NULL,
+                 GL_STREAM_DRAW);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->surf_ibo);
+    /* int32 indices are GLuint on every platform FTM builds on */
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((size_t)nt * 3 * sizeof(GLuint)), r->tri,
+                 GL_STATIC_DRAW);
+    glBindVertexArray(0);
+    return FTM_OK;
+}
+
+int32_t ftm_render_triangle_count(const ftm_render *r) { return r->ntri; }
+double ftm_render_link_length(const ftm_render *r) { return r->link; }
+
+void ftm_render_update(ftm_render *r, const ftm_client_view *v)
+{
+    if (!r->mesh)
+        return;
+    bool have = v->pos && v->node_count == ftm_mesh_node_count(r->mesh);
+    float *o = r->verts;
+    for (int32_t i = 0; i < r->nvert; i++) {
+        float *q = o + (size_t)i * VERT_FLOATS;
+        const float *rp = r->rest + 3 * i;
+        if (have) {
+            const double *p = v->pos + 3 * (size_t)r->node[i];
+            q[0] = (float)p[0];
+            q[1] = (float)p[1];
+            q[2] = (float)p[2];
+            double dx = p[0] - rp[0], dy = p[1] - rp[1], dz = p[2] - rp[2];
+            q[6] = (float)sqrt(dx * dx + dy * dy + dz * dz);
+        } else {
+            q[0] = rp[0];
+            q[1] = rp[1];
+            q[2] = rp[2];
+            q[6] = 0;
+        }
+        q[3] = q[4] = q[5] = 0;
+    }
+    /* area-weighted vertex normals of the deformed surface */
+    for (int32_t t = 0; t < r->ntri; t++) {
+        float *a = o + (size_t)r->tri[3 * t] * VERT_FLOATS;
+        float *b = o + (size_t)r->tri[3 * t + 1] * VERT_FLOATS;
+        float *c = o + (size_t)r->tri[3 * t + 2] * VERT_FLOATS;
+        float e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        float e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        float n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                      e1[0] * e2[1] - e1[1] * e2[0]};
+        for (int d = 0; d < 3; d++) {
+            a[3 + d] += n[d];
+            b[3 + d] += n[d];
+            c[3 + d] += n[d];
+        }
+    }
+    glBindBuffer(GL_ARRAY_BUFFER, r->surf_vbo);
+    glBufferSubData(GL_ARRAY_BUFFER, 0, (GLsizeiptr)((size_t)r->nvert * VERT_FLOATS * sizeof(float)),
+                    r->verts);
+}
+
+/* ---- drawing ------------------------------------------------------------------------------- */
+
+static float *scratch(ftm_render *r, size_t floats)
+{
+    if (floats > r->scratch_cap) {
+        size_t c = floats + floats / 2 + 256;
+        float *q = realloc(r->scratch, c * sizeof *q);
+        if (!q)
+            return NULL;
+        r->scratch = q;
+        r->scratch_cap = c;
+    }
+    return r->scratch;
+}
+
+static void probe_color(const ftm_client_probe *p, float c[3])
+{
+    static const float palette[6][3] = {{0.95f, 0.55f, 0.10f}, {0.60f, 0.35f, 0.90f},
+                                        {0.10f, 0.75f, 0.95f}, {0.95f, 0.30f, 0.60f},
+                                        {0.55f, 0.85f, 0.20f}, {0.90f, 0.90f, 0.90f}};
+    if (p->own) {
+        c[0] = 0.20f, c[1] = 0.90f, c[2] = 0.35f;
+        return;
+    }
+    const float *q = palette[(p->participant * 2654435761u >> 16) % 6];
+    c[0] = q[0], c[1] = q[1], c[2] = q[2];
+}
+
+static void sphere_at(ftm_render *r, ftm_vec3 at, double radius, const float color[3])
+{
+    float s = (float)radius;
+    float model[16] = {s, 0, 0, 0, 0, s, 0, 0, 0, 0, s, 0, (float)at.x, (float)at.y, (float)at.z, 1};
+    glUniformMatrix4fv(r->lit_model, 1, GL_FALSE, model);
+    glUniform3fv(r->lit_color, 1, color);
+    glDrawElements(GL_TRIANGLES, r->sph_count, GL_UNSIGNED_INT, (void *)0);
+}
+
+static void text_quad(float *o, float x0, float y0, float x1, float y1, float u0, float v0, float u1,
+                      float v1, const float col[4])
+{
+    const float q[6][4] = {{x0, y0, u0, v0}, {x1, y0, u1, v0}, {x1, y1, u1, v1},
+                           {x0, y0, u0, v0}, {x1, y1, u1, v1}, {x0, y1, u0, v1}};
+    for (int i = 0; i < 6; i++) {
+        float *p = o + i * TEXT_FLOATS;
+        memcpy(p, q[i], 4 * sizeof(float));
+        memcpy(p + 4, col, 4 * sizeof(float));
+    }
+}
+
+/* Appends a box and/or text; returns vertices written. */
+static int text_box(float *o, float x, float y, float w, float h, const float col[4])
+{
+    float u = (float)(127 - FTM_FONT_FIRST) / FTM_FONT_COUNT;
+    float du = 0.5f / (FTM_FONT_COUNT * FTM_FONT_CELL_W);
+    text_quad(o, x, y, x + w, y + h, u + du, 0.1f, u + du, 0.1f, col);
+    return 6;
+}
+
+static int text_line(float *o, float x, float y, float px, const char *s, const float col[4])
+{
+    int n = 0;
+    for (const char *c = s; *c; c++, x += FTM_FONT_CELL_W * px) {
+        if (*c == ' ')
+            continue;
+        int g = ftm_font_glyph((unsigned char)*c);
+        float u0 = (float)g / FTM_FONT_COUNT, u1 = (float)(g + 1) / FTM_FONT_COUNT;
+        text_quad(o + (size_t)n * TEXT_FLOATS, x, y, x + FTM_FONT_CELL_W * px,
+                  y + FTM_FONT_CELL_H * px, u0, 0.0f, u1, 1.0f, col);
+        n += 6;
+    }
+    return n;
+}
+
+static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
+                      const ftm_render_opts *o, const char *const *hud, int nhud)
+{
+    size_t chars = 2 + strlen(v->banner);
+    for (int i = 0; i < nhud; i++)
+        chars += strlen(hud[i]) + 1;
+    float *buf = scratch(r, (chars + 4) * 6 * TEXT_FLOATS);
+    if (!buf)
+        return;
+    float px = (float)(o->text_scale > 0 ? o->text_scale : 1);
+    float lh = (FTM_FONT_CELL_H + 2) * px;
+    int n = 0;
+    float hud_bottom = 0;
+    if (o->hud && nhud > 0) {
+        size_t wmax = 0;
+        for (int i = 0; i < nhud; i++)
+            if (strlen(hud[i]) > wmax)
+                wmax = strlen(hud[i]);
+        const float bg[4] = {0.05f, 0.06f, 0.08f, 0.70f}, fg[4] = {0.92f, 0.95f, 0.90f, 1.0f};
+        n += text_box(buf, 6, 6, (float)wmax * FTM_FONT_CELL_W * px + 12, nhud * lh + 8, bg);
+        hud_bottom = 14 + nhud * lh;
+        for (int i = 0; i < nhud; i++)
+            n += text_line(buf + (size_t)n * TEXT_FLOATS, 12, 12 + i * lh, px, hud[i], fg);
+    }
+    if (v->banner[0]) {
+        /* long messages (file paths) wrap at spaces to fit the window */
+        int cols = (int)(((float)w - 40) / (FTM_FONT_CELL_W * px));
+        if (cols < 8)
+            cols = 8;
+        char rows[6][256];
+        int nrows = 0, wmax = 0;
+        const char *p = v->banner;
+        while (*p && nrows < 6) {
+            int len = (int)strlen(p);
+            int take = len <= cols ? len : cols;
+            if (take < len) {
+                int sp = take;
+                while (sp > cols / 2 && p[sp] != ' ')
+                    sp--;
+                if (p[sp] == ' ')
+                    take = sp;
+            }
+            if (take > 255)
+                take = 255;
+            memcpy(rows[nrows], p, (size_t)take);
+            rows[nrows][take] = '\0';
+            if (take > wmax)
+                wmax = take;
+            nrows++;
+            p += take;
+            while (*p == ' ')
+                p++;
+        }
+        float bw = (float)wmax * FTM_FONT_CELL_W * px;
+        float bx = 0.5f * ((float)w - bw), by = (float)h * 0.12f;
+        if (by < hud_bottom + 16) /* below the HUD, not over it */
+            by = hud_bottom + 16;
+        if (bx < 4)
+            bx = 4;
+        const float red[4] = {0.70f, 0.08f, 0.06f, 0.88f}, grey[4] = {0.20f, 0.22f, 0.26f, 0.85f};
+        const float fg[4] = {1, 1, 1, 1};
+        n += text_box(buf + (size_t)n * TEXT_FLOATS, bx - 10, by - 8, bw + 20,
+                      (float)nrows * lh + 12, v->banner_error ? red : grey);
+        for (int i = 0; i < nrows; i++) {
+            float rx = 0.5f * ((float)w - (float)strlen(rows[i]) * FTM_FONT_CELL_W * px);
+            n += text_line(buf + (size_t)n * TEXT_FLOATS, rx, by + (float)i * lh, px, rows[i], fg);
+        }
+    }
+    if (!n)
+        return;
+    glDisable(GL_DEPTH_TEST);
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glUseProgram(r->text);
+    glUniform2f(r->text_screen, (float)w, (float)h);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, r->font_tex);
+    glUniform1i(r->text_tex, 0);
+    glBindVertexArray(r->text_vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->text_vbo);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((size_t)n * TEXT_FLOATS * sizeof(float)), buf,
+                 GL_STREAM_DRAW);
+    glDrawArrays(GL_TRIANGLES, 0, n);
+    glDisable(GL_BLEND);
+}
+
+void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *cam, int w, int h,
+                     const ftm_render_opts *o, const char *const *hud, int nhud)
+{
+    glViewport(0, 0, w, h);
+    glClearColor(0.11f, 0.12f, 0.15f, 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glEnable(GL_DEPTH_TEST);
+    float mvp[16];
+    ftm_camera_matrix(cam, (double)w / (double)(h > 0 ? h : 1), mvp);
+    ftm_vec3 eye = ftm_camera_eye(cam);
+    static const float identity[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    double full = o->colormap_full > 0 ? o->colormap_full : (r->link > 0 ? 0.5 * r->link : 1e-3);
+
+    glUseProgram(r->lit);
+    glUniformMatrix4fv(r->lit_mvp, 1, GL_FALSE, mvp);
+    glUniform3f(r->lit_eye, (float)eye.x, (float)eye.y, (float)eye.z);
+    glUniform1f(r->lit_full, (float)full);
+    if (r->mesh && r->ntri > 0) {
+        glUniformMatrix4fv(r->lit_model, 1, GL_FALSE, identity);
+        glUniform3f(r->lit_color, 0.86f, 0.56f, 0.52f);
+        glUniform1i(r->lit_usemap, o->colormap ? 1 : 0);
+        glBindVertexArray(r->surf_vao);
+        glDrawElements(GL_TRIANGLES, 3 * r->ntri, GL_UNSIGNED_INT, (void *)0);
+    }
+    /* probes: HIP spheres, contact markers */
+    glUniform1i(r->lit_usemap, 0);
+    double link = r->link > 0 ? r->link : 0.01;
+    glBindVertexArray(r->sph_vao);
+    for (int32_t i = 0; i < v->nprobes; i++) {
+        const ftm_client_probe *p = &v->probes[i];
+        float c[3];
+        probe_color(p, c);
+        if (p->have_hip)
+            sphere_at(r, p->hip, 0.35 * link, c);
+        if (p->in_contact) {
+            const float white[3] = {0.97f, 0.97f, 0.97f};
+            sphere_at(r, p->contact, 0.18 * link, white);
+        }
+    }
+    /* lines from each HIP to its contact, and the region's nodes */
+    size_t nl = 0;
+    for (int32_t i = 0; i < v->nprobes; i++)
+        if (v->probes[i].have_hip && v->probes[i].in_contact)
+            nl++;
+    size_t npts = o->region && v->pos ? (size_t)v->region_count : 0;
+    float *buf = scratch(r, (nl * 2 + npts + 1) * 3);
+    if (buf && (nl || npts)) {
+        size_t k = 0;
+        for (int32_t i = 0; i < v->nprobes; i++) {
+            const ftm_client_probe *p = &v->probes[i];
+            if (!(p->have_hip && p->in_contact))
+                continue;
+            float seg[6] = {(float)p->hip.x,     (float)p->hip.y,     (float)p->hip.z,
+                            (float)p->contact.x, (float)p->contact.y, (float)p->contact.z};
+            memcpy(buf + k, seg, sizeof seg);
+            k += 6;
+        }
+        for (size_t i = 0; i < npts; i++) {
+            const double *q = v->pos + 3 * (size_t)v->region[i];
+            buf[k++] = (float)q[0];
+            buf[k++] = (float)q[1];
+            buf[k++] = (float)q[2];
+        }
+        glUseProgram(r->flat);
+        glUniformMatrix4fv(r->flat_mvp, 1, GL_FALSE, mvp);
+        glBindVertexArray(r->dyn_vao);
+        glBindBuffer(GL_ARRAY_BUFFER, r->dyn_vbo);
+        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(k * sizeof(float)), buf, GL_STREAM_DRAW);
+        if (nl) {
+            glUniform4f(r->flat_color, 1.0f, 1.0f, 1.0f, 1.0f);
+            glDrawArrays(GL_LINES, 0, (GLsizei)(2 * nl));
+        }
+        if (npts) {
+            /* the region shows through the surface: it is mostly inside */
+            glDisable(GL_DEPTH_TEST);
+            glEnable(GL_PROGRAM_POINT_SIZE);
+            glUniform1f(r->flat_size, 4.0f);
+            glUniform4f(r->flat_color, 1.0f, 0.92f, 0.2f, 1.0f);
+            glDrawArrays(GL_POINTS, (GLint)(2 * nl), (GLsizei)npts);
+            glEnable(GL_DEPTH_TEST);
+        }
+    }
+    glBindVertexArray(0);
+    draw_text(r, v, w, h, o, hud, nhud);
+}

@@ -1,0 +1,42 @@
+/* OpenGL 3.3 core drawing of the client: the deformed surface (normals
+ * recomputed from the replayed positions), an optional colour map of the
+ * displacement magnitude, the probes (HIPs) and their contacts, the active
+ * BFS region, and the HUD text. Runs on the render thread only, with the
+ * context current. */
+#ifndef FTM_CLIENT_RENDER_H
+#define FTM_CLIENT_RENDER_H
+
+#include "camera.h"
+#include "client_session.h"
+
+typedef struct ftm_render ftm_render;
+
+typedef struct ftm_render_opts {
+    bool colormap;        /* colour by |x - X| instead of the tissue colour */
+    double colormap_full; /* [m] displacement drawn at the top of the map */
+    bool region;          /* draw the BFS region's nodes */
+    bool hud;
+    int text_scale;       /* HUD pixels per font pixel */
+} ftm_render_opts;
+
+ftm_render_opts ftm_render_default_opts(void);
+
+/* Compiles the shaders and makes the buffers and the font texture. */
+int ftm_render_create(ftm_render **out, ftm_error *err);
+void ftm_render_destroy(ftm_render *r);
+
+/* The surface to draw: triangles of mesh (NULL: none). */
+int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, ftm_error *err);
+int32_t ftm_render_triangle_count(const ftm_render *r);
+/* Mean link length of the mesh set (0 without one): sizes the probe markers. */
+double ftm_render_link_length(const ftm_render *r);
+
+/* New positions: recomputes normals and displacements, uploads them. */
+void ftm_render_update(ftm_render *r, const ftm_client_view *v);
+
+/* One frame into the current framebuffer (w x h pixels): scene, then
+ * hud lines at the top left and the banner (if any) at the top centre. */
+void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *cam, int w, int h,
+                     const ftm_render_opts *o, const char *const *hud, int nhud);
+
+#endif

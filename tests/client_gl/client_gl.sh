@@ -1,0 +1,101 @@
+#!/bin/sh
+# ftm-client under Xvfb with Mesa's software renderer, against a real
+# ftm-server on loopback (its own DDS domain and session, like tests/net).
+#   screenshot: an undeformed frame (no trainee yet), then a scripted trainee
+#       (ftm-bot, hold.bot) presses into the tissue and a deformed frame is
+#       taken once the contact has lasted 200 ticks; client-png-check
+#       asserts the pixels around the contact changed and neither is blank.
+#   badinput: a scene the client cannot load, malformed tick frames, and a
+#       server that vanishes (SIGKILL): each time the client logs it, shows
+#       the red banner (checked in its screenshot) and keeps running.
+# Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
+set -u
+mode=${1:?mode}
+: "${FTM_SERVER:?}" "${FTM_BOT:?}" "${FTM_CLIENT:?}" "${FTM_PNG_CHECK:?}" "${FTM_CONFIG:?}"
+: "${FTM_DATA:?}"
+if ! command -v xvfb-run >/dev/null 2>&1 || ! command -v Xvfb >/dev/null 2>&1; then
+    echo "SKIP: xvfb-run or Xvfb not installed"
+    exit 77
+fi
+dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-client-gl-$mode.XXXXXX")
+trap 'kill $server 2>/dev/null; rm -rf "$dir"' EXIT
+server=
+domain=$(( 220 + $$ % 10 ))   # tests/net use 1..97, tests/wire 100..219
+session="client-gl-$mode-$$"
+common="--session $session --domain $domain --config $FTM_CONFIG"
+export LIBGL_ALWAYS_SOFTWARE=1
+fail() { echo "FAIL: $*"; for f in "$dir"/*.out "$dir"/*.err "$dir"/*.log; do [ -f "$f" ] && { echo "== $f"; tail -n 30 "$f"; }; done; exit 1; }
+client() { # name, then client options
+    n=$1; shift
+    timeout 90 xvfb-run -a -s "-screen 0 1280x800x24" \
+        "$FTM_CLIENT" $common --size 960x600 --log "$dir/$n.log" "$@" >"$dir/$n.out" 2>"$dir/$n.err"
+}
+start_server() {
+    # no `timeout` wrapper: $server must be the server itself (SIGKILL below);
+    # --duration bounds it and the EXIT trap kills it
+    "$FTM_SERVER" --scene default $common --rate 500 --duration 80 \
+        --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
+    server=$!
+    i=0
+    until grep -q "session '$session'" "$dir/server.log" 2>/dev/null; do
+        i=$((i + 1)); [ $i -gt 200 ] && fail "server did not start"
+        sleep 0.05
+    done
+}
+
+case $mode in
+screenshot)
+    start_server
+    client before --screenshot "$dir/before.png" --screenshot-timeout 40 ||
+        fail "client (undeformed) exited with $?"
+    grep -q "contact none" "$dir/before.out" || fail "a contact before any trainee joined?"
+    timeout 100 "$FTM_BOT" --role trainee --script "$FTM_DATA/hold.bot" $common --id 11 \
+        --duration 80 >"$dir/bot.out" 2>"$dir/bot.err" &
+    client after --screenshot "$dir/after.png" --screenshot-contact 200 --screenshot-timeout 60 ||
+        fail "client (deformed) exited with $?"
+    set -- $(sed -n 's/^screenshot .* contact \([0-9]*\) \([0-9]*\)$/\1 \2/p' "$dir/after.out")
+    [ $# -eq 2 ] || fail "no contact pixel in the client's screenshot line"
+    "$FTM_PNG_CHECK" compare "$dir/before.png" "$dir/after.png" "$1" "$2" 40 || fail "png check"
+    grep -q "synced at tick" "$dir/after.log" || fail "client never synced"
+    [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
+    echo "PASS screenshot: $(cat "$dir/after.out")"
+    ;;
+badinput)
+    # 1. a scene the client cannot load: banner, log, no crash; exit 1 after the timeout
+    start_server
+    client noscene --scene "$dir/missing.scene" --screenshot "$dir/noscene.png" \
+        --screenshot-timeout 4
+    rc=$?
+    [ $rc -eq 1 ] || fail "client without its scene exited with $rc, expected 1"
+    grep -q "cannot load scene '$dir/missing.scene'" "$dir/noscene.log" || fail "no scene error logged"
+    "$FTM_PNG_CHECK" banner "$dir/noscene.png" || fail "no banner for the missing scene"
+
+    # 2. malformed tick frames: logged, banner, the client keeps running and stays in step
+    client badframe --screenshot "$dir/badframe.png" --screenshot-after 5 &
+    cpid=$!
+    timeout 30 "$FTM_BADFRAME" $common --id 66 >"$dir/badframe-pub.out" 2>"$dir/badframe-pub.err" ||
+        fail "client-badframe could not send"
+    wait $cpid; rc=$?
+    [ $rc -eq 0 ] || fail "client exited with $rc after malformed frames"
+    grep -q "malformed tick frame rejected" "$dir/badframe.log" || fail "malformed frame not logged"
+    "$FTM_PNG_CHECK" banner "$dir/badframe.png" || fail "no banner for the malformed frames"
+
+    # 3. the server vanishes (SIGKILL, no LEAVING): the client notices the silence
+    client vanish --server-timeout 1 --screenshot "$dir/vanish.png" --screenshot-after 6 &
+    cpid=$!
+    i=0
+    until grep -q "synced at tick" "$dir/vanish.log" 2>/dev/null; do
+        i=$((i + 1)); [ $i -gt 300 ] && fail "client did not sync before the kill"
+        sleep 0.05
+    done
+    kill -KILL $server
+    wait $cpid; rc=$?
+    [ $rc -eq 0 ] || fail "client exited with $rc after the server vanished"
+    grep -q "no tick frames from the server" "$dir/vanish.log" || fail "silence not logged"
+    "$FTM_PNG_CHECK" banner "$dir/vanish.png" || fail "no banner for the vanished server"
+    [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/vanish.png" "$dir/noscene.png" "$(dirname "$FTM_KEEP_SCREENSHOT")/"
+    echo "PASS badinput"
+    ;;
+*)
+    echo "unknown mode $mode"; exit 2 ;;
+esac

@@ -1,0 +1,183 @@
+/* Checks on ftm-client screenshots (tests/client_gl/client_gl.sh).
+ *
+ *   client-png-check compare BEFORE.png AFTER.png X Y R
+ *       both images are not blank, have the same size, and the pixels within
+ *       R pixels of (X, Y) (the contact, from the client's screenshot line)
+ *       changed: at least 10% of them by more than 40 (sum over R, G, B).
+ *   client-png-check banner IMAGE.png
+ *       the image shows text and the red error banner (a band of
+ *       banner-red pixels near the top, where ftm-client draws it).
+ * Exit 0 pass, 1 fail (with the reason), 2 usage or unreadable file. */
+#include <math.h>
+#include <png.h>
+#include <setjmp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct image {
+    int w, h;
+    unsigned char *rgb; /* top-down */
+} image;
+
+static int load(const char *path, image *im)
+{
+    memset(im, 0, sizeof *im);
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        fprintf(stderr, "%s: cannot open\n", path);
+        return -1;
+    }
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    if (!png || !info || setjmp(png_jmpbuf(png))) {
+        fprintf(stderr, "%s: not a readable PNG\n", path);
+        png_destroy_read_struct(&png, &info, NULL);
+        fclose(f);
+        free(im->rgb);
+        im->rgb = NULL;
+        return -1;
+    }
+    png_init_io(png, f);
+    png_read_info(png, info);
+    png_set_strip_16(png);
+    png_set_strip_alpha(png);
+    png_set_palette_to_rgb(png);
+    png_set_gray_to_rgb(png);
+    png_read_update_info(png, info);
+    int w = (int)png_get_image_width(png, info), h = (int)png_get_image_height(png, info);
+    if (png_get_rowbytes(png, info) != (size_t)w * 3) {
+        fprintf(stderr, "%s: unexpected pixel format\n", path);
+        png_destroy_read_struct(&png, &info, NULL);
+        fclose(f);
+        return -1;
+    }
+    im->rgb = malloc((size_t)w * h * 3);
+    png_bytep *rows = malloc((size_t)h * sizeof *rows);
+    if (!im->rgb || !rows) {
+        fprintf(stderr, "%s: out of memory\n", path);
+        exit(2);
+    }
+    for (int y = 0; y < h; y++)
+        rows[y] = im->rgb + (size_t)y * w * 3;
+    png_read_image(png, rows);
+    free(rows);
+    png_destroy_read_struct(&png, &info, NULL);
+    fclose(f);
+    im->w = w;
+    im->h = h;
+    return 0;
+}
+
+/* Not blank: a spread of luminance and more than min_colours colours
+ * (a frame without a scene, only text, has few). */
+static int not_blank(const char *path, const image *im, unsigned min_colours)
+{
+    double s = 0, s2 = 0;
+    size_t n = (size_t)im->w * im->h;
+    unsigned distinct = 0;
+    static unsigned char seen[1 << 15];
+    memset(seen, 0, sizeof seen);
+    for (size_t i = 0; i < n; i++) {
+        const unsigned char *p = im->rgb + 3 * i;
+        double l = 0.3 * p[0] + 0.59 * p[1] + 0.11 * p[2];
+        s += l;
+        s2 += l * l;
+        unsigned key = (unsigned)(p[0] >> 3) << 10 | (unsigned)(p[1] >> 3) << 5 | (p[2] >> 3);
+        if (!seen[key]) {
+            seen[key] = 1;
+            distinct++;
+        }
+    }
+    double mean = s / n, sd = s2 / n - mean * mean;
+    sd = sd > 0 ? sqrt(sd) : 0;
+    printf("%s: %dx%d, luminance mean %.1f sd %.1f, %u colours (5-bit)\n", path, im->w, im->h, mean,
+           sd, distinct);
+    if (sd < 5.0 || distinct < min_colours) {
+        printf("FAIL: %s looks blank\n", path);
+        return -1;
+    }
+    return 0;
+}
+
+static int compare(const char *pa, const char *pb, int cx, int cy, int r)
+{
+    image a, b;
+    if (load(pa, &a) || load(pb, &b))
+        return 2;
+    if (not_blank(pa, &a, 20) || not_blank(pb, &b, 20))
+        return 1;
+    if (a.w != b.w || a.h != b.h) {
+        printf("FAIL: sizes differ: %dx%d and %dx%d\n", a.w, a.h, b.w, b.h);
+        return 1;
+    }
+    if (cx < 0 || cy < 0 || cx >= a.w || cy >= a.h) {
+        printf("FAIL: contact pixel (%d, %d) outside the image\n", cx, cy);
+        return 1;
+    }
+    long inside = 0, changed = 0, far = 0, far_changed = 0;
+    for (int y = 0; y < a.h; y++)
+        for (int x = 0; x < a.w; x++) {
+            const unsigned char *p = a.rgb + ((size_t)y * a.w + x) * 3;
+            const unsigned char *q = b.rgb + ((size_t)y * a.w + x) * 3;
+            int d = abs(p[0] - q[0]) + abs(p[1] - q[1]) + abs(p[2] - q[2]);
+            long dx = x - cx, dy = y - cy;
+            if (dx * dx + dy * dy <= (long)r * r) {
+                inside++;
+                changed += d > 40;
+            } else if (dx * dx + dy * dy > 16L * r * r) {
+                far++;
+                far_changed += d > 40;
+            }
+        }
+    double fin = inside ? (double)changed / inside : 0, ffar = far ? (double)far_changed / far : 0;
+    printf("around the contact (%d, %d), radius %d: %ld of %ld pixels changed (%.1f%%); "
+           "beyond 4 radii: %.2f%%\n",
+           cx, cy, r, changed, inside, 100 * fin, 100 * ffar);
+    if (fin < 0.10) {
+        printf("FAIL: the pixels around the contact did not change\n");
+        return 1;
+    }
+    if (fin < 2 * ffar) {
+        printf("FAIL: the change is not concentrated at the contact\n");
+        return 1;
+    }
+    printf("PASS\n");
+    return 0;
+}
+
+static int banner(const char *path)
+{
+    image a;
+    if (load(path, &a))
+        return 2;
+    if (not_blank(path, &a, 2))
+        return 1;
+    /* ftm-client draws the banner near the top (below its HUD): red (0.70,
+     * 0.08, 0.06) at 88% over the dark background */
+    int y0 = 0, y1 = a.h / 2;
+    long red = 0;
+    for (int y = y0; y < y1; y++)
+        for (int x = 0; x < a.w; x++) {
+            const unsigned char *p = a.rgb + ((size_t)y * a.w + x) * 3;
+            red += p[0] > 130 && p[1] < 60 && p[2] < 60;
+        }
+    printf("%s: %ld banner-red pixels in rows %d..%d\n", path, red, y0, y1);
+    if (red < 2000) {
+        printf("FAIL: no error banner on screen\n");
+        return 1;
+    }
+    printf("PASS\n");
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 7 && strcmp(argv[1], "compare") == 0)
+        return compare(argv[2], argv[3], atoi(argv[4]), atoi(argv[5]), atoi(argv[6]));
+    if (argc == 3 && strcmp(argv[1], "banner") == 0)
+        return banner(argv[2]);
+    fprintf(stderr, "usage: client-png-check compare BEFORE.png AFTER.png X Y R\n"
+                    "       client-png-check banner IMAGE.png\n");
+    return 2;
+}
