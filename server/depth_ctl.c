@@ -170,9 +170,9 @@ int32_t ftm_depth_ctl_update(ftm_depth_ctl *ctl, const ftm_depth_ctl_input *in, 
         for (int32_t i = 0; i < in->nparts; i++)
             if (in->parts[i].lag > worst)
                 worst = in->parts[i].lag;
-        snprintf(why, sizeof why, "calm for %.1f s (step %.3f ms < %.2g of budget, worst lag %lld ticks)",
+        snprintf(why, sizeof why, "calm for %.1f s (step %.3f ms < %.3g ms, worst lag %lld ticks)",
                  (double)(now - ctl->calm_since_ns) * 1e-9, in->step_ns > 0 ? in->step_ns * 1e-6 : 0.0,
-                 d->step_low, (long long)worst);
+                 d->step_low * d->budget_ns * 1e-6, (long long)worst);
         int32_t to = ctl->depth + d->up_step;
         return change(ctl, to > d->max ? d->max : to, now, changed, reason, reason_size, why);
     }

@@ -8,6 +8,10 @@
  * same call sequence every replica makes) -> tick frame, unless the scene is
  * idle (then a heartbeat frame every 100 ms). */
 #include "collide.h"
+#include "depth_ctl.h"
+#include "metrics.h"
+#include "record.h"
+#include "record_replay.h"
 #include "replay.h"
 #include "script.h"
 
@@ -47,6 +51,14 @@ typedef struct options {
     const char *trainees[8]; /* "ID:OFFSET:SCRIPT" */
     int ntrainees;
     const char *reactions_csv;
+    /* adaptive depth, recording, metrics (docs/server.md) */
+    int32_t depth_floor;   /* -1: a quarter of the depth, at least 1 */
+    int32_t adaptive;      /* 0: the depth stays fixed */
+    double depth_hold_up;  /* calm time before the depth goes up one step [s] */
+    const char *record;    /* --record FILE */
+    const char *replay;    /* --replay FILE: replay a recording and exit */
+    bool scene_given;      /* --scene was on the command line */
+    int32_t metrics_port;  /* 0: off */
 } options;
 
 typedef struct probe {
@@ -67,6 +79,8 @@ typedef struct participant {
     uint64_t last_status_ns; /* monotonic time of the last status received */
     bool silent;             /* no status for longer than the deadline */
     uint64_t hash;
+    int64_t lag;      /* ticks behind the last published frame, at its last status */
+    double replay_ns; /* its replay time per tick, as reported */
     probe probes[MAX_PROBES];
 } participant;
 
@@ -118,6 +132,17 @@ typedef struct server {
     uint32_t period_hist[TICK_HIST_BINS], late_hist[TICK_HIST_BINS];
     uint64_t last_tick_ns;
     FILE *reactions_csv; /* --offline: one line per probe reaction */
+    /* adaptive depth (depth_ctl.h), metrics, recording: control_period() */
+    ftm_depth_ctl ctl;
+    uint64_t next_control_ns;
+    uint64_t prev_tick, prev_missed, prev_rexmit, prev_throttle, prev_sent;
+    double prev_step_sum;
+    uint64_t rate_tick[10], rate_ns[10]; /* the last second, per control period */
+    int rate_i;
+    uint64_t step_bucket[FTM_METRICS_STEP_BUCKETS + 1], step_count;
+    double step_sum_ns, step_recent_ns;
+    ftm_record_writer *rec;
+    ftm_metrics *metrics;
 } server;
 
 static uint64_t mono_ns(void)
@@ -199,6 +224,24 @@ static const char *state_name(ftm_wire_state st)
     return "unknown";
 }
 
+/* ---- recording (record.h) ------------------------------------------------------------ */
+
+static void record(server *s, bool incoming, int kind, uint32_t sender, const uint8_t *buf,
+                   size_t size, bool gone)
+{
+    if (!s->rec)
+        return;
+    ftm_record_entry e = {.tick = s->tick, .kind = kind, .sender = sender, .incoming = incoming,
+                          .gone = gone, .time_ns = mono_ns() - s->t_start_ns, .payload = buf,
+                          .size = size};
+    ftm_error err = {0, ""};
+    if (ftm_record_write(s->rec, &e, &err)) {
+        slog(s, "error", "%s; recording stopped", err.message);
+        ftm_record_close(s->rec, NULL);
+        s->rec = NULL;
+    }
+}
+
 /* ---- publishing ------------------------------------------------------------------ */
 
 /* Encodes here (to count the bytes) and queues the payload. */
@@ -210,6 +253,8 @@ static int publish(server *s, const ftm_wire_msg *m, uint64_t *bytes)
     int rc = ftm_wire_encode(m, &buf, &size, &err);
     if (rc == FTM_OK && s->wire) /* --offline: encoded and counted only */
         rc = ftm_wire_publish_raw(s->wire, (int)m->kind, buf, size, &err);
+    if (buf)
+        record(s, false, (int)m->kind, s->o.id, buf, size, false);
     free(buf);
     if (rc) {
         s->publish_fail++;
@@ -233,8 +278,8 @@ static void publish_announce(server *s)
     a->tick_rate_hz = (uint32_t)(s->o.rate + 0.5);
     a->time_step = ftm_replay_sim_def(s->scene).time_step;
     a->depth = s->depth;
-    a->depth_min = 0;
-    a->depth_max = s->depth;
+    a->depth_min = s->ctl.def.floor;
+    a->depth_max = s->ctl.def.max;
     a->tissue.node_mass = ftm_mesh_mass(s->mesh, 0);
     a->tissue.node_damping = ftm_mesh_damping(s->mesh, 0);
     const int32_t *nb;
@@ -395,6 +440,9 @@ static void on_status(server *s, ftm_wire_received *rx)
     p->state = st->state;
     p->last_tick = st->last_applied_tick;
     p->hash = st->state_hash;
+    /* lag against what it could have: the frames published so far */
+    p->lag = s->pub_tick > st->last_applied_tick ? (int64_t)(s->pub_tick - st->last_applied_tick) : 0;
+    p->replay_ns = st->replay_ns_per_tick;
     snprintf(p->name, sizeof p->name, "%s", st->name);
     if (st->state == FTM_WIRE_STATE_JOINING || st->state == FTM_WIRE_STATE_RESYNCING)
         s->keyframe_due = true;
@@ -436,6 +484,10 @@ static void on_probe_input(server *s, ftm_wire_received *rx)
         pr->have = true;
     }
     p->inputs++;
+    /* a trainee reports the newest frame it applied with every batch: a
+     * lag measurement at the input rate, fresher than the status */
+    if (in->last_tick_seen > 0)
+        p->lag = s->pub_tick > in->last_tick_seen ? (int64_t)(s->pub_tick - in->last_tick_seen) : 0;
 }
 
 /* Puts the tissue back at rest, keeping the tick counter. With publish_now
@@ -486,6 +538,24 @@ static void on_control(server *s, ftm_wire_received *rx)
             publish_announce(s);
         }
         break;
+    case FTM_WIRE_CMD_DEPTH_LIMITS: {
+        bool changed = false;
+        char why[FTM_DEPTH_REASON_MAX];
+        ftm_error err = {0, ""};
+        if (ftm_depth_ctl_set_limits(&s->ctl, c->depth_min, c->depth_max, (int64_t)mono_ns(),
+                                     &changed, why, sizeof why, &err)) {
+            reject(s, p, rx->sender, "depth limits", err.message);
+            break;
+        }
+        slog(s, "info", "depth limits [%d, %d] from instructor %u at tick %" PRIu64,
+             (int)c->depth_min, (int)c->depth_max, rx->sender, s->tick);
+        if (changed) {
+            slog(s, "info", "depth %s (tick %" PRIu64 ")", why, s->tick);
+            s->depth = s->ctl.depth;
+        }
+        publish_announce(s);
+        break;
+    }
     case FTM_WIRE_CMD_RESET:
         slog(s, "info", "reset at tick %" PRIu64 " by instructor %u", s->tick, rx->sender);
         do_reset(s, true);
@@ -504,6 +574,13 @@ static void drain(server *s)
             ftm_wire_received rx;
             if (ftm_wire_receive(s->wire, kinds[k], &rx, 0, NULL) != FTM_OK)
                 break;
+            if (s->rec) { /* re-encoded from the decoded message */
+                uint8_t *buf = NULL;
+                size_t size = 0;
+                if (rx.gone || ftm_wire_encode(&rx.msg, &buf, &size, NULL) == FTM_OK)
+                    record(s, true, kinds[k], rx.sender, buf, size, rx.gone);
+                free(buf);
+            }
             if (kinds[k] == FTM_WIRE_STATUS)
                 on_status(s, &rx);
             else if (kinds[k] == FTM_WIRE_CONTROL)
@@ -609,15 +686,26 @@ static int32_t probe_contacts(server *s, int32_t *nreact)
                 if (!taken)
                     s->contacts[n++] = (ftm_contact){v[q], group, FTM_CONTACT_DISPLACEMENT, pen};
             }
-            s->reactions[nr++] = (ftm_wire_reaction){group, p->id, k, {0, 0, 0}};
+            s->reactions[nr++] = (ftm_wire_reaction){.group = group, .participant = p->id, .probe = k};
         }
     }
     *nreact = nr;
     return n;
 }
 
+static void note_step(server *s, double ns)
+{
+    int b = 0;
+    while (b < FTM_METRICS_STEP_BUCKETS && ns * 1e-9 > ftm_metrics_step_bounds[b])
+        b++;
+    s->step_bucket[b]++;
+    s->step_count++;
+    s->step_sum_ns += ns;
+}
+
 static void run_tick(server *s)
 {
+    uint64_t tick_t0 = mono_ns(); /* the whole tick, for the depth controller */
     uint64_t begin = mono_ns();
     if (s->last_tick_ns)
         hist_add(s->period_hist, (double)(begin - s->last_tick_ns));
@@ -669,6 +757,122 @@ static void run_tick(server *s)
         s->keyframe_due = false;
         s->next_keyframe_ns = now + (uint64_t)(s->o.keyframe_every * 1e9);
     }
+    note_step(s, (double)(mono_ns() - tick_t0));
+}
+
+/* ---- adaptive depth and metrics, every 100 ms ------------------------------------------ */
+
+#define CONTROL_PERIOD_NS 100000000u
+#define STATUS_PERIOD_NS 500000000u  /* participants send a status this often */
+#define STATUS_OVERDUE_NS 750000000u /* later than this: lagging at least by its age */
+#define REXMIT_FLOOR 8192u            /* bytes per control period, see control_period */
+
+/* One control period: the period's measurements -> depth controller
+ * (depth_ctl.h), the metrics snapshot. Runs on the loop thread between
+ * ticks, so a new depth applies from the next tick and goes out in its frame. */
+static void control_period(server *s)
+{
+    uint64_t now = mono_ns();
+    if (now < s->next_control_ns)
+        return;
+    s->next_control_ns = now + CONTROL_PERIOD_NS;
+    ftm_wire_stats ws;
+    memset(&ws, 0, sizeof ws);
+    ftm_wire_get_stats(s->wire, FTM_WIRE_TICK, &ws, NULL);
+    uint64_t ticks = s->tick - s->prev_tick, sent = s->bytes_frames + s->bytes_keyframes;
+    double step_ns = ticks ? (s->step_sum_ns - s->prev_step_sum) / (double)ticks : -1.0;
+    uint64_t done = ws.published + ws.write_errors;
+    ftm_depth_ctl_input in = {
+        .now_ns = (int64_t)now,
+        .step_ns = step_ns,
+        .missed_ticks = s->missed_ticks - s->prev_missed,
+        .backlog = s->frames > done ? (int32_t)(s->frames - done) : 0,
+        .throttled = ws.throttle_count - s->prev_throttle,
+        /* against at least REXMIT_FLOOR bytes: a few repairs while little is
+         * sent (joins, heartbeats) are no backlog */
+        .rexmit_ratio = (double)(ws.rexmit_bytes - s->prev_rexmit) /
+                        (double)(sent - s->prev_sent > REXMIT_FLOOR ? sent - s->prev_sent : REXMIT_FLOOR),
+    };
+    if (step_ns >= 0)
+        s->step_recent_ns = step_ns;
+    s->prev_tick = s->tick;
+    s->prev_step_sum = s->step_sum_ns;
+    s->prev_missed = s->missed_ticks;
+    s->prev_throttle = ws.throttle_count;
+    s->prev_rexmit = ws.rexmit_bytes;
+    s->prev_sent = sent;
+
+    ftm_depth_ctl_part parts[MAX_PARTICIPANTS];
+    static ftm_metrics_snapshot m; /* 10 kB: not on the stack; loop thread only */
+    memset(&m, 0, sizeof m);
+    int32_t np = 0;
+    for (int i = 0; i < MAX_PARTICIPANTS; i++) {
+        participant *p = &s->parts[i];
+        if (!p->used || p->silent || p->role == 0 || p->role == FTM_WIRE_ROLE_SERVER)
+            continue;
+        int64_t lag = p->lag;
+        uint64_t age = now - p->last_status_ns;
+        if (age > STATUS_OVERDUE_NS) { /* its status is late: it is at least this far behind */
+            int64_t late = (int64_t)((double)(age - STATUS_PERIOD_NS) / s->period_ns);
+            if (late > lag)
+                lag = late;
+        }
+        if (m.nparts < FTM_METRICS_PARTS) {
+            ftm_metrics_part *mp = &m.parts[m.nparts++];
+            mp->id = p->id;
+            snprintf(mp->role, sizeof mp->role, "%s", role_name(p->role));
+            snprintf(mp->state, sizeof mp->state, "%s", state_name(p->state));
+            mp->lag = lag;
+            mp->replay_ns = p->replay_ns;
+        }
+        /* a joiner has applied nothing yet, a leaver stops: neither is lag */
+        if (p->state == FTM_WIRE_STATE_SYNCED || p->state == FTM_WIRE_STATE_RESYNCING)
+            parts[np++] = (ftm_depth_ctl_part){p->id, role_name(p->role), lag, p->replay_ns};
+    }
+    in.nparts = np;
+    in.parts = parts;
+    if (s->o.adaptive && !s->paused) {
+        bool changed = false;
+        char why[FTM_DEPTH_REASON_MAX];
+        int32_t d = ftm_depth_ctl_update(&s->ctl, &in, &changed, why, sizeof why);
+        if (changed) {
+            slog(s, "info", "depth %s (tick %" PRIu64 ")", why, s->tick);
+            s->depth = d;
+        }
+    }
+
+    s->rate_tick[s->rate_i] = s->tick;
+    s->rate_ns[s->rate_i] = now;
+    s->rate_i = (s->rate_i + 1) % 10;
+    if (!s->metrics)
+        return;
+    uint64_t t_old = s->rate_ns[s->rate_i], k_old = s->rate_tick[s->rate_i];
+    m.tick_rate_target = s->o.rate;
+    m.tick_rate = t_old && now > t_old ? (double)(s->tick - k_old) * 1e9 / (double)(now - t_old) : 0.0;
+    m.ticks = s->tick;
+    m.missed_ticks = s->missed_ticks;
+    m.idle_ticks = s->idle_ticks;
+    m.frames = s->frames;
+    m.heartbeats = s->heartbeats;
+    m.keyframes = s->keyframes;
+    m.bytes_frames = s->bytes_frames;
+    m.bytes_keyframes = s->bytes_keyframes;
+    m.publish_fail = s->publish_fail;
+    m.rexmit_bytes = ws.rexmit_bytes;
+    m.throttle_count = ws.throttle_count;
+    m.depth = s->depth;
+    m.depth_min = s->ctl.def.floor;
+    m.depth_max = s->ctl.def.max;
+    m.depth_decreases = s->ctl.decreases;
+    m.depth_increases = s->ctl.increases;
+    m.step_count = s->step_count;
+    m.step_sum_s = s->step_sum_ns * 1e-9;
+    memcpy(m.step_bucket, s->step_bucket, sizeof m.step_bucket);
+    m.step_last_period_s = s->step_recent_ns * 1e-9;
+    for (int i = 0; i < MAX_PARTICIPANTS; i++)
+        m.inputs_rejected += s->parts[i].used ? s->parts[i].rejected : 0;
+    m.record_bytes = ftm_record_bytes(s->rec);
+    ftm_metrics_update(s->metrics, &m);
 }
 
 /* ---- loop --------------------------------------------------------------------------- */
@@ -679,6 +883,7 @@ static void on_tick_timer(uv_timer_t *h)
     if (s->stopping)
         return;
     drain(s);
+    control_period(s);
     if (s->paused)
         return;
     uint64_t now = mono_ns();
@@ -771,6 +976,12 @@ static void usage(FILE *f)
             "  --duration S           stop after S seconds (default: until SIGINT/SIGTERM)\n"
             "  --id N                 participant id (default 1)\n"
             "  --log FILE             also write the log to FILE\n"
+            "  --adaptive 0|1         adapt the depth to the load (default 1; --depth is the ceiling)\n"
+            "  --depth-floor N        lowest adaptive depth (default: depth / 4, at least 1)\n"
+            "  --depth-hold-up S      calm time before each depth increase (default 2)\n"
+            "  --record FILE          record every input and published message to FILE\n"
+            "  --replay FILE          re-simulate a recording, check every hash, exit\n"
+            "  --metrics-port N       Prometheus metrics on http://127.0.0.1:N/metrics (0: off)\n"
             "  --offline N            run N ticks without DDS, trainees from --trainee scripts\n"
             "  --trainee ID:T0:FILE   (offline) trainee ID plays bot script FILE; tick k uses\n"
             "                         the HIP at script time T0 + k / rate (repeatable, <= 8)\n"
@@ -779,7 +990,8 @@ static void usage(FILE *f)
 
 static int parse(int argc, char **argv, options *o)
 {
-    *o = (options){"default", "ftm", NULL, NULL, 0, 1, 1000.0, 1.0, 0.1, 0.0, -1, 0, {NULL}, 0, NULL};
+    *o = (options){"default", "ftm", NULL, NULL, 0, 1, 1000.0, 1.0, 0.1, 0.0, -1, 0, {NULL}, 0, NULL,
+                   -1, 1, 2.0, NULL, NULL, false, 0};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -793,9 +1005,10 @@ static int parse(int argc, char **argv, options *o)
         const char *v = argv[++i];
         char *end = NULL;
         errno = 0;
-        if (strcmp(a, "--scene") == 0)
+        if (strcmp(a, "--scene") == 0) {
             o->scene = v;
-        else if (strcmp(a, "--session") == 0)
+            o->scene_given = true;
+        } else if (strcmp(a, "--session") == 0)
             o->session = v;
         else if (strcmp(a, "--config") == 0)
             o->config = v;
@@ -815,6 +1028,18 @@ static int parse(int argc, char **argv, options *o)
             o->duration = strtod(v, &end);
         else if (strcmp(a, "--depth") == 0)
             o->depth = (int32_t)strtol(v, &end, 10);
+        else if (strcmp(a, "--depth-floor") == 0)
+            o->depth_floor = (int32_t)strtol(v, &end, 10);
+        else if (strcmp(a, "--depth-hold-up") == 0)
+            o->depth_hold_up = strtod(v, &end);
+        else if (strcmp(a, "--adaptive") == 0)
+            o->adaptive = (int32_t)strtol(v, &end, 10);
+        else if (strcmp(a, "--record") == 0)
+            o->record = v;
+        else if (strcmp(a, "--replay") == 0)
+            o->replay = v;
+        else if (strcmp(a, "--metrics-port") == 0)
+            o->metrics_port = (int32_t)strtol(v, &end, 10);
         else if (strcmp(a, "--offline") == 0)
             o->offline_ticks = strtoll(v, &end, 10);
         else if (strcmp(a, "--trainee") == 0 && o->ntrainees < 8)
@@ -834,6 +1059,12 @@ static int parse(int argc, char **argv, options *o)
         !(o->heartbeat > 0) || o->duration < 0 || o->id == 0) {
         fprintf(stderr, "ftm-server: --rate, --keyframe-every, --heartbeat must be > 0, "
                         "--id non-zero\n");
+        return -1;
+    }
+    if (o->depth_floor < -1 || (o->depth >= 0 && o->depth_floor > o->depth) ||
+        (o->adaptive != 0 && o->adaptive != 1) || !(o->depth_hold_up >= 0 && o->depth_hold_up <= 3600) || o->metrics_port < 0 || o->metrics_port > 65535) {
+        fprintf(stderr, "ftm-server: --depth-floor must be 0..depth, --adaptive 0 or 1, --depth-hold-up 0..3600, "
+                        "--metrics-port 0..65535\n");
         return -1;
     }
     if (o->offline_ticks < 0 || ((o->ntrainees || o->reactions_csv) && !o->offline_ticks)) {
@@ -922,6 +1153,8 @@ int main(int argc, char **argv)
     server *s = &srv;
     if (parse(argc, argv, &s->o))
         return 2;
+    if (s->o.replay)
+        return ftm_server_replay(s->o.replay, s->o.scene_given ? s->o.scene : NULL);
     s->t_start_ns = mono_ns();
     g_log_server = s;
     if (s->o.log_path && !(s->logf = fopen(s->o.log_path, "w"))) {
@@ -940,6 +1173,22 @@ int main(int argc, char **argv)
     def.log = log_hook;
     def.log_user = s;
     s->depth = s->o.depth >= 0 ? s->o.depth : def.depth;
+    /* adaptive depth between the floor and the scene's calibrated depth */
+    int32_t floor = s->o.depth_floor >= 0 ? s->o.depth_floor : s->depth / 4 > 1 ? s->depth / 4 : 1;
+    if (!s->o.adaptive || floor > s->depth)
+        floor = s->depth;
+    if (s->o.depth_floor > s->depth) {
+        slog(s, "error", "--depth-floor %d is above the depth %d", (int)s->o.depth_floor,
+             (int)s->depth);
+        return 2;
+    }
+    ftm_depth_ctl_def cdef;
+    ftm_depth_ctl_default(&cdef, floor, s->depth, 1e9 / s->o.rate);
+    cdef.hold_up_ns = (int64_t)(s->o.depth_hold_up * 1e9);
+    if (ftm_depth_ctl_init(&s->ctl, &cdef, &err)) {
+        slog(s, "error", "%s", err.message);
+        return 2;
+    }
     if (ftm_sim_create(s->mesh, &def, &s->sim, &err) ||
         ftm_collide_create(s->mesh, &s->collide, &err)) {
         slog(s, "error", "%s", err.message);
@@ -982,6 +1231,32 @@ int main(int argc, char **argv)
         slog(s, "error", "%s", err.message);
         return 3;
     }
+    if (s->o.record) {
+        ftm_record_header rh;
+        memset(&rh, 0, sizeof rh);
+        snprintf(rh.scene_id, sizeof rh.scene_id, "%s", s->o.scene);
+        memcpy(rh.digest, s->digest, FTM_REPLAY_DIGEST_SIZE);
+        rh.digest_len = FTM_REPLAY_DIGEST_SIZE;
+        rh.tick_rate_hz = (uint32_t)(s->o.rate + 0.5);
+        rh.depth_max = s->ctl.def.max;
+        rh.depth_min = s->ctl.def.floor;
+        rh.node_count = ftm_mesh_node_count(s->mesh);
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        rh.start_unix_ns = (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
+        if (ftm_record_create(s->o.record, &rh, &s->rec, &err)) {
+            slog(s, "error", "%s", err.message);
+            return 3;
+        }
+        slog(s, "info", "recording the session to %s", s->o.record);
+    }
+    if (s->o.metrics_port > 0) {
+        if (ftm_metrics_start((uint16_t)s->o.metrics_port, &s->metrics, &err)) {
+            slog(s, "error", "%s", err.message);
+            return 3;
+        }
+        slog(s, "info", "metrics on http://127.0.0.1:%d/metrics", (int)s->o.metrics_port);
+    }
     s->period_ns = 1e9 / s->o.rate;
     publish_announce(s);
     publish_keyframe(s); /* the rest state at tick 0, for joiners */
@@ -989,6 +1264,9 @@ int main(int argc, char **argv)
     s->next_keyframe_ns = mono_ns() + (uint64_t)(s->o.keyframe_every * 1e9);
     slog(s, "info", "session '%s' on domain %u: %.0f Hz, depth %d, keyframe every %g s", s->o.session,
          s->o.domain, s->o.rate, (int)s->depth, s->o.keyframe_every);
+    slog(s, "info", "adaptive depth %s: range [%d, %d], tick budget %.3f ms",
+         s->o.adaptive ? "on" : "off", (int)s->ctl.def.floor, (int)s->ctl.def.max,
+         s->ctl.def.budget_ns * 1e-6);
 
     s->loop = uv_default_loop();
     uv_timer_init(s->loop, &s->tick_timer);
@@ -1030,6 +1308,21 @@ int main(int argc, char **argv)
     printf("ftm-server: final tick %" PRIu64 " hash %016" PRIx64 "\n", s->tick,
            ftm_sim_hash(s->sim));
     fflush(stdout);
+    slog(s, "info", "depth %d at the end, range [%d, %d]: %" PRIu64 " decreases, %" PRIu64
+         " increases", (int)s->depth, (int)s->ctl.def.floor, (int)s->ctl.def.max,
+         s->ctl.decreases, s->ctl.increases);
+    int rc = 0;
+    if (s->rec) {
+        uint64_t bytes = ftm_record_bytes(s->rec);
+        if (ftm_record_close(s->rec, &err)) {
+            slog(s, "error", "%s", err.message);
+            rc = 3;
+        } else {
+            slog(s, "info", "recording %s: %" PRIu64 " bytes", s->o.record, bytes);
+        }
+        s->rec = NULL;
+    }
+    ftm_metrics_stop(s->metrics);
     ftm_wire_transport_destroy(s->wire);
     uv_loop_close(s->loop);
     ftm_collide_destroy(s->collide);
@@ -1039,5 +1332,5 @@ int main(int argc, char **argv)
     free(s->reactions);
     if (s->logf)
         fclose(s->logf);
-    return 0;
+    return rc;
 }

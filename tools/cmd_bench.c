@@ -2,6 +2,9 @@
  * --json) of medians measured in one run. */
 #include "bench.h"
 #include "commands.h"
+#ifdef FTM_HAVE_NET
+#include "bench_net.h"
+#endif
 
 #include <stdio.h>
 #include <string.h>
@@ -12,6 +15,9 @@ static const struct {
     const char *what;
 } benches[] = {
     {"table3", ftm_bench_table3, "paper Table 3: 50x50 2D lattice, step and search time per depth"},
+#ifdef FTM_HAVE_NET
+    {"net", ftm_bench_net, "a loopback DDS session: tick rate, bytes per tick, latency vs ddsperf"},
+#endif
 };
 
 static void usage(FILE *f)

@@ -31,9 +31,8 @@ duration=4.5
 config=$FTM_CONFIG
 [ "$mode" = lossy ] && config=${FTM_LOSSY_CONFIG:?}
 common="--session $session --domain $domain --config $config"
-# the online HIP at a tick is the newest sample that arrived, so it is off by
-# the input's timing (< 1-2 ms of HIP travel) from the offline one
-PROFILE_TOL=${PROFILE_TOL:-0.05}
+# reaction profile vs offline: tolerance beyond the timing window, of the peak
+PROFILE_TOL=${PROFILE_TOL:-0.02}
 fail() { echo "FAIL: $*"; for f in "$dir"/*.out "$dir"/*.err; do echo "== $f"; tail -n 25 "$f"; done; exit 1; }
 
 timeout 30 "$FTM_SERVER" --scene default $common --rate $rate --duration $duration \
@@ -103,24 +102,37 @@ script_t0() {
     awk -F, -v rate=$rate 'NR > 1 && $5 == 2 { printf "%.9f\n", $1 - $10 * 1e-6 - 0.0009 - $2 / rate }' \
         "$1" | sort -g | awk '{ v[NR] = $1 } END { if (NR) printf "%.6f", v[int((NR + 1) / 2)] }'
 }
-# Largest difference of the reaction force (vector norm) at equal ticks between
-# the bot's log ($1, participant $2) and the offline run ($3), over the peak
-# of the offline profile. Ticks missing on one side count as zero force.
+# The bot's reaction-force profile ($1, participant $2) against the offline
+# run ($3). Online, the HIP at a tick is the newest sample the server had,
+# so the bot's and the server's scheduling shift it in time (by tens of ms
+# on a loaded machine); the force at tick T must therefore lie within the
+# range the offline forces take over ticks T-k .. T+k (k: 50 ms of ticks),
+# component by component. Ticks missing on one side count as zero force.
+# Prints: ticks in contact offline, offline peak, largest pointwise
+# difference, largest distance outside the window's range, that over peak.
 profile_diff() {
-    awk -F, -v id=$2 '
+    awk -F, -v id=$2 -v k=$(( rate / 20 )) '
         FNR == 1 { file++; next }
-        file == 1 && $5 == 2 { on[$2] = $7 " " $8 " " $9; ticks[$2] = 1 }
-        file == 2 && $2 == id { off[$1] = $4 " " $5 " " $6; ticks[$1] = 1 }
+        file == 1 && $5 == 2 { ox[$2] = $7; oy[$2] = $8; oz[$2] = $9; on[$2] = 1; if ($2 > hi) hi = $2 }
+        file == 2 && $2 == id { fx[$1] = $4; fy[$1] = $5; fz[$1] = $6; off[$1] = 1; n++
+                                m = sqrt($4^2 + $5^2 + $6^2); if (m > peak) peak = m; if ($1 > hi) hi = $1 }
+        function out(v, lo, up) { return v < lo ? lo - v : (v > up ? v - up : 0) }
         END {
-            for (t in ticks) {
-                split((t in on) ? on[t] : "0 0 0", a, " "); split((t in off) ? off[t] : "0 0 0", b, " ")
-                d = sqrt((a[1]-b[1])^2 + (a[2]-b[2])^2 + (a[3]-b[3])^2)
-                m = sqrt(b[1]^2 + b[2]^2 + b[3]^2)
-                if (d > dmax) dmax = d
-                if (m > peak) peak = m
-                if (t in off) n++
+            for (t = 0; t <= hi; t++) {
+                if (!(t in on) && !(t in off)) continue
+                ax = (t in on) ? ox[t] : 0; ay = (t in on) ? oy[t] : 0; az = (t in on) ? oz[t] : 0
+                bx = (t in off) ? fx[t] : 0; by = (t in off) ? fy[t] : 0; bz = (t in off) ? fz[t] : 0
+                d = sqrt((ax-bx)^2 + (ay-by)^2 + (az-bz)^2); if (d > dmax) dmax = d
+                lx = ux = bx; ly = uy = by; lz = uz = bz
+                for (u = t - k; u <= t + k; u++) {
+                    cx = (u in off) ? fx[u] : 0; cy = (u in off) ? fy[u] : 0; cz = (u in off) ? fz[u] : 0
+                    if (cx < lx) lx = cx; if (cx > ux) ux = cx
+                    if (cy < ly) ly = cy; if (cy > uy) uy = cy
+                    if (cz < lz) lz = cz; if (cz > uz) uz = cz
+                }
+                e = sqrt(out(ax, lx, ux)^2 + out(ay, ly, uy)^2 + out(az, lz, uz)^2); if (e > emax) emax = e
             }
-            printf "%d %.6g %.6g %.4f\n", n, peak, dmax, (peak > 0 ? dmax / peak : 1)
+            printf "%d %.6g %.6g %.6g %.4f\n", n, peak, dmax, emax, (peak > 0 ? emax / peak : 1)
         }' "$1" "$3"
 }
 
@@ -135,10 +147,11 @@ basic)
         fail "offline run failed"
     for b in 11 12; do
         set -- $(profile_diff "$dir/bot$b.csv" $b "$dir/offline.csv")
-        echo "trainee $b: $1 ticks in contact offline, peak $2 N, largest difference $3 N ($4 of the peak)"
+        echo "trainee $b: $1 ticks in contact offline, peak $2 N; largest difference at equal" \
+             "ticks $3 N, outside the offline range of +-50 ms $4 N ($5 of the peak)"
         [ "$1" -ge 100 ] || fail "trainee $b: only $1 ticks in contact offline"
-        awk -v r=$4 -v tol=$PROFILE_TOL 'BEGIN { exit !(r <= tol) }' ||
-            fail "trainee $b: reaction profile differs from the offline run by $4 of its peak (> $PROFILE_TOL)"
+        awk -v r=$5 -v tol=$PROFILE_TOL 'BEGIN { exit !(r <= tol) }' ||
+            fail "trainee $b: reaction profile outside the offline one by $5 of its peak (> $PROFILE_TOL)"
     done
     ;;
 late)
@@ -152,7 +165,7 @@ rogue)
     # every hostile message was rejected with its reason ...
     n=$(grep -c "rejected message from participant 91 .*probe input: malformed" "$dir/server.log")
     [ "$n" -ge 2 ] || fail "garbage and truncated payloads: $n rejections logged, want 2"
-    for want in \
+    for pat in \
         "from participant 91 .*probe input: .*not finite" \
         "from participant 91 .*probe input: payload of [0-9]* bytes exceeds" \
         "from participant 91 .*participant status: payload of [0-9]* bytes exceeds" \
@@ -164,7 +177,7 @@ rogue)
         "session control from participant 92 rejected.*only the instructor" \
         "probe input from participant 92 rejected.*differs from the sender" \
         "probe sample from participant 92 rejected.*out of range"; do
-        grep -q "$want" "$dir/server.log" || fail "server log lacks: $want"
+        grep -q "$pat" "$dir/server.log" || fail "server log lacks: $pat"
     done
     # ... none of them took effect ...
     ! grep -q "paused at\|reset at" "$dir/server.log" || fail "a rogue command was obeyed"

@@ -1,0 +1,216 @@
+#!/bin/sh
+# ftm-server session tests on loopback (tests/server/CMakeLists.txt):
+#   adaptive: trainee 11 presses and holds; observer 13 is stopped (SIGSTOP)
+#             for 1.2 s. The server must lower the depth naming participant
+#             13, raise it again after SIGCONT, and every bot must end on the
+#             server's final tick and hash, and the session's recording
+#             replays (depth changes included) with every hash equal.
+#   record:   server --record with trainee 11; --replay reproduces every hash
+#             and the final line; a truncated copy, a copy with one frame's
+#             hash altered and a non-recording are rejected with a clear error
+#             (the altered one naming its tick).
+#   metrics:  --metrics-port: /metrics has the metric names, the tick and
+#             frame counters rise between two scrapes, 404 elsewhere.
+# Every process runs under `timeout`; the test itself has a CTest TIMEOUT.
+set -u
+mode=${1:?mode}
+: "${FTM_SERVER:?}" "${FTM_BOT:?}" "${FTM_CONFIG:?}" "${FTM_SCRIPTS:?}"
+here=$(cd "$(dirname "$0")" && pwd)
+dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-server-$mode.XXXXXX")
+trap 'rm -rf "$dir"' EXIT
+# a DDS domain of our own (tests/net uses 1..97, tests/wire 100..219; the
+# default port mapping ends at domain 231)
+case $mode in adaptive) base=220 ;; record) base=224 ;; *) base=228 ;; esac
+domain=$(( base + $$ % 4 ))
+session="srv-$mode-$$"
+common="--session $session --domain $domain --config $FTM_CONFIG"
+fail() {
+    echo "FAIL: $*"
+    for f in "$dir"/*.log "$dir"/*.out "$dir"/*.err; do [ -f "$f" ] && { echo "== $f"; tail -n 30 "$f"; }; done
+    exit 1
+}
+start_server() { # extra server options...
+    timeout 60 "$FTM_SERVER" --scene default $common --rate 200 --log "$dir/server.log" "$@" \
+        >"$dir/server.out" 2>"$dir/server.err" &
+    server=$!
+    i=0
+    until grep -q "session '$session'" "$dir/server.log" 2>/dev/null; do
+        i=$((i + 1)); [ $i -gt 200 ] && fail "server did not start"
+        sleep 0.05
+    done
+}
+# the bots' final lines against the server's
+check_hashes() { # bot ids...
+    want=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/server.out")
+    [ -n "$want" ] || fail "no final line from the server"
+    for b in "$@"; do
+        got=$(sed -n "s/^ftm-bot $b: \\(final tick .*\\) synced\$/\\1/p" "$dir/bot$b.out")
+        [ "$got" = "$want" ] || fail "bot $b: '$got', server: '$want'"
+    done
+}
+
+case $mode in
+adaptive)
+    start_server --duration 13 --depth-hold-up 1 --record "$dir/adaptive.rec"
+    timeout 60 "$FTM_BOT" --role trainee --script "$here/press-hold.bot" $common --id 11 \
+        --duration 30 >"$dir/bot11.out" 2>"$dir/bot11.err" &
+    b11=$!
+    # (no `timeout` around the one we stop: $b13 must be the bot itself)
+    "$FTM_BOT" --role observer $common --id 13 --duration 30 \
+        >"$dir/bot13.out" 2>"$dir/bot13.err" &
+    b13=$!
+    i=0
+    until grep -q "participant 11 probe 0: contact" "$dir/server.log" 2>/dev/null &&
+          grep -q "participant 13 (observer.*synced" "$dir/server.log"; do
+        i=$((i + 1)); [ $i -gt 200 ] && fail "no contact or observer not synced"
+        sleep 0.05
+    done
+    sleep 1.0
+    kill -STOP $b13
+    sleep 1.2
+    kill -CONT $b13
+    wait $server || fail "server exited with $?"
+    wait $b11 || fail "bot 11 exited with $?"
+    wait $b13 || fail "bot 13 exited with $?"
+    check_hashes 11 13
+    trace=$(sed -n 's/^\[ *\([0-9.]*\)\] info: depth \([0-9]* -> [0-9]*\): \(.*\) (tick.*$/\1 s: \2 (\3)/p' \
+        "$dir/server.log")
+    echo "depth trace:"; echo "$trace"
+    echo "$trace" | grep -q -- "-> [0-9]* (participant 13 (observer) lag" ||
+        fail "the depth was not lowered for the stopped observer"
+    # a rise after the last decrease: the server noticed the recovery
+    last_down=$(echo "$trace" | grep -n "participant 13" | tail -n 1 | cut -d: -f1)
+    echo "$trace" | tail -n +"$last_down" | grep -q "calm for" || fail "the depth did not come back up"
+    min=$(echo "$trace" | sed -n 's/.*: [0-9]* -> \([0-9]*\) .*/\1/p' | sort -n | head -n 1)
+    end=$(sed -n 's/.*info: depth \([0-9]*\) at the end.*/\1/p' "$dir/server.log")
+    [ "$end" -gt "$min" ] || fail "depth at the end $end, not above the lowest $min"
+    grep -q "0 mismatches" "$dir/bot13.err" || fail "the stopped observer saw hash mismatches"
+    # the recording replays the depth changes exactly too
+    timeout 60 "$FTM_SERVER" --replay "$dir/adaptive.rec" >"$dir/replay.out" 2>"$dir/replay.err" ||
+        fail "replay of the adaptive session failed"
+    grep -q "depth $min\.\.8 ([1-9][0-9]* changes)" "$dir/replay.out" || fail "replay saw no depth changes"
+    echo "PASS adaptive: $want; lowest depth $min, at the end $end; $(sed -n 's/.*; \(depth [0-9.]* ([0-9]* changes)\).*/replayed \1/p' "$dir/replay.out")"
+    ;;
+record)
+    rec="$dir/session.rec"
+    start_server --duration 3.5 --record "$rec"
+    timeout 60 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
+        --duration 20 >"$dir/bot11.out" 2>"$dir/bot11.err" &
+    b11=$!
+    wait $server || fail "server exited with $?"
+    wait $b11 || fail "bot 11 exited with $?"
+    check_hashes 11
+    grep -q "contact on triangle" "$dir/server.log" || fail "no probe contact on the server"
+    timeout 60 "$FTM_SERVER" --replay "$rec" >"$dir/replay.out" 2>"$dir/replay.err" ||
+        fail "replay of the recording failed"
+    got=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/replay.out")
+    [ "$got" = "$want" ] || fail "replay ends on '$got', the server on '$want'"
+    grep -q "every hash equal" "$dir/replay.out" || fail "no replay summary"
+    size=$(wc -c <"$rec")
+    # truncated in the middle of the last entry
+    head -c $((size - 5)) "$rec" >"$dir/trunc.rec"
+    if timeout 60 "$FTM_SERVER" --replay "$dir/trunc.rec" >"$dir/trunc.out" 2>"$dir/trunc.err"; then
+        fail "a truncated recording was accepted"
+    fi
+    grep -q "truncated: entry [0-9]* at byte [0-9]*" "$dir/trunc.err" || fail "no clear truncation error"
+    # one tick frame's state hash altered: the replay names that tick
+    tick=$(python3 - "$rec" "$dir/bad.rec" <<'EOF'
+import sys
+data = bytearray(open(sys.argv[1], 'rb').read())
+def varint(b, i):
+    v = s = 0
+    while True:
+        c = b[i]; i += 1; v |= (c & 0x7f) << s; s += 7
+        if not c & 0x80: return v, i
+def fields(b, i, end):
+    while i < end:
+        key, i = varint(b, i); f, t = key >> 3, key & 7
+        if t == 0: v, i = varint(b, i); yield f, v, None
+        elif t == 1: yield f, bytes(b[i:i + 8]), i; i += 8
+        elif t == 2: n, i = varint(b, i); yield f, (i, n), i; i += n
+        elif t == 5: i += 4
+        else: raise SystemExit("bad wire type")
+i, frames = 8, 0
+while i < len(data):
+    n, i = varint(data, i)
+    e = {f: v for f, v, _ in fields(data, i, i + n)}
+    if e.get(3) == 3 and not e.get(6) and 4 in e:
+        frames += 1
+        off, size = e[4]
+        if frames == 200:
+            tf = {f: (v, at) for f, v, at in fields(data, off, off + size)}
+            tick, at = tf[2][0], tf[9][1]  # tick; state_hash (fixed64) offset
+            data[at] ^= 0x01
+            open(sys.argv[2], 'wb').write(data)
+            print(tick)
+            break
+    i += n
+EOF
+)
+    [ -n "$tick" ] || fail "could not alter a tick frame"
+    if timeout 60 "$FTM_SERVER" --replay "$dir/bad.rec" >"$dir/bad.out" 2>"$dir/bad.err"; then
+        fail "a recording with an altered hash was accepted"
+    fi
+    grep -q "tick $tick: state hash differs" "$dir/bad.err" || fail "the mismatch does not name tick $tick"
+    printf 'not a recording\n' >"$dir/junk.rec"
+    if timeout 60 "$FTM_SERVER" --replay "$dir/junk.rec" >/dev/null 2>"$dir/junk.err"; then
+        fail "a non-recording was accepted"
+    fi
+    grep -q "not an FTM recording" "$dir/junk.err" || fail "no clear error for a non-recording"
+    echo "PASS record: $want; $(head -n 1 "$dir/replay.out" | sed 's/^replay [^:]*: //'); $size bytes;" \
+        "rejected: $(cat "$dir/trunc.err" "$dir/bad.err" | sed 's/^ftm-server --replay: [^:]*: //' | tr '\n' '|')"
+    ;;
+metrics)
+    port=$(( 20000 + $$ % 20000 ))
+    start_server --duration 5 --metrics-port $port
+    timeout 60 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
+        --duration 20 >"$dir/bot11.out" 2>"$dir/bot11.err" &
+    b11=$!
+    sleep 1.5
+    timeout 30 python3 - $port >"$dir/metrics.out" 2>"$dir/metrics.err" <<'EOF'
+import sys, time, urllib.request, urllib.error
+url = "http://127.0.0.1:%s" % sys.argv[1]
+def get(path="/metrics"):
+    with urllib.request.urlopen(url + path, timeout=5) as r:
+        assert r.status == 200
+        assert r.headers["Content-Type"].startswith("text/plain"), r.headers["Content-Type"]
+        return r.read().decode()
+def values(text):
+    v = {}
+    for line in text.splitlines():
+        if line and not line.startswith("#"):
+            name, val = line.rsplit(" ", 1)
+            v[name] = float(val)
+    return v
+a = values(get()); time.sleep(1.0); text = get(); b = values(text)
+for n in ["ftm_tick_rate_hz", "ftm_tick_rate_target_hz", "ftm_ticks_total", "ftm_missed_ticks_total",
+          "ftm_step_seconds_count", "ftm_step_seconds_sum", 'ftm_step_seconds_bucket{le="+Inf"}',
+          "ftm_depth", "ftm_depth_min", "ftm_depth_max", 'ftm_depth_changes_total{direction="down"}',
+          "ftm_frames_sent_total", "ftm_keyframes_sent_total", 'ftm_bytes_sent_total{kind="tick_frame"}',
+          "ftm_heartbeats_sent_total", "ftm_participants"]:
+    assert n in a and n in b, "missing " + n
+for n in ["ftm_ticks_total", "ftm_frames_sent_total", "ftm_step_seconds_count",
+          'ftm_bytes_sent_total{kind="tick_frame"}']:
+    assert b[n] > a[n], "%s did not rise: %g -> %g" % (n, a[n], b[n])
+assert b['ftm_step_seconds_bucket{le="+Inf"}'] == b["ftm_step_seconds_count"]
+assert 150 < b["ftm_tick_rate_hz"] < 250, b["ftm_tick_rate_hz"]
+lag = [k for k in b if k.startswith('ftm_participant_lag_ticks{participant="11",role="trainee"')]
+assert lag, "no lag of participant 11"
+try:
+    get("/nope"); raise AssertionError("/nope answered")
+except urllib.error.HTTPError as e:
+    assert e.code == 404
+print("ticks %d -> %d, frames %d -> %d, rate %.1f Hz, depth %d, %s %d" % (
+    a["ftm_ticks_total"], b["ftm_ticks_total"], a["ftm_frames_sent_total"],
+    b["ftm_frames_sent_total"], b["ftm_tick_rate_hz"], b["ftm_depth"], lag[0], b[lag[0]]))
+EOF
+    rc=$?
+    wait $server || fail "server exited with $?"
+    wait $b11 || fail "bot 11 exited with $?"
+    [ $rc -eq 0 ] || { cat "$dir/metrics.err"; fail "metrics check failed"; }
+    check_hashes 11
+    echo "PASS metrics: $(cat "$dir/metrics.out")"
+    ;;
+*)
+    echo "unknown mode $mode"; exit 2 ;;
+esac

@@ -1,0 +1,777 @@
+/* `ftm bench net`: a whole session on loopback DDS, measured from outside
+ * (docs/bench-net.md). It runs the real programs — ftm-server and N ftm-bot
+ * trainees, plus Cyclone's ddsperf ping/pong beside them — and reads what
+ * they report:
+ *
+ *  1. rate: a 1000-node scene, N trainees pressing on a ring around its
+ *     centre, the server at 1 kHz for --duration s: ticks, missed ticks, tick
+ *     period p50/p99 (server summary), frame bytes per tick, server-to-bot
+ *     latency (TickFrame.send_time_ns to reception, from every bot's log),
+ *     and ddsperf's one-way latency (round trip / 2) measured meanwhile on
+ *     the same loopback configuration with a 100-byte payload at 1 kHz;
+ *  2. size: the same trainee scripts on a 100 000-node slab for
+ *     --size-duration s: frame bytes per tick again.
+ * For both scenes, the bytes per tick of the alternative — streaming every
+ * node that moved in a tick (index + position, protobuf-packed as the
+ * keyframe does) — follow from the updated-node counts the bots log. Every
+ * bot must end on the server's final tick and hash (exit status 1 if not). */
+#include "bench_net.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <math.h>
+#include <signal.h>
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#ifndef FTM_SOURCE_DIR
+#define FTM_SOURCE_DIR "."
+#endif
+
+#define MAX_BOTS 32
+
+typedef struct net_options {
+    double duration, size_duration, rate;
+    int bots;
+    const char *server, *bot, *config, *keep, *plot;
+    bool json, ddsperf;
+    int domain;
+} net_options;
+
+typedef struct run_result {
+    /* server */
+    uint64_t ticks, missed, keyframes, keyframe_bytes;
+    double seconds, bytes_per_tick, tick_p50, tick_p99, late_p50, late_p99, step_mean_us;
+    char final[96];
+    /* bots */
+    int synced;          /* bots that ended synced on the server's tick and hash */
+    double stream_bytes_per_tick, moved_per_tick;
+    double *lat;         /* all latency samples [us] */
+    uint64_t *lat_tick;  /* their ticks */
+    size_t nlat, caplat;
+} run_result;
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void sleep_s(double s)
+{
+    struct timespec ts = {(time_t)s, (long)((s - floor(s)) * 1e9)};
+    nanosleep(&ts, NULL);
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* q-quantile of v[0..n) by nearest rank (sorts v). */
+static double quantile(double *v, size_t n, double q)
+{
+    if (n == 0)
+        return NAN;
+    qsort(v, n, sizeof *v, cmp_double);
+    size_t k = (size_t)ceil(q * (double)n);
+    return v[k ? k - 1 : 0];
+}
+
+/* ---- processes ------------------------------------------------------------------------ */
+
+/* Starts argv[0] with stdout/stderr to files; with dds_uri, CYCLONEDDS_URI set to it. */
+static pid_t spawn(char *const argv[], const char *out, const char *err, const char *dds_uri)
+{
+    pid_t pid = fork();
+    if (pid != 0)
+        return pid;
+    int fo = open(out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    int fe = open(err, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fo < 0 || fe < 0 || dup2(fo, 1) < 0 || dup2(fe, 2) < 0)
+        _exit(126);
+    close(fo);
+    close(fe);
+    if (dds_uri)
+        setenv("CYCLONEDDS_URI", dds_uri, 1);
+    execv(argv[0], argv);
+    fprintf(stderr, "cannot run %s: %s\n", argv[0], strerror(errno));
+    _exit(127);
+}
+
+/* Waits for pid up to timeout s, then SIGKILLs it. Returns its exit status
+ * (128 + signal if killed by one). */
+static int wait_for(pid_t pid, double timeout)
+{
+    double end = now_s() + timeout;
+    int st = 0;
+    for (;;) {
+        pid_t r = waitpid(pid, &st, WNOHANG);
+        if (r == pid)
+            break;
+        if (r < 0)
+            return -1;
+        if (now_s() > end) {
+            kill(pid, SIGKILL);
+            waitpid(pid, &st, 0);
+            break;
+        }
+        sleep_s(0.05);
+    }
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + (WIFSIGNALED(st) ? WTERMSIG(st) : 0);
+}
+
+static char *slurp(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *s = n >= 0 ? malloc((size_t)n + 1) : NULL;
+    if (s) {
+        size_t got = fread(s, 1, (size_t)n, f);
+        s[got] = '\0';
+    }
+    fclose(f);
+    return s;
+}
+
+static bool wait_text(const char *path, const char *text, double timeout)
+{
+    double end = now_s() + timeout;
+    while (now_s() < end) {
+        char *s = slurp(path);
+        bool found = s && strstr(s, text);
+        free(s);
+        if (found)
+            return true;
+        sleep_s(0.05);
+    }
+    return false;
+}
+
+/* ---- inputs: scenes and trainee scripts --------------------------------------------- */
+
+static int write_scene(const char *path, const char *name, int nx, int ny)
+{
+    FILE *f = fopen(path, "w");
+    if (!f)
+        return -1;
+    fprintf(f,
+            "# ftm bench net: %dx%dx10 nodes of 1 cm, bottom fixed, top face at z = 0.09 m\n"
+            "[scene]\nname = %s\n[mesh]\ngenerator = lattice3d\nnx = %d\nny = %d\nnz = 10\n"
+            "spacing = 0.01\nstencil = 18\nfixed_faces = zmin\n[material]\nmass = 0.001\n"
+            "damping = 0.3\nstiffness = 50\n[sim]\ntime_step = 1e-3\ndepth = 8\nsteps = 2000\n",
+            nx, ny, name, nx, ny);
+    return fclose(f);
+}
+
+#define TOP_Z 0.09
+
+/* Trainee i of n: presses every 2 s at a point on a 2.5 cm ring around the
+ * scene's centre (cx, cy), phase-shifted by i/n of the period: from 6 mm
+ * above the top face down to 4 mm into it (0.4 s), a 5 mm slide (0.6 s),
+ * back up (0.4 s), 0.6 s away. */
+static int write_script(const char *path, int i, int n, double cx, double cy, double length)
+{
+    FILE *f = fopen(path, "w");
+    if (!f)
+        return -1;
+    double a = 6.283185307179586 * i / n, x = cx + 0.025 * cos(a), y = cy + 0.025 * sin(a);
+    double tx = -sin(a) * 0.005, ty = cos(a) * 0.005, up = TOP_Z + 0.006, down = TOP_Z - 0.004;
+    double phase = 2.0 * i / n;
+    fprintf(f, "# ftm bench net trainee %d of %d\n0 %.5f %.5f %.5f\n", i, n, x, y, up);
+    for (double t = phase + 0.5; t < length; t += 2.0) {
+        fprintf(f, "%.3f %.5f %.5f %.5f\n", t, x, y, up);
+        fprintf(f, "%.3f %.5f %.5f %.5f\n", t + 0.4, x, y, down);
+        fprintf(f, "%.3f %.5f %.5f %.5f\n", t + 1.0, x + tx, y + ty, down);
+        fprintf(f, "%.3f %.5f %.5f %.5f\n", t + 1.4, x + tx, y + ty, up);
+        fprintf(f, "%.3f %.5f %.5f %.5f\n", t + 1.45, x, y, up);
+    }
+    return fclose(f);
+}
+
+/* ---- reading what the programs report --------------------------------------------------- */
+
+static void parse_server(const char *log, run_result *r)
+{
+    char *s = slurp(log);
+    if (!s)
+        return;
+    const char *p = strstr(s, " ticks in ");
+    if (p) {
+        while (p > s && p[-1] >= '0' && p[-1] <= '9')
+            p--;
+        double rate;
+        sscanf(p, "%" SCNu64 " ticks in %lf s (%lf ticks/s), %" SCNu64 " missed", &r->ticks,
+               &r->seconds, &rate, &r->missed);
+        const char *q = strstr(p, "bytes/frame, ");
+        if (q)
+            sscanf(q, "bytes/frame, %lf bytes/tick; %" SCNu64 " keyframes (%" SCNu64 " bytes)",
+                   &r->bytes_per_tick, &r->keyframes, &r->keyframe_bytes);
+        q = strstr(p, "step mean ");
+        if (q)
+            sscanf(q, "step mean %lf", &r->step_mean_us);
+    }
+    p = strstr(s, "tick period p50 ");
+    if (p)
+        sscanf(p, "tick period p50 %lf ms p99 %lf ms; start after due p50 %lf ms p99 %lf ms",
+               &r->tick_p50, &r->tick_p99, &r->late_p50, &r->late_p99);
+    free(s);
+}
+
+static int varint_size(uint64_t v)
+{
+    int n = 1;
+    while (v >= 128) {
+        v >>= 7;
+        n++;
+    }
+    return n;
+}
+
+/* Bytes of a message streaming u moved nodes for one tick: tick (field 1),
+ * packed node indices (field 2, each as wide as the largest index) and
+ * packed double positions (field 3). */
+static double stream_bytes(uint64_t tick, int64_t u, int32_t nodes)
+{
+    if (u <= 0)
+        return 0.0;
+    int64_t li = u * varint_size((uint64_t)(nodes - 1)), lp = 24 * u;
+    return (double)(1 + varint_size(tick) + 1 + varint_size((uint64_t)li) + li + 1 +
+                    varint_size((uint64_t)lp) + lp);
+}
+
+/* One bot's CSV log (docs/bot-script.md): latency samples into r; the
+ * streaming estimate from the first bot only (every replica steps alike). */
+static int read_bot_csv(const char *path, run_result *r, bool stream, int32_t nodes)
+{
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return -1;
+    char line[512];
+    uint64_t first = 0, last = 0;
+    double sbytes = 0, moved = 0;
+    bool any = false;
+    while (fgets(line, sizeof line, f)) {
+        double t, fx, fy, fz, lat;
+        uint64_t tick;
+        char h1[32], h2[32];
+        int state, contacts, upd = 0;
+        if (sscanf(line, "%lf,%" SCNu64 ",%31[^,],%31[^,],%d,%d,%lf,%lf,%lf,%lf,%d", &t, &tick,
+                   h1, h2, &state, &contacts, &fx, &fy, &fz, &lat, &upd) < 10 ||
+            state != 2)
+            continue;
+        if (r->nlat == r->caplat) {
+            size_t cap = r->caplat ? 2 * r->caplat : 65536;
+            double *l = realloc(r->lat, cap * sizeof *l);
+            uint64_t *lt = l ? realloc(r->lat_tick, cap * sizeof *lt) : NULL;
+            if (!l || !lt) {
+                free(l ? l : r->lat);
+                r->lat = NULL;
+                fclose(f);
+                return -1;
+            }
+            r->lat = l;
+            r->lat_tick = lt;
+            r->caplat = cap;
+        }
+        r->lat[r->nlat] = lat;
+        r->lat_tick[r->nlat++] = tick;
+        if (!any)
+            first = tick;
+        any = true;
+        last = tick;
+        sbytes += stream_bytes(tick, upd, nodes);
+        moved += upd;
+    }
+    fclose(f);
+    if (stream && any && last > first) {
+        r->stream_bytes_per_tick = sbytes / (double)(last - first + 1);
+        r->moved_per_tick = moved / (double)(last - first + 1);
+    }
+    return 0;
+}
+
+/* Median over 1 s windows (by server tick) of each window's q-quantile;
+ * windows with fewer than 100 samples are skipped. */
+static double windowed(const run_result *r, double rate, double q)
+{
+    if (r->nlat == 0)
+        return NAN;
+    uint64_t wmax = 0;
+    for (size_t i = 0; i < r->nlat; i++)
+        if (r->lat_tick[i] / (uint64_t)rate > wmax)
+            wmax = r->lat_tick[i] / (uint64_t)rate;
+    double *per = malloc((wmax + 1) * sizeof *per), *buf = malloc(r->nlat * sizeof *buf);
+    size_t nper = 0;
+    for (uint64_t w = 0; per && buf && w <= wmax; w++) {
+        size_t n = 0;
+        for (size_t i = 0; i < r->nlat; i++)
+            if (r->lat_tick[i] / (uint64_t)rate == w)
+                buf[n++] = r->lat[i];
+        if (n >= 100)
+            per[nper++] = quantile(buf, n, q);
+    }
+    double m = nper ? quantile(per, nper, 0.5) : NAN;
+    free(per);
+    free(buf);
+    return m;
+}
+
+/* ddsperf ping's per-second lines: "... 50% Xus 90% Yus 99% Zus ...". */
+static int parse_ddsperf(const char *path, double *p50, double *p99, FILE *series)
+{
+    char *s = slurp(path);
+    if (!s)
+        return -1;
+    double a[4096], b[4096];
+    int n = 0;
+    for (char *line = strtok(s, "\n"); line && n < 4096; line = strtok(NULL, "\n")) {
+        const char *m50 = strstr(line, " 50% "), *m99 = strstr(line, " 99% ");
+        double t;
+        if (!m50 || !m99 || sscanf(m50, " 50%% %lfus", &a[n]) != 1 ||
+            sscanf(m99, " 99%% %lfus", &b[n]) != 1)
+            continue;
+        const char *ts = strchr(line, ']');
+        if (series && ts && sscanf(ts + 1, "%lf", &t) == 1)
+            fprintf(series, "%.0f %.2f %.2f\n", t, a[n], b[n]);
+        n++;
+    }
+    free(s);
+    /* the first second includes discovery */
+    int skip = n > 3 ? 1 : 0;
+    *p50 = n > skip ? quantile(a + skip, (size_t)(n - skip), 0.5) : NAN;
+    *p99 = n > skip ? quantile(b + skip, (size_t)(n - skip), 0.5) : NAN;
+    return n > skip ? 0 : -1;
+}
+
+/* ---- one session ----------------------------------------------------------------------- */
+
+static int run_session(const net_options *o, const char *dir, const char *tag, const char *scene,
+                       int32_t nodes, double cx, double cy, double duration, int domain,
+                       bool with_ddsperf, run_result *r, double *dp50, double *dp99)
+{
+    char sub[512], path[640], slog[640], sout[640], serr[640];
+    snprintf(sub, sizeof sub, "%s/%s", dir, tag);
+    if (mkdir(sub, 0755) && errno != EEXIST) {
+        fprintf(stderr, "ftm bench net: cannot create %s: %s\n", sub, strerror(errno));
+        return -1;
+    }
+    char session[64], dom[16], rate[32], dur[32];
+    snprintf(session, sizeof session, "bench-%s-%d", tag, (int)getpid());
+    snprintf(dom, sizeof dom, "%d", domain);
+    snprintf(rate, sizeof rate, "%g", o->rate);
+    /* the bots start about a second after the server; they leave when it does */
+    snprintf(dur, sizeof dur, "%g", duration + 1.5);
+    snprintf(slog, sizeof slog, "%s/server.log", sub);
+    snprintf(sout, sizeof sout, "%s/server.out", sub);
+    snprintf(serr, sizeof serr, "%s/server.err", sub);
+    char *sargv[] = {(char *)o->server, "--scene", (char *)scene, "--session", session,
+                     "--domain", dom, "--config", (char *)o->config, "--rate", rate,
+                     "--duration", dur, "--log", slog, NULL};
+    pid_t server = spawn(sargv, sout, serr, NULL);
+    if (server < 0 || !wait_text(slog, "session '", 20.0)) {
+        fprintf(stderr, "ftm bench net: %s: the server did not start (see %s)\n", tag, serr);
+        if (server > 0)
+            kill(server, SIGKILL), waitpid(server, NULL, 0);
+        return -1;
+    }
+    pid_t bots[MAX_BOTS];
+    for (int i = 0; i < o->bots; i++) {
+        char script[640], log[640], out[640], err[640], id[16], bdur[32];
+        snprintf(script, sizeof script, "%s/bot%d.bot", sub, i);
+        snprintf(log, sizeof log, "%s/bot%d.csv", sub, i);
+        snprintf(out, sizeof out, "%s/bot%d.out", sub, i);
+        snprintf(err, sizeof err, "%s/bot%d.err", sub, i);
+        snprintf(id, sizeof id, "%d", 100 + i);
+        snprintf(bdur, sizeof bdur, "%g", duration + 30);
+        if (write_script(script, i, o->bots, cx, cy, duration + 30)) {
+            fprintf(stderr, "ftm bench net: cannot write %s\n", script);
+            bots[i] = -1;
+            continue;
+        }
+        char *bargv[] = {(char *)o->bot, "--role", "trainee", "--script", script, "--scene",
+                         (char *)scene, "--session", session, "--domain", dom, "--config",
+                         (char *)o->config, "--id", id, "--duration", bdur, "--log", log, NULL};
+        bots[i] = spawn(bargv, out, err, NULL);
+    }
+    pid_t ping = -1, pong = -1;
+    char ping_out[640];
+    snprintf(ping_out, sizeof ping_out, "%s/ddsperf-ping.out", sub);
+    static char uri[1100];
+    if (with_ddsperf) {
+        char pdom[16], pdur[32], pong_out[640], e1[640], e2[640];
+        snprintf(uri, sizeof uri, "file://%s", o->config);
+        snprintf(pdom, sizeof pdom, "%d", domain + 1);
+        snprintf(pdur, sizeof pdur, "%g", duration);
+        snprintf(pong_out, sizeof pong_out, "%s/ddsperf-pong.out", sub);
+        snprintf(e1, sizeof e1, "%s/ddsperf-pong.err", sub);
+        snprintf(e2, sizeof e2, "%s/ddsperf-ping.err", sub);
+        char *pongv[] = {"/usr/bin/ddsperf", "-i", pdom, "-D", pdur, "pong", NULL};
+        char *pingv[] = {"/usr/bin/ddsperf", "-i", pdom, "-D", pdur, "-Qminmatch:1",
+                         "-Qinitwait:10", "ping", "1000Hz", "size", "100", NULL};
+        pong = spawn(pongv, pong_out, e1, uri);
+        ping = spawn(pingv, ping_out, e2, uri);
+    }
+    int rc = wait_for(server, duration + 30);
+    for (int i = 0; i < o->bots; i++)
+        if (bots[i] > 0)
+            wait_for(bots[i], 20);
+    if (with_ddsperf) {
+        wait_for(ping, 20);
+        wait_for(pong, 20);
+    }
+    parse_server(slog, r);
+    char *fin = slurp(sout);
+    if (fin) {
+        const char *p = strstr(fin, "final tick ");
+        if (p)
+            snprintf(r->final, sizeof r->final, "%.*s", (int)strcspn(p, "\n"), p);
+        free(fin);
+    }
+    for (int i = 0; i < o->bots; i++) {
+        snprintf(path, sizeof path, "%s/bot%d.out", sub, i);
+        char *b = slurp(path);
+        char want[160];
+        snprintf(want, sizeof want, "%s synced", r->final);
+        if (b && r->final[0] && strstr(b, want))
+            r->synced++;
+        free(b);
+        snprintf(path, sizeof path, "%s/bot%d.csv", sub, i);
+        read_bot_csv(path, r, i == 0, nodes);
+    }
+    if (with_ddsperf) {
+        snprintf(path, sizeof path, "%s/ddsperf.dat", sub);
+        FILE *series = o->plot ? fopen(path, "w") : NULL;
+        if (parse_ddsperf(ping_out, dp50, dp99, series))
+            fprintf(stderr, "ftm bench net: no ddsperf latency in %s\n", ping_out);
+        if (series)
+            fclose(series);
+    }
+    return rc == 0 ? 0 : -1;
+}
+
+/* ---- command --------------------------------------------------------------------------- */
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: ftm bench net [options]\n\n"
+            "A session on loopback DDS: ftm-server at --rate with --bots ftm-bot trainees on a\n"
+            "1000-node scene for --duration s (tick rate, missed ticks, tick period, frame\n"
+            "bytes, server-to-bot latency beside ddsperf's), then on a 100 000-node scene for\n"
+            "--size-duration s (frame bytes), both against streaming every moved node.\n\n"
+            "options:\n"
+            "  --duration S        the 1k-node run (default 60)\n"
+            "  --size-duration S   the 100k-node run (default 15)\n"
+            "  --bots N            trainee bots (default 8, at most %d)\n"
+            "  --rate HZ           tick rate (default 1000)\n"
+            "  --server PATH       ftm-server (default: beside this ftm, ../server/ftm-server)\n"
+            "  --bot PATH          ftm-bot (default: ../client/ftm-bot)\n"
+            "  --config FILE       Cyclone DDS configuration (default: %s/deploy/"
+            "cyclonedds-loopback.xml)\n"
+            "  --domain N          first DDS domain to use (default 150; uses N .. N+2)\n"
+            "  --no-ddsperf        do not run ddsperf\n"
+            "  --keep DIR          keep logs, scripts and scenes in DIR (default: a temporary\n"
+            "                      directory, removed)\n"
+            "  --plot DIR          write gnuplot data (latency per second, bytes) to DIR\n"
+            "  --json              print one JSON object instead of the table\n\n"
+            "exit status: 0 every bot ended on the server's tick and hash; 1 not; 2 usage\n",
+            MAX_BOTS, FTM_SOURCE_DIR);
+}
+
+static char *exe_sibling(const char *rel)
+{
+    static char buf[2][1024];
+    static int k;
+    char self[900];
+    ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    if (n <= 0)
+        return NULL;
+    self[n] = '\0';
+    char *slash = strrchr(self, '/');
+    if (slash)
+        *slash = '\0';
+    k ^= 1;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", self, rel);
+    return buf[k];
+}
+
+static int parse(int argc, char **argv, net_options *o)
+{
+    static char config[1024];
+    snprintf(config, sizeof config, "%s/deploy/cyclonedds-loopback.xml", FTM_SOURCE_DIR);
+    *o = (net_options){60.0, 15.0, 1000.0, 8, NULL, NULL, config, NULL, NULL, false, true, 150};
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            usage(stdout);
+            return 1;
+        }
+        if (strcmp(a, "--json") == 0) {
+            o->json = true;
+            continue;
+        }
+        if (strcmp(a, "--no-ddsperf") == 0) {
+            o->ddsperf = false;
+            continue;
+        }
+        if (i + 1 >= argc) {
+            fprintf(stderr, "ftm bench net: %s needs a value (or is unknown)\n", a);
+            return 2;
+        }
+        const char *v = argv[++i];
+        char *end = NULL;
+        errno = 0;
+        if (strcmp(a, "--duration") == 0)
+            o->duration = strtod(v, &end);
+        else if (strcmp(a, "--size-duration") == 0)
+            o->size_duration = strtod(v, &end);
+        else if (strcmp(a, "--rate") == 0)
+            o->rate = strtod(v, &end);
+        else if (strcmp(a, "--bots") == 0)
+            o->bots = (int)strtol(v, &end, 10);
+        else if (strcmp(a, "--domain") == 0)
+            o->domain = (int)strtol(v, &end, 10);
+        else if (strcmp(a, "--server") == 0)
+            o->server = v;
+        else if (strcmp(a, "--bot") == 0)
+            o->bot = v;
+        else if (strcmp(a, "--config") == 0)
+            o->config = v;
+        else if (strcmp(a, "--keep") == 0)
+            o->keep = v;
+        else if (strcmp(a, "--plot") == 0)
+            o->plot = v;
+        else {
+            fprintf(stderr, "ftm bench net: unknown option '%s' (try --help)\n", a);
+            return 2;
+        }
+        if (end && (*end || errno)) {
+            fprintf(stderr, "ftm bench net: %s: bad number '%s'\n", a, v);
+            return 2;
+        }
+    }
+    if (!(o->duration >= 3) || !(o->size_duration >= 3) || !(o->rate > 0 && o->rate <= 10000) ||
+        o->bots < 1 || o->bots > MAX_BOTS || o->domain < 0 || o->domain > 230) {
+        fprintf(stderr, "ftm bench net: --duration and --size-duration >= 3, --rate 0..10000, "
+                        "--bots 1..%d, --domain 0..230\n",
+                MAX_BOTS);
+        return 2;
+    }
+    if (!o->server)
+        o->server = exe_sibling("../server/ftm-server");
+    if (!o->bot)
+        o->bot = exe_sibling("../client/ftm-bot");
+    if (!o->server || !o->bot || access(o->server, X_OK) || access(o->bot, X_OK)) {
+        fprintf(stderr, "ftm bench net: cannot find ftm-server/ftm-bot (%s, %s); use --server "
+                        "and --bot\n",
+                o->server ? o->server : "?", o->bot ? o->bot : "?");
+        return 2;
+    }
+    if (access(o->config, R_OK)) {
+        fprintf(stderr, "ftm bench net: cannot read %s\n", o->config);
+        return 2;
+    }
+    return 0;
+}
+
+static void json_num(FILE *f, const char *key, double v, bool last)
+{
+    if (isfinite(v))
+        fprintf(f, "\"%s\":%.6g%s", key, v, last ? "" : ",");
+    else
+        fprintf(f, "\"%s\":null%s", key, last ? "" : ",");
+}
+
+int ftm_bench_net(int argc, char **argv)
+{
+    net_options o;
+    int prc = parse(argc, argv, &o);
+    if (prc)
+        return prc == 1 ? 0 : 2;
+    char dir[1024];
+    if (o.keep) {
+        snprintf(dir, sizeof dir, "%s", o.keep);
+        if (mkdir(dir, 0755) && errno != EEXIST) {
+            fprintf(stderr, "ftm bench net: cannot create %s: %s\n", dir, strerror(errno));
+            return 2;
+        }
+    } else {
+        snprintf(dir, sizeof dir, "%s/ftm-bench-net.XXXXXX", getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp");
+        if (!mkdtemp(dir)) {
+            fprintf(stderr, "ftm bench net: cannot create a temporary directory: %s\n", strerror(errno));
+            return 2;
+        }
+    }
+    char s1k[1100], s100k[1100];
+    snprintf(s1k, sizeof s1k, "%s/net-1k.scene", dir);
+    snprintf(s100k, sizeof s100k, "%s/net-100k.scene", dir);
+    if (write_scene(s1k, "net-1k", 10, 10) || write_scene(s100k, "net-100k", 100, 100)) {
+        fprintf(stderr, "ftm bench net: cannot write the scenes in %s\n", dir);
+        return 2;
+    }
+    if (!o.json)
+        fprintf(stderr, "ftm bench net: %d bots at %g Hz, %g s on 1k nodes, %g s on 100k; logs in %s\n",
+                o.bots, o.rate, o.duration, o.size_duration, dir);
+    run_result a, b;
+    memset(&a, 0, sizeof a);
+    memset(&b, 0, sizeof b);
+    double dp50 = NAN, dp99 = NAN, dummy50, dummy99;
+    int ra = run_session(&o, dir, "1k", s1k, 1000, 0.045, 0.045, o.duration, o.domain,
+                         o.ddsperf, &a, &dp50, &dp99);
+    int rb = run_session(&o, dir, "100k", s100k, 100000, 0.495, 0.495, o.size_duration,
+                         o.domain + 2, false, &b, &dummy50, &dummy99);
+
+    double lat50 = windowed(&a, o.rate, 0.50), lat99 = windowed(&a, o.rate, 0.99);
+    double *all = a.nlat ? malloc(a.nlat * sizeof *all) : NULL;
+    double pooled99 = NAN, latmax = NAN;
+    if (all) {
+        memcpy(all, a.lat, a.nlat * sizeof *all);
+        pooled99 = quantile(all, a.nlat, 0.99);
+        latmax = all[a.nlat - 1];
+    }
+    if (o.plot && all) {
+        char path[1200];
+        snprintf(path, sizeof path, "%s/latency.dat", o.plot);
+        FILE *f = fopen(path, "w");
+        if (f) {
+            /* per-second p50/p99 by server tick, beside ddsperf's */
+            uint64_t w = (uint64_t)o.rate;
+            uint64_t wmax = 0;
+            for (size_t i = 0; i < a.nlat; i++)
+                wmax = a.lat_tick[i] / w > wmax ? a.lat_tick[i] / w : wmax;
+            for (uint64_t k = 0; k <= wmax; k++) {
+                size_t n = 0;
+                for (size_t i = 0; i < a.nlat; i++)
+                    if (a.lat_tick[i] / w == k)
+                        all[n++] = a.lat[i];
+                if (n >= 100)
+                    fprintf(f, "%" PRIu64 " %.1f %.1f\n", k, quantile(all, n, 0.5),
+                            quantile(all, n, 0.99));
+            }
+            fclose(f);
+        }
+        snprintf(path, sizeof path, "%s/bytes.dat", o.plot);
+        f = fopen(path, "w");
+        if (f) {
+            fprintf(f, "# scene frames_bytes_per_tick streaming_bytes_per_tick\n"
+                       "1k %.1f %.1f\n100k %.1f %.1f\n",
+                    a.bytes_per_tick, a.stream_bytes_per_tick, b.bytes_per_tick,
+                    b.stream_bytes_per_tick);
+            fclose(f);
+        }
+        char src[1200], dst[1200];
+        snprintf(src, sizeof src, "%s/1k/ddsperf.dat", dir);
+        snprintf(dst, sizeof dst, "%s/ddsperf.dat", o.plot);
+        char *d = slurp(src);
+        FILE *g = d ? fopen(dst, "w") : NULL;
+        if (g) {
+            fputs(d, g);
+            fclose(g);
+        }
+        free(d);
+    }
+    free(all);
+    double ratio1k = a.bytes_per_tick > 0 ? a.stream_bytes_per_tick / a.bytes_per_tick : NAN;
+    double ratio100k = b.bytes_per_tick > 0 ? b.stream_bytes_per_tick / b.bytes_per_tick : NAN;
+    bool ok = ra == 0 && rb == 0 && a.synced == o.bots && b.synced == o.bots;
+
+    if (o.json) {
+        printf("{");
+        json_num(stdout, "bots", o.bots, false);
+        json_num(stdout, "rate_hz", o.rate, false);
+        json_num(stdout, "duration_s", a.seconds, false);
+        json_num(stdout, "ticks", (double)a.ticks, false);
+        json_num(stdout, "missed_ticks", (double)a.missed, false);
+        json_num(stdout, "tick_p50_ms", a.tick_p50, false);
+        json_num(stdout, "tick_p99_ms", a.tick_p99, false);
+        json_num(stdout, "late_p99_ms", a.late_p99, false);
+        json_num(stdout, "step_mean_us", a.step_mean_us, false);
+        json_num(stdout, "bytes_per_tick_1k", a.bytes_per_tick, false);
+        json_num(stdout, "bytes_per_tick_100k", b.bytes_per_tick, false);
+        json_num(stdout, "stream_bytes_per_tick_1k", a.stream_bytes_per_tick, false);
+        json_num(stdout, "stream_bytes_per_tick_100k", b.stream_bytes_per_tick, false);
+        json_num(stdout, "stream_ratio_1k", ratio1k, false);
+        json_num(stdout, "stream_ratio_100k", ratio100k, false);
+        json_num(stdout, "moved_nodes_per_tick_100k", b.moved_per_tick, false);
+        json_num(stdout, "latency_p50_us", lat50, false);
+        json_num(stdout, "latency_p99_us", lat99, false);
+        json_num(stdout, "latency_p99_pooled_us", pooled99, false);
+        json_num(stdout, "latency_max_us", latmax, false);
+        json_num(stdout, "ddsperf_p50_us", dp50, false);
+        json_num(stdout, "ddsperf_p99_us", dp99, false);
+        json_num(stdout, "latency_ratio_p99", lat99 / dp99, false);
+        json_num(stdout, "bots_synced_1k", a.synced, false);
+        json_num(stdout, "bots_synced_100k", b.synced, true);
+        printf("}\n");
+    } else {
+        printf("ftm bench net: %d trainee bots, %g Hz, loopback (%s)\n\n", o.bots, o.rate, o.config);
+        printf("1k-node scene, %.1f s\n", a.seconds);
+        printf("  ticks run / missed            %" PRIu64 " / %" PRIu64 " (%.1f ticks/s)\n",
+               a.ticks, a.missed, a.seconds > 0 ? (double)a.ticks / a.seconds : 0.0);
+        printf("  tick period p50 / p99         %.2f / %.2f ms (start after due p99 %.2f ms)\n",
+               a.tick_p50, a.tick_p99, a.late_p99);
+        printf("  server step mean              %.1f us\n", a.step_mean_us);
+        printf("  latency p50 / p99 (FTM)       %.0f / %.0f us (median of 1 s windows; pooled "
+               "p99 %.0f, max %.0f)\n",
+               lat50, lat99, pooled99, latmax);
+        printf("  latency p50 / p99 (ddsperf)   %.0f / %.0f us (one way = round trip / 2, 100 B, "
+               "1 kHz)\n",
+               dp50, dp99);
+        printf("  latency p99 ratio FTM/raw     %.2f\n", lat99 / dp99);
+        printf("  bots on the server's hash     %d of %d\n\n", a.synced, o.bots);
+        printf("bytes per tick (protobuf payload)   frames   streaming moved nodes   ratio\n");
+        printf("  1k nodes                          %6.1f   %9.1f                %6.1f\n",
+               a.bytes_per_tick, a.stream_bytes_per_tick, ratio1k);
+        printf("  100k nodes                        %6.1f   %9.1f                %6.1f\n",
+               b.bytes_per_tick, b.stream_bytes_per_tick, ratio100k);
+        printf("  (100k: %.0f nodes moved per tick on average; keyframes %.1f bytes/tick more)\n",
+               b.moved_per_tick, b.ticks ? (double)b.keyframe_bytes / (double)b.ticks : 0.0);
+        printf("  bots on the server's hash (100k)  %d of %d\n", b.synced, o.bots);
+        printf("\nresult: %s\n", ok ? "every bot replayed both sessions bit-identically"
+                                      : "NOT every bot ended on the server's state (see the logs)");
+    }
+    if (!o.keep && ok) {
+        /* remove the temporary directory: the files this run wrote */
+        const char *subs[] = {"1k", "100k"};
+        for (int k = 0; k < 2; k++) {
+            char sub[1200];
+            snprintf(sub, sizeof sub, "%s/%s", dir, subs[k]);
+            DIR *d = opendir(sub);
+            for (struct dirent *e; d && (e = readdir(d));) {
+                char f[1500];
+                if (e->d_name[0] != '.' && snprintf(f, sizeof f, "%s/%s", sub, e->d_name) < (int)sizeof f)
+                    unlink(f);
+            }
+            if (d)
+                closedir(d);
+            rmdir(sub);
+        }
+        remove(s1k);
+        remove(s100k);
+        rmdir(dir);
+    } else if (!ok) {
+        fprintf(stderr, "ftm bench net: logs kept in %s\n", dir);
+    }
+    free(a.lat);
+    free(a.lat_tick);
+    free(b.lat);
+    free(b.lat_tick);
+    return ok ? 0 : 1;
+}
