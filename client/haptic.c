@@ -98,6 +98,14 @@ int ftm_force_renderer_push(ftm_force_renderer *r, const ftm_haptic_sample *s, d
         for (int i = 0; i < 9; i++)
             if (!isfinite(s->stiffness[i]))
                 return FTM_EINVAL;
+    ftm_haptic_sample c = *s;
+    if (c.has_plane) {
+        double nl = v_norm(c.plane_normal);
+        if (!v_finite(c.plane_point) || !(nl > 0) || !isfinite(nl))
+            return FTM_EINVAL;
+        c.plane_normal = v_scale(c.plane_normal, 1.0 / nl);
+    }
+    s = &c;
     if (!r->connected)
         return FTM_OK; /* nothing is rendered while disconnected */
     if (r->count > 0 && s->time < r->s[1].time)
@@ -172,7 +180,18 @@ ftm_vec3 ftm_force_renderer_eval(ftm_force_renderer *r, double now, ftm_vec3 hip
         target = ftm_force_renderer_model(r, now, hip);
         /* Unilateral contact: the tissue pushes; a linear model carried past
          * the surface would pull the probe in. */
-        if (v_dot(target, r->s[1].force) <= 0.0 && v_norm(r->s[1].force) > 0.0) {
+        const ftm_haptic_sample *s1 = &r->s[1];
+        if (s1->has_plane) {
+            double fn = v_dot(target, s1->plane_normal);
+            if (v_dot(v_sub(hip, s1->plane_point), s1->plane_normal) >= 0.0) {
+                if (v_norm(target) > 0.0)
+                    fl |= FTM_HAPTIC_RELEASED; /* the server's release rule */
+                target = (ftm_vec3){0, 0, 0};
+            } else if (fn < 0.0) {
+                target = v_sub(target, v_scale(s1->plane_normal, fn));
+                fl |= FTM_HAPTIC_UNILATERAL;
+            }
+        } else if (v_dot(target, s1->force) <= 0.0 && v_norm(s1->force) > 0.0) {
             if (v_norm(target) > 0.0)
                 fl |= FTM_HAPTIC_UNILATERAL;
             target = (ftm_vec3){0, 0, 0};

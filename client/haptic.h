@@ -12,9 +12,11 @@
  *    evaluates F = F0 + K (x - x0) at the current HIP x. Without a stiffness
  *    in the newest sample it holds F0.
  *
- * Both are followed by the same safety stage: a unilateral-contact rule (a
- * rendered force never points against the newest sample's force: tissue
- * pushes, it does not pull), fade to zero when no sample has arrived for
+ * Both are followed by the same safety stage: a unilateral-contact rule
+ * (tissue pushes, it does not pull: with the contact plane of the newest
+ * sample, zero force once the HIP is back outside the plane and no
+ * component into the tissue; without it, zero when the force points against
+ * the newest sample's force), fade to zero when no sample has arrived for
  * stale_after (linearly over fade_time), magnitude limit max_force,
  * rate-of-change limit max_force_rate, and zero force at once when
  * disconnected or when the device is lost.
@@ -55,6 +57,12 @@ typedef struct ftm_haptic_sample {
     ftm_vec3 hip;        /* x0 [m], the HIP the force was computed for */
     bool has_stiffness;  /* stiffness below is valid */
     double stiffness[9]; /* K = dF/dx0 [N/m], row-major */
+    /* The contact's plane, if known (the server sends it): the tissue only
+     * pushes while (x - plane_point) . plane_normal < 0, and never along
+     * -plane_normal. Without it the newest force's direction stands in. */
+    bool has_plane;
+    ftm_vec3 plane_point;  /* [m] */
+    ftm_vec3 plane_normal; /* outward; normalised on push */
 } ftm_haptic_sample;
 
 typedef struct ftm_haptic_def {
@@ -82,8 +90,9 @@ enum {
     FTM_HAPTIC_CLAMPED = 4,       /* magnitude limited */
     FTM_HAPTIC_RATE_LIMITED = 8,  /* rate of change limited */
     FTM_HAPTIC_DISCONNECTED = 16, /* disconnected: zero force */
-    FTM_HAPTIC_UNILATERAL = 32,   /* model pointed against the sample: zero */
+    FTM_HAPTIC_UNILATERAL = 32,   /* the model pulled: that part removed */
     FTM_HAPTIC_DEVICE_LOST = 64,  /* device read failed: zero force */
+    FTM_HAPTIC_RELEASED = 128,    /* HIP outside the contact plane: zero */
 };
 
 /* ---- the renderer (pure; one thread) ---- */

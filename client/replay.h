@@ -94,6 +94,23 @@ void ftm_replay_get_stats(const ftm_replay *r, ftm_replay_stats *stats);
 double ftm_replay_take_max(ftm_replay *r);
 ftm_sim *ftm_replay_sim(ftm_replay *r);
 
+/* The reaction of one probe (participant, probe index) in a tick frame, e.g.
+ * ftm_replay_last_frame(r): with the server's local force model when it sent
+ * one (out->has_model: F(x) = force + stiffness (x - hip), for
+ * FTM_HAPTIC_FORCE_MODEL in haptic.h). false if the frame has no reaction
+ * for it (the probe is not in contact: zero force). */
+static inline bool ftm_replay_find_reaction(const ftm_wire_tick *t, uint32_t participant,
+                                            int32_t probe, ftm_wire_reaction *out)
+{
+    for (int32_t i = 0; t && i < t->reaction_count; i++) {
+        if (t->reactions[i].participant == participant && t->reactions[i].probe == probe) {
+            *out = t->reactions[i];
+            return true;
+        }
+    }
+    return false;
+}
+
 #ifdef __cplusplus
 }
 #endif

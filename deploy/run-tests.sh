@@ -2,7 +2,8 @@
 # All tests, from a fresh clone: installs dependencies, then builds and runs
 # the test suite twice, as a release build with warnings as errors and as an
 # AddressSanitizer + UndefinedBehaviorSanitizer build, and the determinism
-# tests a third time built with clang.
+# tests a third time built with clang, and the client's threaded tests under
+# ThreadSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -27,5 +28,11 @@ echo "== clang build: the golden hashes must match GCC's bit for bit =="
 CC=clang cmake -S . -B build/clang -G Ninja -DCMAKE_BUILD_TYPE=Release -DFTM_WERROR=ON
 cmake --build build/clang -j "$jobs" --target test_determinism test_sim_kernel
 ctest --test-dir build/clang --output-on-failure -R 'test_determinism|test_sim_kernel' || status=1
+
+echo "== ThreadSanitizer build: the client's threads (haptic loop and its exchanges) =="
+cmake -S . -B build/tsan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTM_WERROR=ON -DFTM_SANITIZE=thread
+cmake --build build/tsan -j "$jobs" --target test_haptic test_haptic_loop
+TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 \
+  ctest --test-dir build/tsan --output-on-failure -R '^test_haptic' || status=1
 
 exit $status

@@ -53,7 +53,7 @@ typedef struct options {
     const char *reactions_csv;
     /* adaptive depth, recording, metrics (docs/server.md) */
     int32_t depth_floor;   /* -1: a quarter of the depth, at least 1 */
-    int32_t adaptive;      /* 0: the depth stays fixed */
+    int32_t adaptive;      /* 1: adapt the depth to the load; 0 (default): fixed */
     double depth_hold_up;  /* calm time before the depth goes up one step [s] */
     const char *record;    /* --record FILE */
     const char *replay;    /* --replay FILE: replay a recording and exit */
@@ -134,7 +134,7 @@ typedef struct server {
     FILE *reactions_csv; /* --offline: one line per probe reaction */
     /* adaptive depth (depth_ctl.h), metrics, recording: control_period() */
     ftm_depth_ctl ctl;
-    uint64_t next_control_ns;
+    uint64_t next_control_ns, floor_log_ns;
     uint64_t prev_tick, prev_missed, prev_rexmit, prev_throttle, prev_sent;
     double prev_step_sum;
     uint64_t rate_tick[10], rate_ns[10]; /* the last second, per control period */
@@ -732,8 +732,23 @@ static void run_tick(server *s)
     } else {
         s->tick++;
     }
-    for (int32_t r = 0; r < nreact; r++)
-        s->reactions[r].force = ftm_sim_reaction(s->sim, s->reactions[r].group);
+    for (int32_t r = 0; r < nreact; r++) {
+        ftm_wire_reaction *re = &s->reactions[r];
+        re->force = ftm_sim_reaction(s->sim, re->group);
+        /* the local force model for the client's haptic loop (docs/haptics.md) */
+        const probe *pb = &s->parts[re->group / MAX_PROBES].probes[re->group % MAX_PROBES];
+        re->hip = pb->hip;
+        re->has_model = ftm_sim_contact_stiffness(s->sim, re->group, re->stiffness) > 0;
+        if (re->has_model) {
+            ftm_stiffness_make_passive(re->stiffness);
+            ftm_stiffness_secant_scale(re->stiffness, re->force, v_sub(pb->hip, pb->anchor));
+        }
+        double nl = sqrt(v_dot(pb->normal, pb->normal));
+        re->has_plane = nl > 0.0; /* the release rule of probe_contacts, for the client */
+        re->contact_point = pb->anchor;
+        if (re->has_plane)
+            re->contact_normal = (ftm_vec3){pb->normal.x / nl, pb->normal.y / nl, pb->normal.z / nl};
+    }
     /* keep the collision grid current: the region's nodes may have moved */
     const int32_t *order = NULL, *start = NULL;
     int32_t layers = ftm_sim_layers(s->sim, &order, &start);
@@ -838,6 +853,9 @@ static void control_period(server *s)
         if (changed) {
             slog(s, "info", "depth %s (tick %" PRIu64 ")", why, s->tick);
             s->depth = d;
+        } else if (why[0] && d == s->ctl.def.floor && now - s->floor_log_ns >= 1000000000u) {
+            slog(s, "info", "depth %d held at the floor: %s (tick %" PRIu64 ")", (int)d, why, s->tick);
+            s->floor_log_ns = now;
         }
     }
 
@@ -976,7 +994,7 @@ static void usage(FILE *f)
             "  --duration S           stop after S seconds (default: until SIGINT/SIGTERM)\n"
             "  --id N                 participant id (default 1)\n"
             "  --log FILE             also write the log to FILE\n"
-            "  --adaptive 0|1         adapt the depth to the load (default 1; --depth is the ceiling)\n"
+            "  --adaptive 0|1         adapt the depth to the load (default 0; --depth is the ceiling)\n"
             "  --depth-floor N        lowest adaptive depth (default: depth / 4, at least 1)\n"
             "  --depth-hold-up S      calm time before each depth increase (default 2)\n"
             "  --record FILE          record every input and published message to FILE\n"
@@ -991,7 +1009,7 @@ static void usage(FILE *f)
 static int parse(int argc, char **argv, options *o)
 {
     *o = (options){"default", "ftm", NULL, NULL, 0, 1, 1000.0, 1.0, 0.1, 0.0, -1, 0, {NULL}, 0, NULL,
-                   -1, 1, 2.0, NULL, NULL, false, 0};
+                   -1, 0, 2.0, NULL, NULL, false, 0};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {

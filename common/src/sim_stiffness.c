@@ -128,3 +128,27 @@ int32_t ftm_sim_contact_stiffness(const ftm_sim *sim, int32_t group, double K[9]
     }
     return used;
 }
+
+double ftm_stiffness_secant_scale(double K[9], ftm_vec3 force, ftm_vec3 pen)
+{
+    /* alpha = (F . p) / (p^T K p): the stiffness along p that the reaction
+     * itself shows (F = K_qs p for a linear tissue pressed from rest),
+     * relative to the held tissue's. 1 at the first tick of a contact, less
+     * as the layers follow; kept in [0, 1] (never stiffer than held) */
+    const double p[3] = {pen.x, pen.y, pen.z};
+    double pKp = 0;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++)
+            pKp += p[a] * K[3 * a + b] * p[b];
+    double fp = force.x * pen.x + force.y * pen.y + force.z * pen.z;
+    if (!(pKp < 0.0) || !isfinite(fp))
+        return 1.0; /* no penetration or no restoring stiffness along it: keep K */
+    double alpha = fp / pKp;
+    if (!(alpha > 0.0))
+        alpha = 0.0;
+    if (alpha > 1.0)
+        alpha = 1.0;
+    for (int i = 0; i < 9; i++)
+        K[i] *= alpha;
+    return alpha;
+}

@@ -335,6 +335,39 @@ static int check_tick(const vctx *v, const Ftm__V1__TickFrame *m)
         snprintf(name, sizeof name, "reactions[%zu].force", i);
         if ((rc = check_vec3(v, name, r->force)))
             return rc;
+        if (r->n_stiffness != 0 && r->n_stiffness != 9)
+            return wire_err(v->err, FTM_EINVAL, "%s: reactions[%zu].stiffness has %zu values (0 or 9)",
+                            v->what, i, r->n_stiffness);
+        if ((r->n_stiffness == 9) != (r->hip != NULL))
+            return wire_err(v->err, FTM_EINVAL,
+                            "%s: reactions[%zu]: stiffness and hip must come together", v->what, i);
+        for (size_t k = 0; k < r->n_stiffness; k++) {
+            if (!isfinite(r->stiffness[k])) {
+                snprintf(name, sizeof name, "reactions[%zu].stiffness[%zu]", i, k);
+                return check_finite(v, name, r->stiffness[k]);
+            }
+        }
+        snprintf(name, sizeof name, "reactions[%zu].hip", i);
+        if (r->hip && (rc = check_vec3(v, name, r->hip)))
+            return rc;
+        if (!r->contact_point != !r->contact_normal)
+            return wire_err(v->err, FTM_EINVAL,
+                            "%s: reactions[%zu]: contact_point and contact_normal must come together",
+                            v->what, i);
+        snprintf(name, sizeof name, "reactions[%zu].contact_point", i);
+        if (r->contact_point && (rc = check_vec3(v, name, r->contact_point)))
+            return rc;
+        snprintf(name, sizeof name, "reactions[%zu].contact_normal", i);
+        if (r->contact_normal && (rc = check_vec3(v, name, r->contact_normal)))
+            return rc;
+        if (r->contact_normal) {
+            const Ftm__V1__Vec3 *nv = r->contact_normal;
+            double len = sqrt(nv->x * nv->x + nv->y * nv->y + nv->z * nv->z);
+            if (!(fabs(len - 1.0) <= 1e-6))
+                return wire_err(v->err, FTM_EINVAL,
+                                "%s: reactions[%zu].contact_normal has length %g (must be 1)",
+                                v->what, i, len);
+        }
     }
     return FTM_OK;
 }
@@ -546,8 +579,20 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         t->reaction_count = (int32_t)m->n_reactions;
         for (size_t i = 0; i < m->n_reactions; i++) {
             const Ftm__V1__ProbeReaction *pr = m->reactions[i];
-            t->reactions[i] = (ftm_wire_reaction){(int32_t)pr->group, pr->participant_id,
-                                                  (int32_t)pr->probe, vec_from(pr->force)};
+            t->reactions[i] = (ftm_wire_reaction){.group = (int32_t)pr->group,
+                                                  .participant = pr->participant_id,
+                                                  .probe = (int32_t)pr->probe,
+                                                  .force = vec_from(pr->force)};
+            if (pr->n_stiffness == 9 && pr->hip) {
+                t->reactions[i].has_model = true;
+                t->reactions[i].hip = vec_from(pr->hip);
+                memcpy(t->reactions[i].stiffness, pr->stiffness, 9 * sizeof(double));
+            }
+            if (pr->contact_point && pr->contact_normal) {
+                t->reactions[i].has_plane = true;
+                t->reactions[i].contact_point = vec_from(pr->contact_point);
+                t->reactions[i].contact_normal = vec_from(pr->contact_normal);
+            }
         }
         return FTM_OK;
     }
@@ -835,7 +880,8 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         double *values = scratch_alloc(s, 3 * n * sizeof *values);
         Ftm__V1__ProbeReaction *rs = scratch_alloc(s, nr * sizeof *rs);
         Ftm__V1__ProbeReaction **rptrs = scratch_alloc(s, nr * sizeof *rptrs);
-        Ftm__V1__Vec3 *forces = scratch_alloc(s, nr * sizeof *forces);
+        /* force, hip, contact point, contact normal */
+        Ftm__V1__Vec3 *forces = scratch_alloc(s, 4 * nr * sizeof *forces);
         if (!m || !nodes || !kinds || !values || !rs || !rptrs || !forces)
             return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
         ftm__v1__tick_frame__init(m);
@@ -884,6 +930,18 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
             rs[i].probe = (uint32_t)r->probe;
             vec_to(&forces[i], r->force);
             rs[i].force = &forces[i];
+            if (r->has_model) {
+                vec_to(&forces[nr + i], r->hip);
+                rs[i].hip = &forces[nr + i];
+                rs[i].n_stiffness = 9;
+                rs[i].stiffness = (double *)r->stiffness; /* only read while packing */
+            }
+            if (r->has_plane) {
+                vec_to(&forces[2 * nr + i], r->contact_point);
+                vec_to(&forces[3 * nr + i], r->contact_normal);
+                rs[i].contact_point = &forces[2 * nr + i];
+                rs[i].contact_normal = &forces[3 * nr + i];
+            }
             rptrs[i] = &rs[i];
         }
         m->n_reactions = nr;

@@ -268,7 +268,30 @@ static void test_unilateral_and_bad_samples(void **state)
     f = ftm_force_renderer_eval(&r, 0.002, (ftm_vec3){0, 0, -0.001}, &fl);
     assert_true(fabs(f.z - 0.5) < 1e-12);
 
-    ftm_haptic_sample bad = s;
+    /* with the contact plane (z = 1 mm, outward +z): zero once the HIP is back
+     * outside it, and never a component into the tissue */
+    ftm_haptic_sample p = sample(1.0, (ftm_vec3){2.0, 0, 1.0}, (ftm_vec3){0, 0, -0.002});
+    p.has_stiffness = true;
+    p.stiffness[8] = -500;
+    p.has_plane = true;
+    p.plane_point = (ftm_vec3){0, 0, 0.001};
+    p.plane_normal = (ftm_vec3){0, 0, 3.0}; /* normalised on push */
+    assert_int_equal(ftm_force_renderer_push(&r, &p, 1.0), FTM_OK);
+    f = ftm_force_renderer_eval(&r, 1.001, (ftm_vec3){0, 0, 0.0005}, &fl);
+    assert_true(f.x == 2.0 && f.y == 0.0 && f.z == 0.0); /* -0.25 N inward removed */
+    assert_true(fl & FTM_HAPTIC_UNILATERAL);
+    f = ftm_force_renderer_eval(&r, 1.002, (ftm_vec3){0, 0, 0.001}, &fl);
+    assert_true(norm(f) == 0.0 && (fl & FTM_HAPTIC_RELEASED));
+    f = ftm_force_renderer_eval(&r, 1.003, (ftm_vec3){0, 0, -0.001}, &fl);
+    assert_true(fabs(f.x - 2.0) < 1e-12 && fabs(f.z - 0.5) < 1e-12);
+    ftm_haptic_sample bad = p;
+    bad.plane_normal = (ftm_vec3){0, 0, 0};
+    assert_int_equal(ftm_force_renderer_push(&r, &bad, 1.004), FTM_EINVAL);
+    bad = p;
+    bad.plane_point.x = INFINITY;
+    assert_int_equal(ftm_force_renderer_push(&r, &bad, 1.004), FTM_EINVAL);
+
+    bad = s;
     bad.force.y = NAN;
     assert_int_equal(ftm_force_renderer_push(&r, &bad, 0.003), FTM_EINVAL);
     bad = s;
@@ -279,8 +302,8 @@ static void test_unilateral_and_bad_samples(void **state)
     assert_int_equal(ftm_force_renderer_push(&r, &bad, 0.003), FTM_EINVAL);
     /* out of order: older than the newest held, ignored */
     ftm_haptic_sample old = sample(-1.0, (ftm_vec3){0, 0, 7.0}, s.hip);
-    assert_int_equal(ftm_force_renderer_push(&r, &old, 0.004), FTM_OK);
-    f = ftm_force_renderer_eval(&r, 0.004, (ftm_vec3){0, 0, -0.001}, &fl);
+    assert_int_equal(ftm_force_renderer_push(&r, &old, 1.004), FTM_OK);
+    f = ftm_force_renderer_eval(&r, 1.004, (ftm_vec3){0, 0, -0.001}, &fl);
     assert_true(fabs(f.z - 0.5) < 1e-12);
 }
 

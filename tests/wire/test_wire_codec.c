@@ -103,8 +103,8 @@ static ftm_wire_msg sample_tick(int n, uint64_t tick)
             .kind = i % 2 ? FTM_CONTACT_DISPLACEMENT : FTM_CONTACT_FORCE,
             .value = {odd_values[i % NODD], odd_values[(i + 1) % NODD], odd_values[(i + 2) % NODD]}};
     }
-    tick_reactions[0] = (ftm_wire_reaction){0, 17, 0, {0.5, -0.25, 1e-9}};
-    tick_reactions[1] = (ftm_wire_reaction){2, 18, 1, {-0.0, 0, DBL_MAX}};
+    tick_reactions[0] = (ftm_wire_reaction){.group = 0, .participant = 17, .probe = 0, .force = {0.5, -0.25, 1e-9}};
+    tick_reactions[1] = (ftm_wire_reaction){.group = 2, .participant = 18, .probe = 1, .force = {-0.0, 0, DBL_MAX}};
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_TICK;

@@ -230,6 +230,15 @@ int32_t ftm_sim_contact_stiffness(const ftm_sim *sim, int32_t group, double K[9]
  * K derives from a potential that only resists motion. */
 void ftm_stiffness_make_passive(double K[9]);
 
+/* Scales a (passive) held-tissue stiffness in place to the reaction's own
+ * secant along the penetration pen (HIP minus the contact's anchor on the
+ * rest surface): K *= alpha, alpha = (F . pen) / (pen^T K pen) kept in
+ * [0, 1]. The held stiffness is the response before the tissue around the
+ * contact has moved; the layers then follow and the tissue feels softer
+ * (a linear tissue pressed from rest has F = K_qs pen). Returns alpha (1 and
+ * K unchanged when pen^T K pen is not negative). */
+double ftm_stiffness_secant_scale(double K[9], ftm_vec3 force, ftm_vec3 pen);
+
 #ifdef __cplusplus
 }
 #endif

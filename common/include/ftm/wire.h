@@ -102,6 +102,14 @@ typedef struct ftm_wire_reaction {
     uint32_t participant;
     int32_t probe;
     ftm_vec3 force;
+    /* local force model (docs/haptics.md): F(x) = force + stiffness (x - hip) */
+    bool has_model;        /* hip and stiffness below are valid */
+    ftm_vec3 hip;          /* [m] the HIP the force was computed for */
+    double stiffness[9];   /* dF/dx [N/m], row-major */
+    /* the contact's plane: released when (x - contact_point) . contact_normal >= 0 */
+    bool has_plane;           /* contact_point and contact_normal are valid */
+    ftm_vec3 contact_point;   /* [m] rest coordinates */
+    ftm_vec3 contact_normal;  /* outward, unit length */
 } ftm_wire_reaction;
 
 typedef struct ftm_wire_tick {
