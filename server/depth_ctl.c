@@ -151,6 +151,7 @@ int32_t ftm_depth_ctl_update(ftm_depth_ctl *ctl, const ftm_depth_ctl_input *in, 
         reason[0] = '\0';
     if (overload(d, in, why, sizeof why)) {
         ctl->calm_since_ns = INT64_MIN;
+        snprintf(reason, reason_size, "%s", why); /* also when it cannot act */
         if (ctl->depth > d->floor && elapsed(ctl->last_change_ns, now, d->hold_down_ns)) {
             int32_t to = ctl->depth - d->down_step;
             return change(ctl, to < d->floor ? d->floor : to, now, changed, reason, reason_size,

@@ -83,7 +83,10 @@ int ftm_depth_ctl_init(ftm_depth_ctl *ctl, const ftm_depth_ctl_def *def, ftm_err
 
 /* One decision. Returns the depth to use from now on; when it changed,
  * *changed is true and reason says why, e.g.
- * "8 -> 6: participant 12 (observer) lag 45 ticks > 40". */
+ * "8 -> 6: participant 12 (observer) lag 45 ticks > 40". On an overload it
+ * cannot act on (at the floor, or within hold_down) reason names the
+ * overload ("participant 12 (observer) lag 45 ticks > 40") and *changed is
+ * false; otherwise reason is empty. */
 int32_t ftm_depth_ctl_update(ftm_depth_ctl *ctl, const ftm_depth_ctl_input *in, bool *changed,
                              char *reason, size_t reason_size);
 

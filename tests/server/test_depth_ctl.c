@@ -85,6 +85,19 @@ static void overload_to_floor_and_no_lower(void **state)
     assert_int_equal(r.ctl.depth, 2);
     assert_int_equal(r.min_seen, 2);
     assert_int_equal(r.ctl.decreases, 4); /* 10 -> 8 -> 6 -> 4 -> 2 */
+    {   /* at the floor it still says what it would do something about */
+        ftm_depth_ctl_input in = {r.now + PERIOD_NS, 0.9 * BUDGET_NS, 0, 0, 0, 0.0, 0, NULL};
+        bool changed = true;
+        char reason[FTM_DEPTH_REASON_MAX];
+        assert_int_equal(ftm_depth_ctl_update(&r.ctl, &in, &changed, reason, sizeof reason), 2);
+        assert_false(changed);
+        assert_string_equal(reason, "step 0.900 ms > 0.8 of budget 1 ms");
+        in.now_ns += PERIOD_NS;
+        in.step_ns = 0.6 * BUDGET_NS; /* dead band: nothing to say */
+        ftm_depth_ctl_update(&r.ctl, &in, &changed, reason, sizeof reason);
+        assert_string_equal(reason, "");
+        r.now = in.now_ns;
+    }
     assert_int_equal(r.ctl.increases, 0);
     assert_true(r.min_gap_down >= r.ctl.def.hold_down_ns);
     assert_non_null(strstr(r.last_reason, "step 0.900 ms > 0.8 of budget"));
