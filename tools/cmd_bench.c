@@ -18,6 +18,9 @@ static const struct {
 #ifdef FTM_HAVE_NET
     {"net", ftm_bench_net, "a loopback DDS session: tick rate, bytes per tick, latency vs ddsperf"},
 #endif
+#ifdef FTM_HAVE_FEM
+    {"accuracy", ftm_bench_accuracy, "run time against error to equilibrium vs the FEM reference"},
+#endif
 };
 
 static void usage(FILE *f)

@@ -86,6 +86,7 @@ typedef enum key {
     K_GUARD,
     K_GUARD_MOTION,
     K_MAX_SUBSTEPS,
+    K_FORCES,
     K_YOUNG,
     K_POISSON,
     K_DENSITY,
@@ -133,6 +134,7 @@ static const struct {
     [K_GUARD] = {SEC_SIM, "guard", false},
     [K_GUARD_MOTION] = {SEC_SIM, "guard_motion", false},
     [K_MAX_SUBSTEPS] = {SEC_SIM, "max_substeps", false},
+    [K_FORCES] = {SEC_SIM, "forces", false},
     [K_YOUNG] = {SEC_FEM, "young", false},
     [K_POISSON] = {SEC_FEM, "poisson", false},
     [K_DENSITY] = {SEC_FEM, "density", false},
@@ -593,6 +595,16 @@ static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
             return rc;
         s->sim.max_substeps = (int32_t)iv;
         return FTM_OK;
+    case K_FORCES: { /* element forces take the [fem] material (checked later) */
+        static const char *const names[] = {"springs", "linear-fem", "corot-fem", NULL};
+        static const ftm_forces values[] = {FTM_FORCES_SPRINGS, FTM_FORCES_LINEAR_FEM,
+                                            FTM_FORCES_COROT_FEM};
+        int f;
+        if ((rc = word(p, kn, v, vlen, names, "springs, linear-fem or corot-fem", &f)) != FTM_OK)
+            return rc;
+        s->sim.forces = values[f];
+        return FTM_OK;
+    }
     case K_YOUNG:
         return scalar(p, kn, v, vlen, true, &s->young);
     case K_POISSON: {
@@ -1016,6 +1028,9 @@ static int check_material(const parser *p)
 static int check_fem(const parser *p)
 {
     const spec *s = &p->s;
+    if (!s->section_line[SEC_FEM] && s->sim.forces != FTM_FORCES_SPRINGS)
+        return fail_at(p, s->key_line[K_FORCES], FTM_EPARSE,
+                       "element forces need a [fem] section (young, poisson, density)");
     if (!s->section_line[SEC_FEM])
         return FTM_OK;
     if (!s->key_line[K_YOUNG])
@@ -1204,6 +1219,11 @@ static int parse_scene(const char *text, size_t length, const char *name, const 
     }
     if (rc == FTM_OK)
         rc = build_mesh(&p, &scene->mesh);
+    if (rc == FTM_OK && p.s.sim.forces != FTM_FORCES_SPRINGS &&
+        ftm_mesh_hexahedron_count(scene->mesh) + ftm_mesh_tetrahedron_count(scene->mesh) == 0)
+        rc = fail_at(&p, p.s.key_line[K_FORCES], FTM_EPARSE,
+                     "element forces need hexahedra or tetrahedra (lattice3d, .msh or .node), "
+                     "this mesh has none");
     if (rc == FTM_OK && p.s.load_count) {
         scene->loads = calloc(p.s.load_count, sizeof *scene->loads);
         if (!scene->loads)
@@ -1214,6 +1234,11 @@ static int parse_scene(const char *text, size_t length, const char *name, const 
     if (rc == FTM_OK) {
         memcpy(scene->name, p.s.name, sizeof scene->name);
         scene->sim = p.s.sim;
+        if (scene->sim.forces != FTM_FORCES_SPRINGS) { /* the [fem] material */
+            scene->sim.young = p.s.young;
+            scene->sim.poisson = p.s.poisson;
+            scene->sim.density = p.s.density;
+        }
         scene->steps = (int32_t)p.s.steps;
         scene->load_count = (int32_t)p.s.load_count;
         scene->has_fem = p.s.section_line[SEC_FEM] != 0;

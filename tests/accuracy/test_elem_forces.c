@@ -505,6 +505,46 @@ static void test_springs_default(void **state)
     ftm_mesh_destroy(m);
 }
 
+
+/* [sim] forces = ... in a scene: the [fem] material goes into the definition. */
+static void test_scene_forces(void **state)
+{
+    (void)state;
+    static const char ok[] = "[mesh]\ngenerator = lattice3d\nnx = 3\nny = 3\nnz = 3\n"
+                             "spacing = 0.01\nfixed_faces = zmin\n"
+                             "[material]\nmass = 0.001\nstiffness = 10\ndamping = 0.5\n"
+                             "[sim]\nforces = corot-fem\n"
+                             "[fem]\nyoung = 1e5\npoisson = 0.3\ndensity = 1000\n";
+    ftm_scene *sc = NULL;
+    ftm_error err;
+    assert_int_equal(ftm_scene_parse(ok, sizeof ok - 1, "ok", &sc, &err), FTM_OK);
+    ftm_sim_def d = ftm_scene_sim_def(sc);
+    assert_int_equal(d.forces, FTM_FORCES_COROT_FEM);
+    assert_true(d.young == 1e5 && d.poisson == 0.3 && d.density == 1000);
+    ftm_sim *sim = NULL;
+    assert_int_equal(ftm_sim_create(ftm_scene_mesh(sc), &d, &sim, &err), FTM_OK);
+    assert_true(fabs(ftm_sim_masses(sim)[0] * 8 - 1000 * 1e-6) < 1e-15); /* a corner: 1/8 cell */
+    ftm_sim_destroy(sim);
+    ftm_scene_destroy(sc);
+    static const char no_fem[] = "[mesh]\ngenerator = lattice3d\nnx = 3\nny = 3\nnz = 3\n"
+                                 "spacing = 0.01\n[material]\nmass = 0.001\nstiffness = 10\n"
+                                 "[sim]\nforces = linear-fem\n";
+    assert_int_equal(ftm_scene_parse(no_fem, sizeof no_fem - 1, "no_fem", &sc, &err), FTM_EPARSE);
+    assert_contains(err.message, "no_fem:11:");
+    assert_contains(err.message, "[fem]");
+    static const char flat[] = "[mesh]\ngenerator = lattice2d\nnx = 3\nny = 3\nspacing = 1\n"
+                               "[material]\nmass = 1\nstiffness = 1\n[sim]\nforces = linear-fem\n"
+                               "[fem]\nyoung = 1\npoisson = 0.3\n";
+    assert_int_equal(ftm_scene_parse(flat, sizeof flat - 1, "flat", &sc, &err), FTM_EPARSE);
+    assert_contains(err.message, "flat:10:");
+    assert_contains(err.message, "hexahedra or tetrahedra");
+    static const char bad[] = "[mesh]\ngenerator = lattice3d\nnx = 2\nny = 2\nnz = 2\n"
+                              "spacing = 1\n[material]\nmass = 1\nstiffness = 1\n"
+                              "[sim]\nforces = fem\n";
+    assert_int_equal(ftm_scene_parse(bad, sizeof bad - 1, "bad", &sc, &err), FTM_EPARSE);
+    assert_contains(err.message, "springs, linear-fem or corot-fem");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -516,6 +556,7 @@ int main(void)
         cmocka_unit_test(test_deterministic_and_reaction),
         cmocka_unit_test(test_bad_definitions),
         cmocka_unit_test(test_springs_default),
+        cmocka_unit_test(test_scene_forces),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -129,6 +129,25 @@ typedef struct ftm_fem_stats {
 ftm_fem_stats ftm_fem_get_stats(const ftm_fem *fem);
 const ftm_mesh *ftm_fem_mesh(const ftm_fem *fem);
 
+/* ---- sparse SPD solver (CHOLMOD) for other implicit models ----
+ * Used by the backward-Euler mass-spring model of `ftm bench accuracy`
+ * (docs/accuracy.md). The pattern is the upper triangle by columns (CSC):
+ * column j holds rows row[col_start[j] .. col_start[j+1]-1], ascending and
+ * <= j; it is analysed once (fill-reducing ordering) by ftm_spd_create, and
+ * each ftm_spd_factor is a numeric factorisation with values in pattern
+ * order. One object per thread. */
+typedef struct ftm_spd ftm_spd;
+
+int ftm_spd_create(int32_t n, const int32_t *col_start, const int32_t *row, ftm_spd **out,
+                   ftm_error *err);
+/* FTM_EINVAL (message) if the matrix is not positive definite. */
+int ftm_spd_factor(ftm_spd *spd, const double *values, ftm_error *err);
+/* x = A^-1 b with the last successful factorisation (n entries each). */
+int ftm_spd_solve(ftm_spd *spd, const double *b, double *x, ftm_error *err);
+/* Entries of the last factor L (0 before the first factorisation). */
+int64_t ftm_spd_factor_nnz(const ftm_spd *spd);
+void ftm_spd_destroy(ftm_spd *spd);
+
 #ifdef __cplusplus
 }
 #endif
