@@ -191,7 +191,13 @@ ftm_vec3 ftm_force_renderer_eval(ftm_force_renderer *r, double now, ftm_vec3 hip
                 target = v_sub(target, v_scale(s1->plane_normal, fn));
                 fl |= FTM_HAPTIC_UNILATERAL;
             }
-        } else if (v_dot(target, s1->force) <= 0.0 && v_norm(s1->force) > 0.0) {
+        } else if (v_norm(s1->force) == 0.0) {
+            /* the server says: no contact (a line from a contact sample to
+             * this one would carry the release on as a pull) */
+            if (v_norm(target) > 0.0)
+                fl |= FTM_HAPTIC_RELEASED;
+            target = (ftm_vec3){0, 0, 0};
+        } else if (v_dot(target, s1->force) <= 0.0) {
             if (v_norm(target) > 0.0)
                 fl |= FTM_HAPTIC_UNILATERAL;
             target = (ftm_vec3){0, 0, 0};

@@ -15,8 +15,8 @@
  * Both are followed by the same safety stage: a unilateral-contact rule
  * (tissue pushes, it does not pull: with the contact plane of the newest
  * sample, zero force once the HIP is back outside the plane and no
- * component into the tissue; without it, zero when the force points against
- * the newest sample's force), fade to zero when no sample has arrived for
+ * component into the tissue; without it, zero when the newest sample's
+ * force is zero (no contact) or the force points against it), fade to zero when no sample has arrived for
  * stale_after (linearly over fade_time), magnitude limit max_force,
  * rate-of-change limit max_force_rate, and zero force at once when
  * disconnected or when the device is lost.
@@ -92,7 +92,7 @@ enum {
     FTM_HAPTIC_DISCONNECTED = 16, /* disconnected: zero force */
     FTM_HAPTIC_UNILATERAL = 32,   /* the model pulled: that part removed */
     FTM_HAPTIC_DEVICE_LOST = 64,  /* device read failed: zero force */
-    FTM_HAPTIC_RELEASED = 128,    /* HIP outside the contact plane: zero */
+    FTM_HAPTIC_RELEASED = 128,    /* HIP outside the contact plane, or no contact: zero */
 };
 
 /* ---- the renderer (pure; one thread) ---- */

@@ -305,6 +305,19 @@ static void test_unilateral_and_bad_samples(void **state)
     assert_int_equal(ftm_force_renderer_push(&r, &old, 1.004), FTM_OK);
     f = ftm_force_renderer_eval(&r, 1.004, (ftm_vec3){0, 0, -0.001}, &fl);
     assert_true(fabs(f.z - 0.5) < 1e-12);
+
+    /* a release in the samples (force to zero, no plane): zero, not the
+     * line through the two samples carried on as a pull */
+    ftm_force_renderer_init(&r, &d);
+    ftm_haptic_sample c0 = sample(2.0, (ftm_vec3){0.3, 0, 1.0}, (ftm_vec3){0, 0, 0});
+    ftm_haptic_sample c1 = sample(2.001, (ftm_vec3){0, 0, 0}, (ftm_vec3){0, 0, 0});
+    ftm_force_renderer_set_kind(&r, FTM_HAPTIC_EXTRAPOLATE);
+    ftm_force_renderer_push(&r, &c0, 2.0);
+    ftm_force_renderer_push(&r, &c1, 2.05);
+    ftm_force_renderer_eval(&r, 2.05, c0.hip, NULL);
+    f = ftm_force_renderer_eval(&r, 2.051, c0.hip, &fl);
+    assert_true(norm(f) == 0.0);
+    assert_true(norm(ftm_force_renderer_model(&r, 2.051, c0.hip)) > 10.0); /* what it avoided */
 }
 
 static void test_def_check(void **state)
