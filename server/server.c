@@ -59,6 +59,7 @@ typedef struct options {
     const char *replay;    /* --replay FILE: replay a recording and exit */
     bool scene_given;      /* --scene was on the command line */
     int32_t metrics_port;  /* 0: off */
+    const char *control_log; /* --control-log FILE: CSV per control period */
 } options;
 
 typedef struct probe {
@@ -143,6 +144,13 @@ typedef struct server {
     double step_sum_ns, step_recent_ns;
     ftm_record_writer *rec;
     ftm_metrics *metrics;
+    ftm_metrics_snapshot msnap; /* built here, copied to the HTTP thread */
+    /* published frames (time, tick), newest last: what a participant can
+     * have applied by now (lag_of) */
+#define PUB_RING 1024
+    uint64_t pub_ring_ns[PUB_RING], pub_ring_tick[PUB_RING];
+    uint64_t pub_ring_n;
+    FILE *control_csv;
 } server;
 
 static uint64_t mono_ns(void)
@@ -368,6 +376,9 @@ static void publish_frame(server *s, int32_t n, int32_t nreact, bool heartbeat)
     s->pub_n = n;
     s->pub_depth = s->depth;
     s->pub_tick = s->tick;
+    s->pub_ring_ns[s->pub_ring_n % PUB_RING] = mono_ns();
+    s->pub_ring_tick[s->pub_ring_n % PUB_RING] = s->tick;
+    s->pub_ring_n++;
     s->pub_ns = mono_ns();
     s->published_any = true;
 }
@@ -395,6 +406,25 @@ static void release_probes(participant *p)
 {
     for (int k = 0; k < MAX_PROBES; k++)
         memset(&p->probes[k], 0, sizeof p->probes[k]);
+}
+
+/* Ticks a participant that has applied `applied` is behind: against the
+ * newest frame published at least LAG_GRACE_NS ago (frames still in flight
+ * are no lag; without the grace an idle scene's heartbeat sent just before
+ * a status arrives would count as a heartbeat interval of lag). */
+#define LAG_GRACE_NS 10000000u
+static int64_t lag_of(const server *s, uint64_t applied)
+{
+    uint64_t limit = mono_ns() - LAG_GRACE_NS, ref = 0;
+    uint64_t n = s->pub_ring_n < PUB_RING ? s->pub_ring_n : PUB_RING;
+    for (uint64_t k = 1; k <= n; k++) {
+        uint64_t i = (s->pub_ring_n - k) % PUB_RING;
+        if (s->pub_ring_ns[i] <= limit) {
+            ref = s->pub_ring_tick[i];
+            break;
+        }
+    }
+    return ref > applied ? (int64_t)(ref - applied) : 0;
 }
 
 static void on_status(server *s, ftm_wire_received *rx)
@@ -440,8 +470,8 @@ static void on_status(server *s, ftm_wire_received *rx)
     p->state = st->state;
     p->last_tick = st->last_applied_tick;
     p->hash = st->state_hash;
-    /* lag against what it could have: the frames published so far */
-    p->lag = s->pub_tick > st->last_applied_tick ? (int64_t)(s->pub_tick - st->last_applied_tick) : 0;
+    /* lag against the frames it could have applied by now */
+    p->lag = lag_of(s, st->last_applied_tick);
     p->replay_ns = st->replay_ns_per_tick;
     snprintf(p->name, sizeof p->name, "%s", st->name);
     if (st->state == FTM_WIRE_STATE_JOINING || st->state == FTM_WIRE_STATE_RESYNCING)
@@ -487,7 +517,7 @@ static void on_probe_input(server *s, ftm_wire_received *rx)
     /* a trainee reports the newest frame it applied with every batch: a
      * lag measurement at the input rate, fresher than the status */
     if (in->last_tick_seen > 0)
-        p->lag = s->pub_tick > in->last_tick_seen ? (int64_t)(s->pub_tick - in->last_tick_seen) : 0;
+        p->lag = lag_of(s, in->last_tick_seen);
 }
 
 /* Puts the tissue back at rest, keeping the tick counter. With publish_now
@@ -818,8 +848,8 @@ static void control_period(server *s)
     s->prev_sent = sent;
 
     ftm_depth_ctl_part parts[MAX_PARTICIPANTS];
-    static ftm_metrics_snapshot m; /* 10 kB: not on the stack; loop thread only */
-    memset(&m, 0, sizeof m);
+    ftm_metrics_snapshot *m = &s->msnap;
+    memset(m, 0, sizeof *m);
     int32_t np = 0;
     for (int i = 0; i < MAX_PARTICIPANTS; i++) {
         participant *p = &s->parts[i];
@@ -832,8 +862,8 @@ static void control_period(server *s)
             if (late > lag)
                 lag = late;
         }
-        if (m.nparts < FTM_METRICS_PARTS) {
-            ftm_metrics_part *mp = &m.parts[m.nparts++];
+        if (m->nparts < FTM_METRICS_PARTS) {
+            ftm_metrics_part *mp = &m->parts[m->nparts++];
             mp->id = p->id;
             snprintf(mp->role, sizeof mp->role, "%s", role_name(p->role));
             snprintf(mp->state, sizeof mp->state, "%s", state_name(p->state));
@@ -862,35 +892,47 @@ static void control_period(server *s)
     s->rate_tick[s->rate_i] = s->tick;
     s->rate_ns[s->rate_i] = now;
     s->rate_i = (s->rate_i + 1) % 10;
+    uint64_t t_old = s->rate_ns[s->rate_i], k_old = s->rate_tick[s->rate_i];
+    double rate = t_old && now > t_old ? (double)(s->tick - k_old) * 1e9 / (double)(now - t_old) : 0.0;
+    if (s->control_csv) {
+        const ftm_depth_ctl_part *worst = NULL;
+        for (int32_t i = 0; i < np; i++)
+            if (!worst || parts[i].lag > worst->lag)
+                worst = &parts[i];
+        fprintf(s->control_csv, "%.3f,%" PRIu64 ",%d,%.4f,%" PRIu64 ",%lld,%u,%d,%.3f,%.1f\n",
+                (double)(now - s->t_start_ns) * 1e-9, s->tick, (int)s->depth,
+                step_ns >= 0 ? step_ns * 1e-6 : 0.0, in.missed_ticks,
+                worst ? (long long)worst->lag : 0LL, worst ? worst->id : 0u, (int)in.backlog,
+                in.rexmit_ratio, rate);
+    }
     if (!s->metrics)
         return;
-    uint64_t t_old = s->rate_ns[s->rate_i], k_old = s->rate_tick[s->rate_i];
-    m.tick_rate_target = s->o.rate;
-    m.tick_rate = t_old && now > t_old ? (double)(s->tick - k_old) * 1e9 / (double)(now - t_old) : 0.0;
-    m.ticks = s->tick;
-    m.missed_ticks = s->missed_ticks;
-    m.idle_ticks = s->idle_ticks;
-    m.frames = s->frames;
-    m.heartbeats = s->heartbeats;
-    m.keyframes = s->keyframes;
-    m.bytes_frames = s->bytes_frames;
-    m.bytes_keyframes = s->bytes_keyframes;
-    m.publish_fail = s->publish_fail;
-    m.rexmit_bytes = ws.rexmit_bytes;
-    m.throttle_count = ws.throttle_count;
-    m.depth = s->depth;
-    m.depth_min = s->ctl.def.floor;
-    m.depth_max = s->ctl.def.max;
-    m.depth_decreases = s->ctl.decreases;
-    m.depth_increases = s->ctl.increases;
-    m.step_count = s->step_count;
-    m.step_sum_s = s->step_sum_ns * 1e-9;
-    memcpy(m.step_bucket, s->step_bucket, sizeof m.step_bucket);
-    m.step_last_period_s = s->step_recent_ns * 1e-9;
+    m->tick_rate_target = s->o.rate;
+    m->tick_rate = rate;
+    m->ticks = s->tick;
+    m->missed_ticks = s->missed_ticks;
+    m->idle_ticks = s->idle_ticks;
+    m->frames = s->frames;
+    m->heartbeats = s->heartbeats;
+    m->keyframes = s->keyframes;
+    m->bytes_frames = s->bytes_frames;
+    m->bytes_keyframes = s->bytes_keyframes;
+    m->publish_fail = s->publish_fail;
+    m->rexmit_bytes = ws.rexmit_bytes;
+    m->throttle_count = ws.throttle_count;
+    m->depth = s->depth;
+    m->depth_min = s->ctl.def.floor;
+    m->depth_max = s->ctl.def.max;
+    m->depth_decreases = s->ctl.decreases;
+    m->depth_increases = s->ctl.increases;
+    m->step_count = s->step_count;
+    m->step_sum_s = s->step_sum_ns * 1e-9;
+    memcpy(m->step_bucket, s->step_bucket, sizeof m->step_bucket);
+    m->step_last_period_s = s->step_recent_ns * 1e-9;
     for (int i = 0; i < MAX_PARTICIPANTS; i++)
-        m.inputs_rejected += s->parts[i].used ? s->parts[i].rejected : 0;
-    m.record_bytes = ftm_record_bytes(s->rec);
-    ftm_metrics_update(s->metrics, &m);
+        m->inputs_rejected += s->parts[i].used ? s->parts[i].rejected : 0;
+    m->record_bytes = ftm_record_bytes(s->rec);
+    ftm_metrics_update(s->metrics, m);
 }
 
 /* ---- loop --------------------------------------------------------------------------- */
@@ -1000,6 +1042,7 @@ static void usage(FILE *f)
             "  --record FILE          record every input and published message to FILE\n"
             "  --replay FILE          re-simulate a recording, check every hash, exit\n"
             "  --metrics-port N       Prometheus metrics on http://127.0.0.1:N/metrics (0: off)\n"
+            "  --control-log FILE     CSV every 100 ms: time, tick, depth, step, lag, backlog, rate\n"
             "  --offline N            run N ticks without DDS, trainees from --trainee scripts\n"
             "  --trainee ID:T0:FILE   (offline) trainee ID plays bot script FILE; tick k uses\n"
             "                         the HIP at script time T0 + k / rate (repeatable, <= 8)\n"
@@ -1009,7 +1052,7 @@ static void usage(FILE *f)
 static int parse(int argc, char **argv, options *o)
 {
     *o = (options){"default", "ftm", NULL, NULL, 0, 1, 1000.0, 1.0, 0.1, 0.0, -1, 0, {NULL}, 0, NULL,
-                   -1, 0, 2.0, NULL, NULL, false, 0};
+                   -1, 0, 2.0, NULL, NULL, false, 0, NULL};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -1056,6 +1099,8 @@ static int parse(int argc, char **argv, options *o)
             o->record = v;
         else if (strcmp(a, "--replay") == 0)
             o->replay = v;
+        else if (strcmp(a, "--control-log") == 0)
+            o->control_log = v;
         else if (strcmp(a, "--metrics-port") == 0)
             o->metrics_port = (int32_t)strtol(v, &end, 10);
         else if (strcmp(a, "--offline") == 0)
@@ -1268,6 +1313,14 @@ int main(int argc, char **argv)
         }
         slog(s, "info", "recording the session to %s", s->o.record);
     }
+    if (s->o.control_log) {
+        if (!(s->control_csv = fopen(s->o.control_log, "w"))) {
+            slog(s, "error", "cannot create %s: %s", s->o.control_log, strerror(errno));
+            return 3;
+        }
+        fprintf(s->control_csv, "time_s,tick,depth,step_ms,missed,worst_lag,worst_participant,"
+                                "backlog,rexmit_ratio,tick_rate_hz\n");
+    }
     if (s->o.metrics_port > 0) {
         if (ftm_metrics_start((uint16_t)s->o.metrics_port, &s->metrics, &err)) {
             slog(s, "error", "%s", err.message);
@@ -1341,6 +1394,8 @@ int main(int argc, char **argv)
         s->rec = NULL;
     }
     ftm_metrics_stop(s->metrics);
+    if (s->control_csv && fclose(s->control_csv) != 0)
+        rc = 3;
     ftm_wire_transport_destroy(s->wire);
     uv_loop_close(s->loop);
     ftm_collide_destroy(s->collide);
