@@ -1127,6 +1127,128 @@ static void test_unstable_step_leaves_state(void **state)
     ftm_mesh_destroy(m);
 }
 
+/* Slow growth (docs/stability.md): light damping below the critical step.
+ * The layer-by-layer update feeds energy into smooth modes faster than the
+ * damping removes it; no single step moves a node far, so the motion check
+ * alone does not fire until the lattice is far from rest. The energy check
+ * sees it while the displacement is still a fraction of the spacing, rolls
+ * back and substeps; the run then settles at the static solution. */
+static ftm_sim *slow_sim(const ftm_mesh *m, bool guard, log_count *lc)
+{
+    ftm_sim_def def = ftm_default_sim_def();
+    def.time_step = 0.6 * ftm_mesh_critical_time_step(m);
+    def.depth = 20;
+    def.guard = guard;
+    def.log = count_log;
+    def.log_user = lc;
+    ftm_sim *s = NULL;
+    assert_int_equal(ftm_sim_create(m, &def, &s, NULL), FTM_OK);
+    set1(s, in2d(m, 11, 5, 8), FTM_CONTACT_FORCE, (ftm_vec3){0.6, -2.0, 0.0});
+    return s;
+}
+
+static void test_guard_energy_slow_growth(void **state)
+{
+    (void)state;
+    ftm_mesh *m = lattice2d(11, 11, 1.0, 4.0, 100.0, FTM_FACE_YMIN);
+    double *rest = rest_positions(m);
+    size_t n3 = (size_t)ftm_mesh_node_count(m) * 3;
+    const int steps = 6000;
+    /* guard off: grows past one spacing (the static displacement is ~0.03) */
+    log_count lc = {0, 0};
+    ftm_sim *s = slow_sim(m, false, &lc);
+    int blown_at = -1;
+    for (int i = 0; i < steps && blown_at < 0; i++) {
+        (void)ftm_sim_step(s);
+        if (!all_finite(s) || max_abs_diff(ftm_sim_positions(s), rest, n3) > 1.0)
+            blown_at = i;
+    }
+    assert_true(blown_at > 50); /* slow: many steps */
+    ftm_sim_destroy(s);
+    /* guard on: caught while small, recovered, never above a third of a spacing */
+    s = slow_sim(m, true, &lc);
+    double worst = 0.0;
+    ftm_sim_stats st;
+    for (int i = 0; i < steps; i++) {
+        assert_int_equal(ftm_sim_step(s), FTM_OK);
+        assert_true(all_finite(s));
+        worst = fmax(worst, max_abs_diff(ftm_sim_positions(s), rest, n3));
+    }
+    ftm_sim_get_stats(s, &st);
+    print_message("slow growth: unguarded past 1 spacing at step %d; guarded: %llu events, "
+                  "substeps %d, largest displacement %.3g\n",
+                  blown_at, (unsigned long long)st.guard_events, (int)st.substeps, worst);
+    assert_true(st.guard_events > 0);
+    assert_true(worst < 0.33);
+    ftm_sim_destroy(s);
+    free(rest);
+    ftm_mesh_destroy(m);
+}
+
+/* No false alarm from the energy check in a stable scene whose loads do work
+ * in every direction: a force switched on and off, a probe pressing in and
+ * pulling out and sliding to the next node, a release, and a keyframe
+ * loaded in the middle (the guard's account restarts there). */
+static void test_guard_energy_quiet_when_stable(void **state)
+{
+    (void)state;
+    ftm_mesh *m = guard_mesh();
+    log_count lc = {0, 0};
+    ftm_sim_def def = ftm_default_sim_def();
+    def.time_step = 0.5 * ftm_mesh_critical_time_step(m);
+    def.depth = 20;
+    def.log = count_log;
+    def.log_user = &lc;
+    ftm_sim *s = NULL;
+    assert_int_equal(ftm_sim_create(m, &def, &s, NULL), FTM_OK);
+    for (int phase = 0; phase < 40; phase++) {
+        int ix = 3 + phase % 5;
+        double depth = 0.3 * sin(0.7 * phase);
+        if (phase % 4 == 3)
+            set1(s, in2d(m, 11, ix, 7), FTM_CONTACT_FORCE, (ftm_vec3){0.0, 5.0 * depth, 0.0});
+        else if (phase % 7 == 6)
+            assert_int_equal(ftm_sim_set_contacts(s, NULL, 0, NULL), FTM_OK);
+        else
+            set1(s, in2d(m, 11, ix, 7), FTM_CONTACT_DISPLACEMENT, (ftm_vec3){0.1, depth, 0.0});
+        for (int i = 0; i < 60; i++) {
+            assert_int_equal(ftm_sim_step(s), FTM_OK);
+            assert_true(all_finite(s));
+        }
+        if (phase == 20) { /* keyframe round trip into the same sim */
+            int32_t n = ftm_mesh_node_count(m), *nodes = malloc((size_t)n * sizeof *nodes);
+            double *x = malloc((size_t)n * 3 * sizeof *x), *xp = malloc((size_t)n * 3 * sizeof *xp);
+            int32_t count = 0;
+            for (int32_t i = 0; i < n; i++) {
+                if (ftm_mesh_fixed(m, i))
+                    continue;
+                nodes[count] = i;
+                memcpy(x + 3 * count, ftm_sim_positions(s) + 3 * i, 3 * sizeof *x);
+                memcpy(xp + 3 * count, ftm_sim_previous_positions(s) + 3 * i, 3 * sizeof *xp);
+                count++;
+            }
+            ftm_sim_stats st;
+            ftm_sim_get_stats(s, &st);
+            ftm_sim_mode mode;
+            ftm_sim_get_mode(s, &mode);
+            ftm_contact ct = {.node = in2d(m, 11, ix, 7), .group = 0,
+                              .kind = FTM_CONTACT_DISPLACEMENT, .value = {0.1, depth, 0.0}};
+            assert_int_equal(ftm_sim_load_state(s, st.step, def.depth, nodes, x, xp, count, &ct,
+                                                phase % 4 == 3 || phase % 7 == 6 ? 0 : 1, &mode,
+                                                NULL),
+                             FTM_OK);
+            free(nodes);
+            free(x);
+            free(xp);
+        }
+    }
+    ftm_sim_stats st;
+    ftm_sim_get_stats(s, &st);
+    assert_true(st.guard_events == 0);
+    assert_int_equal(lc.warn, 0);
+    ftm_sim_destroy(s);
+    ftm_mesh_destroy(m);
+}
+
 /* ------------------------------------------------ contact validation */
 
 static void test_set_contacts_validation(void **state)
@@ -1229,6 +1351,8 @@ int main(void)
         cmocka_unit_test(test_displacement_groups),
         cmocka_unit_test(test_guard_substeps),
         cmocka_unit_test(test_guard_off_blows_up),
+        cmocka_unit_test(test_guard_energy_slow_growth),
+        cmocka_unit_test(test_guard_energy_quiet_when_stable),
         cmocka_unit_test(test_unstable_step_leaves_state),
         cmocka_unit_test(test_set_contacts_validation),
     };

@@ -183,6 +183,12 @@ typedef struct ftm_stab_row {
      * end), "caught" (guard events, but still above one spacing at the end),
      * "missed" (no guard event, unbounded), "stable" (no event, bounded), "-" */
     const char *outcome[2];
+    /* guard ON at the largest stable ratio (measured, or hi when stable
+     * everywhere; none when unstable everywhere): guard events there are
+     * false alarms */
+    double stable_ratio;   /* 0: no stable ratio */
+    bool stable_long;      /* unguarded, still stable over the longer time */
+    uint64_t stable_events;
 } ftm_stab_row;
 
 typedef struct ftm_stab_def {

@@ -64,6 +64,8 @@ void ftm_sim_destroy(ftm_sim *sim)
     free(sim->coef);
     free(sim->force);
     free(sim->lim2);
+    free(sim->ke_w);
+    free(sim->work_mark);
     free(sim->kind);
     free(sim->contacts);
     free(sim->sources);
@@ -92,8 +94,10 @@ static void node_coef(const ftm_mesh *m, const double *mass, int32_t i, double h
 static void set_substep_length(ftm_sim *sim, double h)
 {
     sim->h_sub = h;
-    for (int32_t i = 0; i < sim->n; i++)
+    for (int32_t i = 0; i < sim->n; i++) {
         node_coef(sim->m, ftm_sim_masses(sim), i, h, sim->coef + 3 * i);
+        sim->ke_w[i] = 0.5 * ftm_sim_masses(sim)[i] / (h * h);
+    }
 }
 
 /* The layer-by-layer (Gauss-Seidel) update is not time-reversible like plain
@@ -133,6 +137,8 @@ static void warn_low_damping(const ftm_sim *sim)
                  (int)worst, m->damping[worst] / (2.0 * m->mass[worst]), need);
 }
 
+static double energy_floor(const ftm_mesh *m); /* energy guard, below */
+
 int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm_error *err)
 {
     if (!m || !out)
@@ -153,9 +159,11 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
     sim->coef = malloc(n * 3 * sizeof(double));
     sim->force = calloc(n * 3, sizeof(double));
     sim->lim2 = malloc(n * sizeof(double));
+    sim->ke_w = malloc(n * sizeof(double));
     sim->kind = calloc(n, 1);
     sim->relax_tmp = malloc(n * sizeof(int32_t));
-    if (!sim->x || !sim->xp || !sim->coef || !sim->force || !sim->lim2 || !sim->kind || !sim->relax_tmp ||
+    if (!sim->x || !sim->xp || !sim->coef || !sim->force || !sim->lim2 || !sim->ke_w || !sim->kind ||
+        !sim->relax_tmp ||
         ftm_layering_init(&sim->ly, sim->n) != FTM_OK) {
         ftm_sim_destroy(sim);
         return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %zu nodes", n);
@@ -175,6 +183,8 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
     }
     sim->substeps = 1;
     set_substep_length(sim, d.time_step);
+    sim->energy_guard = !sim->elem; /* the element sweeps do not sum spring energy */
+    sim->energy_floor = energy_floor(m);
     sim->tol = d.sleep_tolerance * m->mean_link_length;
     sim->layers_dirty = true;
     sim->st.depth = d.depth;
@@ -182,6 +192,7 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
     if (!sim->elem)
         warn_low_damping(sim); /* element forces warn in ftm_elem_create */
     double hc = ftm_sim_critical_time_step(sim);
+    sim->energy_h_max = hc;
     if (d.time_step > hc) {
         ftm_logf(d.log, d.log_user, FTM_LOG_WARN,
                  "time step %g s exceeds the critical time step %g s of this mesh: the stability "
@@ -460,6 +471,87 @@ static void change_substeps(ftm_sim *sim, int32_t substeps)
     sim->st.substeps = substeps;
 }
 
+/* ---- energy guard ----
+ * The motion check above sees a step that throws a node further than half
+ * its shortest link. A slow blow-up (energy growing in smooth modes over
+ * hundreds of steps, each step's motion small; docs/stability.md) passes it.
+ * This check sees it: the energy E of the updated nodes (kinetic plus
+ * elastic, summed by the sweeps at no extra memory traffic) may not exceed
+ * what the loads supplied. With W the work the contacts did in the step,
+ *     fail if  E > SLACK (B + W) + floor,   then  B <- min(B + W, MEMORY E).
+ * Damping only removes energy, so a stable scene stays within B + W; SLACK
+ * absorbs the estimate's discretisation error (half-step velocities, a
+ * link's two ends seen at different times); MEMORY caps the credit for
+ * energy damped away long ago, so the check stays sharp in long runs. A
+ * growing mode fails it once its energy reaches a few times the loads' work,
+ * long before any motion limit. */
+#define FTM_ENERGY_SLACK 4.0
+#define FTM_ENERGY_MEMORY 4.0
+
+/* Round-off scale of the energy: a link of mean stiffness stretched by
+ * 1e-5 of the mean link length (so a scene at rest never trips the check). */
+static double energy_floor(const ftm_mesh *m)
+{
+    double k = 0.0;
+    for (int32_t l = 0; l < m->link_count; l++)
+        k += m->link_k[l];
+    k = m->link_count ? k / m->link_count : 0.0;
+    double len = m->mean_link_length;
+    return isfinite(k * len * len) ? 1e-10 * k * len * len : 0.0;
+}
+
+static int work_reserve(ftm_sim *sim)
+{
+    if (sim->ncontacts <= sim->work_cap)
+        return FTM_OK;
+    double *w = realloc(sim->work_mark, ((size_t)sim->ncontacts * 3 + 1) * sizeof *w);
+    if (!w)
+        return FTM_ENOMEM;
+    sim->work_mark = w;
+    sim->work_cap = sim->ncontacts;
+    return FTM_OK;
+}
+
+/* Before the step: each force contact's position, each displacement
+ * contact's spring force. */
+static void work_begin(ftm_sim *sim)
+{
+    for (int32_t c = 0; c < sim->ncontacts; c++) {
+        int32_t i = sim->contacts[c].node;
+        if (sim->contacts[c].kind == FTM_CONTACT_FORCE)
+            memcpy(sim->work_mark + 3 * c, sim->x + 3 * i, 3 * sizeof(double));
+        else
+            ftm_sim_spring_force(sim, i, sim->work_mark + 3 * c);
+    }
+}
+
+/* After the step: the work the contacts did. A force contact F moved by dx
+ * did F.dx; a displacement contact moved by dx against the springs' force f
+ * did about f.dx, taken at the end that gives more (the upper bound for
+ * stiffening links), so pushing in never looks like free energy. Relies on
+ * save_state having saved the displacement nodes' x first. */
+static double work_end(const ftm_sim *sim)
+{
+    double w = 0.0;
+    int32_t r = 0;
+    for (int32_t c = 0; c < sim->ncontacts; c++) {
+        const ftm_contact *ct = &sim->contacts[c];
+        const double *x = sim->x + 3 * ct->node, *mark = sim->work_mark + 3 * c;
+        if (ct->kind == FTM_CONTACT_FORCE) {
+            w += ct->value.x * (x[0] - mark[0]) + ct->value.y * (x[1] - mark[1]) +
+                 ct->value.z * (x[2] - mark[2]);
+        } else {
+            const double *x0 = sim->relax_save + 6 * r++;
+            double f[3], dx[3] = {x[0] - x0[0], x[1] - x0[1], x[2] - x0[2]};
+            ftm_sim_spring_force(sim, ct->node, f);
+            double w0 = mark[0] * dx[0] + mark[1] * dx[1] + mark[2] * dx[2];
+            double w1 = f[0] * dx[0] + f[1] * dx[1] + f[2] * dx[2];
+            w += w0 > w1 ? w0 : w1;
+        }
+    }
+    return w;
+}
+
 /* One attempt at a full step with the current substeps. */
 static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
 {
@@ -467,6 +559,7 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
     schedule *s = &sim->s;
     *region_m2 = 0.0;
     for (int32_t sub = 0; sub < sim->substeps; sub++) {
+        sim->energy = 0.0; /* the last substep's counts */
         if (region_active) {
             impose_displacements(sim);
             if (sim->elem) {
@@ -515,6 +608,8 @@ static void sleep_relaxed(ftm_sim *sim)
 
 int ftm_sim_step(ftm_sim *sim)
 {
+    const bool region_changed =
+        sim->layers_dirty || sim->schedule_dirty || sim->built_depth != sim->def.depth;
     int rc0 = ftm_sim_refresh_region(sim);
     if (rc0)
         return rc0;
@@ -524,20 +619,55 @@ int ftm_sim_step(ftm_sim *sim)
         sim->st.updated_nodes = 0;
         return FTM_OK;
     }
+    /* energy guard: off with the motion guard, while the region sleeps (its
+     * energy is not summed then), and above the critical step, where modes
+     * with w h > 2 are stable only by damping and the discrete energy does not
+     * balance against the work (the motion check watches those steps); a
+     * changed region is credited with what the last one held, since links it
+     * now sees whole were half-seen */
+    const bool eon = sim->def.guard && sim->energy_guard && sim->h_sub <= sim->energy_h_max;
+    const bool echeck = eon && !sim->region_sleeping;
+    if (!eon)
+        sim->budget = -1.0; /* not kept: the account restarts when the check resumes */
+    if (region_changed && sim->budget >= 0.0)
+        sim->budget = fmax(sim->budget, FTM_ENERGY_MEMORY * sim->energy_prev);
+    if (echeck && work_reserve(sim))
+        return FTM_ENOMEM;
     double region_m2 = 0.0;
     for (;;) {
         double *full = NULL;
         int rc = save_state(sim, &full);
         if (rc)
             return rc;
-        bool ok = attempt_step(sim, region_active, &region_m2);
+        if (echeck)
+            work_begin(sim);
+        bool ok = attempt_step(sim, region_active, &region_m2), energy_fail = false;
+        double work = 0.0;
+        if (ok && echeck && sim->budget >= 0.0) {
+            work = work_end(sim);
+            energy_fail = !(sim->energy <= FTM_ENERGY_SLACK * (sim->budget + work) +
+                                               sim->energy_floor); /* NaN fails */
+            ok = !energy_fail;
+        }
         if (ok) {
+            if (echeck) {
+                double allowed = sim->budget + work, cap = FTM_ENERGY_MEMORY * sim->energy;
+                sim->budget = sim->budget < 0.0 ? cap : fmax(0.0, fmin(allowed, cap));
+                sim->energy_prev = sim->energy;
+            }
             free(full);
             break;
         }
         restore_state(sim, full, region_active);
         free(full);
         sim->st.guard_events++;
+        if (energy_fail) {
+            ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
+                     "step %llu: energy %g grew beyond what the loads supplied (%g): rolled back",
+                     (unsigned long long)sim->st.step, sim->energy, sim->budget + work);
+            /* the excess built up over many steps: start the account again from here */
+            sim->budget = fmax(sim->budget, sim->energy_prev);
+        }
         if (sim->substeps * 2 > sim->def.max_substeps) {
             sim->st.unstable_steps++;
             ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_ERROR,
@@ -574,7 +704,11 @@ int ftm_sim_step(ftm_sim *sim)
             sim->quiet_steps = 0;
         }
     }
-    if (sim->substeps > 1 && ++sim->steps_at_substeps >= FTM_SUBSTEP_RETRY)
+    /* fewer substeps again, but not back above the critical step once the
+     * guard had to act: there only the motion check watches, and slow growth
+     * passes it */
+    if (sim->substeps > 1 && ++sim->steps_at_substeps >= FTM_SUBSTEP_RETRY &&
+        (!sim->energy_guard || sim->def.time_step / (sim->substeps / 2) <= sim->energy_h_max))
         change_substeps(sim, sim->substeps / 2); /* the guard raises it again if needed */
     sim->st.step++;
     return FTM_OK;
@@ -708,6 +842,7 @@ void ftm_sim_reset(ftm_sim *sim)
     sim->quiet_steps = 0;
     if (sim->substeps != 1)
         change_substeps(sim, 1);
+    sim->budget = sim->energy_prev = 0.0; /* all at rest: no energy */
     uint64_t searches = sim->st.searches;
     memset(&sim->st, 0, sizeof sim->st);
     sim->st.searches = searches;
@@ -803,6 +938,7 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
         memset(sim->reaction, 0, (size_t)sim->reaction_groups * 3 * sizeof *sim->reaction);
     sim->st.step = step;
     sim->st.updated_nodes = 0;
+    sim->budget = -1.0; /* the energy guard's account starts at the next step */
     ftm_error_clear(err);
     return FTM_OK;
 }

@@ -76,6 +76,7 @@ struct ftm_sim {
     double *coef;   /* per-node a, b, c for the current substep length */
     double *force;  /* external force, 3 per node (zero but at force contacts) */
     double *lim2;   /* guard: squared motion limit per node */
+    double *ke_w;   /* energy guard: m / 2 h_sub^2 per node (kinetic energy per squared motion) */
     uint8_t *kind;  /* NODE_* per node */
 
     ftm_contact *contacts; /* current contacts, sorted by node */
@@ -108,6 +109,16 @@ struct ftm_sim {
 
     double tol; /* sleep tolerance in metres */
     sweep_fn sweep_blocks; /* the block kernel for this CPU (see select_kernel) */
+    /* Energy guard (sim.c): the sweeps add each updated node's kinetic energy
+     * m |x_new - x|^2 / 2 h^2 and a quarter of its links' k (|r| - l)^2 */
+    double energy;       /* of the current substep */
+    double energy_prev;  /* at the end of the last step */
+    double budget;       /* energy the loads can account for; < 0: unknown */
+    double energy_floor; /* below this no check (round-off scale) */
+    double energy_h_max; /* checked only with substeps up to the critical step */
+    double *work_mark;   /* per contact at the step's start: x (force) or f (displacement) */
+    int32_t work_cap;
+    bool energy_guard;   /* the sweeps compute spring energy (spring forces) */
     ftm_sim_stats st;
     struct ftm_elem *elem; /* element forces (sim_elem.c); NULL = springs */
 };
@@ -147,6 +158,7 @@ bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2);
 bool ftm_sweep_jacobi(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2);
 bool ftm_sweep_relax(ftm_sim *sim);
 void ftm_sim_compute_reactions(ftm_sim *sim);
+void ftm_sim_spring_force(const ftm_sim *sim, int32_t i, double f[3]);
 /* Chooses the kernel of the colored sweep: the widest this CPU supports
  * (the default), or with portable the baseline one. Both give bit-identical
  * results; tests compare them. */

@@ -11,18 +11,23 @@
  * over its neighbours in adjacency order (one fixed order, so every caller
  * and every machine rounds the same way). Written this way t is exactly 0 at
  * the rest length (rest lengths are the rest positions' distances computed
- * the same way), so an unloaded mesh at rest is an exact equilibrium. */
-static inline void spring_force(const ftm_mesh *restrict m, const double *restrict x, int32_t i,
-                                const double xi[3], double f[3])
+ * the same way), so an unloaded mesh at rest is an exact equilibrium.
+ * pe (if not NULL): sum of k (|r| - l)^2 over the links, for the energy
+ * guard; a link is seen from both ends, so a node owns a quarter of it. */
+static inline __attribute__((always_inline)) void
+spring_force_pe(const ftm_mesh *restrict m, const double *restrict x, int32_t i, const double xi[3],
+                double f[3], double *pe)
 {
     const int32_t *restrict nb = m->adj_node;
     const double *restrict kk = m->adj_k, *restrict len = m->adj_len;
-    double fx = 0.0, fy = 0.0, fz = 0.0;
-    for (int32_t e = m->adj_start[i]; e < m->adj_start[i + 1]; e++) {
-        const double *xj = x + 3 * nb[e];
+    double fx = 0.0, fy = 0.0, fz = 0.0, e = 0.0;
+    for (int32_t s = m->adj_start[i]; s < m->adj_start[i + 1]; s++) {
+        const double *xj = x + 3 * nb[s];
         double rx = xi[0] - xj[0], ry = xi[1] - xj[1], rz = xi[2] - xj[2];
         double r = sqrt(rx * rx + ry * ry + rz * rz) + FTM_LEN_EPS;
-        double t = kk[e] * (r - len[e]) / r;
+        double ext = r - len[s], kd = kk[s] * ext;
+        double t = kd / r;
+        e += kd * ext;
         fx += t * rx;
         fy += t * ry;
         fz += t * rz;
@@ -30,6 +35,15 @@ static inline void spring_force(const ftm_mesh *restrict m, const double *restri
     f[0] = fx;
     f[1] = fy;
     f[2] = fz;
+    if (pe)
+        *pe = e;
+}
+
+/* The same without the energy (the compiler drops its arithmetic). */
+static inline void spring_force(const ftm_mesh *restrict m, const double *restrict x, int32_t i,
+                                const double xi[3], double f[3])
+{
+    spring_force_pe(m, x, i, xi, f, NULL);
 }
 
 /* Eq. 8 for node i: new position from the spring forces f, the external
@@ -54,15 +68,16 @@ bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
     schedule *s = &sim->s;
     double *restrict x = sim->x, *restrict xp = sim->xp;
     bool ok = true;
-    double mm = *max_m2;
+    double mm = *max_m2, en = 0.0;
     for (int32_t k = k0; k < k1; k++) {
         int32_t i = s->node[k];
         double *xi = x + 3 * i, *pi = xp + 3 * i, *sv = s->save + 3 * k;
-        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3];
-        spring_force(m, x, i, cur, f);
+        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe;
+        spring_force_pe(m, x, i, cur, f, &pe);
         double m2 = integrate(sim, i, cur, f, nw);
         ok &= m2 <= sim->lim2[i]; /* false for NaN too */
         mm = m2 > mm ? m2 : mm;
+        en += sim->ke_w[i] * m2 + 0.25 * pe;
         for (int d = 0; d < 3; d++) {
             sv[d] = pi[d];
             pi[d] = cur[d];
@@ -70,6 +85,7 @@ bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
         }
     }
     *max_m2 = mm;
+    sim->energy += en;
     return ok;
 }
 
@@ -89,8 +105,12 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
     const double *restrict pad_kl = sim->m->pad_kl;
     const double *restrict coef = sim->coef, *restrict force = sim->force, *restrict lim2 = sim->lim2;
     double *restrict x = sim->x, *restrict xp = sim->xp;
-    v4d mm = {*max_m2, *max_m2, *max_m2, *max_m2};
+    const double *restrict ke_w = sim->ke_w;
+    v4d mm = {*max_m2, *max_m2, *max_m2, *max_m2}, en = {0, 0, 0, 0};
     v4l bad = {0, 0, 0, 0};
+    /* energy weight of each lane: spare lanes repeat a node, they count 0 */
+    static const v4d lane_w[5] = {{0, 0, 0, 0}, {1, 0, 0, 0}, {1, 1, 0, 0}, {1, 1, 1, 0},
+                                  {1, 1, 1, 1}};
     for (int32_t b = 0; b < s->blocks; b++) {
         const block bl = s->block[b];
         int32_t n[4];
@@ -99,7 +119,7 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
                      i3 = 3 * (size_t)n[3];
         const v4d cx = GATHER4(x, i0, i1, i2, i3), cy = GATHER4(x + 1, i0, i1, i2, i3),
                   cz = GATHER4(x + 2, i0, i1, i2, i3);
-        v4d ax = {0, 0, 0, 0}, ay = ax, az = ax;
+        v4d ax = {0, 0, 0, 0}, ay = ax, az = ax, pe = ax;
         const int32_t *restrict lj = s->link_j + 4 * (size_t)bl.link;
         const double *restrict lkl = s->link_kl + 8 * (size_t)bl.link;
         const int32_t *nb0 = pad_node + n[0] * deg, *nb1 = pad_node + n[1] * deg,
@@ -133,7 +153,9 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
             for (int l = 0; l < 4; l++)
                 len[l] = sqrt(q[l]);
             len += FTM_LEN_EPS;
-            v4d t = k * (len - rest) / len;
+            const v4d ext = len - rest, kd = k * ext;
+            v4d t = kd / len; /* = k (len - rest) / len, as spring_force rounds it */
+            pe += kd * ext;
             ax += t * rx;
             ay += t * ry;
             az += t * rz;
@@ -148,13 +170,15 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
         }
         const v4d px = GATHER4(xp, i0, i1, i2, i3), py = GATHER4(xp + 1, i0, i1, i2, i3),
                   pz = GATHER4(xp + 2, i0, i1, i2, i3);
-        const v4d lim = GATHER4(lim2, n[0], n[1], n[2], n[3]);
+        const v4d lim = GATHER4(lim2, n[0], n[1], n[2], n[3]),
+                  kw = GATHER4(ke_w, n[0], n[1], n[2], n[3]);
         v4d nx = ca * (fx - ax) + cb * cx - cc * px;
         v4d ny = ca * (fy - ay) + cb * cy - cc * py;
         v4d nz = ca * (fz - az) + cb * cz - cc * pz;
         v4d dx = nx - cx, dy = ny - cy, dz = nz - cz;
         v4d m2 = dx * dx + dy * dy + dz * dz;
         bad |= ~(m2 <= lim); /* NaN fails too */
+        en += (kw * m2 + 0.25 * pe) * lane_w[bl.lanes];
         v4l up = m2 > mm;
         mm = (v4d)((up & (v4l)m2) | (~up & (v4l)mm));
         double *sv = s->save + 12 * (size_t)b;
@@ -176,6 +200,7 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
     for (int l = 0; l < 4; l++)
         out = mm[l] > out ? mm[l] : out;
     *max_m2 = out;
+    sim->energy += (en[0] + en[1]) + (en[2] + en[3]);
     return !(bad[0] | bad[1] | bad[2] | bad[3]);
 }
 
@@ -209,15 +234,17 @@ bool ftm_sweep_jacobi(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
     const ftm_mesh *m = sim->m;
     schedule *s = &sim->s;
     bool ok = true;
-    double mm = *max_m2;
+    double mm = *max_m2, en = 0.0;
     for (int32_t k = k0; k < k1; k++) {
         int32_t i = s->node[k];
-        double f[3];
-        spring_force(m, sim->x, i, sim->x + 3 * i, f);
+        double f[3], pe;
+        spring_force_pe(m, sim->x, i, sim->x + 3 * i, f, &pe);
         double m2 = integrate(sim, i, sim->x + 3 * i, f, s->tmp + 3 * k);
         ok &= m2 <= sim->lim2[i];
         mm = m2 > mm ? m2 : mm;
+        en += sim->ke_w[i] * m2 + 0.25 * pe;
     }
+    sim->energy += en;
     for (int32_t k = k0; k < k1; k++) {
         int32_t i = s->node[k];
         double *xi = sim->x + 3 * i, *pi = sim->xp + 3 * i, *sv = s->save + 3 * k,
@@ -236,17 +263,21 @@ bool ftm_sweep_jacobi(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
 bool ftm_sweep_relax(ftm_sim *sim)
 {
     bool ok = true;
+    double en = 0.0;
     for (int32_t r = 0; r < sim->nrelax; r++) {
         int32_t i = sim->relax[r];
         double *xi = sim->x + 3 * i, *pi = sim->xp + 3 * i;
-        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3];
-        spring_force(sim->m, sim->x, i, cur, f);
-        ok &= integrate(sim, i, cur, f, nw) <= sim->lim2[i];
+        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe;
+        spring_force_pe(sim->m, sim->x, i, cur, f, &pe);
+        double m2 = integrate(sim, i, cur, f, nw);
+        ok &= m2 <= sim->lim2[i];
+        en += sim->ke_w[i] * m2 + 0.25 * pe;
         for (int d = 0; d < 3; d++) {
             pi[d] = cur[d];
             xi[d] = nw[d];
         }
     }
+    sim->energy += en;
     return ok;
 }
 
@@ -265,4 +296,11 @@ void ftm_sim_compute_reactions(ftm_sim *sim)
         r[1] -= f[1];
         r[2] -= f[2];
     }
+}
+
+/* Spring force sum on node i at the current positions (for the energy
+ * guard's account of the work a displacement contact does). */
+void ftm_sim_spring_force(const ftm_sim *sim, int32_t i, double f[3])
+{
+    spring_force(sim->m, sim->x, i, sim->x + 3 * i, f);
 }

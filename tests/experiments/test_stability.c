@@ -1,8 +1,9 @@
 /* The reduced stability sweep (`ftm stability --quick`): every configuration
  * that is unstable with the guard off is, with the guard on, caught by it
  * (recovered or still large but rolled back) or reported as FTM_EUNSTABLE;
- * no NaN is ever observable in the positions. Plus the physics the sweep
- * must show: the boundary depends only on the dimensionless parameters,
+ * no NaN is ever observable in the positions; slow growth below the critical
+ * step is seen by the energy check; no guard event at a stable step. Plus
+ * the physics the sweep must show: the boundary depends only on the dimensionless parameters,
  * zero damping is unstable at any step, heavy damping stabilises. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -68,6 +69,45 @@ static void test_guard_catches_everything(void **state)
     assert_true(unstable >= count / 2);
 }
 
+/* Slow growth: the base lattice just above its damping-limited boundary
+ * gains energy over hundreds of steps while no step moves a node far; the
+ * motion check alone let it grow to several spacings (docs/stability.md).
+ * The energy check must see it early: guard events at the first unstable
+ * ratio, and the run back within one spacing. */
+static void test_guard_sees_slow_growth(void **state)
+{
+    (void)state;
+    const char *slow[] = {"base 2D", "d = 0.5 x threshold", "depth 3"};
+    for (size_t i = 0; i < sizeof slow / sizeof slow[0]; i++) {
+        const ftm_stab_row *r = find(slow[i]);
+        assert_true(r->unstable_anywhere);
+        assert_true(r->probe_ratio[0] <= 1.0); /* below h_crit: no warning, slow growth */
+        if (r->guard_events[0] == 0 || strcmp(r->outcome[0], "recovered") != 0)
+            fail_msg("%s at %g h_crit: %s with %llu guard events", slow[i], r->probe_ratio[0],
+                     r->outcome[0], (unsigned long long)r->guard_events[0]);
+    }
+}
+
+/* No false alarms: at the largest stable step (below the critical step, where
+ * the scene gets no warning) the guard stays silent over the guarded runs'
+ * longer time, unless that step is itself slowly unstable over that time
+ * (stable_long false: a bisection point within its resolution of the boundary). */
+static void test_guard_no_false_alarms(void **state)
+{
+    (void)state;
+    int checked = 0;
+    for (int i = 0; i < count; i++) {
+        const ftm_stab_row *r = &rows[i];
+        if (r->stable_ratio <= 0 || r->stable_ratio > 1.0 || !r->stable_long)
+            continue;
+        checked++;
+        if (r->stable_events != 0)
+            fail_msg("%s: %llu guard events at the stable step %g h_crit", r->config.name,
+                     (unsigned long long)r->stable_events, r->stable_ratio);
+    }
+    assert_true(checked >= 4);
+}
+
 static void test_boundary_physics(void **state)
 {
     (void)state;
@@ -91,6 +131,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_guard_catches_everything),
+        cmocka_unit_test(test_guard_sees_slow_growth),
+        cmocka_unit_test(test_guard_no_false_alarms),
         cmocka_unit_test(test_boundary_physics),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
