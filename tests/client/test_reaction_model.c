@@ -11,6 +11,7 @@
 #include "ftm/scene.h"
 #include "ftm/v1/ftm.pb-c.h"
 #include "ftm/wire.h"
+#include "haptic_wire.h"
 #include "replay.h"
 
 #include <math.h>
@@ -284,6 +285,24 @@ static void test_wire_reaction_model(void **state)
     assert_true(got.has_plane);
     assert_memory_equal(&got.contact_point, &re[0].contact_point, sizeof got.contact_point);
     assert_memory_equal(&got.contact_normal, &re[0].contact_normal, sizeof got.contact_normal);
+    /* into the haptic loop: the force model evaluates at the server's HIP
+     * to the server's force, and follows K away from it */
+    ftm_wire_reaction m0 = got;
+    ftm_haptic_sample hs = ftm_haptic_sample_from_reaction(&m0, 3.0, (ftm_vec3){1, 1, 1});
+    assert_true(hs.time == 3.0 && hs.has_stiffness && hs.has_plane);
+    assert_memory_equal(&hs.hip, &re[0].hip, sizeof hs.hip);
+    ftm_force_renderer fr;
+    ftm_haptic_def hd = ftm_default_haptic_def();
+    ftm_force_renderer_init(&fr, &hd);
+    assert_int_equal(ftm_force_renderer_push(&fr, &hs, 3.0), FTM_OK);
+    ftm_vec3 at = ftm_force_renderer_model(&fr, 3.0, re[0].hip);
+    assert_memory_equal(&at, &re[0].force, sizeof at);
+    ftm_vec3 moved = {re[0].hip.x, re[0].hip.y, re[0].hip.z - 0.001};
+    at = ftm_force_renderer_model(&fr, 3.0, moved);
+    assert_true(fabs(at.z - (re[0].force.z - 0.001 * re[0].stiffness[8])) < 1e-12);
+    hs = ftm_haptic_sample_from_reaction(NULL, 4.0, (ftm_vec3){1, 2, 3});
+    assert_true(hs.force.x == 0 && hs.force.z == 0 && hs.hip.y == 2 && !hs.has_stiffness);
+
     assert_true(ftm_replay_find_reaction(&out.u.tick, 12, 0, &got));
     assert_false(got.has_model);
     assert_false(got.has_plane);
