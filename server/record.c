@@ -152,6 +152,10 @@ int ftm_record_write(ftm_record_writer *w, const ftm_record_entry *e, ftm_error 
         m.has_gone = true;
         m.gone = true;
     }
+    if (e->lost) {
+        m.has_lost = true;
+        m.lost = true;
+    }
     m.has_time_ns = true;
     m.time_ns = e->time_ns;
     return put_entry(w, &m, err);
@@ -325,6 +329,7 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
     e->sender = m->sender;
     e->incoming = m->incoming;
     e->gone = m->has_gone && m->gone;
+    e->lost = m->has_lost && m->lost;
     e->time_ns = m->time_ns;
     e->payload = m->has_payload ? m->payload.data : NULL;
     e->size = m->has_payload ? m->payload.len : 0;

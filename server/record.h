@@ -32,7 +32,7 @@ typedef struct ftm_record_entry {
     uint64_t tick;
     int kind;            /* ftm_wire_kind */
     uint32_t sender;
-    bool incoming, gone;
+    bool incoming, gone, lost;
     uint64_t time_ns;
     const uint8_t *payload; /* owned by the reader; valid until the next call */
     size_t size;

@@ -195,8 +195,8 @@ int ftm_server_replay(const char *path, const char *scene_name)
         }
         if (got == 0)
             break;
-        if (e.gone) {
-            s.gone++;
+        if (e.gone || e.lost) { /* events without a payload */
+            s.gone += e.gone;
             continue;
         }
         ftm_wire_msg m;

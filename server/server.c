@@ -151,6 +151,8 @@ typedef struct server {
     uint64_t pub_ring_ns[PUB_RING], pub_ring_tick[PUB_RING];
     uint64_t pub_ring_n;
     FILE *control_csv;
+    bool replaying;              /* --replay: publish (encode) every tick for the check */
+    char replay_scene[FTM_WIRE_NAME_MAX];
 } server;
 
 static uint64_t mono_ns(void)
@@ -234,20 +236,26 @@ static const char *state_name(ftm_wire_state st)
 
 /* ---- recording (record.h) ------------------------------------------------------------ */
 
-static void record(server *s, bool incoming, int kind, uint32_t sender, const uint8_t *buf,
-                   size_t size, bool gone)
+static void record_entry(server *s, bool incoming, int kind, uint32_t sender, const uint8_t *buf,
+                         size_t size, bool gone, bool lost)
 {
     if (!s->rec)
         return;
     ftm_record_entry e = {.tick = s->tick, .kind = kind, .sender = sender, .incoming = incoming,
-                          .gone = gone, .time_ns = mono_ns() - s->t_start_ns, .payload = buf,
-                          .size = size};
+                          .gone = gone, .lost = lost, .time_ns = mono_ns() - s->t_start_ns,
+                          .payload = buf, .size = size};
     ftm_error err = {0, ""};
     if (ftm_record_write(s->rec, &e, &err)) {
         slog(s, "error", "%s; recording stopped", err.message);
         ftm_record_close(s->rec, NULL);
         s->rec = NULL;
     }
+}
+
+static void record(server *s, bool incoming, int kind, uint32_t sender, const uint8_t *buf,
+                   size_t size, bool gone)
+{
+    record_entry(s, incoming, kind, sender, buf, size, gone, false);
 }
 
 /* ---- publishing ------------------------------------------------------------------ */
@@ -794,7 +802,7 @@ static void run_tick(server *s)
     bool idle = n == 0 && st.updated_nodes == 0 && s->pub_n == 0 && s->pub_depth == s->depth &&
                 s->published_any;
     bool heartbeat = (double)(now - s->pub_ns) >= s->o.heartbeat * 1e9;
-    if (!idle || heartbeat || s->keyframe_due)
+    if (!idle || heartbeat || s->keyframe_due || s->replaying)
         publish_frame(s, n, nreact, idle);
     else
         s->idle_ticks++;
@@ -982,6 +990,8 @@ static void on_status_timer(uv_timer_t *h)
              "are released",
              p->id, role_name(p->role), p->name, (double)(now - p->last_status_ns) * 1e-9);
         release_probes(p);
+        /* a decision by the clock: recorded, so that a replay makes it too */
+        record_entry(s, true, FTM_WIRE_STATUS, p->id, NULL, 0, false, true);
     }
 }
 
@@ -1143,6 +1153,118 @@ static int parse(int argc, char **argv, options *o)
  * its script's HIP for the tick; then run_tick does what it does online —
  * collision, contacts, ftm_replay_step, reactions, the frame (encoded and
  * counted, not sent). The reference for ftm-bot sessions (tests/net). */
+/* --replay, second pass: the recorded inputs (statuses, probe input, session
+ * control, gone and lost events) go through the same handlers and tick
+ * logic as online — collision, contacts, ftm_replay_step — each at the tick
+ * it was handled; every recorded tick frame is then compared with what this
+ * run produced: contacts (bit-exact) and state hash. Depths come from the
+ * recorded frames (the controller's choices depend on the clock). */
+static int replay_inputs(server *s)
+{
+    ftm_record_header h;
+    ftm_record_reader *rd = NULL;
+    ftm_error err = {0, ""};
+    if (ftm_record_open(s->o.replay, &h, &rd, &err)) {
+        fprintf(stderr, "ftm-server --replay: %s\n", err.message);
+        return 1;
+    }
+    s->replaying = true;
+    s->period_ns = 1e9 / s->o.rate;
+    ftm_wire_limits lim = {0, 0, ftm_mesh_node_count(s->mesh)};
+    uint64_t frames = 0, inputs = 0;
+    int rc = 0;
+    char why[256] = "";
+    ftm_record_entry e;
+    for (;;) {
+        int got = ftm_record_next(rd, &e, &err);
+        if (got < 0) {
+            fprintf(stderr, "ftm-server --replay: %s\n", err.message);
+            rc = 1;
+            break;
+        }
+        if (got == 0)
+            break;
+        if (e.incoming) {
+            if (e.tick < s->tick) {
+                snprintf(why, sizeof why, "input handled at tick %" PRIu64 " after tick %" PRIu64,
+                         e.tick, s->tick);
+                break;
+            }
+            while (s->tick < e.tick) /* the server runs every tick, idle or not */
+                run_tick(s);
+            inputs++;
+            if (e.lost) {
+                participant *p = find_part(s, e.sender, false);
+                if (p) {
+                    p->silent = true;
+                    release_probes(p);
+                }
+                continue;
+            }
+            ftm_wire_received rx;
+            memset(&rx, 0, sizeof rx);
+            rx.sender = e.sender;
+            rx.gone = e.gone;
+            rx.msg.kind = (ftm_wire_kind)e.kind;
+            if (!e.gone && ftm_wire_decode(e.kind, e.payload, e.size, &lim, &rx.msg, &err)) {
+                snprintf(why, sizeof why, "%s", err.message);
+                break;
+            }
+            if (e.kind == FTM_WIRE_STATUS)
+                on_status(s, &rx);
+            else if (e.kind == FTM_WIRE_CONTROL)
+                on_control(s, &rx);
+            else if (e.kind == FTM_WIRE_PROBE_INPUT)
+                on_probe_input(s, &rx);
+            ftm_wire_received_free(&rx);
+        } else if (e.kind == FTM_WIRE_TICK) {
+            ftm_wire_msg m;
+            if (ftm_wire_decode(e.kind, e.payload, e.size, &lim, &m, &err)) {
+                snprintf(why, sizeof why, "%s", err.message);
+                break;
+            }
+            const ftm_wire_tick *f = &m.u.tick;
+            if (f->tick > s->tick) { /* (<=: the frame of a tick sent again before a reset) */
+                while (s->tick + 1 < f->tick)
+                    run_tick(s);
+                s->depth = f->depth;
+                run_tick(s);
+                frames++;
+                bool same = s->pub_tick == f->tick && s->pub_n == f->contact_count;
+                for (int32_t i = 0; same && i < f->contact_count; i++) {
+                    const ftm_contact *a = &s->contacts[i], *b = &f->contacts[i];
+                    same = a->node == b->node && a->group == b->group && a->kind == b->kind &&
+                           memcmp(&a->value, &b->value, sizeof a->value) == 0;
+                }
+                if (!same)
+                    snprintf(why, sizeof why,
+                             "tick %" PRIu64 ": the inputs give %d contacts, the frame has %d%s",
+                             f->tick, (int)s->pub_n, (int)f->contact_count,
+                             s->pub_n == f->contact_count ? " (different nodes or values)" : "");
+                else if (ftm_sim_hash(s->sim) != f->state_hash)
+                    snprintf(why, sizeof why,
+                             "tick %" PRIu64 ": state hash differs: recorded %016" PRIx64
+                             ", re-run from the inputs %016" PRIx64,
+                             f->tick, f->state_hash, ftm_sim_hash(s->sim));
+            }
+            ftm_wire_msg_free(&m);
+            if (why[0])
+                break;
+        }
+    }
+    if (why[0]) {
+        fprintf(stderr, "ftm-server --replay: %s: entry %" PRIu64 " (byte %" PRIu64 "): %s\n",
+                s->o.replay, e.index, e.offset, why);
+        rc = 1;
+    } else if (rc == 0) {
+        printf("replay %s from the inputs: %" PRIu64 " inputs through collision and the step, "
+               "%" PRIu64 " tick frames with equal contacts and hash\n",
+               s->o.replay, inputs, frames);
+    }
+    ftm_record_close_reader(rd);
+    return rc;
+}
+
 static int run_offline(server *s)
 {
     ftm_script sc[8];
@@ -1216,8 +1338,27 @@ int main(int argc, char **argv)
     server *s = &srv;
     if (parse(argc, argv, &s->o))
         return 2;
-    if (s->o.replay)
-        return ftm_server_replay(s->o.replay, s->o.scene_given ? s->o.scene : NULL);
+    if (s->o.replay) { /* first the frames alone, then the inputs (replay_inputs) */
+        int rc = ftm_server_replay(s->o.replay, s->o.scene_given ? s->o.scene : NULL);
+        if (rc)
+            return rc;
+        ftm_record_header rh;
+        ftm_record_reader *rr = NULL;
+        ftm_error e0 = {0, ""};
+        if (ftm_record_open(s->o.replay, &rh, &rr, &e0)) {
+            fprintf(stderr, "ftm-server --replay: %s\n", e0.message);
+            return 1;
+        }
+        ftm_record_close_reader(rr);
+        if (!s->o.scene_given) {
+            snprintf(s->replay_scene, sizeof s->replay_scene, "%s", rh.scene_id);
+            s->o.scene = s->replay_scene;
+        }
+        s->o.depth = rh.depth_max;
+        s->o.rate = rh.tick_rate_hz;
+        s->o.adaptive = 0;
+        s->o.depth_floor = -1;
+    }
     s->t_start_ns = mono_ns();
     g_log_server = s;
     if (s->o.log_path && !(s->logf = fopen(s->o.log_path, "w"))) {
@@ -1265,8 +1406,8 @@ int main(int argc, char **argv)
          ftm_scene_name(s->scene), (int)ftm_mesh_node_count(s->mesh), (int)cs.triangles,
          (int)cs.dims[0], (int)cs.dims[1], (int)cs.dims[2], cs.cell_size);
 
-    if (s->o.offline_ticks > 0) {
-        int rc = run_offline(s);
+    if (s->o.offline_ticks > 0 || s->o.replay) {
+        int rc = s->o.replay ? replay_inputs(s) : run_offline(s);
         ftm_collide_destroy(s->collide);
         ftm_sim_destroy(s->sim);
         ftm_scene_destroy(s->scene);

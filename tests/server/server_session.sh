@@ -6,7 +6,7 @@
 #             server's final tick and hash, and the session's recording
 #             replays (depth changes included) with every hash equal.
 #   record:   server --record with trainee 11; --replay reproduces every hash
-#             and the final line; a truncated copy, a copy with one frame's
+#             and the final line, from the frames and again from the inputs; a truncated copy, a copy with one frame's
 #             hash altered and a non-recording are rejected with a clear error
 #             (the altered one naming its tick).
 #   metrics:  --metrics-port: /metrics has the metric names, the tick and
@@ -51,7 +51,7 @@ check_hashes() { # bot ids...
 
 case $mode in
 adaptive)
-    start_server --duration 13 --adaptive 1 --depth-hold-up 1 --record "$dir/adaptive.rec"
+    start_server --duration 15 --adaptive 1 --depth-hold-up 1 --record "$dir/adaptive.rec"
     timeout 60 "$FTM_BOT" --role trainee --script "$here/press-hold.bot" $common --id 11 \
         --duration 30 >"$dir/bot11.out" 2>"$dir/bot11.err" &
     b11=$!
@@ -92,6 +92,8 @@ adaptive)
     timeout 60 "$FTM_SERVER" --replay "$dir/adaptive.rec" >"$dir/replay.out" 2>"$dir/replay.err" ||
         fail "replay of the adaptive session failed"
     grep -q "depth $min\.\.8 ([1-9][0-9]* changes)" "$dir/replay.out" || fail "replay saw no depth changes"
+    grep -q "from the inputs: .* tick frames with equal contacts and hash" "$dir/replay.out" ||
+        fail "the inputs did not reproduce the frames"
     echo "PASS adaptive: $want; lowest depth $min, at the end $end; $(sed -n 's/.*; \(depth [0-9.]* ([0-9]* changes)\).*/replayed \1/p' "$dir/replay.out")"
     ;;
 record)
@@ -109,6 +111,8 @@ record)
     got=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/replay.out")
     [ "$got" = "$want" ] || fail "replay ends on '$got', the server on '$want'"
     grep -q "every hash equal" "$dir/replay.out" || fail "no replay summary"
+    grep -q "from the inputs: [1-9][0-9]* inputs .* [1-9][0-9]* tick frames with equal contacts and hash" \
+        "$dir/replay.out" || fail "the inputs did not reproduce the frames"
     size=$(wc -c <"$rec")
     # truncated in the middle of the last entry
     head -c $((size - 5)) "$rec" >"$dir/trunc.rec"
@@ -155,13 +159,54 @@ EOF
         fail "a recording with an altered hash was accepted"
     fi
     grep -q "tick $tick: state hash differs" "$dir/bad.err" || fail "the mismatch does not name tick $tick"
+    # every probe input's z moved by one ulp: the frames still replay, the
+    # inputs no longer give the recorded contacts
+    python3 - "$rec" "$dir/inputs.rec" <<'EOF' || fail "could not alter the probe inputs"
+import sys
+data = bytearray(open(sys.argv[1], 'rb').read())
+def varint(b, i):
+    v = s = 0
+    while True:
+        c = b[i]; i += 1; v |= (c & 0x7f) << s; s += 7
+        if not c & 0x80: return v, i
+def fields(b, i, end):
+    while i < end:
+        key, i = varint(b, i); f, t = key >> 3, key & 7
+        if t == 0: v, i = varint(b, i); yield f, v, None
+        elif t == 1: yield f, None, i; i += 8
+        elif t == 2: n, i = varint(b, i); yield f, n, i; i += n
+        elif t == 5: i += 4
+        else: raise SystemExit("bad wire type")
+i, moved = 8, 0
+while i < len(data):
+    n, i = varint(data, i)
+    e = {f: (v, at) for f, v, at in fields(data, i, i + n)}
+    if e.get(3, (0,))[0] == 2 and e.get(6, (0,))[0] == 1 and 4 in e:
+        size, off = e[4]
+        for f, ln, at in fields(data, off, off + size):
+            if f == 4:  # ProbeSample
+                for g, ln2, at2 in fields(data, at, at + ln):
+                    if g == 3:  # position
+                        for h, _, at3 in fields(data, at2, at2 + ln2):
+                            if h == 3:  # z
+                                data[at3] ^= 0x01; moved += 1
+    i += n
+assert moved > 100, moved
+open(sys.argv[2], 'wb').write(data)
+EOF
+    if timeout 60 "$FTM_SERVER" --replay "$dir/inputs.rec" >"$dir/inputs.out" 2>"$dir/inputs.err"; then
+        fail "a recording with altered inputs was accepted"
+    fi
+    grep -q "every hash equal" "$dir/inputs.out" || fail "altered inputs: the frames alone should still replay"
+    grep -q "tick [0-9]*: the inputs give [0-9]* contacts, the frame has" "$dir/inputs.err" ||
+        fail "altered inputs: no contact mismatch named"
     printf 'not a recording\n' >"$dir/junk.rec"
     if timeout 60 "$FTM_SERVER" --replay "$dir/junk.rec" >/dev/null 2>"$dir/junk.err"; then
         fail "a non-recording was accepted"
     fi
     grep -q "not an FTM recording" "$dir/junk.err" || fail "no clear error for a non-recording"
     echo "PASS record: $want; $(head -n 1 "$dir/replay.out" | sed 's/^replay [^:]*: //'); $size bytes;" \
-        "rejected: $(cat "$dir/trunc.err" "$dir/bad.err" | sed 's/^ftm-server --replay: [^:]*: //' | tr '\n' '|')"
+        "rejected: $(cat "$dir/trunc.err" "$dir/bad.err" "$dir/inputs.err" | grep "replay:" | sed 's/^ftm-server --replay: [^:]*: //' | tr '\n' '|')"
     ;;
 metrics)
     port=$(( 20000 + $$ % 20000 ))
