@@ -162,6 +162,7 @@ typedef struct bot {
     uint32_t server_id; /* 0 until known; frames from anyone else are ignored */
     uint64_t foreign;   /* messages ignored: not from the server */
     bool server_left;
+    bool server_gone; /* left by a `gone` event (lease expiry), not a LEAVING status */
     int64_t server_left_ns;
     int64_t last_frame_ns;
     uint64_t command_id;
@@ -249,17 +250,38 @@ static void log_frame(bot *b, const ftm_wire_received *rx, int64_t rx_ns)
         if (t->reactions[i].participant == b->o.id && t->reactions[i].probe == 0)
             f = t->reactions[i].force;
     double lat_us = frame_latency_us(rx, rx_ns);
+    /* the frame's payload size, re-encoded (what the server sent) */
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_TICK;
+    m.u.tick = *t;
+    uint8_t *buf = NULL;
+    size_t bytes = 0;
+    if (ftm_wire_encode(&m, &buf, &bytes, NULL))
+        bytes = 0;
+    free(buf);
     ftm_sim_stats st;
     ftm_sim_get_stats(ftm_replay_sim(b->rep), &st);
     fprintf(b->csv,
-            "%.6f,%" PRIu64 ",%016" PRIx64 ",%016" PRIx64 ",%d,%d,%.9g,%.9g,%.9g,%.1f,%d,%.1f\n",
+            "%.6f,%" PRIu64 ",%016" PRIx64 ",%016" PRIx64 ",%d,%d,%.9g,%.9g,%.9g,%.1f,%d,%.1f,%zu\n",
             (double)(mono_ns() - g_t0) * 1e-9, t->tick, t->state_hash, ftm_replay_hash(b->rep),
             (int)ftm_replay_state(b->rep), (int)t->contact_count, f.x, f.y, f.z, lat_us,
-            (int)st.updated_nodes, (double)(rx_ns - rx->source_time_ns) * 1e-3);
+            (int)st.updated_nodes, (double)(rx_ns - rx->source_time_ns) * 1e-3, bytes);
+}
+
+/* The server's lease can expire while it is alive (a starved or lossy
+ * host): whatever it sends after a `gone` event brings it back. */
+static void server_alive(bot *b)
+{
+    if (b->server_left && b->server_gone) {
+        blog("server %u is back (after its lease expired)", b->server_id);
+        b->server_left = b->server_gone = false;
+    }
 }
 
 static void on_tick(bot *b, const ftm_wire_received *rx)
 {
+    server_alive(b);
     int64_t rx_ns = real_ns(); /* before replaying: latency is delivery only */
     b->last_frame_ns = mono_ns();
     if (!b->rep)
@@ -351,16 +373,19 @@ static void on_status(bot *b, const ftm_wire_received *rx)
     if (rx->gone) {
         if (rx->sender == b->server_id && !b->server_left) {
             blog("server %u gone", rx->sender);
-            b->server_left = true;
+            b->server_left = b->server_gone = true;
             b->server_left_ns = mono_ns();
         }
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
     if (st->role == FTM_WIRE_ROLE_SERVER && from_server(b, rx)) {
-        if (st->state == FTM_WIRE_STATE_LEAVING && !b->server_left) {
+        if (st->state != FTM_WIRE_STATE_LEAVING)
+            server_alive(b);
+        if (st->state == FTM_WIRE_STATE_LEAVING && (!b->server_left || b->server_gone)) {
             blog("server %u leaving at tick %" PRIu64, rx->sender, st->last_applied_tick);
             b->server_left = true;
+            b->server_gone = false;
             b->server_left_ns = mono_ns();
         }
     }
@@ -406,7 +431,7 @@ int main(int argc, char **argv)
             return 3;
         }
         fprintf(b->csv, "time_s,tick,server_hash,replica_hash,state,contacts,fx,fy,fz,"
-                        "latency_us,updated_nodes,dds_latency_us\n");
+                        "latency_us,updated_nodes,dds_latency_us,frame_bytes\n");
     }
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
@@ -452,9 +477,13 @@ int main(int argc, char **argv)
             why = "script leave time";
             break;
         }
-        /* the server has left: take what is still in flight, then stop */
-        if (b->server_left && now - b->server_left_ns > SEC / 2 && now - b->last_frame_ns > SEC / 5) {
-            why = "server left";
+        /* the server has left: take what is still in flight, then stop. A
+         * `gone` without LEAVING may be a lease that expired while this
+         * process (or the server) was stalled: wait for it to come back for
+         * the resync timeout before giving up. */
+        int64_t grace = b->server_gone ? (int64_t)(b->o.resync_timeout * 1e9) : SEC / 2;
+        if (b->server_left && now - b->server_left_ns > grace && now - b->last_frame_ns > SEC / 5) {
+            why = b->server_gone ? "server gone" : "server left";
             break;
         }
         ftm_wire_received rx;

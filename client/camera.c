@@ -21,8 +21,8 @@ void ftm_camera_frame(ftm_camera *c, ftm_vec3 lo, ftm_vec3 hi)
     c->fovy = 40.0 * pi / 180.0;
     c->azimuth = -30.0 * pi / 180.0;
     c->elevation = 35.0 * pi / 180.0;
-    /* the bounding sphere fills about 80% of the height */
-    c->distance = c->radius / sin(0.5 * c->fovy) * 1.15;
+    /* the bounding sphere about fills the height */
+    c->distance = c->radius / tan(0.5 * c->fovy) * 1.05;
 }
 
 void ftm_camera_orbit(ftm_camera *c, double dx_px, double dy_px)

@@ -17,6 +17,7 @@
 #include "client_session.h"
 #include "device.h"
 #include "haptic.h"
+#include "haptic_wire.h"
 #include "hud.h"
 #include "render.h"
 #include "screenshot.h"
@@ -38,7 +39,7 @@ typedef struct options {
     const char *role, *scene, *session, *config, *name, *log_path, *device, *renderer;
     uint32_t domain, id;
     double server_timeout, duration;
-    int width, height, swap_interval;
+    int width, height, swap_interval, msaa;
     const char *screenshot;
     bool shot_hold;
     uint64_t shot_tick;
@@ -125,12 +126,9 @@ static void on_force(void *user, uint64_t tick, const ftm_wire_reaction *r, bool
     a->hap_connected = true;
     ftm_haptic_state st;
     ftm_haptic_get_state(a->hap, &st);
-    ftm_haptic_sample s;
-    memset(&s, 0, sizeof s);
-    s.time = ftm_haptic_clock(); /* arrival time: the server's tick clock is not mapped */
-    s.hip = st.hip;
-    if (r)
-        s.force = r->force; /* no reaction: not in contact, zero force */
+    /* the force model and contact plane when the server sent them; the
+     * time is the arrival time (server ticks are not mapped to our clock) */
+    ftm_haptic_sample s = ftm_haptic_sample_from_reaction(r, ftm_haptic_clock(), st.hip);
     if (ftm_haptic_push(a->hap, &s))
         alog(a, FTM_LOG_WARN, "haptic: reaction force of tick %" PRIu64 " rejected", tick);
 }
@@ -313,6 +311,8 @@ static void usage(FILE *f)
             "  --no-colormap --region --no-hud   initial display toggles (keys c, b, h)\n"
             "  --colormap-full MM       displacement at the top of the colour map\n"
             "  --swap-interval N        0: no vsync (default 1)\n"
+            "  --msaa N                 multisample anti-aliasing samples (default 0; 4 looks\n"
+            "                           better on a GPU, costs much under llvmpipe)\n"
             "headless:\n"
             "  --screenshot FILE.png    render until the latest tick is applied, save, exit\n"
             "  --screenshot-tick T      ... stop replaying at the first tick >= T instead\n"
@@ -407,6 +407,8 @@ static int parse(int argc, char **argv, options *o)
             o->bench = strtod(v, &end);
         else if (strcmp(a, "--colormap-full") == 0)
             o->colormap_full = strtod(v, &end) * 1e-3;
+        else if (strcmp(a, "--msaa") == 0)
+            o->msaa = (int)strtol(v, &end, 10);
         else if (strcmp(a, "--swap-interval") == 0)
             o->swap_interval = (int)strtol(v, &end, 10);
         else if (strcmp(a, "--size") == 0) {
@@ -425,9 +427,9 @@ static int parse(int argc, char **argv, options *o)
         }
     }
     if (!(o->server_timeout > 0) || o->duration < 0 || !(o->shot_timeout > 0) || o->bench < 0 ||
-        o->colormap_full < 0 || o->shot_after < 0) {
+        o->colormap_full < 0 || o->shot_after < 0 || o->msaa < 0 || o->msaa > 16) {
         fprintf(stderr, "ftm-client: --server-timeout, --screenshot-timeout must be > 0; "
-                        "--duration, --bench, --colormap-full >= 0\n");
+                        "--duration, --bench, --colormap-full >= 0; --msaa 0..16\n");
         return -1;
     }
     return 0;
@@ -735,7 +737,7 @@ int main(int argc, char **argv)
     glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
     glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
     glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
-    glfwWindowHint(GLFW_SAMPLES, 4);
+    glfwWindowHint(GLFW_SAMPLES, a->o.msaa);
     char title[160];
     snprintf(title, sizeof title, "ftm-client: %s, session %s", a->o.role, a->o.session);
     a->win = glfwCreateWindow(a->o.width, a->o.height, title, NULL, NULL);
@@ -745,7 +747,8 @@ int main(int argc, char **argv)
     }
     glfwMakeContextCurrent(a->win);
     glfwSwapInterval(a->o.bench > 0 ? 0 : a->o.swap_interval);
-    glEnable(GL_MULTISAMPLE);
+    if (a->o.msaa > 0)
+        glEnable(GL_MULTISAMPLE);
     alog(a, FTM_LOG_INFO, "OpenGL %s on %s", (const char *)glGetString(GL_VERSION),
          (const char *)glGetString(GL_RENDERER));
     if (ftm_render_create(&a->ren, &err)) {

@@ -1173,7 +1173,7 @@ static int replay_inputs(server *s)
     ftm_wire_limits lim = {0, 0, ftm_mesh_node_count(s->mesh)};
     uint64_t frames = 0, inputs = 0;
     int rc = 0;
-    char why[256] = "";
+    char why[FTM_ERROR_MESSAGE_MAX + 64] = "";
     ftm_record_entry e;
     for (;;) {
         int got = ftm_record_next(rd, &e, &err);

@@ -69,6 +69,7 @@ typedef struct row {
     double setup_s;     /* one-time cost before the first step (factorisation, set-up) */
     double error;       /* relative L2 error of the final equilibrium */
     bool converged;
+    uint64_t guard_events; /* transmittal: steps the stability guard rolled back (timed run) */
 } row;
 
 typedef struct options {
@@ -549,6 +550,7 @@ static int run_ft(const body *bd, ftm_forces forces, int32_t depth, const option
     ftm_sim_stats st;
     ftm_sim_get_stats(sim, &st);
     r->converged = r->converged && done;
+    r->guard_events = st.guard_events;
     r->steps = steps;
     r->step_us = steps ? ftm_bench_median(samples, steps) : NAN;
     r->time_s = steps * r->step_us * 1e-6;
@@ -870,6 +872,9 @@ static void print_row(FILE *out, const row *r)
     fprintf(out, "%-6s %-16s %5s %6d %9.3g %11.2f %8d %9.4f %9.3f %10.3e%s\n", r->mesh,
             r->method, depth, (int)r->nodes, r->h, r->step_us, (int)r->steps, r->time_s,
             r->setup_s, r->error, r->converged ? "" : "  (not converged)");
+    if (r->guard_events)
+        fprintf(out, "       (the stability guard rolled back %llu steps and substepped)\n",
+                (unsigned long long)r->guard_events);
     fflush(out);
 }
 
@@ -878,10 +883,10 @@ static void print_json_row(FILE *out, const row *r, bool first)
     fprintf(out,
             "%s{\"mesh\":\"%s\",\"method\":\"%s\",\"depth\":%d,\"nodes\":%d,\"h\":%.6g,"
             "\"step_us\":%.4g,\"steps\":%d,\"time_s\":%.6g,\"setup_s\":%.6g,\"wall_s\":%.6g,"
-            "\"error\":%.6g,\"converged\":%s}",
+            "\"error\":%.6g,\"converged\":%s,\"guard_events\":%llu}",
             first ? "" : ",", r->mesh, r->method, (int)r->depth, (int)r->nodes, r->h, r->step_us,
             (int)r->steps, r->time_s, r->setup_s, r->wall_s, r->error,
-            r->converged ? "true" : "false");
+            r->converged ? "true" : "false", (unsigned long long)r->guard_events);
 }
 
 static void print_body(FILE *out, const body *b, const options *o)
@@ -1205,7 +1210,7 @@ int ftm_bench_accuracy(int argc, char **argv)
                 }
             for (int c = 0; c < ni; c++) {
                 const row *r = &rows[idx[c]];
-                fprintf(outs[2], "%s %s %d %d %.6g %.6g %d %.6g %.6g %.6g\n", r->mesh, r->method,
+                fprintf(outs[2], "pareto-%s %s %d %d %.6g %.6g %d %.6g %.6g %.6g\n", r->mesh, r->method,
                         (int)r->depth, (int)r->nodes, r->h, r->step_us, (int)r->steps, r->time_s,
                         r->setup_s, r->error);
             }

@@ -10,7 +10,13 @@
  *     and ddsperf's one-way latency (round trip / 2) measured meanwhile on
  *     the same loopback configuration with a 100-byte payload at 1 kHz;
  *  2. size: the same trainee scripts on a 100 000-node slab for
- *     --size-duration s: frame bytes per tick again.
+ *     --size-duration s: frame bytes per tick again;
+ *  3. adaptive: the 1k scene with half the bots, the server's adaptive
+ *     depth on (--adaptive 1) and Cyclone's loss injection (the lossy
+ *     loopback configuration); one bot is stopped (SIGSTOP) for 2 s twice:
+ *     the depth over time (server log), that bot's lag over time (its frame
+ *     latency in ticks) and whether the tick rate holds.
+ * Phases 1 and 2 run at the scene's fixed depth (--adaptive 0).
  * For both scenes, the bytes per tick of the alternative — streaming every
  * node that moved in a tick (index + position, protobuf-packed as the
  * keyframe does) — follow from the updated-node counts the bots log. Every
@@ -46,7 +52,18 @@ typedef struct net_options {
     const char *server, *bot, *config, *keep, *plot;
     bool json, ddsperf;
     int domain;
+    double adaptive_duration; /* 0: no adaptive phase */
+    const char *lossy_config;
 } net_options;
+
+/* How a session is run (phase 3 differs). */
+typedef struct session_plan {
+    const char *config;
+    bool adaptive;
+    int bots;
+    int stop_bot;        /* -1: none; else SIGSTOP it at stop_at[k] for stop_for s */
+    double stop_at[2], stop_for;
+} session_plan;
 
 typedef struct run_result {
     /* server */
@@ -55,10 +72,15 @@ typedef struct run_result {
     char final[96];
     /* bots */
     int synced;          /* bots that ended synced on the server's tick and hash */
-    double stream_bytes_per_tick, moved_per_tick;
+    /* over the first bot's synced ticks: frame payload (its frame_bytes) and
+     * what streaming the moved nodes would take, per tick */
+    double frame_bytes_per_tick, stream_bytes_per_tick, moved_per_tick;
     double *lat;         /* all latency samples [us] */
     uint64_t *lat_tick;  /* their ticks */
     size_t nlat, caplat;
+    /* adaptive phase */
+    int depth_min, depth_changes;
+    double max_lag_ticks;
 } run_result;
 
 static double now_s(void)
@@ -265,15 +287,17 @@ static int read_bot_csv(const char *path, run_result *r, bool stream, int32_t no
         return -1;
     char line[512];
     uint64_t first = 0, last = 0;
-    double sbytes = 0, moved = 0;
+    double sbytes = 0, moved = 0, fsum = 0;
     bool any = false;
     while (fgets(line, sizeof line, f)) {
         double t, fx, fy, fz, lat;
         uint64_t tick;
         char h1[32], h2[32];
         int state, contacts, upd = 0;
-        if (sscanf(line, "%lf,%" SCNu64 ",%31[^,],%31[^,],%d,%d,%lf,%lf,%lf,%lf,%d", &t, &tick,
-                   h1, h2, &state, &contacts, &fx, &fy, &fz, &lat, &upd) < 10 ||
+        double ddslat, fbytes = 0;
+        if (sscanf(line, "%lf,%" SCNu64 ",%31[^,],%31[^,],%d,%d,%lf,%lf,%lf,%lf,%d,%lf,%lf", &t,
+                   &tick, h1, h2, &state, &contacts, &fx, &fy, &fz, &lat, &upd, &ddslat,
+                   &fbytes) < 10 ||
             state != 2)
             continue;
         if (r->nlat == r->caplat) {
@@ -297,11 +321,13 @@ static int read_bot_csv(const char *path, run_result *r, bool stream, int32_t no
         any = true;
         last = tick;
         sbytes += stream_bytes(tick, upd, nodes);
+        fsum += fbytes;
         moved += upd;
     }
     fclose(f);
     if (stream && any && last > first) {
         r->stream_bytes_per_tick = sbytes / (double)(last - first + 1);
+        r->frame_bytes_per_tick = fsum / (double)(last - first + 1);
         r->moved_per_tick = moved / (double)(last - first + 1);
     }
     return 0;
@@ -360,11 +386,100 @@ static int parse_ddsperf(const char *path, double *p50, double *p99, FILE *serie
     return n > skip ? 0 : -1;
 }
 
+/* Phase 3's traces: the depth after every change (server log lines
+ * `[ t] info: depth A -> B: reason (tick T)`) and the stopped bot's lag in
+ * ticks (frame latency x rate, by server tick), into SUB/depth.dat and
+ * SUB/lag.dat (and the --plot directory). */
+static void adaptive_traces(const net_options *o, const session_plan *pl, const char *sub,
+                            const char *slog, run_result *r)
+{
+    char path[700];
+    char *s = slurp(slog);
+    r->depth_min = -1;
+    int cur = -1;
+    const char *end = s ? strstr(s, "info: depth ") : NULL;
+    for (const char *q = end; q; q = strstr(q + 1, "info: depth "))
+        end = q; /* the last one: "depth N at the end, range [a, b]: ..." */
+    int final = -1;
+    if (end && sscanf(end, "info: depth %d at the end", &final) != 1)
+        final = -1;
+    snprintf(path, sizeof path, "%s/depth.dat", sub);
+    FILE *f = fopen(path, "w");
+    for (char *line = s ? strtok(s, "\n") : NULL; line; line = strtok(NULL, "\n")) {
+        const char *d = strstr(line, "info: depth ");
+        const char *tk = d ? strstr(d, "(tick ") : NULL;
+        int from, to;
+        uint64_t tick;
+        if (!tk || sscanf(d, "info: depth %d -> %d", &from, &to) != 2 ||
+            sscanf(tk, "(tick %" SCNu64 ")", &tick) != 1)
+            continue;
+        if (r->depth_changes++ == 0 && f)
+            fprintf(f, "0 %d\n", from);
+        if (f)
+            fprintf(f, "%.3f %d\n", (double)tick / o->rate, to);
+        cur = to;
+        if (r->depth_min < 0 || to < r->depth_min)
+            r->depth_min = to;
+        if (from < r->depth_min)
+            r->depth_min = from;
+    }
+    if (cur < 0)
+        cur = final;
+    if (f && cur >= 0) {
+        if (r->depth_changes == 0)
+            fprintf(f, "0 %d\n", cur);
+        fprintf(f, "%.3f %d\n", (double)r->ticks / o->rate, cur); /* to the end */
+    }
+    if (r->depth_min < 0)
+        r->depth_min = cur;
+    if (f)
+        fclose(f);
+    free(s);
+    snprintf(path, sizeof path, "%s/bot%d.csv", sub, pl->stop_bot);
+    FILE *in = fopen(path, "r");
+    snprintf(path, sizeof path, "%s/lag.dat", sub);
+    FILE *out = in ? fopen(path, "w") : NULL;
+    char line[512];
+    while (in && out && fgets(line, sizeof line, in)) {
+        double t, fx, fy, fz, lat;
+        uint64_t tick;
+        char h1[32], h2[32];
+        int state, contacts;
+        if (sscanf(line, "%lf,%" SCNu64 ",%31[^,],%31[^,],%d,%d,%lf,%lf,%lf,%lf", &t, &tick, h1,
+                   h2, &state, &contacts, &fx, &fy, &fz, &lat) < 10)
+            continue;
+        double lag = lat * 1e-6 * o->rate;
+        if (lag > r->max_lag_ticks)
+            r->max_lag_ticks = lag;
+        fprintf(out, "%.3f %.1f\n", (double)tick / o->rate, lag);
+    }
+    if (in)
+        fclose(in);
+    if (out)
+        fclose(out);
+    if (o->plot) {
+        const char *names[] = {"depth.dat", "lag.dat"};
+        for (int k = 0; k < 2; k++) {
+            char src[700], dst[1200];
+            snprintf(src, sizeof src, "%s/%s", sub, names[k]);
+            snprintf(dst, sizeof dst, "%s/adaptive-%s", o->plot, names[k]);
+            char *d = slurp(src);
+            FILE *g = d ? fopen(dst, "w") : NULL;
+            if (g) {
+                fputs(d, g);
+                fclose(g);
+            }
+            free(d);
+        }
+    }
+}
+
 /* ---- one session ----------------------------------------------------------------------- */
 
-static int run_session(const net_options *o, const char *dir, const char *tag, const char *scene,
-                       int32_t nodes, double cx, double cy, double duration, int domain,
-                       bool with_ddsperf, run_result *r, double *dp50, double *dp99)
+static int run_session(const net_options *o, const session_plan *pl, const char *dir,
+                       const char *tag, const char *scene, int32_t nodes, double cx, double cy,
+                       double duration, int domain, bool with_ddsperf, run_result *r,
+                       double *dp50, double *dp99)
 {
     char sub[512], path[640], slog[640], sout[640], serr[640];
     snprintf(sub, sizeof sub, "%s/%s", dir, tag);
@@ -382,8 +497,9 @@ static int run_session(const net_options *o, const char *dir, const char *tag, c
     snprintf(sout, sizeof sout, "%s/server.out", sub);
     snprintf(serr, sizeof serr, "%s/server.err", sub);
     char *sargv[] = {(char *)o->server, "--scene", (char *)scene, "--session", session,
-                     "--domain", dom, "--config", (char *)o->config, "--rate", rate,
-                     "--duration", dur, "--log", slog, NULL};
+                     "--domain", dom, "--config", (char *)pl->config, "--rate", rate,
+                     "--duration", dur, "--log", slog, "--adaptive", pl->adaptive ? "1" : "0",
+                     NULL};
     pid_t server = spawn(sargv, sout, serr, NULL);
     if (server < 0 || !wait_text(slog, "session '", 20.0)) {
         fprintf(stderr, "ftm bench net: %s: the server did not start (see %s)\n", tag, serr);
@@ -392,7 +508,7 @@ static int run_session(const net_options *o, const char *dir, const char *tag, c
         return -1;
     }
     pid_t bots[MAX_BOTS];
-    for (int i = 0; i < o->bots; i++) {
+    for (int i = 0; i < pl->bots; i++) {
         char script[640], log[640], out[640], err[640], id[16], bdur[32];
         snprintf(script, sizeof script, "%s/bot%d.bot", sub, i);
         snprintf(log, sizeof log, "%s/bot%d.csv", sub, i);
@@ -400,14 +516,14 @@ static int run_session(const net_options *o, const char *dir, const char *tag, c
         snprintf(err, sizeof err, "%s/bot%d.err", sub, i);
         snprintf(id, sizeof id, "%d", 100 + i);
         snprintf(bdur, sizeof bdur, "%g", duration + 30);
-        if (write_script(script, i, o->bots, cx, cy, duration + 30)) {
+        if (write_script(script, i, pl->bots, cx, cy, duration + 30)) {
             fprintf(stderr, "ftm bench net: cannot write %s\n", script);
             bots[i] = -1;
             continue;
         }
         char *bargv[] = {(char *)o->bot, "--role", "trainee", "--script", script, "--scene",
                          (char *)scene, "--session", session, "--domain", dom, "--config",
-                         (char *)o->config, "--id", id, "--duration", bdur, "--log", log, NULL};
+                         (char *)pl->config, "--id", id, "--duration", bdur, "--log", log, NULL};
         bots[i] = spawn(bargv, out, err, NULL);
     }
     pid_t ping = -1, pong = -1;
@@ -428,8 +544,19 @@ static int run_session(const net_options *o, const char *dir, const char *tag, c
         pong = spawn(pongv, pong_out, e1, uri);
         ping = spawn(pingv, ping_out, e2, uri);
     }
+    if (pl->stop_bot >= 0 && pl->stop_bot < pl->bots && bots[pl->stop_bot] > 0) {
+        double t0 = now_s();
+        for (int k = 0; k < 2; k++) {
+            double wait = t0 + pl->stop_at[k] - now_s();
+            if (wait > 0)
+                sleep_s(wait);
+            kill(bots[pl->stop_bot], SIGSTOP);
+            sleep_s(pl->stop_for);
+            kill(bots[pl->stop_bot], SIGCONT);
+        }
+    }
     int rc = wait_for(server, duration + 30);
-    for (int i = 0; i < o->bots; i++)
+    for (int i = 0; i < pl->bots; i++)
         if (bots[i] > 0)
             wait_for(bots[i], 20);
     if (with_ddsperf) {
@@ -444,7 +571,7 @@ static int run_session(const net_options *o, const char *dir, const char *tag, c
             snprintf(r->final, sizeof r->final, "%.*s", (int)strcspn(p, "\n"), p);
         free(fin);
     }
-    for (int i = 0; i < o->bots; i++) {
+    for (int i = 0; i < pl->bots; i++) {
         snprintf(path, sizeof path, "%s/bot%d.out", sub, i);
         char *b = slurp(path);
         char want[160];
@@ -455,6 +582,8 @@ static int run_session(const net_options *o, const char *dir, const char *tag, c
         snprintf(path, sizeof path, "%s/bot%d.csv", sub, i);
         read_bot_csv(path, r, i == 0, nodes);
     }
+    if (pl->adaptive)
+        adaptive_traces(o, pl, sub, slog, r);
     if (with_ddsperf) {
         snprintf(path, sizeof path, "%s/ddsperf.dat", sub);
         FILE *series = o->plot ? fopen(path, "w") : NULL;
@@ -485,14 +614,17 @@ static void usage(FILE *f)
             "  --bot PATH          ftm-bot (default: ../client/ftm-bot)\n"
             "  --config FILE       Cyclone DDS configuration (default: %s/deploy/"
             "cyclonedds-loopback.xml)\n"
-            "  --domain N          first DDS domain to use (default 150; uses N .. N+2)\n"
+            "  --domain N          first DDS domain to use (default 150; uses N .. N+4)\n"
+            "  --adaptive-duration S  the adaptive-depth run (default 20; 0: skip it)\n"
+            "  --lossy-config FILE its configuration (default: %s/deploy/"
+            "cyclonedds-loopback-lossy.xml)\n"
             "  --no-ddsperf        do not run ddsperf\n"
             "  --keep DIR          keep logs, scripts and scenes in DIR (default: a temporary\n"
             "                      directory, removed)\n"
             "  --plot DIR          write gnuplot data (latency per second, bytes) to DIR\n"
-            "  --json              print one JSON object instead of the table\n\n"
+            "  --json              print one JSON object (the table goes to standard error)\n\n"
             "exit status: 0 every bot ended on the server's tick and hash; 1 not; 2 usage\n",
-            MAX_BOTS, FTM_SOURCE_DIR);
+            MAX_BOTS, FTM_SOURCE_DIR, FTM_SOURCE_DIR);
 }
 
 static char *exe_sibling(const char *rel)
@@ -514,9 +646,11 @@ static char *exe_sibling(const char *rel)
 
 static int parse(int argc, char **argv, net_options *o)
 {
-    static char config[1024];
+    static char config[1024], lossy[1024];
     snprintf(config, sizeof config, "%s/deploy/cyclonedds-loopback.xml", FTM_SOURCE_DIR);
-    *o = (net_options){60.0, 15.0, 1000.0, 8, NULL, NULL, config, NULL, NULL, false, true, 150};
+    snprintf(lossy, sizeof lossy, "%s/deploy/cyclonedds-loopback-lossy.xml", FTM_SOURCE_DIR);
+    *o = (net_options){60.0, 15.0, 1000.0, 8, NULL, NULL, config, NULL, NULL, false, true, 150,
+                       20.0, lossy};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -558,6 +692,10 @@ static int parse(int argc, char **argv, net_options *o)
             o->keep = v;
         else if (strcmp(a, "--plot") == 0)
             o->plot = v;
+        else if (strcmp(a, "--adaptive-duration") == 0)
+            o->adaptive_duration = strtod(v, &end);
+        else if (strcmp(a, "--lossy-config") == 0)
+            o->lossy_config = v;
         else {
             fprintf(stderr, "ftm bench net: unknown option '%s' (try --help)\n", a);
             return 2;
@@ -568,9 +706,10 @@ static int parse(int argc, char **argv, net_options *o)
         }
     }
     if (!(o->duration >= 3) || !(o->size_duration >= 3) || !(o->rate > 0 && o->rate <= 10000) ||
-        o->bots < 1 || o->bots > MAX_BOTS || o->domain < 0 || o->domain > 230) {
+        o->bots < 1 || o->bots > MAX_BOTS || o->domain < 0 || o->domain > 226 ||
+        !(o->adaptive_duration == 0 || o->adaptive_duration >= 12)) {
         fprintf(stderr, "ftm bench net: --duration and --size-duration >= 3, --rate 0..10000, "
-                        "--bots 1..%d, --domain 0..230\n",
+                        "--bots 1..%d, --domain 0..226, --adaptive-duration 0 or >= 12\n",
                 MAX_BOTS);
         return 2;
     }
@@ -584,8 +723,8 @@ static int parse(int argc, char **argv, net_options *o)
                 o->server ? o->server : "?", o->bot ? o->bot : "?");
         return 2;
     }
-    if (access(o->config, R_OK)) {
-        fprintf(stderr, "ftm bench net: cannot read %s\n", o->config);
+    if (access(o->config, R_OK) || (o->adaptive_duration > 0 && access(o->lossy_config, R_OK))) {
+        fprintf(stderr, "ftm bench net: cannot read %s or %s\n", o->config, o->lossy_config);
         return 2;
     }
     return 0;
@@ -629,14 +768,23 @@ int ftm_bench_net(int argc, char **argv)
     if (!o.json)
         fprintf(stderr, "ftm bench net: %d bots at %g Hz, %g s on 1k nodes, %g s on 100k; logs in %s\n",
                 o.bots, o.rate, o.duration, o.size_duration, dir);
-    run_result a, b;
+    run_result a, b, c;
     memset(&a, 0, sizeof a);
     memset(&b, 0, sizeof b);
+    memset(&c, 0, sizeof c);
     double dp50 = NAN, dp99 = NAN, dummy50, dummy99;
-    int ra = run_session(&o, dir, "1k", s1k, 1000, 0.045, 0.045, o.duration, o.domain,
+    session_plan fixed = {o.config, false, o.bots, -1, {0, 0}, 0};
+    int ra = run_session(&o, &fixed, dir, "1k", s1k, 1000, 0.045, 0.045, o.duration, o.domain,
                          o.ddsperf, &a, &dp50, &dp99);
-    int rb = run_session(&o, dir, "100k", s100k, 100000, 0.495, 0.495, o.size_duration,
+    int rb = run_session(&o, &fixed, dir, "100k", s100k, 100000, 0.495, 0.495, o.size_duration,
                          o.domain + 2, false, &b, &dummy50, &dummy99);
+    int rc3 = 0;
+    /* half the bots (at least 2); bot 1 is the one stopped */
+    session_plan adapt = {o.lossy_config, true, o.bots > 3 ? (o.bots + 1) / 2 : 2, 1,
+                          {0.3 * o.adaptive_duration, 0.6 * o.adaptive_duration}, 2.0};
+    if (o.adaptive_duration > 0)
+        rc3 = run_session(&o, &adapt, dir, "adaptive", s1k, 1000, 0.045, 0.045,
+                          o.adaptive_duration, o.domain + 3, false, &c, &dummy50, &dummy99);
 
     double lat50 = windowed(&a, o.rate, 0.50), lat99 = windowed(&a, o.rate, 0.99);
     double *all = a.nlat ? malloc(a.nlat * sizeof *all) : NULL;
@@ -672,7 +820,7 @@ int ftm_bench_net(int argc, char **argv)
         if (f) {
             fprintf(f, "# scene frames_bytes_per_tick streaming_bytes_per_tick\n"
                        "1k %.1f %.1f\n100k %.1f %.1f\n",
-                    a.bytes_per_tick, a.stream_bytes_per_tick, b.bytes_per_tick,
+                    a.frame_bytes_per_tick, a.stream_bytes_per_tick, b.frame_bytes_per_tick,
                     b.stream_bytes_per_tick);
             fclose(f);
         }
@@ -688,9 +836,11 @@ int ftm_bench_net(int argc, char **argv)
         free(d);
     }
     free(all);
-    double ratio1k = a.bytes_per_tick > 0 ? a.stream_bytes_per_tick / a.bytes_per_tick : NAN;
-    double ratio100k = b.bytes_per_tick > 0 ? b.stream_bytes_per_tick / b.bytes_per_tick : NAN;
-    bool ok = ra == 0 && rb == 0 && a.synced == o.bots && b.synced == o.bots;
+    double ratio1k = a.frame_bytes_per_tick > 0 ? a.stream_bytes_per_tick / a.frame_bytes_per_tick : NAN;
+    double ratio100k =
+        b.frame_bytes_per_tick > 0 ? b.stream_bytes_per_tick / b.frame_bytes_per_tick : NAN;
+    bool ok = ra == 0 && rb == 0 && a.synced == o.bots && b.synced == o.bots &&
+              (o.adaptive_duration == 0 || (rc3 == 0 && c.synced == adapt.bots));
 
     if (o.json) {
         printf("{");
@@ -699,16 +849,20 @@ int ftm_bench_net(int argc, char **argv)
         json_num(stdout, "duration_s", a.seconds, false);
         json_num(stdout, "ticks", (double)a.ticks, false);
         json_num(stdout, "missed_ticks", (double)a.missed, false);
+        json_num(stdout, "ticks_per_s", a.seconds > 0 ? (double)a.ticks / a.seconds : NAN, false);
         json_num(stdout, "tick_p50_ms", a.tick_p50, false);
         json_num(stdout, "tick_p99_ms", a.tick_p99, false);
         json_num(stdout, "late_p99_ms", a.late_p99, false);
         json_num(stdout, "step_mean_us", a.step_mean_us, false);
-        json_num(stdout, "bytes_per_tick_1k", a.bytes_per_tick, false);
-        json_num(stdout, "bytes_per_tick_100k", b.bytes_per_tick, false);
+        json_num(stdout, "bytes_per_tick_1k", a.frame_bytes_per_tick, false);
+        json_num(stdout, "bytes_per_tick_100k", b.frame_bytes_per_tick, false);
+        json_num(stdout, "server_bytes_per_tick_1k", a.bytes_per_tick, false);
+        json_num(stdout, "server_bytes_per_tick_100k", b.bytes_per_tick, false);
         json_num(stdout, "stream_bytes_per_tick_1k", a.stream_bytes_per_tick, false);
         json_num(stdout, "stream_bytes_per_tick_100k", b.stream_bytes_per_tick, false);
         json_num(stdout, "stream_ratio_1k", ratio1k, false);
         json_num(stdout, "stream_ratio_100k", ratio100k, false);
+        json_num(stdout, "moved_nodes_per_tick_1k", a.moved_per_tick, false);
         json_num(stdout, "moved_nodes_per_tick_100k", b.moved_per_tick, false);
         json_num(stdout, "latency_p50_us", lat50, false);
         json_num(stdout, "latency_p99_us", lat99, false);
@@ -718,39 +872,64 @@ int ftm_bench_net(int argc, char **argv)
         json_num(stdout, "ddsperf_p99_us", dp99, false);
         json_num(stdout, "latency_ratio_p99", lat99 / dp99, false);
         json_num(stdout, "bots_synced_1k", a.synced, false);
-        json_num(stdout, "bots_synced_100k", b.synced, true);
+        json_num(stdout, "bots_synced_100k", b.synced, false);
+        if (o.adaptive_duration > 0) {
+            json_num(stdout, "adaptive_ticks_per_s", c.seconds > 0 ? (double)c.ticks / c.seconds : NAN, false);
+            json_num(stdout, "adaptive_missed_ticks", (double)c.missed, false);
+            json_num(stdout, "adaptive_tick_p99_ms", c.tick_p99, false);
+            json_num(stdout, "adaptive_depth_changes", c.depth_changes, false);
+            json_num(stdout, "adaptive_depth_min", c.depth_min, false);
+            json_num(stdout, "adaptive_max_lag_ticks", c.max_lag_ticks, false);
+            json_num(stdout, "adaptive_bots_synced", c.synced, false);
+        }
+        json_num(stdout, "ok", ok, true);
         printf("}\n");
-    } else {
-        printf("ftm bench net: %d trainee bots, %g Hz, loopback (%s)\n\n", o.bots, o.rate, o.config);
-        printf("1k-node scene, %.1f s\n", a.seconds);
-        printf("  ticks run / missed            %" PRIu64 " / %" PRIu64 " (%.1f ticks/s)\n",
-               a.ticks, a.missed, a.seconds > 0 ? (double)a.ticks / a.seconds : 0.0);
-        printf("  tick period p50 / p99         %.2f / %.2f ms (start after due p99 %.2f ms)\n",
-               a.tick_p50, a.tick_p99, a.late_p99);
-        printf("  server step mean              %.1f us\n", a.step_mean_us);
-        printf("  latency p50 / p99 (FTM)       %.0f / %.0f us (median of 1 s windows; pooled "
-               "p99 %.0f, max %.0f)\n",
-               lat50, lat99, pooled99, latmax);
-        printf("  latency p50 / p99 (ddsperf)   %.0f / %.0f us (one way = round trip / 2, 100 B, "
-               "1 kHz)\n",
-               dp50, dp99);
-        printf("  latency p99 ratio FTM/raw     %.2f\n", lat99 / dp99);
-        printf("  bots on the server's hash     %d of %d\n\n", a.synced, o.bots);
-        printf("bytes per tick (protobuf payload)   frames   streaming moved nodes   ratio\n");
-        printf("  1k nodes                          %6.1f   %9.1f                %6.1f\n",
-               a.bytes_per_tick, a.stream_bytes_per_tick, ratio1k);
-        printf("  100k nodes                        %6.1f   %9.1f                %6.1f\n",
-               b.bytes_per_tick, b.stream_bytes_per_tick, ratio100k);
-        printf("  (100k: %.0f nodes moved per tick on average; keyframes %.1f bytes/tick more)\n",
-               b.moved_per_tick, b.ticks ? (double)b.keyframe_bytes / (double)b.ticks : 0.0);
-        printf("  bots on the server's hash (100k)  %d of %d\n", b.synced, o.bots);
-        printf("\nresult: %s\n", ok ? "every bot replayed both sessions bit-identically"
-                                      : "NOT every bot ended on the server's state (see the logs)");
     }
+    FILE *t = o.json ? stderr : stdout;
+    fprintf(t, "ftm bench net: %d trainee bots, %g Hz, loopback (%s)\n\n", o.bots, o.rate, o.config);
+    fprintf(t, "1k-node scene, fixed depth, %.1f s\n", a.seconds);
+    fprintf(t, "  ticks run / missed            %" PRIu64 " / %" PRIu64 " (%.1f ticks/s)\n",
+            a.ticks, a.missed, a.seconds > 0 ? (double)a.ticks / a.seconds : 0.0);
+    fprintf(t, "  tick period p50 / p99         %.2f / %.2f ms (start after due p99 %.2f ms)\n",
+            a.tick_p50, a.tick_p99, a.late_p99);
+    fprintf(t, "  server step mean              %.1f us\n", a.step_mean_us);
+    fprintf(t, "  latency p50 / p99 (FTM)       %.0f / %.0f us (median of 1 s windows; pooled "
+               "p99 %.0f, max %.0f)\n",
+            lat50, lat99, pooled99, latmax);
+    fprintf(t, "  latency p50 / p99 (ddsperf)   %.0f / %.0f us (one way = round trip / 2, 100 B, "
+               "1 kHz, meanwhile)\n",
+            dp50, dp99);
+    fprintf(t, "  latency p99 ratio FTM/raw     %.2f\n", lat99 / dp99);
+    fprintf(t, "  bots on the server's hash     %d of %d\n\n", a.synced, o.bots);
+    fprintf(t, "bytes per tick (protobuf payload)   frames   streaming moved nodes   ratio   "
+               "(server, whole run)\n");
+    fprintf(t, "  1k nodes                          %6.1f   %9.1f                %6.1f   (%.1f)\n",
+            a.frame_bytes_per_tick, a.stream_bytes_per_tick, ratio1k, a.bytes_per_tick);
+    fprintf(t, "  100k nodes                        %6.1f   %9.1f                %6.1f   (%.1f)\n",
+            b.frame_bytes_per_tick, b.stream_bytes_per_tick, ratio100k, b.bytes_per_tick);
+    fprintf(t, "  (nodes moved per tick: %.0f on 1k, %.0f on 100k; keyframes add %.1f and %.1f "
+               "bytes/tick)\n",
+            a.moved_per_tick, b.moved_per_tick,
+            a.ticks ? (double)a.keyframe_bytes / (double)a.ticks : 0.0,
+            b.ticks ? (double)b.keyframe_bytes / (double)b.ticks : 0.0);
+    fprintf(t, "  bots on the server's hash (100k)  %d of %d\n", b.synced, o.bots);
+    if (o.adaptive_duration > 0) {
+        fprintf(t, "\nadaptive depth: 1k nodes, %d bots, 5 %% loss injected, bot 1 stopped for "
+                   "%.0f s at %.0f s and %.0f s, %.1f s\n",
+                adapt.bots, adapt.stop_for, adapt.stop_at[0], adapt.stop_at[1], c.seconds);
+        fprintf(t, "  ticks/s, missed, period p99   %.1f, %" PRIu64 ", %.2f ms\n",
+                c.seconds > 0 ? (double)c.ticks / c.seconds : 0.0, c.missed, c.tick_p99);
+        fprintf(t, "  depth changes, lowest depth   %d, %d (trace: depth.dat in the logs)\n",
+                c.depth_changes, c.depth_min);
+        fprintf(t, "  stopped bot's largest lag     %.0f ticks\n", c.max_lag_ticks);
+        fprintf(t, "  bots on the server's hash     %d of %d\n", c.synced, adapt.bots);
+    }
+    fprintf(t, "\nresult: %s\n", ok ? "every bot replayed every session bit-identically"
+                                     : "NOT every bot ended on the server's state (see the logs)");
     if (!o.keep && ok) {
         /* remove the temporary directory: the files this run wrote */
-        const char *subs[] = {"1k", "100k"};
-        for (int k = 0; k < 2; k++) {
+        const char *subs[] = {"1k", "100k", "adaptive"};
+        for (int k = 0; k < 3; k++) {
             char sub[1200];
             snprintf(sub, sizeof sub, "%s/%s", dir, subs[k]);
             DIR *d = opendir(sub);
@@ -773,5 +952,7 @@ int ftm_bench_net(int argc, char **argv)
     free(a.lat_tick);
     free(b.lat);
     free(b.lat_tick);
+    free(c.lat);
+    free(c.lat_tick);
     return ok ? 0 : 1;
 }

@@ -13,8 +13,6 @@ mkdir -p "$out" docs/img
 "$ftm" experiment depth --csv-dir "$out" "$@" | tee "$out/depth.txt"
 "$ftm" experiment tissue --csv-dir "$out" "$@" | tee "$out/tissue.txt"
 "$ftm" experiment anisotropy --csv-dir "$out" "$@" | tee "$out/anisotropy.txt"
-# exit status 1 means a NaN or an unnoticed instability: keep the table anyway
-"$ftm" stability --csv "$out/stability.csv" "$@" | tee "$out/stability.txt" || true
 
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
@@ -111,38 +109,6 @@ replot
 unset multiplot
 GP
 
-# ---- stability: measured boundary against the theoretical limits, and
-# against damping (the core's warning threshold is d/2m = 0.025 w_max, ratio 1)
-# index, measured (<0: unstable at every step tried -> drawn at 0.05), spectral ratio, damping ratio, name
-awk -F, 'NR > 1 { gsub(/"/, "", $2); m = $9 < 0 ? 0.05 : $9; print $1, m, $6, $7, "\"" $2 "\"" }' \
-  "$out/stability.csv" > "$tmp/stab.dat"
-awk 'NR == 1 || /"d = / { if ($4 > 0) print $4, $2 }' "$tmp/stab.dat" | sort -g > "$tmp/stab_damping.dat"
-gnuplot <<GP
-set terminal pngcairo size 1400,560 font "sans,10"
-set termoption noenhanced
-set output "docs/img/stability.png"
-set multiplot layout 1,2 title "Stability sweep (guard off): largest stable time step in units of the core's h_crit (Gershgorin bound)"
-set title "every configuration"
-set ylabel "h / h_crit"
-set logscale y
-set yrange [0.04:6]
-set grid ytics
-set xtics rotate by -40 scale 0 font ",9"
-set key top left font ",9"
-set bmargin 10
-plot "$tmp/stab.dat" using 1:2:xtic(5) w p pt 7 ps 1.5 t "measured boundary (0.05: unstable at every step tried)", \
-     "" using 1:3 w p pt 6 ps 1.5 t "spectral limit 2/sqrt(lambda_max) of undamped central differences", \
-     1 w l lc rgb "black" dt 2 t "h_crit"
-set title "2D lattice: boundary against nodal damping"
-set xlabel "d/2m / (0.025 w_max)   (the core warns below 1)"
-set logscale x
-set xrange [0.1:200]
-set xtics norotate auto font ",10"
-set bmargin 4
-set key bottom right
-plot "$tmp/stab_damping.dat" w lp pt 7 ps 1.5 lw 2 t "measured boundary", \
-     0.225 * x w l dt 2 lw 2 t "0.225 x (damping ratio)", \
-     1 w l lc rgb "black" dt 3 t "h_crit"
-unset multiplot
-GP
+# the stability sweep and its plot
+docs/bench/stability.sh "$ftm" "$@"
 echo "wrote $out/* docs/img/depth.png docs/img/tissue.png docs/img/anisotropy.png docs/img/stability.png"
