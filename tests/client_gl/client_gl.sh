@@ -25,9 +25,15 @@ session="client-gl-$mode-$$"
 common="--session $session --domain $domain --config $FTM_CONFIG"
 export LIBGL_ALWAYS_SOFTWARE=1
 fail() { echo "FAIL: $*"; for f in "$dir"/*.out "$dir"/*.err "$dir"/*.log; do [ -f "$f" ] && { echo "== $f"; tail -n 30 "$f"; }; done; exit 1; }
+# Under ASan, LeakSanitizer is off for ftm-client only: Mesa's llvmpipe
+# driver leaves allocations at exit from code it has already unloaded, which
+# LSan reports without a module to suppress by. The client's own logic is
+# leak-checked by its unit tests (test_haptic*, test_replay); the server and
+# bots here still run with leak detection.
+client_asan=${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0
 client() { # name, then client options
     n=$1; shift
-    timeout 90 xvfb-run -a -s "-screen 0 1280x800x24" \
+    ASAN_OPTIONS=$client_asan timeout 90 xvfb-run -a -s "-screen 0 1280x800x24" \
         "$FTM_CLIENT" $common --size 960x600 --log "$dir/$n.log" "$@" >"$dir/$n.out" 2>"$dir/$n.err"
 }
 start_server() {

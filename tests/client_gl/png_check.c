@@ -100,26 +100,25 @@ static int not_blank(const char *path, const image *im, unsigned min_colours)
     return 0;
 }
 
-static int compare(const char *pa, const char *pb, int cx, int cy, int r)
+/* The verdict on two loaded images of the same scene. */
+static int compare_images(const char *pa, const image *a, const char *pb, const image *b, int cx,
+                          int cy, int r)
 {
-    image a, b;
-    if (load(pa, &a) || load(pb, &b))
-        return 2;
-    if (not_blank(pa, &a, 20) || not_blank(pb, &b, 20))
+    if (not_blank(pa, a, 20) || not_blank(pb, b, 20))
         return 1;
-    if (a.w != b.w || a.h != b.h) {
-        printf("FAIL: sizes differ: %dx%d and %dx%d\n", a.w, a.h, b.w, b.h);
+    if (a->w != b->w || a->h != b->h) {
+        printf("FAIL: sizes differ: %dx%d and %dx%d\n", a->w, a->h, b->w, b->h);
         return 1;
     }
-    if (cx < 0 || cy < 0 || cx >= a.w || cy >= a.h) {
+    if (cx < 0 || cy < 0 || cx >= a->w || cy >= a->h) {
         printf("FAIL: contact pixel (%d, %d) outside the image\n", cx, cy);
         return 1;
     }
     long inside = 0, changed = 0, far = 0, far_changed = 0;
-    for (int y = 0; y < a.h; y++)
-        for (int x = 0; x < a.w; x++) {
-            const unsigned char *p = a.rgb + ((size_t)y * a.w + x) * 3;
-            const unsigned char *q = b.rgb + ((size_t)y * a.w + x) * 3;
+    for (int y = 0; y < a->h; y++)
+        for (int x = 0; x < a->w; x++) {
+            const unsigned char *p = a->rgb + ((size_t)y * a->w + x) * 3;
+            const unsigned char *q = b->rgb + ((size_t)y * a->w + x) * 3;
             int d = abs(p[0] - q[0]) + abs(p[1] - q[1]) + abs(p[2] - q[2]);
             long dx = x - cx, dy = y - cy;
             if (dx * dx + dy * dy <= (long)r * r) {
@@ -146,13 +145,30 @@ static int compare(const char *pa, const char *pb, int cx, int cy, int r)
     return 0;
 }
 
+static int compare(const char *pa, const char *pb, int cx, int cy, int r)
+{
+    image a, b;
+    if (load(pa, &a))
+        return 2;
+    if (load(pb, &b)) {
+        free(a.rgb);
+        return 2;
+    }
+    int rc = compare_images(pa, &a, pb, &b, cx, cy, r);
+    free(a.rgb);
+    free(b.rgb);
+    return rc;
+}
+
 static int banner(const char *path)
 {
     image a;
     if (load(path, &a))
         return 2;
-    if (not_blank(path, &a, 2))
+    if (not_blank(path, &a, 2)) {
+        free(a.rgb);
         return 1;
+    }
     /* ftm-client draws the banner near the top (below its HUD): red (0.70,
      * 0.08, 0.06) at 88% over the dark background */
     int y0 = 0, y1 = a.h / 2;
@@ -163,6 +179,7 @@ static int banner(const char *path)
             red += p[0] > 130 && p[1] < 60 && p[2] < 60;
         }
     printf("%s: %ld banner-red pixels in rows %d..%d\n", path, red, y0, y1);
+    free(a.rgb);
     if (red < 2000) {
         printf("FAIL: no error banner on screen\n");
         return 1;
