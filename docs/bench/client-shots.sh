@@ -1,0 +1,60 @@
+#!/bin/sh
+# Screenshots of ftm-client for docs/client.md and the README, taken the way
+# the tests take them: a real ftm-server on loopback DDS, scripted trainees
+# (ftm-bot), and ftm-client under Xvfb with Mesa's software renderer.
+#   docs/bench/client-shots.sh [BUILD_DIR]      (default build/release)
+# Writes docs/img/client-*.png.
+set -eu
+cd "$(dirname "$0")/../.."
+B=${1:-build/release}
+cfg=deploy/cyclonedds-loopback.xml
+dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-shots.XXXXXX")
+pids=
+trap 'kill $pids 2>/dev/null; rm -rf "$dir"' EXIT
+export LIBGL_ALWAYS_SOFTWARE=1 CYCLONEDDS_URI=
+
+# one session: $1 = tag, $2 = scene; trainees from docs/sessions/ pressing
+session_start() {
+    session="shots-$1-$$"
+    common="--session $session --domain $(( 200 + $$ % 10 )) --config $cfg"
+    "$B/server/ftm-server" --scene "$2" $common --duration 60 --log "$dir/$1-server.log" \
+        >/dev/null 2>&1 &
+    pids="$pids $!"
+    until grep -q "session '$session'" "$dir/$1-server.log" 2>/dev/null; do sleep 0.05; done
+}
+shot() { # file, then client options
+    f=$1; shift
+    timeout 90 xvfb-run -a -s "-screen 0 1280x800x24" "$B/client/ftm-client" $common \
+        --size 1280x800 "$@" --screenshot "$f" --screenshot-timeout 60 >"$dir/shot.out" 2>&1 ||
+        { cat "$dir/shot.out"; exit 1; }
+    cat "$dir/shot.out"
+}
+
+# 1. the default scene, one trainee pressing 6 mm off-centre: colour map of
+#    displacement and the HUD, seen by an observer
+session_start press default
+"$B/client/ftm-bot" --role trainee --script tests/client_gl/hold.bot $common --id 11 \
+    --duration 50 >/dev/null 2>&1 &
+pids="$pids $!"
+shot docs/img/client-press.png --role observer --screenshot-contact 300
+# 2. the same contact with the active BFS region drawn (key b)
+shot docs/img/client-region.png --role observer --region --screenshot-contact 300
+kill $pids 2>/dev/null || true
+pids=
+sleep 1
+
+# 3. two trainees on one tissue (their regions merge, paper 3.1.6), seen by the
+#    instructor
+session_start two default
+# each waits above the tissue until the server knows it, then presses and holds
+printf '0 0.035 0.035 0.12\n2.5 0.035 0.035 0.12\n3.5 0.035 0.035 0.105\n60 0.035 0.035 0.105\n' \
+    >"$dir/t1.bot"
+printf '0 0.065 0.055 0.12\n2.5 0.065 0.055 0.12\n3.5 0.065 0.055 0.107\n60 0.065 0.055 0.107\n' \
+    >"$dir/t2.bot"
+for i in 1 2; do
+    "$B/client/ftm-bot" --role trainee --script "$dir/t$i.bot" $common --id 1$i \
+        --duration 50 >/dev/null 2>&1 &
+    pids="$pids $!"
+done
+shot docs/img/client-instructor.png --role instructor --screenshot-contact 300
+echo "wrote docs/img/client-press.png docs/img/client-region.png docs/img/client-instructor.png"
