@@ -22,6 +22,7 @@ void ftm_depth_ctl_default(ftm_depth_ctl_def *d, int32_t floor, int32_t max, dou
         .up_step = 1,
         .hold_down_ns = 300000000,
         .hold_up_ns = 2000000000,
+        .noise_pct = 20,
     };
 }
 
@@ -53,6 +54,8 @@ int ftm_depth_ctl_init(ftm_depth_ctl *ctl, const ftm_depth_ctl_def *d, ftm_error
         return fail(err, "down_step and up_step must be >= 1");
     if (d->hold_down_ns < 0 || d->hold_up_ns < 0)
         return fail(err, "hold times must be >= 0");
+    if (d->noise_pct < 0 || d->noise_pct > 50)
+        return fail(err, "noise_pct must be in 0..50");
     memset(ctl, 0, sizeof *ctl);
     ctl->def = *d;
     ctl->depth = d->max;
@@ -159,20 +162,30 @@ int32_t ftm_depth_ctl_update(ftm_depth_ctl *ctl, const ftm_depth_ctl_input *in, 
         }
         return ctl->depth;
     }
-    if (!calm(d, in)) { /* the dead band: neither way */
-        ctl->calm_since_ns = INT64_MIN;
-        return ctl->depth;
+    bool quiet = calm(d, in);
+    if (ctl->calm_since_ns == INT64_MIN) {
+        if (!quiet) /* the dead band: neither way */
+            return ctl->depth;
+        ctl->calm_since_ns = now; /* a window starts with a calm period */
+        ctl->calm_periods = ctl->noisy_periods = 0;
     }
-    if (ctl->calm_since_ns == INT64_MIN)
-        ctl->calm_since_ns = now;
+    ctl->calm_periods++;
+    if (!quiet) {
+        ctl->noisy_periods++;
+        if ((int64_t)ctl->noisy_periods * 100 > (int64_t)d->noise_pct * ctl->calm_periods)
+            ctl->calm_since_ns = INT64_MIN; /* too noisy to call calm */
+        return ctl->depth; /* no increase on a noisy period in any case */
+    }
     if (ctl->depth < d->max && now - ctl->calm_since_ns >= d->hold_up_ns &&
         elapsed(ctl->last_change_ns, now, d->hold_up_ns)) {
         int64_t worst = 0;
         for (int32_t i = 0; i < in->nparts; i++)
             if (in->parts[i].lag > worst)
                 worst = in->parts[i].lag;
-        snprintf(why, sizeof why, "calm for %.1f s (step %.3f ms < %.3g ms, worst lag %lld ticks)",
-                 (double)(now - ctl->calm_since_ns) * 1e-9, in->step_ns > 0 ? in->step_ns * 1e-6 : 0.0,
+        snprintf(why, sizeof why,
+                 "calm for %.1f s (%d of %d periods quiet; step %.3f ms < %.3g ms, worst lag %lld ticks)",
+                 (double)(now - ctl->calm_since_ns) * 1e-9, (int)(ctl->calm_periods - ctl->noisy_periods),
+                 (int)ctl->calm_periods, in->step_ns > 0 ? in->step_ns * 1e-6 : 0.0,
                  d->step_low * d->budget_ns * 1e-6, (long long)worst);
         int32_t to = ctl->depth + d->up_step;
         return change(ctl, to > d->max ? d->max : to, now, changed, reason, reason_size, why);

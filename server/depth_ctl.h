@@ -14,10 +14,13 @@
  *   in between: nothing happens (the dead band).
  *
  * Overload lowers n by down_step (not below the floor) at most once per
- * hold_down; n goes up by up_step only after calm has lasted hold_up and
- * hold_up has passed since the last change. Separate thresholds, the dead
- * band and the asymmetric hold times keep a noisy signal from making n
- * oscillate.
+ * hold_down; n goes up by up_step only after a calm window of hold_up and
+ * hold_up since the last change. A calm window has no overload and at most
+ * noise_pct percent of its periods in the dead band: on a busy host an
+ * occasional period just above a low threshold (a late status, one slow
+ * tick) must not hold the depth down for good, while a real overload still
+ * ends the window at once. Separate thresholds, the dead band and the
+ * asymmetric hold times keep a noisy signal from making n oscillate.
  *
  * Pure logic: no clock, no I/O; the caller passes the time and the
  * measurements of each period and logs the returned reason. */
@@ -43,11 +46,12 @@ typedef struct ftm_depth_ctl_def {
     int32_t down_step, up_step;     /* depth change per decision, >= 1 */
     int64_t hold_down_ns;           /* minimum time between a change and a decrease */
     int64_t hold_up_ns;             /* calm time (and time since a change) before an increase */
+    int32_t noise_pct;              /* dead-band periods a calm window tolerates, 0..50 % */
 } ftm_depth_ctl_def;
 
 /* The defaults for a depth range and tick budget: thresholds 0.8/0.5 of the
  * budget, lag 40/10 ticks, backlog 64, rexmit 1.0, steps 2 down / 1 up,
- * hold 0.3 s down / 2 s up. */
+ * hold 0.3 s down / 2 s up, 20 % noise in a calm window. */
 void ftm_depth_ctl_default(ftm_depth_ctl_def *def, int32_t floor, int32_t max, double budget_ns);
 
 /* One participant's measurements in a period. */
@@ -75,6 +79,8 @@ typedef struct ftm_depth_ctl {
     int32_t depth;
     int64_t last_change_ns; /* INT64_MIN: never */
     int64_t calm_since_ns;  /* INT64_MIN: not calm */
+    int32_t calm_periods;   /* periods since calm_since_ns ... */
+    int32_t noisy_periods;  /* ... and those of them in the dead band */
     uint64_t changes, decreases, increases;
 } ftm_depth_ctl;
 

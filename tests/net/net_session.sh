@@ -3,7 +3,8 @@
 #   basic: server + 2 trainees + 1 observer; every bot ends on the server's
 #          final tick and hash, and each trainee's reaction-force profile
 #          matches the same scripts run offline (ftm-server --offline: the
-#          server's tick code without DDS, scripts played on the tick clock).
+#          server's tick code without DDS, scripts played on the tick clock):
+#          within 2 % of the peak force at 95 % of the ticks, 15 % at all.
 #   late:  as basic, plus an observer joining 2 s late: it converges too.
 #   kill:  one trainee is killed with SIGKILL mid-session: the other bots end
 #          on the server's hash and the server logs that the trainee was lost.
@@ -24,15 +25,19 @@ trap 'rm -rf "$dir"' EXIT
 # A domain of our own (the wire tests use 100..219) and a unique session.
 domain=$(( 1 + $$ % 97 ))
 session="net-$mode-$$"
-rate=200
+# 200 Hz; a sanitizer build runs about 5x slower and ticks at 50 Hz (CMake sets it)
+rate=${FTM_TEST_RATE:-200}
 duration=4.5
 [ "$mode" = kill ] && duration=5.5
 [ "$mode" = rogue ] && duration=6
 config=$FTM_CONFIG
 [ "$mode" = lossy ] && config=${FTM_LOSSY_CONFIG:?}
 common="--session $session --domain $domain --config $config"
-# reaction profile vs offline: tolerance beyond the timing window, of the peak
+# reaction profile vs offline, beyond the timing window, as fractions of the
+# peak: for 95 % of the ticks in contact, and for every one (a scheduling
+# stall of a loaded host, longer than the window, shows in a few ticks only)
 PROFILE_TOL=${PROFILE_TOL:-0.02}
+PROFILE_MAX_TOL=${PROFILE_MAX_TOL:-0.15}
 fail() { echo "FAIL: $*"; for f in "$dir"/*.out "$dir"/*.err; do echo "== $f"; tail -n 25 "$f"; done; exit 1; }
 
 timeout 30 "$FTM_SERVER" --scene default $common --rate $rate --duration $duration \
@@ -131,8 +136,11 @@ profile_diff() {
                     if (cz < lz) lz = cz; if (cz > uz) uz = cz
                 }
                 e = sqrt(out(ax, lx, ux)^2 + out(ay, ly, uy)^2 + out(az, lz, uz)^2); if (e > emax) emax = e
+                ne++; for (j = ne; j > 1 && es[j - 1] > e; j--) es[j] = es[j - 1]; es[j] = e
             }
-            printf "%d %.6g %.6g %.6g %.4f\n", n, peak, dmax, emax, (peak > 0 ? emax / peak : 1)
+            p95 = ne ? es[int(0.95 * ne + 0.999999)] : 0
+            printf "%d %.6g %.6g %.6g %.4f %.4f\n", n, peak, dmax, emax, (peak > 0 ? emax / peak : 1),
+                   (peak > 0 ? p95 / peak : 1)
         }' "$1" "$3"
 }
 
@@ -148,10 +156,13 @@ basic)
     for b in 11 12; do
         set -- $(profile_diff "$dir/bot$b.csv" $b "$dir/offline.csv")
         echo "trainee $b: $1 ticks in contact offline, peak $2 N; largest difference at equal" \
-             "ticks $3 N, outside the offline range of +-50 ms $4 N ($5 of the peak)"
-        [ "$1" -ge 100 ] || fail "trainee $b: only $1 ticks in contact offline"
-        awk -v r=$5 -v tol=$PROFILE_TOL 'BEGIN { exit !(r <= tol) }' ||
-            fail "trainee $b: reaction profile outside the offline one by $5 of its peak (> $PROFILE_TOL)"
+             "ticks $3 N, outside the offline range of +-50 ms: at most $4 N ($5 of the peak)," \
+             "95th percentile $6 of the peak"
+        [ "$1" -ge $((rate / 2)) ] || fail "trainee $b: only $1 ticks in contact offline (< 0.5 s)"
+        awk -v r=$6 -v tol=$PROFILE_TOL 'BEGIN { exit !(r <= tol) }' ||
+            fail "trainee $b: reaction profile outside the offline one by $6 of its peak at the 95th percentile (> $PROFILE_TOL)"
+        awk -v r=$5 -v tol=$PROFILE_MAX_TOL 'BEGIN { exit !(r <= tol) }' ||
+            fail "trainee $b: reaction profile outside the offline one by $5 of its peak (> $PROFILE_MAX_TOL)"
     done
     ;;
 late)

@@ -159,8 +159,9 @@ static void noise_does_not_oscillate(void **state)
     for (int i = 0; i < 600; i++)
         period(&r, (0.45 + 0.1 * rnd(&seed)) * BUDGET_NS, NULL, 0);
     assert_int_equal(r.ctl.changes, 0);
-    /* mostly calm with blips into the dead band: it climbs back slowly (each
-     * blip restarts the calm time), one reversal (down, then up) and no more */
+    /* mostly calm with blips into the dead band: it climbs back (blips
+     * delay an increase, they do not hold it off), one reversal (down, then
+     * up) and no more */
     start(&r, 2, 10);
     for (int i = 0; i < 30; i++)
         period(&r, 0.9 * BUDGET_NS, NULL, 0);
@@ -180,6 +181,50 @@ static void noise_does_not_oscillate(void **state)
     assert_int_equal(r.ctl.increases, 0);
     assert_int_equal(r.reversals, 0);
     assert_true(r.ctl.changes <= 4);
+}
+
+/* A busy host: every tenth period one signal sits in the dead band (a late
+ * status, a slow tick). The calm window tolerates that (noise_pct 20), so
+ * the depth still climbs back to the maximum; one period in three in the
+ * dead band is no calm, and one overload ends a window at once. */
+static void calm_window_tolerates_blips(void **state)
+{
+    (void)state;
+    run r;
+    start(&r, 2, 10);
+    ftm_depth_ctl_part p = {13, "observer", 0, 0.0};
+    for (int i = 0; i < 30; i++)
+        period(&r, 0.9 * BUDGET_NS, NULL, 0);
+    assert_int_equal(r.ctl.depth, 2);
+    for (int i = 0; i < 400 && r.ctl.depth < 10; i++) {
+        p.lag = i % 10 == 5 ? 20 : 2; /* 10 <= 20 <= 40: the dead band */
+        period(&r, 0.1 * BUDGET_NS, &p, 1);
+    }
+    assert_int_equal(r.ctl.depth, 10);
+    assert_non_null(strstr(r.last_reason, "periods quiet"));
+    assert_true(r.min_gap_up >= r.ctl.def.hold_up_ns);
+
+    start(&r, 2, 10);
+    for (int i = 0; i < 30; i++)
+        period(&r, 0.9 * BUDGET_NS, NULL, 0);
+    for (int i = 0; i < 400; i++) {
+        p.lag = i % 3 == 1 ? 20 : 2;
+        period(&r, 0.1 * BUDGET_NS, &p, 1);
+    }
+    assert_int_equal(r.ctl.depth, 2);
+    assert_int_equal(r.ctl.increases, 0);
+
+    /* quiet periods with one overload every 1.5 s: the 2 s window never fills */
+    start(&r, 2, 10);
+    for (int i = 0; i < 30; i++)
+        period(&r, 0.9 * BUDGET_NS, NULL, 0);
+    int32_t low = r.ctl.depth;
+    for (int i = 0; i < 400; i++) {
+        p.lag = i % 15 == 14 ? 45 : 2;
+        period(&r, 0.1 * BUDGET_NS, &p, 1);
+    }
+    assert_int_equal(low, 2);
+    assert_int_equal(r.ctl.increases, 0);
 }
 
 static void participant_signals(void **state)
@@ -286,6 +331,10 @@ static void bad_definitions(void **state)
     ftm_depth_ctl_default(&d, 1, 8, BUDGET_NS);
     d.down_step = 0;
     assert_int_equal(ftm_depth_ctl_init(&ctl, &d, &err), FTM_EINVAL);
+    ftm_depth_ctl_default(&d, 1, 8, BUDGET_NS);
+    d.noise_pct = 60;
+    assert_int_equal(ftm_depth_ctl_init(&ctl, &d, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "noise_pct"));
     ftm_depth_ctl_default(&d, 0, 0, BUDGET_NS); /* a fixed depth of 0 is fine */
     assert_int_equal(ftm_depth_ctl_init(&ctl, &d, &err), FTM_OK);
 }
@@ -296,6 +345,7 @@ int main(void)
         cmocka_unit_test(overload_to_floor_and_no_lower),
         cmocka_unit_test(recovery_back_to_max),
         cmocka_unit_test(noise_does_not_oscillate),
+        cmocka_unit_test(calm_window_tolerates_blips),
         cmocka_unit_test(participant_signals),
         cmocka_unit_test(instructor_limits),
         cmocka_unit_test(bad_definitions),
