@@ -3,31 +3,42 @@
 # keeps its table, JSON and gnuplot data under docs/bench/, and draws
 # docs/img/accuracy.png (error against time to equilibrium, Pareto fronts).
 #   docs/bench/accuracy.sh [path/to/ftm] [bench options, e.g. --mesh cube]
+#   docs/bench/accuracy.sh --plot-only    (redraw from docs/bench/accuracy.dat)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-ftm=${1:-build/release/tools/ftm}
-shift || true
 out=docs/bench/accuracy
-"$ftm" bench accuracy --save "$out" "$@"
+if [ "${1:-}" != --plot-only ]; then
+  ftm=${1:-build/release/tools/ftm}
+  shift || true
+  "$ftm" bench accuracy --save "$out" "$@"
+fi
 
 dat="$out.dat"
-# rows of one body and method: mesh method depth nodes h step_us steps time_s setup_s error
-sel() { echo "< awk '\$1==\"$1\" && \$2==\"$2\"' $dat"; }
-panel() { # $1 = body, $2 = title
-  cat <<GP
-set title "$2"
-plot $(sel "$1" ft-springs)      using 8:(\$10<1e-9?1e-9:\$10) with linespoints lw 2 pt 7 lc rgb "#1f77b4" title "transmittal, springs (depth 1..full)", \
-     $(sel "$1" ft-springs)      using 8:(\$10<1e-9?1e-9:\$10):3 with labels offset 0,0.8 tc rgb "#1f77b4" notitle, \
-     $(sel "$1" ft-fem)          using 8:(\$10<1e-9?1e-9:\$10) with linespoints lw 2 pt 5 lc rgb "#d62728" title "transmittal, linear FEM forces (depth 1..full)", \
-     $(sel "$1" ft-fem)          using 8:(\$10<1e-9?1e-9:\$10):3 with labels offset 0,-0.9 tc rgb "#d62728" notitle, \
-     $(sel "$1" ft-corot)        using 8:(\$10<1e-9?1e-9:\$10) with points ps 1.6 pt 9 lc rgb "#9467bd" title "transmittal, co-rotational FEM forces (full)", \
-     $(sel "$1" explicit-springs) using 8:(\$10<1e-9?1e-9:\$10) with points ps 1.6 pt 11 lc rgb "#2ca02c" title "explicit mass-spring, all nodes", \
-     $(sel "$1" implicit-springs) using 8:(\$10<1e-9?1e-9:\$10) with points ps 1.6 pt 13 lc rgb "#ff7f0e" title "backward Euler mass-spring (constant tangent)", \
-     $(sel "$1" implicit-newton) using 8:(\$10<1e-9?1e-9:\$10) with points ps 1.6 pt 12 lc rgb "#8c564b" title "backward Euler mass-spring (Newton)", \
-     $(sel "$1" fem-cholmod)     using 8:(1e-9) with points ps 2 pt 3 lc rgb "black" title "linear FEM, prefactored CHOLMOD (error 0: drawn at 1e-9)", \
-     $(sel "pareto-$1" ft-springs) using 8:(\$10<1e-9?1e-9:\$10) with lines lw 6 lc rgb "#40808080" notitle, \
-     "< awk '\$1==\"pareto-$1\"' $dat" using 8:(\$10<1e-9?1e-9:\$10) with steps lw 8 lc rgb "#b0808080" title "Pareto front"
-GP
+# one file per body and method (gnuplot reads them by name; a series with no
+# rows is left out of the plot)
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+awk -v dir="$tmp" '!/^#/ && NF >= 10 { print > (dir "/" $1 "_" $2 ".dat") }' "$dat"
+# columns: mesh method depth nodes h step_us steps time_s setup_s error
+Y='($10<1e-9?1e-9:$10)'
+series() { # body method style title [extra: labels offset]
+  f="$tmp/$1_$2.dat"
+  [ -s "$f" ] || return 0
+  printf '"%s" using 8:%s %s title "%s", \\\n' "$f" "$Y" "$3" "$4"
+  [ -n "${5:-}" ] && printf '"%s" using 8:%s:3 with labels offset %s notitle, \\\n' "$f" "$Y" "$5"
+  return 0
+}
+panel() { # body title
+  echo "set title \"$2\""
+  echo "plot \\"
+  series "$1" ft-springs "with linespoints lw 2 pt 7 lc rgb '#1f77b4'" "transmittal, springs (depth 1..full)" "0,0.8 tc rgb '#1f77b4'"
+  series "$1" ft-fem "with linespoints lw 2 pt 5 lc rgb '#d62728'" "transmittal, linear FEM forces (depth 1..full)" "0,-0.9 tc rgb '#d62728'"
+  series "$1" ft-corot "with points ps 1.6 pt 9 lc rgb '#9467bd'" "transmittal, co-rotational FEM forces (full)"
+  series "$1" explicit-springs "with points ps 1.6 pt 11 lc rgb '#2ca02c'" "explicit mass-spring, all nodes"
+  series "$1" implicit-springs "with points ps 1.6 pt 13 lc rgb '#ff7f0e'" "backward Euler mass-spring (constant tangent)"
+  series "$1" implicit-newton "with points ps 1.6 pt 12 lc rgb '#8c564b'" "backward Euler mass-spring (Newton)"
+  series "$1" fem-cholmod "with points ps 2 pt 3 lc rgb 'black'" "linear FEM, prefactored CHOLMOD (error 0: drawn at 1e-9)"
+  cat "$tmp/pareto-$1"_*.dat 2>/dev/null | sort -g -k8 >"$tmp/front-$1.dat" || true
+  printf '"%s" using 8:%s with steps lw 8 lc rgb "#b0808080" title "Pareto front"\n' "$tmp/front-$1.dat" "$Y"
 }
 gnuplot <<GP
 set terminal pngcairo size 1500,620 font "sans,10"
@@ -37,7 +48,7 @@ set logscale xy
 set grid
 set key bottom left font "sans,8"
 set xlabel "time to equilibrium per load [s]  (steps x median step; set-up not included)"
-set ylabel "relative error ||u - u_FEM|| / ||u_FEM||"
+set ylabel "relative error ||u - u_FEM|| / ||u_FEM||" noenhanced
 set yrange [5e-10:3]
 $(panel cube "elastin cube, 1000 nodes, 10 N (labels: depth)")
 $(panel organ "kidney-shaped organ, 10606 nodes, 1 N (labels: depth)")
