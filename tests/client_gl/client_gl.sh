@@ -39,7 +39,7 @@ client() { # name, then client options
 start_server() {
     # no `timeout` wrapper: $server must be the server itself (SIGKILL below);
     # --duration bounds it and the EXIT trap kills it
-    "$FTM_SERVER" --scene default $common --rate 500 --duration 80 \
+    "$FTM_SERVER" --scene default $common --rate "${FTM_TEST_RATE:-500}" --duration 80 \
         --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
     server=$!
     i=0
