@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The main job, from a fresh clone: installs dependencies, builds, and runs a
-# headless training session on loopback — ftm-server with two scripted
-# trainees and an observer (deploy/run-session.sh) — printing what every
-# participant ended on. (With a display this will open the GL client once it
-# exists; until then the session is headless everywhere.)
+# training session on loopback — ftm-server with two scripted trainees and an
+# observer (deploy/run-session.sh) — printing what every participant ended
+# on. Without a display (CI, a server) the session is headless; with one, an
+# instructor window (ftm-client) joins it and it lasts 60 s.
 #   deploy/run-main.sh [SECONDS]
 set -euo pipefail
 cd "$(dirname "$0")/.."

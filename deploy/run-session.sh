@@ -4,13 +4,24 @@
 # the tissue (docs/sessions/trainee*.bot) and an observer, for a few seconds.
 # Prints what each process ended on and exits non-zero unless every
 # participant replayed the session to the server's exact state.
+# With a display (DISPLAY or WAYLAND_DISPLAY set, ftm-client built, and
+# FTM_HEADLESS unset) an instructor window (ftm-client) joins too, the
+# trainees repeat their presses every 3 s, and the session lasts 60 s by
+# default: watch, rotate (drag), toggle the colour map (c) and the BFS region
+# (b), pause (Space); docs/client.md lists the keys.
 #   deploy/run-session.sh [BUILD_DIR] [SECONDS]
 set -uo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build/release}
-seconds=${2:-6}
 server="$build/server/ftm-server"
 bot="$build/client/ftm-bot"
+client="$build/client/ftm-client"
+gui=
+if [ -z "${FTM_HEADLESS:-}" ] && { [ -n "${DISPLAY:-}" ] || [ -n "${WAYLAND_DISPLAY:-}" ]; } &&
+   [ -x "$client" ]; then
+  gui=1
+fi
+seconds=${2:-$([ -n "$gui" ] && echo 60 || echo 6)}
 for p in "$server" "$bot"; do
   [ -x "$p" ] || { echo "run-session: $p not built" >&2; exit 2; }
 done
@@ -18,8 +29,20 @@ dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-session.XXXXXX")
 trap '[ -n "${KEEP:-}" ] || rm -rf "$dir"' EXIT
 common=(--session main-$$ --domain $((1 + $$ % 97)) --config deploy/cyclonedds-loopback.xml)
 
-echo "FTM headless session on loopback: ftm-server (scene 'default', 1000 Hz, ${seconds} s)"
+script1=docs/sessions/trainee1.bot
+script2=docs/sessions/trainee2.bot
+if [ -n "$gui" ]; then
+  # the scripted presses again every 3 s, for as long as the window is watched
+  loop() { awk -v reps=$((seconds / 3 + 1)) '!/^#/ && NF == 4 { t[n] = $1; l[n++] = $2 " " $3 " " $4 }
+    END { for (k = 0; k < reps; k++) for (i = 0; i < n; i++) print t[i] + 3 * k, l[i] }' "$1" >"$2"; }
+  loop "$script1" "$dir/t1.bot"; script1="$dir/t1.bot"
+  loop "$script2" "$dir/t2.bot"; script2="$dir/t2.bot"
+  echo "FTM session on loopback with an instructor window: ftm-server (scene 'default', 1000 Hz, ${seconds} s)"
+else
+  echo "FTM headless session on loopback: ftm-server (scene 'default', 1000 Hz, ${seconds} s)"
+fi
 echo "  + trainee 11 (docs/sessions/trainee1.bot), trainee 12 (trainee2.bot), observer 13"
+[ -n "$gui" ] && echo "  + instructor 14: ftm-client window (keys: docs/client.md)"
 timeout $((seconds + 20)) "$server" --scene default "${common[@]}" --duration "$seconds" \
   --log "$dir/server.log" >"$dir/server.out" 2>&1 &
 spid=$!
@@ -27,15 +50,20 @@ for _ in $(seq 100); do
   grep -q "session '" "$dir/server.log" 2>/dev/null && break
   sleep 0.05
 done
-timeout $((seconds + 20)) "$bot" --role trainee --script docs/sessions/trainee1.bot "${common[@]}" \
+timeout $((seconds + 20)) "$bot" --role trainee --script "$script1" "${common[@]}" \
   --id 11 --duration $((seconds + 10)) --log "$dir/trainee11.csv" >"$dir/b11.out" 2>"$dir/b11.err" &
 p11=$!
-timeout $((seconds + 20)) "$bot" --role trainee --script docs/sessions/trainee2.bot "${common[@]}" \
+timeout $((seconds + 20)) "$bot" --role trainee --script "$script2" "${common[@]}" \
   --id 12 --duration $((seconds + 10)) >"$dir/b12.out" 2>"$dir/b12.err" &
 p12=$!
 timeout $((seconds + 20)) "$bot" --role observer "${common[@]}" \
   --id 13 --duration $((seconds + 10)) >"$dir/b13.out" 2>"$dir/b13.err" &
 p13=$!
+if [ -n "$gui" ]; then
+  "$client" --role instructor "${common[@]}" --id 14 --name instructor --duration "$seconds" \
+    --log "$dir/client.log" >"$dir/client.out" 2>&1 &
+  p14=$!
+fi
 
 status=0
 wait $spid || { echo "server failed:"; tail -5 "$dir/server.out"; status=1; }
@@ -55,6 +83,11 @@ done
 peak=$(awk -F, 'NR > 1 { f = sqrt($7*$7 + $8*$8 + $9*$9); if (f > m) m = f } END { printf "%.3g", m }' \
   "$dir/trainee11.csv")
 echo "  trainee 11 peak reaction force: $peak N"
+if [ -n "$gui" ]; then
+  wait $p14; rc=$?
+  echo "  instructor window: exit $rc ($(grep -c "" "$dir/client.log" 2>/dev/null || echo 0) log lines)"
+  [ $rc -eq 0 ] || { tail -5 "$dir/client.out"; status=1; }
+fi
 echo
 if [ $status -eq 0 ]; then
   echo "result: every participant replayed the session bit-identically"
