@@ -17,7 +17,7 @@ void ftm_depth_ctl_default(ftm_depth_ctl_def *d, int32_t floor, int32_t max, dou
         .lag_high = 40,
         .lag_low = 10,
         .backlog_high = 64,
-        .rexmit_high = 1.0,
+        .rexmit_high = 0.5,
         .down_step = 2,
         .up_step = 1,
         .hold_down_ns = 300000000,

@@ -9,7 +9,7 @@
  *     a participant's lag > lag_high ticks, a participant's replay time per
  *     tick > replay_high x budget, frames waiting in the publishing queue >
  *     backlog_high, the DDS writer throttled, retransmitted bytes >
- *     rexmit_high x bytes sent;
+ *     rexmit_high x bytes sent to all readers;
  *   calm (all of): every signal below its *low* threshold;
  *   in between: nothing happens (the dead band).
  *
@@ -42,7 +42,7 @@ typedef struct ftm_depth_ctl_def {
     double replay_high, replay_low; /* a participant's replay time per tick, same */
     int32_t lag_high, lag_low;      /* a participant's lag [ticks] */
     int32_t backlog_high;           /* frames queued for DDS; calm below a quarter */
-    double rexmit_high;             /* retransmitted / sent bytes; calm below a quarter */
+    double rexmit_high;             /* retransmitted / (bytes sent x readers); calm below a quarter */
     int32_t down_step, up_step;     /* depth change per decision, >= 1 */
     int64_t hold_down_ns;           /* minimum time between a change and a decrease */
     int64_t hold_up_ns;             /* calm time (and time since a change) before an increase */
@@ -50,7 +50,7 @@ typedef struct ftm_depth_ctl_def {
 } ftm_depth_ctl_def;
 
 /* The defaults for a depth range and tick budget: thresholds 0.8/0.5 of the
- * budget, lag 40/10 ticks, backlog 64, rexmit 1.0, steps 2 down / 1 up,
+ * budget, lag 40/10 ticks, backlog 64, rexmit 0.5, steps 2 down / 1 up,
  * hold 0.3 s down / 2 s up, 20 % noise in a calm window. */
 void ftm_depth_ctl_default(ftm_depth_ctl_def *def, int32_t floor, int32_t max, double budget_ns);
 

@@ -841,10 +841,13 @@ static void control_period(server *s)
         .missed_ticks = s->missed_ticks - s->prev_missed,
         .backlog = s->frames > done ? (int32_t)(s->frames - done) : 0,
         .throttled = ws.throttle_count - s->prev_throttle,
-        /* against at least REXMIT_FLOOR bytes: a few repairs while little is
-         * sent (joins, heartbeats) are no backlog */
+        /* the share of the wire traffic that is repair: every matched reader
+         * gets its own copy (unicast), and loses its own datagrams. Against
+         * at least REXMIT_FLOOR bytes: a few repairs while little is sent
+         * (joins, heartbeats) are no backlog */
         .rexmit_ratio = (double)(ws.rexmit_bytes - s->prev_rexmit) /
-                        (double)(sent - s->prev_sent > REXMIT_FLOOR ? sent - s->prev_sent : REXMIT_FLOOR),
+                        (double)((sent - s->prev_sent > REXMIT_FLOOR ? sent - s->prev_sent : REXMIT_FLOOR) *
+                                 (uint64_t)(ws.matched > 1 ? ws.matched : 1)),
     };
     if (step_ns >= 0)
         s->step_recent_ns = step_ns;

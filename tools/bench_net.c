@@ -496,10 +496,12 @@ static int run_session(const net_options *o, const session_plan *pl, const char 
     snprintf(slog, sizeof slog, "%s/server.log", sub);
     snprintf(sout, sizeof sout, "%s/server.out", sub);
     snprintf(serr, sizeof serr, "%s/server.err", sub);
+    char sctl[4096]; /* the controller's view every 100 ms (kept with --keep) */
+    snprintf(sctl, sizeof sctl, "%s/control.csv", sub);
     char *sargv[] = {(char *)o->server, "--scene", (char *)scene, "--session", session,
                      "--domain", dom, "--config", (char *)pl->config, "--rate", rate,
                      "--duration", dur, "--log", slog, "--adaptive", pl->adaptive ? "1" : "0",
-                     NULL};
+                     "--control-log", sctl, NULL};
     pid_t server = spawn(sargv, sout, serr, NULL);
     if (server < 0 || !wait_text(slog, "session '", 20.0)) {
         fprintf(stderr, "ftm bench net: %s: the server did not start (see %s)\n", tag, serr);
