@@ -172,6 +172,18 @@ static char *slurp(const char *path)
     return s;
 }
 
+/* Copies a text file (plot data into --plot DIR); a missing source is skipped. */
+static void copy_text(const char *src, const char *dst)
+{
+    char *d = slurp(src);
+    FILE *g = d ? fopen(dst, "w") : NULL;
+    if (g) {
+        fputs(d, g);
+        fclose(g);
+    }
+    free(d);
+}
+
 static bool wait_text(const char *path, const char *text, double timeout)
 {
     double end = now_s() + timeout;
@@ -463,13 +475,7 @@ static void adaptive_traces(const net_options *o, const session_plan *pl, const 
             char src[700], dst[1200];
             snprintf(src, sizeof src, "%s/%s", sub, names[k]);
             snprintf(dst, sizeof dst, "%s/adaptive-%s", o->plot, names[k]);
-            char *d = slurp(src);
-            FILE *g = d ? fopen(dst, "w") : NULL;
-            if (g) {
-                fputs(d, g);
-                fclose(g);
-            }
-            free(d);
+            copy_text(src, dst);
         }
     }
 }
@@ -829,13 +835,7 @@ int ftm_bench_net(int argc, char **argv)
         char src[1200], dst[1200];
         snprintf(src, sizeof src, "%s/1k/ddsperf.dat", dir);
         snprintf(dst, sizeof dst, "%s/ddsperf.dat", o.plot);
-        char *d = slurp(src);
-        FILE *g = d ? fopen(dst, "w") : NULL;
-        if (g) {
-            fputs(d, g);
-            fclose(g);
-        }
-        free(d);
+        copy_text(src, dst);
     }
     free(all);
     double ratio1k = a.frame_bytes_per_tick > 0 ? a.stream_bytes_per_tick / a.frame_bytes_per_tick : NAN;
