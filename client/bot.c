@@ -340,12 +340,30 @@ static void send_commands(bot *b, double t)
         m.u.control.issuer = b->o.id;
         m.u.control.command_id = ++b->command_id;
         m.u.control.command = c->cmd;
+        char what[96];
+        snprintf(what, sizeof what, "%s", c->cmd == FTM_WIRE_CMD_PAUSE    ? "pause"
+                                          : c->cmd == FTM_WIRE_CMD_RESUME ? "resume"
+                                                                          : "reset");
+        if (c->cmd == FTM_WIRE_CMD_TISSUE) {
+            /* one parameter changed, the others as the replica runs them now */
+            ftm_wire_tissue *ts = &m.u.control.tissue;
+            *ts = ftm_replay_tissue(b->rep);
+            double *field = c->param == FTM_SCRIPT_STIFFNESS ? &ts->stiffness
+                            : c->param == FTM_SCRIPT_DAMPING ? &ts->node_damping
+                                                             : &ts->node_mass;
+            *field = c->value[0];
+            snprintf(what, sizeof what, "tissue: stiffness %g N/m, damping %g N s/m, mass %g kg",
+                     ts->stiffness, ts->node_damping, ts->node_mass);
+        } else if (c->cmd == FTM_WIRE_CMD_DEPTH_LIMITS) {
+            m.u.control.depth_min = (int32_t)c->value[0];
+            m.u.control.depth_max = (int32_t)c->value[1];
+            snprintf(what, sizeof what, "depth limits %d..%d", (int)c->value[0], (int)c->value[1]);
+        }
         ftm_error err = {0, ""};
         if (ftm_wire_publish(b->wire, &m, &err))
             blog("control: %s", err.message);
         else
-            blog("sent %s", c->cmd == FTM_WIRE_CMD_PAUSE ? "pause"
-                            : c->cmd == FTM_WIRE_CMD_RESUME ? "resume" : "reset");
+            blog("sent %s", what);
     }
 }
 

@@ -212,6 +212,61 @@ int ftm_replay_step(ftm_sim *sim, int32_t depth, const ftm_contact *contacts, in
     return rc;
 }
 
+/* ---- tissue parameters ------------------------------------------------------- */
+
+ftm_wire_tissue ftm_replay_scene_tissue(const ftm_scene *scene)
+{
+    ftm_material_def m = ftm_scene_material(scene);
+    return (ftm_wire_tissue){m.node_mass, m.node_damping, m.stiffness, m.axis_scale};
+}
+
+ftm_wire_tissue ftm_replay_tissue_now(const ftm_replay_material *mat)
+{
+    return mat->changed ? mat->current : ftm_replay_scene_tissue(mat->scene);
+}
+
+static bool same_tissue(const ftm_wire_tissue *a, const ftm_wire_tissue *b)
+{
+    return a->node_mass == b->node_mass && a->node_damping == b->node_damping &&
+           a->stiffness == b->stiffness && a->axis_scale.x == b->axis_scale.x &&
+           a->axis_scale.y == b->axis_scale.y && a->axis_scale.z == b->axis_scale.z;
+}
+
+int ftm_replay_set_tissue(ftm_replay_material *mat, ftm_sim *sim, const ftm_wire_tissue *t,
+                          ftm_error *err)
+{
+    ftm_wire_tissue base = ftm_replay_scene_tissue(mat->scene), now = ftm_replay_tissue_now(mat);
+    if (!t)
+        t = &base;
+    if (same_tissue(t, &now))
+        return FTM_OK;
+    const ftm_mesh *scene_mesh = ftm_scene_mesh(mat->scene);
+    ftm_mesh *m = NULL;
+    int rc;
+    if (!same_tissue(t, &base)) {
+        ftm_material_def from = ftm_scene_material(mat->scene);
+        ftm_material_def to = {t->node_mass, t->node_damping, t->stiffness, t->axis_scale};
+        if ((rc = ftm_mesh_with_material(scene_mesh, &from, &to, &m, err)))
+            return rc;
+    }
+    if ((rc = ftm_sim_set_mesh(sim, m ? m : scene_mesh, err))) {
+        ftm_mesh_destroy(m);
+        return rc;
+    }
+    ftm_mesh_destroy(mat->mesh);
+    mat->mesh = m;
+    mat->changed = m != NULL;
+    mat->current = *t;
+    return FTM_OK;
+}
+
+void ftm_replay_material_free(ftm_replay_material *mat)
+{
+    ftm_mesh_destroy(mat->mesh);
+    mat->mesh = NULL;
+    mat->changed = false;
+}
+
 int ftm_replay_make_keyframe(const ftm_sim *sim, ftm_wire_keyframe *out, ftm_error *err)
 {
     const ftm_mesh *m = ftm_sim_mesh(sim);
@@ -253,6 +308,8 @@ int ftm_replay_make_keyframe(const ftm_sim *sim, ftm_wire_keyframe *out, ftm_err
     }
     out->tick = st.step;
     out->state_hash = ftm_sim_hash(sim);
+    out->has_mode = true;
+    ftm_sim_get_mode(sim, &out->mode);
     out->node_count = n;
     out->depth = st.depth;
     out->count = count;
@@ -277,11 +334,14 @@ typedef struct frame {
     int32_t depth, n, nreact;
     ftm_contact *c;
     ftm_wire_reaction *react;
+    bool has_tissue; /* new tissue parameters from this tick on */
+    ftm_wire_tissue tissue;
 } frame;
 
 struct ftm_replay {
     const ftm_scene *scene;
     ftm_sim *sim;
+    ftm_replay_material mat;
     ftm_log_fn log;
     void *log_user;
     uint8_t digest[FTM_REPLAY_DIGEST_SIZE];
@@ -354,6 +414,7 @@ int ftm_replay_create(const ftm_scene *scene, ftm_log_fn log, void *log_user, ft
     if (!r->ring)
         goto nomem;
     r->scene = scene;
+    r->mat.scene = scene;
     r->log = log;
     r->log_user = log_user;
     ftm_sim_def def = ftm_replay_sim_def(scene);
@@ -394,6 +455,7 @@ void ftm_replay_destroy(ftm_replay *r)
     if (r->has_pending)
         ftm_replay_keyframe_free(&r->pending);
     ftm_sim_destroy(r->sim);
+    ftm_replay_material_free(&r->mat);
     free(r);
 }
 
@@ -483,11 +545,33 @@ static int timed_step(ftm_replay *r, int32_t depth, const ftm_contact *c, int32_
     return rc;
 }
 
+/* Tissue parameters from a frame or keyframe (NULL: the scene's). */
+static int set_tissue(ftm_replay *r, uint64_t tick, const ftm_wire_tissue *t)
+{
+    ftm_wire_tissue before = ftm_replay_tissue_now(&r->mat);
+    ftm_error err = {0, ""};
+    int rc = ftm_replay_set_tissue(&r->mat, r->sim, t, &err);
+    if (rc) {
+        rlog(r, FTM_LOG_ERROR, "replay: tick %" PRIu64 ": tissue parameters not applied: %s",
+             tick, err.message);
+        return rc;
+    }
+    ftm_wire_tissue now = ftm_replay_tissue_now(&r->mat);
+    if (!same_tissue(&before, &now))
+        rlog(r, FTM_LOG_INFO,
+             "replay: tick %" PRIu64 ": tissue now k %g N/m, d %g N s/m, m %g kg", tick,
+             now.stiffness, now.node_damping, now.node_mass);
+    return FTM_OK;
+}
+
 static int load_keyframe(ftm_replay *r, const ftm_wire_keyframe *k)
 {
     ftm_error err = {0, ""};
-    int rc = ftm_sim_load_state(r->sim, k->tick, k->depth, k->nodes, k->positions, k->previous,
-                                k->count, NULL, 0, NULL, &err);
+    int rc = set_tissue(r, k->tick, k->has_tissue ? &k->tissue : NULL);
+    if (rc)
+        return rc;
+    rc = ftm_sim_load_state(r->sim, k->tick, k->depth, k->nodes, k->positions, k->previous,
+                            k->count, NULL, 0, k->has_mode ? &k->mode : NULL, &err);
     if (rc) {
         rlog(r, FTM_LOG_ERROR, "replay: keyframe at tick %" PRIu64 " rejected: %s", k->tick,
              err.message);
@@ -550,6 +634,10 @@ static int apply_frames(ftm_replay *r)
             r->st.idle_ticks++;
             if (ftm_replay_tick(r) == before)
                 break; /* the step failed; the hash check below catches it */
+        }
+        if (f->has_tissue && set_tissue(r, f->tick, &f->tissue)) {
+            enter_resync(r, "tissue parameters could not be applied");
+            return FTM_OK;
         }
         timed_step(r, f->depth, f->c, f->n);
         r->st.frames_applied++;
@@ -627,6 +715,8 @@ int ftm_replay_on_tick(ftm_replay *r, const ftm_wire_received *rx)
     f->depth = t->depth;
     f->n = t->contact_count;
     f->nreact = t->reaction_count;
+    f->has_tissue = t->has_tissue;
+    f->tissue = t->tissue;
     if (f->n)
         memcpy(f->c, t->contacts, (size_t)f->n * sizeof *f->c);
     if (f->nreact)
@@ -735,3 +825,5 @@ double ftm_replay_take_max(ftm_replay *r)
 }
 
 ftm_sim *ftm_replay_sim(ftm_replay *r) { return r->sim; }
+
+ftm_wire_tissue ftm_replay_tissue(const ftm_replay *r) { return ftm_replay_tissue_now(&r->mat); }

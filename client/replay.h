@@ -42,6 +42,37 @@ void ftm_sha256(const void *data, size_t size, uint8_t out[32]);
 int ftm_replay_step(ftm_sim *sim, int32_t depth, const ftm_contact *contacts, int32_t count,
                     ftm_error *err);
 
+/* ---- tissue parameters (docs/protocol.md, "Tissue parameters") ----
+ * The instructor may change the tissue's mass, damping and stiffness during a
+ * session. The server and every replica then switch their simulation to a
+ * mesh with the new material (ftm_mesh_with_material, always made from the
+ * scene's own mesh, so it depends on the parameters alone), at the same tick:
+ * the tick frame of that tick carries the parameters, keyframes carry the
+ * ones in force. */
+
+/* The scene's own parameters (its [material]). */
+ftm_wire_tissue ftm_replay_scene_tissue(const ftm_scene *scene);
+
+/* The material a simulation of a scene runs with. Zero-initialise, set scene. */
+typedef struct ftm_replay_material {
+    const ftm_scene *scene;
+    bool changed;           /* current differs from the scene's */
+    ftm_wire_tissue current; /* valid when changed */
+    ftm_mesh *mesh;         /* the mesh of current (owned); NULL: the scene's mesh */
+} ftm_replay_material;
+
+/* Switches sim (a simulation of mat->scene's mesh or one made by an earlier
+ * call) to tissue t (NULL: the scene's own); takes effect at its next step.
+ * No-op when t is already in force. On error (invalid parameters, a material
+ * too stiff for the time step, element forces, out of memory) nothing
+ * changes and err says why. */
+int ftm_replay_set_tissue(ftm_replay_material *mat, ftm_sim *sim, const ftm_wire_tissue *t,
+                          ftm_error *err);
+/* The parameters in force. */
+ftm_wire_tissue ftm_replay_tissue_now(const ftm_replay_material *mat);
+/* Frees the mesh; only after the simulation is destroyed. */
+void ftm_replay_material_free(ftm_replay_material *mat);
+
 /* The keyframe message of a simulation's current state (nodes not at rest).
  * Arrays are malloc'ed into *out (free with ftm_replay_keyframe_free). */
 int ftm_replay_make_keyframe(const ftm_sim *sim, ftm_wire_keyframe *out, ftm_error *err);
@@ -93,6 +124,8 @@ void ftm_replay_get_stats(const ftm_replay *r, ftm_replay_stats *stats);
 /* Returns replay_ns_max and starts a new maximum (per status period). */
 double ftm_replay_take_max(ftm_replay *r);
 ftm_sim *ftm_replay_sim(ftm_replay *r);
+/* The tissue parameters the replica's simulation runs with now. */
+ftm_wire_tissue ftm_replay_tissue(const ftm_replay *r);
 
 /* The reaction of one probe (participant, probe index) in a tick frame, e.g.
  * ftm_replay_last_frame(r): with the server's local force model when it sent

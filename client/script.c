@@ -33,37 +33,82 @@ int ftm_script_load(const char *path, ftm_script *sc)
         double v[4];
         int n;
         if (isalpha((unsigned char)*p)) {
-            if (sscanf(p, "%31s %lf %n", word, &v[0], &n) < 2) {
-                fprintf(stderr, "%s:%d: expected '<keyword> <time>'\n", path, lineno);
-                goto bad;
-            }
-            if (p[n] != '\0') {
-                fprintf(stderr, "%s:%d: extra text after '%s <time>'\n", path, lineno, word);
+            int got = sscanf(p, "%31s %lf %n", word, &v[0], &n);
+            if (got < 2) {
+                fprintf(stderr, "%s:%d: expected '<keyword> <time> [values]'\n", path, lineno);
                 goto bad;
             }
             if (!(v[0] >= 0) || !isfinite(v[0])) {
                 fprintf(stderr, "%s:%d: time must be >= 0\n", path, lineno);
                 goto bad;
             }
-            if (strcmp(word, "join") == 0) {
-                sc->join = v[0];
-            } else if (strcmp(word, "leave") == 0) {
-                sc->leave = v[0];
-            } else if (strcmp(word, "pause") == 0 || strcmp(word, "resume") == 0 ||
-                       strcmp(word, "reset") == 0) {
-                if (sc->ncmds == FTM_SCRIPT_COMMANDS_MAX) {
-                    fprintf(stderr, "%s:%d: more than 64 commands\n", path, lineno);
+            /* the keyword's values after the time */
+            int want = strcmp(word, "depth") == 0 ? 2
+                       : strcmp(word, "stiffness") == 0 || strcmp(word, "damping") == 0 ||
+                               strcmp(word, "mass") == 0
+                           ? 1
+                           : 0;
+            const char *q = p + n;
+            for (int k = 1; k <= want; k++) {
+                int m = 0;
+                if (sscanf(q, "%lf %n", &v[k], &m) < 1 || !isfinite(v[k])) {
+                    fprintf(stderr, "%s:%d: '%s' needs %d finite number(s) after the time\n",
+                            path, lineno, word, want);
                     goto bad;
                 }
-                ftm_wire_command c = strcmp(word, "pause") == 0   ? FTM_WIRE_CMD_PAUSE
-                                     : strcmp(word, "reset") == 0 ? FTM_WIRE_CMD_RESET
-                                                                  : FTM_WIRE_CMD_RESUME;
-                sc->cmds[sc->ncmds++] = (ftm_script_command){v[0], c, false};
+                q += m;
+            }
+            if (*q != '\0') {
+                fprintf(stderr, "%s:%d: extra text after '%s'\n", path, lineno, word);
+                goto bad;
+            }
+            ftm_script_command c = {v[0], 0, 0, {0, 0}, false};
+            if (strcmp(word, "join") == 0) {
+                sc->join = v[0];
+                continue;
+            } else if (strcmp(word, "leave") == 0) {
+                sc->leave = v[0];
+                continue;
+            } else if (strcmp(word, "pause") == 0) {
+                c.cmd = FTM_WIRE_CMD_PAUSE;
+            } else if (strcmp(word, "resume") == 0) {
+                c.cmd = FTM_WIRE_CMD_RESUME;
+            } else if (strcmp(word, "reset") == 0) {
+                c.cmd = FTM_WIRE_CMD_RESET;
+            } else if (want == 1) {
+                bool damping = strcmp(word, "damping") == 0;
+                if (!(v[1] > 0) && !(damping && v[1] == 0)) {
+                    fprintf(stderr, "%s:%d: %s must be %s\n", path, lineno, word,
+                            damping ? ">= 0" : "> 0");
+                    goto bad;
+                }
+                c.cmd = FTM_WIRE_CMD_TISSUE;
+                c.param = strcmp(word, "stiffness") == 0 ? FTM_SCRIPT_STIFFNESS
+                          : damping                       ? FTM_SCRIPT_DAMPING
+                                                          : FTM_SCRIPT_MASS;
+                c.value[0] = v[1];
+            } else if (want == 2) {
+                if (!(v[1] >= 0 && v[2] >= v[1] && v[2] <= 1e6 && v[1] == floor(v[1]) &&
+                      v[2] == floor(v[2]))) {
+                    fprintf(stderr, "%s:%d: depth limits must be whole numbers 0 <= min <= max\n",
+                            path, lineno);
+                    goto bad;
+                }
+                c.cmd = FTM_WIRE_CMD_DEPTH_LIMITS;
+                c.value[0] = v[1];
+                c.value[1] = v[2];
             } else {
-                fprintf(stderr, "%s:%d: unknown keyword '%s' (join, leave, pause, resume, reset)\n",
+                fprintf(stderr,
+                        "%s:%d: unknown keyword '%s' (join, leave, pause, resume, reset, "
+                        "stiffness, damping, mass, depth)\n",
                         path, lineno, word);
                 goto bad;
             }
+            if (sc->ncmds == FTM_SCRIPT_COMMANDS_MAX) {
+                fprintf(stderr, "%s:%d: more than 64 commands\n", path, lineno);
+                goto bad;
+            }
+            sc->cmds[sc->ncmds++] = c;
             continue;
         }
         if (sscanf(p, "%lf %lf %lf %lf %n", &v[0], &v[1], &v[2], &v[3], &n) < 4 || p[n] != '\0') {

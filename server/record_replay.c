@@ -31,6 +31,8 @@ static uint64_t sim_tick(const ftm_sim *sim)
 typedef struct rstate {
     const char *path;
     ftm_sim *sim;
+    ftm_replay_material mat; /* tissue parameters from the frames */
+    uint64_t tissue_changes;
     int32_t node_count;
     int32_t last_depth, last_n;
     ftm_contact *last_c;
@@ -101,6 +103,12 @@ static int on_frame(rstate *s, const ftm_record_entry *e, const ftm_wire_tick *t
         if (sim_tick(s->sim) == before)
             break; /* the step failed: the hash check says where */
     }
+    if (t->has_tissue) {
+        if (ftm_replay_set_tissue(&s->mat, s->sim, &t->tissue, &err))
+            return fail(s->path, e, "tick %" PRIu64 ": tissue parameters: %s", t->tick,
+                        err.message);
+        s->tissue_changes++;
+    }
     ftm_replay_step(s->sim, t->depth, t->contacts, t->contact_count, &err);
     s->frames++;
     if (keep_last(s, t))
@@ -133,8 +141,11 @@ static int on_keyframe(rstate *s, const ftm_record_entry *e, const ftm_wire_keyf
         return 0;
     }
     ftm_error err = {0, ""};
+    if (ftm_replay_set_tissue(&s->mat, s->sim, k->has_tissue ? &k->tissue : NULL, &err))
+        return fail(s->path, e, "keyframe at tick %" PRIu64 ": tissue parameters: %s", k->tick,
+                    err.message);
     if (ftm_sim_load_state(s->sim, k->tick, k->depth, k->nodes, k->positions, k->previous, k->count,
-                           NULL, 0, NULL, &err))
+                           NULL, 0, k->has_mode ? &k->mode : NULL, &err))
         return fail(s->path, e, "keyframe at tick %" PRIu64 ": %s", k->tick, err.message);
     if (ftm_sim_hash(s->sim) != k->state_hash)
         return fail(s->path, e, "keyframe at tick %" PRIu64 " restores to another hash", k->tick);
@@ -176,6 +187,7 @@ int ftm_server_replay(const char *path, const char *scene_name)
         goto done;
     }
     ftm_sim_def def = ftm_replay_sim_def(scene);
+    s.mat.scene = scene;
     if (ftm_sim_create(mesh, &def, &s.sim, &err)) {
         rc = fail(path, NULL, "%s", err.message);
         goto done;
@@ -239,15 +251,16 @@ int ftm_server_replay(const char *path, const char *scene_name)
     }
     printf("replay %s: scene '%s', %" PRIu64 " tick frames and %" PRIu64
            " idle ticks replayed, every hash equal; %" PRIu64 " keyframes checked, %" PRIu64
-           " resets; depth %d..%d (%" PRIu64 " changes); inputs: %" PRIu64 " probe, %" PRIu64
-           " status, %" PRIu64 " control, %" PRIu64 " gone\n",
+           " resets; depth %d..%d (%" PRIu64 " changes); %" PRIu64 " tissue changes; inputs: %" PRIu64
+           " probe, %" PRIu64 " status, %" PRIu64 " control, %" PRIu64 " gone\n",
            path, h.scene_id, s.frames, s.idle, s.keyframes_checked, s.resets,
-           (int)s.depth_min_seen, (int)s.depth_max_seen, s.depth_changes,
+           (int)s.depth_min_seen, (int)s.depth_max_seen, s.depth_changes, s.tissue_changes,
            s.inputs[FTM_WIRE_PROBE_INPUT], s.inputs[FTM_WIRE_STATUS], s.inputs[FTM_WIRE_CONTROL],
            s.gone);
     printf("ftm-server: final tick %" PRIu64 " hash %016" PRIx64 "\n", tick, hash);
 done:
     ftm_sim_destroy(s.sim);
+    ftm_replay_material_free(&s.mat);
     free(s.last_c);
     ftm_scene_destroy(scene);
     ftm_record_close_reader(rd);

@@ -92,6 +92,8 @@ typedef struct server {
     ftm_scene *scene;
     const ftm_mesh *mesh;
     ftm_sim *sim;
+    ftm_replay_material mat; /* tissue parameters in force (instructor) */
+    bool tissue_frame;       /* the next frame carries them: they changed */
     ftm_collide *collide;
     ftm_wire_transport *wire;
     uint8_t digest[FTM_REPLAY_DIGEST_SIZE];
@@ -121,12 +123,11 @@ typedef struct server {
     bool published_any;
 
     bool keyframe_due;
-    uint64_t keyframe_deferred;
     uint64_t next_keyframe_ns;
 
     /* statistics */
     uint64_t frames, heartbeats, idle_ticks, keyframes, bytes_frames, bytes_keyframes;
-    uint64_t missed_ticks, unstable, publish_fail;
+    uint64_t missed_ticks, unstable, publish_fail, tissue_changes;
     double step_ns_total, step_ns_max;
     /* tick period (start to start) and lateness (start - due), 10 us bins */
 #define TICK_HIST_BINS 5000
@@ -296,18 +297,7 @@ static void publish_announce(server *s)
     a->depth = s->depth;
     a->depth_min = s->ctl.def.floor;
     a->depth_max = s->ctl.def.max;
-    a->tissue.node_mass = ftm_mesh_mass(s->mesh, 0);
-    a->tissue.node_damping = ftm_mesh_damping(s->mesh, 0);
-    const int32_t *nb;
-    const double *k = NULL, *l;
-    double stiff = 1.0;
-    for (int32_t i = 0; i < ftm_mesh_node_count(s->mesh); i++)
-        if (ftm_mesh_neighbors(s->mesh, i, &nb, &k, &l) > 0) {
-            stiff = k[0];
-            break;
-        }
-    a->tissue.stiffness = stiff;
-    a->tissue.axis_scale = (ftm_vec3){1, 1, 1};
+    a->tissue = ftm_replay_tissue_now(&s->mat);
     a->node_count = ftm_mesh_node_count(s->mesh);
     a->tick = s->tick;
     a->paused = s->paused;
@@ -333,16 +323,10 @@ static void publish_status(server *s, ftm_wire_state state)
 
 /* Only with the integrator in its plain mode: keyframes do not carry the
  * guard's substeps (docs/protocol.md). */
+/* The keyframe carries the integrator's mode and the tissue parameters, so a
+ * replica restoring it continues bit-identically whatever the guard does. */
 static bool publish_keyframe(server *s)
 {
-    ftm_sim_mode mode;
-    ftm_sim_get_mode(s->sim, &mode);
-    if (mode.substeps != 1 || mode.region_sleeping || mode.quiet_steps != 0) {
-        if (s->keyframe_deferred++ == 0)
-            slog(s, "info", "keyframe deferred: the stability guard runs %d substeps",
-                 (int)mode.substeps);
-        return false;
-    }
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_KEYFRAME;
@@ -351,10 +335,11 @@ static bool publish_keyframe(server *s)
         slog(s, "error", "keyframe: %s", err.message);
         return false;
     }
+    m.u.keyframe.has_tissue = s->mat.changed;
+    m.u.keyframe.tissue = ftm_replay_tissue_now(&s->mat);
     publish(s, &m, &s->bytes_keyframes);
     s->keyframes++;
     ftm_replay_keyframe_free(&m.u.keyframe);
-    s->keyframe_deferred = 0;
     return true;
 }
 
@@ -372,6 +357,8 @@ static void publish_frame(server *s, int32_t n, int32_t nreact, bool heartbeat)
     t->reactions = s->reactions;
     t->state_hash = ftm_sim_hash(s->sim);
     t->send_time_ns = real_ns();
+    t->has_tissue = s->tissue_frame;
+    t->tissue = ftm_replay_tissue_now(&s->mat);
     if (s->reactions_csv)
         for (int32_t r = 0; r < nreact; r++)
             fprintf(s->reactions_csv, "%" PRIu64 ",%u,%d,%.17g,%.17g,%.17g\n", s->tick,
@@ -381,6 +368,7 @@ static void publish_frame(server *s, int32_t n, int32_t nreact, bool heartbeat)
         s->frames++;
         s->heartbeats += heartbeat;
     }
+    s->tissue_frame = false; /* sent or lost: a lost one makes replicas resync */
     s->pub_n = n;
     s->pub_depth = s->depth;
     s->pub_tick = s->tick;
@@ -551,6 +539,38 @@ static void do_reset(server *s, bool publish_now)
     }
 }
 
+/* Between ticks: the simulation switches material now, so the next tick is
+ * stepped with it, and that tick's frame carries the parameters for the
+ * replicas to switch at the same tick (docs/protocol.md, "Tissue parameters").
+ * If the current tick's frame was not sent (idle), it goes first: replicas
+ * must reach this tick under the old material. */
+static void set_tissue(server *s, participant *p, uint32_t sender, const ftm_wire_tissue *t)
+{
+    ftm_wire_tissue before = ftm_replay_tissue_now(&s->mat);
+    if (before.node_mass == t->node_mass && before.node_damping == t->node_damping &&
+        before.stiffness == t->stiffness && before.axis_scale.x == t->axis_scale.x &&
+        before.axis_scale.y == t->axis_scale.y && before.axis_scale.z == t->axis_scale.z)
+        return; /* already in force */
+    /* harmless if the change is then refused: a heartbeat */
+    if (!s->published_any || s->pub_tick != s->tick)
+        publish_frame(s, 0, 0, true); /* an unsent tick was idle: no contacts */
+    uint64_t t0 = mono_ns();
+    ftm_error err = {0, ""};
+    if (ftm_replay_set_tissue(&s->mat, s->sim, t, &err)) {
+        reject(s, p, sender, "tissue parameters", err.message);
+        return;
+    }
+    double ms = (double)(mono_ns() - t0) * 1e-6;
+    slog(s, "info",
+         "tissue from tick %" PRIu64 " (instructor %u): stiffness %g N/m (was %g), damping %g N s/m "
+         "(was %g), node mass %g kg (was %g), axis scale %g %g %g; material built in %.2f ms",
+         s->tick + 1, sender, t->stiffness, before.stiffness, t->node_damping, before.node_damping,
+         t->node_mass, before.node_mass, t->axis_scale.x, t->axis_scale.y, t->axis_scale.z, ms);
+    s->tissue_frame = true;
+    s->tissue_changes++;
+    publish_announce(s);
+}
+
 static void on_control(server *s, ftm_wire_received *rx)
 {
     participant *p = find_part(s, rx->sender, false);
@@ -598,9 +618,11 @@ static void on_control(server *s, ftm_wire_received *rx)
         slog(s, "info", "reset at tick %" PRIu64 " by instructor %u", s->tick, rx->sender);
         do_reset(s, true);
         break;
+    case FTM_WIRE_CMD_TISSUE:
+        set_tissue(s, p, rx->sender, &c->tissue);
+        break;
     default:
-        slog(s, "warn", "session control %d from %u: not supported yet, ignored", (int)c->command,
-             rx->sender);
+        reject(s, p, rx->sender, "session control", "unknown command");
     }
 }
 
@@ -800,7 +822,7 @@ static void run_tick(server *s)
         s->keyframe_due = true;
     }
     bool idle = n == 0 && st.updated_nodes == 0 && s->pub_n == 0 && s->pub_depth == s->depth &&
-                s->published_any;
+                s->published_any && !s->tissue_frame;
     bool heartbeat = (double)(now - s->pub_ns) >= s->o.heartbeat * 1e9;
     if (!idle || heartbeat || s->keyframe_due || s->replaying)
         publish_frame(s, n, nreact, idle);
@@ -1396,6 +1418,7 @@ int main(int argc, char **argv)
         slog(s, "error", "%s", err.message);
         return 2;
     }
+    s->mat.scene = s->scene;
     if (ftm_sim_create(s->mesh, &def, &s->sim, &err) ||
         ftm_collide_create(s->mesh, &s->collide, &err)) {
         slog(s, "error", "%s", err.message);
@@ -1413,6 +1436,7 @@ int main(int argc, char **argv)
         int rc = s->o.replay ? replay_inputs(s) : run_offline(s);
         ftm_collide_destroy(s->collide);
         ftm_sim_destroy(s->sim);
+        ftm_replay_material_free(&s->mat);
         ftm_scene_destroy(s->scene);
         free(s->contacts);
         free(s->reactions);
@@ -1544,6 +1568,7 @@ int main(int argc, char **argv)
     uv_loop_close(s->loop);
     ftm_collide_destroy(s->collide);
     ftm_sim_destroy(s->sim);
+    ftm_replay_material_free(&s->mat);
     ftm_scene_destroy(s->scene);
     free(s->contacts);
     free(s->reactions);

@@ -39,6 +39,7 @@ struct ftm_scene {
     int32_t steps;
     ftm_scene_load *loads;
     int32_t load_count;
+    ftm_material_def material;     /* [material], as the mesh was built with */
     bool has_fem;                  /* a [fem] section was given */
     double young, poisson, density; /* [fem]; density 0 = not given */
 };
@@ -1242,6 +1243,7 @@ static int parse_scene(const char *text, size_t length, const char *name, const 
         scene->steps = (int32_t)p.s.steps;
         scene->load_count = (int32_t)p.s.load_count;
         scene->has_fem = p.s.section_line[SEC_FEM] != 0;
+        scene->material = p.s.material;
         scene->young = p.s.young;
         scene->poisson = p.s.poisson;
         scene->density = p.s.density;
@@ -1470,6 +1472,8 @@ ftm_sim_def ftm_scene_sim_def(const ftm_scene *scene)
 {
     return scene->sim;
 }
+
+ftm_material_def ftm_scene_material(const ftm_scene *scene) { return scene->material; }
 
 int32_t ftm_scene_steps(const ftm_scene *scene)
 {

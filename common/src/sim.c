@@ -207,6 +207,41 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
 
 const ftm_mesh *ftm_sim_mesh(const ftm_sim *sim) { return sim->m; }
 
+int ftm_sim_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err)
+{
+    if (!sim || !m)
+        return ftm_error_set(err, FTM_EINVAL, "sim set mesh: null argument");
+    if (sim->elem)
+        return ftm_error_set(err, FTM_EINVAL,
+                             "sim set mesh: element forces take their material from young, "
+                             "poisson and density, not from the mesh");
+    if (!ftm_mesh_same_shape(sim->m, m))
+        return ftm_error_set(err, FTM_EINVAL,
+                             "sim set mesh: the new mesh differs in shape (nodes, rest positions, "
+                             "fixed nodes, links or surface)");
+    const double h = sim->def.time_step, hc = ftm_mesh_critical_time_step(m);
+    const int32_t most = sim->def.guard ? sim->def.max_substeps : 1;
+    if (h > hc * most)
+        return ftm_error_set(err, FTM_EINVAL,
+                             "sim set mesh: the material's critical time step %g s is too short "
+                             "for time step %g s with at most %d substeps",
+                             hc, h, (int)most);
+    sim->m = m;
+    set_substep_length(sim, sim->h_sub); /* masses and damping are in the coefficients */
+    sim->energy_floor = energy_floor(m);
+    sim->energy_h_max = hc;
+    sim->budget = -1.0; /* the stored spring energy changed: the account restarts */
+    sim->layers_dirty = true; /* the schedule holds copies of link stiffness */
+    warn_low_damping(sim);
+    if (h > hc)
+        ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
+                 "time step %g s exceeds the critical time step %g s of the new material: the "
+                 "stability guard will substep",
+                 h, hc);
+    ftm_error_clear(err);
+    return FTM_OK;
+}
+
 /* ---- contacts ---- */
 
 int ftm_sim_relax_reserve(ftm_sim *sim, int32_t need)
@@ -858,6 +893,8 @@ void ftm_sim_get_mode(const ftm_sim *sim, ftm_sim_mode *mode)
     mode->steps_at_substeps = sim->steps_at_substeps;
     mode->quiet_steps = sim->quiet_steps;
     mode->region_sleeping = sim->region_sleeping;
+    mode->energy_budget = sim->budget;
+    mode->energy_prev = sim->energy_prev;
 }
 
 const double *ftm_sim_previous_positions(const ftm_sim *sim) { return sim->xp; }
@@ -872,14 +909,17 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
     if (depth < 0 || depth > FTM_MAX_DEPTH)
         return ftm_error_set(err, FTM_EINVAL, "load state: depth %d out of range 0..%d",
                              (int)depth, FTM_MAX_DEPTH);
-    ftm_sim_mode md = {1, 0, 0, false};
+    ftm_sim_mode md = {1, 0, 0, false, -1.0, 0.0};
     if (mode)
         md = *mode;
     if (md.substeps < 1 || md.substeps > sim->def.max_substeps || md.steps_at_substeps < 0 ||
-        md.quiet_steps < 0)
+        md.quiet_steps < 0 || !isfinite(md.energy_budget) || !(md.energy_prev >= 0.0) ||
+        !isfinite(md.energy_prev))
         return ftm_error_set(err, FTM_EINVAL,
-                             "load state: mode out of range (substeps %d of at most %d)",
-                             (int)md.substeps, (int)sim->def.max_substeps);
+                             "load state: mode out of range (substeps %d of at most %d, "
+                             "energy account %g and %g)",
+                             (int)md.substeps, (int)sim->def.max_substeps, md.energy_budget,
+                             md.energy_prev);
     for (int32_t k = 0; k < count; k++) {
         int32_t i = nodes[k];
         if (i < 0 || i >= sim->n)
@@ -938,7 +978,8 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
         memset(sim->reaction, 0, (size_t)sim->reaction_groups * 3 * sizeof *sim->reaction);
     sim->st.step = step;
     sim->st.updated_nodes = 0;
-    sim->budget = -1.0; /* the energy guard's account starts at the next step */
+    sim->budget = md.energy_budget < 0.0 ? -1.0 : md.energy_budget;
+    sim->energy_prev = md.energy_prev;
     ftm_error_clear(err);
     return FTM_OK;
 }

@@ -285,6 +285,8 @@ static int check_tick(const vctx *v, const Ftm__V1__TickFrame *m)
         return rc;
     if (!m->has_state_hash)
         return missing(v, "state_hash");
+    if (m->tissue && (rc = check_tissue(v, "tissue", m->tissue)))
+        return rc;
     size_t n = m->n_contact_node;
     if (n > INT32_MAX || m->n_contact_group != n || m->n_contact_kind != n ||
         m->n_contact_value != 3 * n)
@@ -372,6 +374,38 @@ static int check_tick(const vctx *v, const Ftm__V1__TickFrame *m)
     return FTM_OK;
 }
 
+#define SUBSTEPS_MAX 1024u /* far above any sim's max_substeps; the sim checks its own */
+
+static int check_mode(const vctx *v, const Ftm__V1__IntegratorMode *m)
+{
+    if (!m->has_substeps)
+        return missing(v, "mode.substeps");
+    if (!m->has_steps_at_substeps)
+        return missing(v, "mode.steps_at_substeps");
+    if (!m->has_quiet_steps)
+        return missing(v, "mode.quiet_steps");
+    if (!m->has_region_sleeping)
+        return missing(v, "mode.region_sleeping");
+    if (!m->has_energy_budget)
+        return missing(v, "mode.energy_budget");
+    if (!m->has_energy_prev)
+        return missing(v, "mode.energy_prev");
+    if (m->substeps < 1 || m->substeps > SUBSTEPS_MAX)
+        return wire_err(v->err, FTM_ERANGE, "%s: mode.substeps %u out of range (1..%u)", v->what,
+                        m->substeps, SUBSTEPS_MAX);
+    if (m->steps_at_substeps > INT32_MAX || m->quiet_steps > INT32_MAX)
+        return wire_err(v->err, FTM_ERANGE, "%s: mode step counters out of range (%u, %u)",
+                        v->what, m->steps_at_substeps, m->quiet_steps);
+    int rc;
+    if ((rc = check_finite(v, "mode.energy_budget", m->energy_budget)) ||
+        (rc = check_finite(v, "mode.energy_prev", m->energy_prev)))
+        return rc;
+    if (m->energy_prev < 0)
+        return wire_err(v->err, FTM_EINVAL, "%s: mode.energy_prev must be >= 0 (got %g)", v->what,
+                        m->energy_prev);
+    return FTM_OK;
+}
+
 static int check_keyframe(const vctx *v, const Ftm__V1__Keyframe *m)
 {
     int rc = check_version(v, m->has_version, m->version);
@@ -386,6 +420,10 @@ static int check_keyframe(const vctx *v, const Ftm__V1__Keyframe *m)
     if (!m->has_depth)
         return missing(v, "depth");
     if ((rc = check_depth(v, "depth", m->depth)))
+        return rc;
+    if (m->tissue && (rc = check_tissue(v, "tissue", m->tissue)))
+        return rc;
+    if (m->mode && (rc = check_mode(v, m->mode)))
         return rc;
     if (m->node_count == 0 || m->node_count > INT32_MAX)
         return wire_err(v->err, FTM_ERANGE, "%s: node_count %u out of range (1..%d)", v->what,
@@ -565,6 +603,9 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         t->depth = (int32_t)m->depth;
         t->state_hash = m->state_hash;
         t->send_time_ns = m->has_send_time_ns ? m->send_time_ns : 0;
+        t->has_tissue = m->tissue != NULL;
+        if (m->tissue)
+            t->tissue = tissue_from(m->tissue);
         t->contact_count = (int32_t)m->n_contact_node;
         for (size_t i = 0; i < m->n_contact_node; i++) {
             t->contacts[i] = (ftm_contact){
@@ -613,6 +654,15 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         k->node_count = (int32_t)m->node_count;
         k->depth = (int32_t)m->depth;
         k->count = (int32_t)n;
+        k->has_tissue = m->tissue != NULL;
+        if (m->tissue)
+            k->tissue = tissue_from(m->tissue);
+        k->has_mode = m->mode != NULL;
+        if (m->mode)
+            k->mode = (ftm_sim_mode){(int32_t)m->mode->substeps,
+                                     (int32_t)m->mode->steps_at_substeps,
+                                     (int32_t)m->mode->quiet_steps, m->mode->region_sleeping != 0,
+                                     m->mode->energy_budget, m->mode->energy_prev};
         for (size_t i = 0; i < n; i++)
             k->nodes[i] = (int32_t)m->node[i];
         if (n) {
@@ -721,6 +771,7 @@ int ftm_wire_decode(int kind, const void *data, size_t size, const ftm_wire_limi
 typedef struct scratch {
     Ftm__V1__Vec3 vec[2];
     Ftm__V1__TissueParams tissue;
+    Ftm__V1__IntegratorMode mode;
     Ftm__V1__DepthLimits limits;
     Ftm__V1__Pause pause;
     Ftm__V1__Resume resume;
@@ -895,6 +946,10 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         m->state_hash = t->state_hash;
         m->has_send_time_ns = t->send_time_ns != 0;
         m->send_time_ns = t->send_time_ns;
+        if (t->has_tissue) {
+            tissue_to(s, &t->tissue);
+            m->tissue = &s->tissue;
+        }
         uint32_t *groups = nodes + n;
         for (size_t i = 0; i < n; i++) {
             const ftm_contact *c = &t->contacts[i];
@@ -971,6 +1026,27 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         m->node_count = (uint32_t)k->node_count;
         m->has_depth = 1;
         m->depth = (uint32_t)k->depth;
+        if (k->has_tissue) {
+            tissue_to(s, &k->tissue);
+            m->tissue = &s->tissue;
+        }
+        if (k->has_mode) {
+            const ftm_sim_mode *md = &k->mode;
+            if (md->substeps < 1 || md->steps_at_substeps < 0 || md->quiet_steps < 0)
+                return wire_err(err, FTM_ERANGE, "%s: mode out of range (substeps %d)", what,
+                                (int)md->substeps);
+            Ftm__V1__IntegratorMode *im = &s->mode;
+            ftm__v1__integrator_mode__init(im);
+            im->has_substeps = im->has_steps_at_substeps = im->has_quiet_steps = 1;
+            im->has_region_sleeping = im->has_energy_budget = im->has_energy_prev = 1;
+            im->substeps = (uint32_t)md->substeps;
+            im->steps_at_substeps = (uint32_t)md->steps_at_substeps;
+            im->quiet_steps = (uint32_t)md->quiet_steps;
+            im->region_sleeping = md->region_sleeping;
+            im->energy_budget = md->energy_budget;
+            im->energy_prev = md->energy_prev;
+            m->mode = im;
+        }
         for (size_t i = 0; i < n; i++) {
             if (k->nodes[i] < 0)
                 return wire_err(err, FTM_ERANGE, "%s: entry %zu: negative node %d", what, i,

@@ -9,6 +9,7 @@
 
 #include "replay.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -143,7 +144,7 @@ static void test_continue_substepped(void **state)
     assert_int_equal(ftm_sim_load_state(b, 1, 8, bad_nodes, xs, xs, 2, NULL, 0, NULL, &err),
                      FTM_EINVAL);
     assert_non_null(strstr(err.message, "ascending"));
-    ftm_sim_mode bad = {0, 0, 0, false};
+    ftm_sim_mode bad = {0, 0, 0, false, -1.0, 0.0};
     assert_int_equal(ftm_sim_load_state(b, 1, 8, NULL, NULL, NULL, 0, NULL, 0, &bad, &err),
                      FTM_EINVAL);
     assert_true(ftm_sim_hash(b) == h);
@@ -177,7 +178,8 @@ static bool server_tick(fake_server *s, uint64_t t, ftm_wire_received *rx, ftm_c
     memcpy(store, s->c, sizeof s->c);
     memset(rx, 0, sizeof *rx);
     rx->msg.kind = FTM_WIRE_TICK;
-    rx->msg.u.tick = (ftm_wire_tick){t, 8, n, store, 0, NULL, ftm_sim_hash(s->sim), 0};
+    rx->msg.u.tick = (ftm_wire_tick){
+        .tick = t, .depth = 8, .contact_count = n, .contacts = store, .state_hash = ftm_sim_hash(s->sim)};
     rx->sender = 1;
     rx->seq = ++s->seq;
     s->pub_n = n;
@@ -249,7 +251,8 @@ static void test_replica(void **state)
     for (int i = 0; i < 30; i++) {
         t++;
         assert_int_equal(ftm_replay_step(s.sim, 8, &c, 1, NULL), FTM_OK);
-        rx.msg.u.tick = (ftm_wire_tick){t, 8, 1, &c, 0, NULL, ftm_sim_hash(s.sim), 0};
+        rx.msg.u.tick = (ftm_wire_tick){
+            .tick = t, .depth = 8, .contact_count = 1, .contacts = &c, .state_hash = ftm_sim_hash(s.sim)};
         rx.seq = ++s.seq;
         rx.gap = 0;
         assert_int_equal(ftm_replay_on_tick(r, &rx), FTM_OK);
@@ -267,6 +270,221 @@ static void test_replica(void **state)
     ftm_replay_keyframe_free(&k0);
     ftm_replay_destroy(r);
     ftm_sim_destroy(s.sim);
+    ftm_scene_destroy(sc);
+}
+
+/* ---- tissue parameters (docs/protocol.md, "Tissue parameters") ---------------------- */
+
+/* ftm_mesh_with_material: the same shape, masses and stiffness scaled, and
+ * the scene's own material gives back the scene's numbers exactly. */
+static void test_material_mesh(void **state)
+{
+    (void)state;
+    ftm_scene *sc = open_scene();
+    const ftm_mesh *m = ftm_scene_mesh(sc);
+    ftm_material_def from = ftm_scene_material(sc), to = from;
+    ftm_mesh *same = NULL, *stiff = NULL, *bad = NULL;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_mesh_with_material(m, &from, &to, &same, &err), FTM_OK);
+    to.stiffness *= 2.0;
+    to.node_mass *= 4.0;
+    to.node_damping *= 0.5;
+    assert_int_equal(ftm_mesh_with_material(m, &from, &to, &stiff, &err), FTM_OK);
+    assert_true(ftm_mesh_same_shape(m, same) && ftm_mesh_same_shape(m, stiff));
+    for (int32_t i = 0; i < ftm_mesh_node_count(m); i++) {
+        const int32_t *nb, *nb1, *nb2;
+        const double *k, *k1, *k2, *l, *l1, *l2;
+        int32_t d = ftm_mesh_neighbors(m, i, &nb, &k, &l);
+        assert_int_equal(ftm_mesh_neighbors(same, i, &nb1, &k1, &l1), d);
+        assert_int_equal(ftm_mesh_neighbors(stiff, i, &nb2, &k2, &l2), d);
+        for (int32_t j = 0; j < d; j++) {
+            assert_true(k1[j] == k[j]);
+            assert_true(k2[j] == 2.0 * k[j]); /* both powers of two: exact */
+        }
+        assert_true(ftm_mesh_mass(same, i) == ftm_mesh_mass(m, i));
+        assert_true(ftm_mesh_mass(stiff, i) == 4.0 * ftm_mesh_mass(m, i));
+        assert_true(ftm_mesh_damping(stiff, i) == 0.5 * ftm_mesh_damping(m, i));
+        assert_int_equal(ftm_mesh_input_of_node(stiff, i), ftm_mesh_input_of_node(m, i));
+    }
+    to.axis_scale.y = -1.0;
+    assert_int_equal(ftm_mesh_with_material(m, &from, &to, &bad, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "axis stiffness scale y"));
+    assert_null(bad);
+    ftm_mesh_destroy(same);
+    ftm_mesh_destroy(stiff);
+    ftm_scene_destroy(sc);
+}
+
+/* Pushes node `top` of a simulation with a constant force until it rests;
+ * returns its displacement along z. */
+static double settle(ftm_sim *sim, int32_t top, double fz)
+{
+    ftm_contact c = {top, 0, FTM_CONTACT_FORCE, {0, 0, fz}};
+    for (int i = 0; i < 6000; i++)
+        assert_int_equal(ftm_replay_step(sim, 30, &c, 1, NULL), FTM_OK);
+    return ftm_sim_position(sim, top).z - ftm_mesh_rest_position(ftm_sim_mesh(sim), top).z;
+}
+
+/* The physics follows: twice the stiffness, half the static displacement;
+ * a change mid-simulation settles where a fresh run with that material does. */
+static void test_tissue_physics(void **state)
+{
+    (void)state;
+    ftm_scene *sc = open_scene();
+    ftm_sim_def def = ftm_replay_sim_def(sc);
+    ftm_sim *a = NULL, *b = NULL;
+    assert_int_equal(ftm_sim_create(ftm_scene_mesh(sc), &def, &a, NULL), FTM_OK);
+    assert_int_equal(ftm_sim_create(ftm_scene_mesh(sc), &def, &b, NULL), FTM_OK);
+    int32_t top = ftm_mesh_node_of_input(ftm_scene_mesh(sc), 1662);
+    double ua = settle(a, top, -0.02);
+    ftm_replay_material mat = {.scene = sc};
+    ftm_wire_tissue t = ftm_replay_scene_tissue(sc);
+    t.stiffness *= 2.0;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_replay_set_tissue(&mat, b, &t, &err), FTM_OK);
+    assert_true(mat.changed);
+    double ub = settle(b, top, -0.02);
+    assert_true(ua < 0.0);
+    if (!(fabs(ub / ua - 0.5) < 0.01))
+        fail_msg("displacement %g (k) vs %g (2k): ratio %g, want 0.5", ua, ub, ub / ua);
+    /* a, already loaded, made stiffer now: it comes to b's rest state */
+    ftm_replay_material mat_a = {.scene = sc};
+    assert_int_equal(ftm_replay_set_tissue(&mat_a, a, &t, &err), FTM_OK);
+    double ua2 = settle(a, top, -0.02);
+    if (!(fabs(ua2 - ub) <= 1e-9 * fabs(ub)))
+        fail_msg("changed mid-run: %.12g, fresh: %.12g", ua2, ub);
+    /* back to the scene's own material: the scene's mesh again */
+    assert_int_equal(ftm_replay_set_tissue(&mat_a, a, NULL, &err), FTM_OK);
+    assert_false(mat_a.changed);
+    assert_true(ftm_sim_mesh(a) == ftm_scene_mesh(sc));
+    /* refused, nothing changed: far too stiff for the time step, and invalid */
+    uint64_t h = ftm_sim_hash(b);
+    ftm_wire_tissue hard = t;
+    hard.stiffness *= 1e9;
+    assert_int_equal(ftm_replay_set_tissue(&mat, b, &hard, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "critical time step"));
+    ftm_wire_tissue neg = t;
+    neg.node_mass = -1.0;
+    assert_int_equal(ftm_replay_set_tissue(&mat, b, &neg, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "node mass"));
+    assert_true(ftm_sim_hash(b) == h);
+    assert_true(ftm_replay_tissue_now(&mat).stiffness == t.stiffness);
+    ftm_sim_destroy(a);
+    ftm_sim_destroy(b);
+    ftm_replay_material_free(&mat);
+    ftm_replay_material_free(&mat_a);
+    ftm_scene_destroy(sc);
+}
+
+/* A replica switches at the frame that carries the parameters; one that lost
+ * that frame resyncs from a keyframe carrying them; a late joiner starts from
+ * such a keyframe. Every hash equals the server's. */
+static void test_tissue_replica(void **state)
+{
+    (void)state;
+    ftm_scene *sc = open_scene();
+    fake_server s = {0};
+    s.m = ftm_scene_mesh(sc);
+    ftm_sim_def def = ftm_replay_sim_def(sc);
+    assert_int_equal(ftm_sim_create(s.m, &def, &s.sim, NULL), FTM_OK);
+    ftm_replay_material mat = {.scene = sc};
+    ftm_replay *r = NULL, *lossy = NULL, *late = NULL;
+    assert_int_equal(ftm_replay_create(sc, NULL, NULL, &r, NULL), FTM_OK);
+    assert_int_equal(ftm_replay_create(sc, NULL, NULL, &lossy, NULL), FTM_OK);
+    assert_int_equal(ftm_replay_create(sc, NULL, NULL, &late, NULL), FTM_OK);
+    ftm_wire_keyframe k0;
+    assert_int_equal(ftm_replay_make_keyframe(s.sim, &k0, NULL), FTM_OK);
+    ftm_wire_tissue soft = ftm_replay_scene_tissue(sc), stiff = soft;
+    soft.stiffness *= 0.5;
+    soft.node_damping *= 1.5;
+    stiff.stiffness *= 3.0;
+    const uint64_t change1 = 80, change2 = 400, join = 600;
+    ftm_wire_received rx;
+    ftm_contact store[4];
+    bool lossy_gap = false;
+    uint64_t h200 = 0;
+    for (uint64_t t = 1; t <= 1200; t++) {
+        if (t == 201)
+            h200 = ftm_sim_hash(s.sim);
+        const ftm_wire_tissue *nt = t == change1 ? &soft : t == change2 ? &stiff : NULL;
+        if (nt) /* between ticks t-1 and t, as the server does on a command */
+            assert_int_equal(ftm_replay_set_tissue(&mat, s.sim, nt, NULL), FTM_OK);
+        if (!server_tick(&s, t, &rx, store) && !nt)
+            continue;
+        if (nt) { /* the tick of a change is always sent */
+            if (rx.msg.kind != FTM_WIRE_TICK) {
+                memset(&rx, 0, sizeof rx);
+                rx.msg.kind = FTM_WIRE_TICK;
+                rx.msg.u.tick =
+                    (ftm_wire_tick){.tick = t, .depth = 8, .state_hash = ftm_sim_hash(s.sim)};
+                rx.sender = 1;
+                rx.seq = ++s.seq;
+            }
+            rx.msg.u.tick.has_tissue = true;
+            rx.msg.u.tick.tissue = *nt;
+        }
+        assert_int_equal(ftm_replay_on_tick(r, &rx), FTM_OK);
+        if (t == 1) {
+            assert_int_equal(ftm_replay_on_keyframe(r, &k0), FTM_OK);
+            assert_int_equal(ftm_replay_on_keyframe(lossy, &k0), FTM_OK);
+        }
+        if (t == change2) { /* lossy never sees this frame */
+            lossy_gap = true;
+        } else {
+            ftm_wire_received rl = rx;
+            rl.gap = lossy_gap ? 1 : 0;
+            assert_int_equal(ftm_replay_on_tick(lossy, &rl), FTM_OK);
+            if (lossy_gap) {
+                lossy_gap = false;
+                assert_int_equal(ftm_replay_state(lossy), FTM_WIRE_STATE_RESYNCING);
+                ftm_wire_keyframe k;
+                assert_int_equal(ftm_replay_make_keyframe(s.sim, &k, NULL), FTM_OK);
+                k.has_tissue = mat.changed;
+                k.tissue = ftm_replay_tissue_now(&mat);
+                assert_int_equal(ftm_replay_on_keyframe(lossy, &k), FTM_OK);
+                ftm_replay_keyframe_free(&k);
+            }
+            assert_int_equal(ftm_replay_state(lossy), FTM_WIRE_STATE_SYNCED);
+            assert_true(ftm_replay_hash(lossy) == ftm_sim_hash(s.sim));
+        }
+        if (t >= join) {
+            assert_int_equal(ftm_replay_on_tick(late, &rx), FTM_OK);
+            if (t == join) {
+                ftm_wire_keyframe k;
+                assert_int_equal(ftm_replay_make_keyframe(s.sim, &k, NULL), FTM_OK);
+                k.has_tissue = mat.changed;
+                k.tissue = ftm_replay_tissue_now(&mat);
+                assert_int_equal(ftm_replay_on_keyframe(late, &k), FTM_OK);
+                ftm_replay_keyframe_free(&k);
+            }
+            assert_int_equal(ftm_replay_state(late), FTM_WIRE_STATE_SYNCED);
+            assert_true(ftm_replay_hash(late) == ftm_sim_hash(s.sim));
+            assert_true(ftm_replay_tissue(late).stiffness == stiff.stiffness);
+        }
+        assert_int_equal(ftm_replay_state(r), FTM_WIRE_STATE_SYNCED);
+        if (ftm_replay_hash(r) != ftm_sim_hash(s.sim))
+            fail_msg("tick %llu: replica hash differs", (unsigned long long)t);
+        rx.msg.kind = 0;
+    }
+    assert_true(ftm_replay_tissue(r).stiffness == stiff.stiffness);
+    assert_true(ftm_replay_tissue(lossy).stiffness == stiff.stiffness);
+    /* and the frames really differ from a run that ignores the change */
+    ftm_sim *plain = NULL;
+    assert_int_equal(ftm_sim_create(s.m, &def, &plain, NULL), FTM_OK);
+    ftm_contact c[4];
+    for (uint64_t t = 1; t <= 200; t++)
+        assert_int_equal(ftm_replay_step(plain, 8, c, contacts_at(s.m, t, c), NULL), FTM_OK);
+    assert_true(h200 != 0 && ftm_sim_hash(plain) != h200);
+    ftm_replay_stats st;
+    ftm_replay_get_stats(r, &st);
+    assert_true(st.mismatches == 0 && st.resyncs == 0);
+    ftm_sim_destroy(plain);
+    ftm_replay_keyframe_free(&k0);
+    ftm_replay_destroy(r);
+    ftm_replay_destroy(lossy);
+    ftm_replay_destroy(late);
+    ftm_sim_destroy(s.sim);
+    ftm_replay_material_free(&mat);
     ftm_scene_destroy(sc);
 }
 
@@ -303,6 +521,9 @@ int main(void)
         cmocka_unit_test(test_continue_relaxing),
         cmocka_unit_test(test_continue_substepped),
         cmocka_unit_test(test_replica),
+        cmocka_unit_test(test_material_mesh),
+        cmocka_unit_test(test_tissue_physics),
+        cmocka_unit_test(test_tissue_replica),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -20,8 +20,8 @@ dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-server-$mode.XXXXXX")
 trap 'rm -rf "$dir"' EXIT
 # a DDS domain of our own (tests/net uses 1..97, tests/wire 100..219; the
 # default port mapping ends at domain 231)
-case $mode in adaptive) base=220 ;; record) base=224 ;; *) base=228 ;; esac
-domain=$(( base + $$ % 4 ))
+case $mode in adaptive) base=220 ;; record) base=224 ;; tissue) base=98 ;; *) base=228 ;; esac
+domain=$(( base + $$ % (base == 98 ? 2 : 4) ))
 session="srv-$mode-$$"
 common="--session $session --domain $domain --config $FTM_CONFIG"
 # 200 Hz; a sanitizer build runs about 5x slower and ticks at 50 Hz (CMake sets it)
@@ -103,6 +103,58 @@ adaptive)
     grep -q "from the inputs: .* tick frames with equal contacts and hash" "$dir/replay.out" ||
         fail "the inputs did not reproduce the frames"
     echo "PASS adaptive: $want; lowest depth $min, at the end $end; $(sed -n 's/.*; \(depth [0-9.]* ([0-9]* changes)\).*/replayed \1/p' "$dir/replay.out")"
+    ;;
+tissue)
+    # trainee 11 presses and holds still; instructor 12 doubles the stiffness
+    # at 3 s and lowers the damping at 5.5 s; observer 13 joins late (6.5 s) and
+    # starts from a keyframe that carries the changed tissue.
+    start_server --duration 8 --record "$dir/tissue.rec" --keyframe-every 0.5
+    timeout 60 "$FTM_BOT" --role trainee --script "$here/press-still.bot" $common --id 11 \
+        --duration 30 --log "$dir/bot11.csv" >"$dir/bot11.out" 2>"$dir/bot11.err" &
+    b11=$!
+    timeout 60 "$FTM_BOT" --role instructor --script "$here/tissue-instructor.bot" $common --id 12 \
+        --duration 30 >"$dir/bot12.out" 2>"$dir/bot12.err" &
+    b12=$!
+    printf 'join 6.5\n' >"$dir/late.bot"
+    timeout 60 "$FTM_BOT" --role observer --script "$dir/late.bot" $common --id 13 \
+        --duration 30 >"$dir/bot13.out" 2>"$dir/bot13.err" &
+    b13=$!
+    wait $server || fail "server exited with $?"
+    wait $b11 || fail "bot 11 exited with $?"
+    wait $b12 || fail "bot 12 exited with $?"
+    wait $b13 || fail "bot 13 exited with $?"
+    check_hashes 11 12 13
+    grep -q "tissue from tick [0-9]* (instructor 12): stiffness 100 N/m (was 50)" "$dir/server.log" ||
+        fail "the server did not apply the stiffness"
+    grep -q "tissue from tick [0-9]* (instructor 12): .*damping 0.25 N s/m (was 0.3)" "$dir/server.log" ||
+        fail "the server did not apply the damping"
+    for b in 11 12; do
+        grep -q "tissue now k 100 N/m, d 0.3 N s/m" "$dir/bot$b.err" ||
+            fail "bot $b did not switch to the new stiffness"
+    done
+    grep -q "0 mismatches" "$dir/bot11.err" || fail "trainee saw hash mismatches"
+    # the late observer came in from a keyframe with k = 100, d = 0.25
+    grep -q "tissue now k 100 N/m, d 0.25 N s/m" "$dir/bot13.err" ||
+        fail "the late observer did not take the tissue from the keyframe"
+    # The probe holds still from 1.2 s: with imposed displacements the rest
+    # shape does not depend on k, so the settled force is proportional to it.
+    # Mean |F| on [2.5, 2.9] s against [4.6, 5.0] s (bot clock; the change
+    # is at 3 s).
+    ratio=$(awk -F, 'NR > 1 && $6 > 0 { f = sqrt($7*$7 + $8*$8 + $9*$9);
+                     if ($1 >= 2.5 && $1 < 2.9) { a += f; na++ }
+                     if ($1 >= 4.6 && $1 < 5.0) { b += f; nb++ } }
+                     END { if (na && nb && a > 0) printf "%.4f", (b / nb) / (a / na) }' "$dir/bot11.csv")
+    [ -n "$ratio" ] || fail "no reaction forces in the trainee's log"
+    awk -v r="$ratio" 'BEGIN { exit !(r > 1.85 && r < 2.15) }' ||
+        fail "force ratio after/before doubling the stiffness is $ratio, want 2 +- 0.15"
+    # the recording reproduces the changes and every hash
+    timeout 60 "$FTM_SERVER" --replay "$dir/tissue.rec" >"$dir/replay.out" 2>"$dir/replay.err" ||
+        fail "replay of the tissue session failed"
+    grep -q "every hash equal; .* 2 tissue changes" "$dir/replay.out" ||
+        fail "the replay did not see the 2 tissue changes"
+    grep -q "from the inputs: .* tick frames with equal contacts and hash" "$dir/replay.out" ||
+        fail "the inputs did not reproduce the frames"
+    echo "PASS tissue: $want; force ratio after/before doubling k: $ratio"
     ;;
 record)
     rec="$dir/session.rec"

@@ -108,8 +108,10 @@ static ftm_wire_msg sample_tick(int n, uint64_t tick)
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_TICK;
-    m.u.tick = (ftm_wire_tick){tick, 10, n, tick_contacts, 2, tick_reactions,
-                               0xfedcba9876543210u ^ tick, 0};
+    m.u.tick = (ftm_wire_tick){
+        .tick = tick, .depth = 10, .contact_count = n, .contacts = tick_contacts,
+        .reaction_count = 2, .reactions = tick_reactions, .state_hash = 0xfedcba9876543210u ^ tick,
+        .send_time_ns = 0};
     return m;
 }
 
@@ -211,6 +213,48 @@ static void test_round_trip_tick(void **state)
     ftm_wire_msg_free(&b);
 }
 
+/* Tissue parameters ride on the tick of a change and on keyframes; absent
+ * everywhere else. */
+static void test_round_trip_tissue(void **state)
+{
+    (void)state;
+    ftm_wire_msg m = sample_tick(3, 77), b;
+    round_trip(&m, &b);
+    assert_false(b.u.tick.has_tissue);
+    ftm_wire_msg_free(&b);
+    const ftm_wire_tissue t = {0.0125, 0.0, 1.0 / 3.0, {1.5, 1e-300, 2.0}};
+    m.u.tick.has_tissue = true;
+    m.u.tick.tissue = t;
+    round_trip(&m, &b);
+    assert_true(b.u.tick.has_tissue);
+    assert_memory_equal(&b.u.tick.tissue, &t, sizeof t);
+    ftm_wire_msg_free(&b);
+
+    int32_t nodes[1] = {4};
+    double pos[3] = {1, 2, 3};
+    ftm_wire_msg k;
+    memset(&k, 0, sizeof k);
+    k.kind = FTM_WIRE_KEYFRAME;
+    k.u.keyframe = (ftm_wire_keyframe){
+        .tick = 9, .state_hash = 10, .node_count = 20, .depth = 3, .count = 1, .nodes = nodes,
+        .positions = pos, .previous = pos, .has_tissue = true, .tissue = t};
+    round_trip(&k, &b);
+    assert_true(b.u.keyframe.has_tissue);
+    assert_memory_equal(&b.u.keyframe.tissue, &t, sizeof t);
+    assert_false(b.u.keyframe.has_mode);
+    ftm_wire_msg_free(&b);
+    /* with the integrator's mode */
+    k.u.keyframe.has_mode = true;
+    k.u.keyframe.mode = (ftm_sim_mode){8, 1000, 0, true, 1.0 / 7.0, 0.0};
+    round_trip(&k, &b);
+    assert_true(b.u.keyframe.has_mode);
+    assert_int_equal(b.u.keyframe.mode.substeps, 8);
+    assert_int_equal(b.u.keyframe.mode.steps_at_substeps, 1000);
+    assert_true(b.u.keyframe.mode.region_sleeping);
+    assert_true(b.u.keyframe.mode.energy_budget == 1.0 / 7.0);
+    ftm_wire_msg_free(&b);
+}
+
 static void test_round_trip_keyframe(void **state)
 {
     (void)state;
@@ -227,8 +271,9 @@ static void test_round_trip_keyframe(void **state)
     ftm_wire_msg m, b;
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_KEYFRAME;
-    m.u.keyframe = (ftm_wire_keyframe){987654321, 0x0123456789abcdefu, 2 * N + 5, 12, N,
-                                       nodes, pos, prev};
+    m.u.keyframe = (ftm_wire_keyframe){
+        .tick = 987654321, .state_hash = 0x0123456789abcdefu, .node_count = 2 * N + 5, .depth = 12,
+        .count = N, .nodes = nodes, .positions = pos, .previous = prev};
     round_trip(&m, &b);
     const ftm_wire_keyframe *r = &b.u.keyframe;
     assert_true(r->tick == 987654321);
@@ -353,7 +398,9 @@ static void test_encode_rejects(void **state)
     ftm_wire_msg k;
     memset(&k, 0, sizeof k);
     k.kind = FTM_WIRE_KEYFRAME;
-    k.u.keyframe = (ftm_wire_keyframe){1, 2, N, 3, N, nodes, pos, pos};
+    k.u.keyframe = (ftm_wire_keyframe){
+        .tick = 1, .state_hash = 2, .node_count = N, .depth = 3, .count = N, .nodes = nodes,
+        .positions = pos, .previous = pos};
     assert_int_equal(ftm_wire_encode(&k, &buf, &size, &err), FTM_ETOOBIG);
     assert_non_null(strstr(err.message, "keyframe"));
     free(nodes);
@@ -587,6 +634,25 @@ static void test_missing_and_invalid(void **state)
     expect_reject(FTM_WIRE_TICK, buf, n, NULL, FTM_EINVAL, "contact 0: unknown contact kind 7",
                   NULL);
 
+    /* tissue parameters on a tick frame: validated like the instructor's */
+    tf.n_contact_node = tf.n_contact_group = tf.n_contact_kind = tf.n_contact_value = 0;
+    Ftm__V1__TissueParams tp = FTM__V1__TISSUE_PARAMS__INIT;
+    Ftm__V1__Vec3 ax = FTM__V1__VEC3__INIT;
+    ax.has_x = ax.has_y = ax.has_z = 1;
+    ax.x = ax.y = ax.z = 1.0;
+    tp.has_node_mass = tp.has_node_damping = tp.has_stiffness = 1;
+    tp.node_mass = 1.0;
+    tp.stiffness = -2.0;
+    tp.axis_scale = &ax;
+    tf.tissue = &tp;
+    n = protobuf_c_message_pack(&tf.base, buf);
+    expect_reject(FTM_WIRE_TICK, buf, n, NULL, FTM_EINVAL, "tissue.stiffness must be > 0", NULL);
+    tp.stiffness = 2.0;
+    ax.z = 0.0;
+    n = protobuf_c_message_pack(&tf.base, buf);
+    expect_reject(FTM_WIRE_TICK, buf, n, NULL, FTM_EINVAL, "tissue.axis_scale must be > 0", NULL);
+    tf.tissue = NULL;
+
     /* keyframe nodes not ascending */
     Ftm__V1__Keyframe kf = FTM__V1__KEYFRAME__INIT;
     kf.has_version = kf.has_tick = kf.has_state_hash = kf.has_node_count = kf.has_depth = 1;
@@ -601,6 +667,25 @@ static void test_missing_and_invalid(void **state)
     kf.previous = kp;
     n = protobuf_c_message_pack(&kf.base, buf);
     expect_reject(FTM_WIRE_KEYFRAME, buf, n, NULL, FTM_EINVAL, "entry 1: node 9", "ascend");
+    kn[1] = 10;
+    /* keyframe mode: zero substeps, a NaN energy */
+    Ftm__V1__IntegratorMode im = FTM__V1__INTEGRATOR_MODE__INIT;
+    im.has_substeps = im.has_steps_at_substeps = im.has_quiet_steps = 1;
+    im.has_region_sleeping = im.has_energy_budget = im.has_energy_prev = 1;
+    kf.mode = &im;
+    n = protobuf_c_message_pack(&kf.base, buf);
+    expect_reject(FTM_WIRE_KEYFRAME, buf, n, NULL, FTM_ERANGE, "mode.substeps 0 out of range",
+                  NULL);
+    im.substeps = 2;
+    im.energy_prev = NAN;
+    n = protobuf_c_message_pack(&kf.base, buf);
+    expect_reject(FTM_WIRE_KEYFRAME, buf, n, NULL, FTM_EINVAL, "mode.energy_prev is not finite",
+                  NULL);
+    im.has_energy_prev = 0;
+    n = protobuf_c_message_pack(&kf.base, buf);
+    expect_reject(FTM_WIRE_KEYFRAME, buf, n, NULL, FTM_EPARSE, "missing field mode.energy_prev",
+                  NULL);
+    kf.mode = NULL;
 
     /* control without a command */
     Ftm__V1__SessionControl sc = FTM__V1__SESSION_CONTROL__INIT;
@@ -622,6 +707,7 @@ int main(void)
         cmocka_unit_test(test_round_trip_probe_input),
         cmocka_unit_test(test_round_trip_tick),
         cmocka_unit_test(test_round_trip_keyframe),
+        cmocka_unit_test(test_round_trip_tissue),
         cmocka_unit_test(test_round_trip_status),
         cmocka_unit_test(test_round_trip_control),
         cmocka_unit_test(test_unknown_fields_ignored),

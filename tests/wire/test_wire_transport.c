@@ -81,7 +81,9 @@ static ftm_wire_msg make_tick(uint64_t tick, ftm_contact *c)
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_TICK;
-    m.u.tick = (ftm_wire_tick){tick, 10, 1, c, 0, NULL, tick * 0x9e3779b97f4a7c15u, 0};
+    m.u.tick = (ftm_wire_tick){
+        .tick = tick, .depth = 10, .contact_count = 1, .contacts = c, .reaction_count = 0,
+        .reactions = NULL, .state_hash = tick * 0x9e3779b97f4a7c15u, .send_time_ns = 0};
     return m;
 }
 
@@ -95,7 +97,9 @@ static ftm_wire_msg make_keyframe(uint64_t tick, int32_t *nodes, double *pos)
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_KEYFRAME;
-    m.u.keyframe = (ftm_wire_keyframe){tick, tick ^ 0xabcdu, 100, 10, 4, nodes, pos, pos};
+    m.u.keyframe = (ftm_wire_keyframe){
+        .tick = tick, .state_hash = tick ^ 0xabcdu, .node_count = 100, .depth = 10, .count = 4,
+        .nodes = nodes, .positions = pos, .previous = pos};
     return m;
 }
 

@@ -34,6 +34,18 @@ typedef struct ftm_material_def {
 
 ftm_material_def ftm_default_material_def(void);
 
+/* A copy of base (built with material `from`) with material `to`: the same
+ * nodes, numbering, links, rest lengths, surface and elements; node masses
+ * scaled by to.node_mass / from.node_mass, damping by the damping ratio (set
+ * to to.node_damping outright when from has none), and each link's
+ * stiffness by (to.stiffness a_to) / (from.stiffness a_from), a the axis
+ * factor of the link's rest direction. Deterministic: the same (base, from,
+ * to) give a bit-identical mesh on every machine. For changing tissue
+ * parameters in a running simulation (ftm_sim_set_mesh). FTM_EINVAL with a
+ * message on an invalid material, FTM_ENOMEM. */
+int ftm_mesh_with_material(const ftm_mesh *base, const ftm_material_def *from,
+                           const ftm_material_def *to, ftm_mesh **out, ftm_error *err);
+
 /* 2D triangular lattice in the z = 0 plane, 6 neighbours per interior node
  * (paper Fig. 3). Rows are offset by half a spacing, row pitch spacing*sqrt(3)/2. */
 typedef struct ftm_lattice2d_def {

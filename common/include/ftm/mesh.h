@@ -111,6 +111,11 @@ int32_t ftm_mesh_max_degree(const ftm_mesh *mesh);
  * Free nodes only; INFINITY if no free node has a link. */
 double ftm_mesh_critical_time_step(const ftm_mesh *mesh);
 
+/* Whether two meshes have the same shape: nodes, rest positions, fixed
+ * nodes, adjacency with rest lengths and surface triangles, in the same
+ * numbering; only masses, damping and stiffness may differ. */
+bool ftm_mesh_same_shape(const ftm_mesh *a, const ftm_mesh *b);
+
 /* Nearest node to a point (linear scan; for scene set-up, not per tick). */
 int32_t ftm_mesh_nearest_node(const ftm_mesh *mesh, ftm_vec3 point);
 

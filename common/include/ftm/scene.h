@@ -5,6 +5,7 @@
 #ifndef FTM_SCENE_H
 #define FTM_SCENE_H
 
+#include "ftm/generate.h"
 #include "ftm/sim.h"
 
 #ifdef __cplusplus
@@ -45,6 +46,8 @@ void ftm_scene_destroy(ftm_scene *scene);
 const char *ftm_scene_name(const ftm_scene *scene);
 const ftm_mesh *ftm_scene_mesh(const ftm_scene *scene);
 ftm_sim_def ftm_scene_sim_def(const ftm_scene *scene);
+/* The [material] the scene's mesh was built with (for ftm_mesh_with_material). */
+ftm_material_def ftm_scene_material(const ftm_scene *scene);
 int32_t ftm_scene_steps(const ftm_scene *scene); /* default number of steps to run */
 int32_t ftm_scene_load_count(const ftm_scene *scene);
 const ftm_scene_load *ftm_scene_loads(const ftm_scene *scene);

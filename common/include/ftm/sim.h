@@ -161,6 +161,14 @@ int32_t ftm_sim_layers(ftm_sim *sim, const int32_t **order, const int32_t **star
 double ftm_sim_kinetic_energy(const ftm_sim *sim);
 double ftm_sim_potential_energy(const ftm_sim *sim);
 
+/* Switches to another mesh of the same shape (ftm_mesh_same_shape), e.g. one
+ * with changed tissue parameters (ftm_mesh_with_material), keeping the state:
+ * positions, contacts, depth, substeps. Takes effect at the next step; the
+ * caller keeps the mesh alive while the simulation uses it. Springs only.
+ * FTM_EINVAL (nothing changed) for element forces, another shape, or a
+ * material too stiff for the time step even at max_substeps. */
+int ftm_sim_set_mesh(ftm_sim *sim, const ftm_mesh *mesh, ftm_error *err);
+
 /* Puts every node back at rest and forgets contacts; keeps the definition. */
 void ftm_sim_reset(ftm_sim *sim);
 
@@ -179,6 +187,10 @@ typedef struct ftm_sim_mode {
     int32_t steps_at_substeps; /* clean steps since substeps last changed */
     int32_t quiet_steps;       /* region sleep: consecutive quiet steps */
     bool region_sleeping;      /* region sleep: the region is asleep */
+    /* the energy guard's account: energy the loads may have supplied (< 0:
+     * not kept, restarts at the next step) and the energy after the last step */
+    double energy_budget;
+    double energy_prev;
 } ftm_sim_mode;
 
 void ftm_sim_get_mode(const ftm_sim *sim, ftm_sim_mode *mode);
@@ -189,7 +201,8 @@ const double *ftm_sim_previous_positions(const ftm_sim *sim);
 /* Replaces the dynamic state: every node at rest except nodes[0..count-1]
  * (strictly ascending, not fixed) with positions x and previous positions xp
  * (3 per listed node); the contacts (as for ftm_sim_set_contacts), the depth,
- * the step counter and the mode (NULL: one substep, region awake). Validates
+ * the step counter and the mode (NULL: one substep, region awake, the energy
+ * account restarting). Validates
  * everything first and changes nothing on error. Cost O(node count). */
 int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t *nodes,
                        const double *x, const double *xp, int32_t count,

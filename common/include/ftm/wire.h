@@ -121,6 +121,10 @@ typedef struct ftm_wire_tick {
     ftm_wire_reaction *reactions;
     uint64_t state_hash;
     uint64_t send_time_ns; /* server CLOCK_REALTIME at publish; 0: absent */
+    /* tissue parameters changed by the instructor: in force from this tick's
+     * step on (applied before it); absent on every other tick */
+    bool has_tissue;
+    ftm_wire_tissue tissue;
 } ftm_wire_tick;
 
 typedef struct ftm_wire_keyframe {
@@ -132,6 +136,12 @@ typedef struct ftm_wire_keyframe {
     int32_t *nodes;     /* count, strictly ascending */
     double *positions;  /* 3 * count */
     double *previous;   /* 3 * count */
+    /* the tissue parameters in force after this tick; absent: the scene's */
+    bool has_tissue;
+    ftm_wire_tissue tissue;
+    /* the integrator's mode after this tick; absent: ftm_sim_load_state's default */
+    bool has_mode;
+    ftm_sim_mode mode;
 } ftm_wire_keyframe;
 
 typedef enum ftm_wire_role {
