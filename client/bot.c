@@ -230,16 +230,17 @@ static void on_announce(bot *b, const ftm_wire_announce *a)
     }
 }
 
-/* Server-to-bot latency of a frame received at rx_ns [us]: from the
- * server's send time in the frame (when the tick queued it) if present, else
- * from the DDS source timestamp (when the publishing thread wrote it); same
- * host clock. */
-static double frame_latency_us(const ftm_wire_received *rx, int64_t rx_ns)
+/* Server-to-bot latency of a frame [us]: from the server's send time in the
+ * frame (when the tick handed it to its publishing thread) if present, else
+ * from the DDS source timestamp (when the publishing thread wrote it), to its
+ * arrival in this process (ftm_wire's listener); same host clock. */
+static double frame_latency_us(const ftm_wire_received *rx)
 {
     uint64_t sent = rx->msg.u.tick.send_time_ns;
-    return (double)(rx_ns - (sent ? (int64_t)sent : rx->source_time_ns)) * 1e-3;
+    return (double)(rx->arrival_ns - (sent ? (int64_t)sent : rx->source_time_ns)) * 1e-3;
 }
 
+/* rx_ns: when this thread took the frame (after its arrival) */
 static void log_frame(bot *b, const ftm_wire_received *rx, int64_t rx_ns)
 {
     if (!b->csv || !b->rep)
@@ -249,7 +250,7 @@ static void log_frame(bot *b, const ftm_wire_received *rx, int64_t rx_ns)
     for (int32_t i = 0; i < t->reaction_count; i++)
         if (t->reactions[i].participant == b->o.id && t->reactions[i].probe == 0)
             f = t->reactions[i].force;
-    double lat_us = frame_latency_us(rx, rx_ns);
+    double lat_us = frame_latency_us(rx);
     /* the frame's payload size, re-encoded (what the server sent) */
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
@@ -263,10 +264,12 @@ static void log_frame(bot *b, const ftm_wire_received *rx, int64_t rx_ns)
     ftm_sim_stats st;
     ftm_sim_get_stats(ftm_replay_sim(b->rep), &st);
     fprintf(b->csv,
-            "%.6f,%" PRIu64 ",%016" PRIx64 ",%016" PRIx64 ",%d,%d,%.9g,%.9g,%.9g,%.1f,%d,%.1f,%zu\n",
+            "%.6f,%" PRIu64 ",%016" PRIx64 ",%016" PRIx64 ",%d,%d,%.9g,%.9g,%.9g,%.1f,%d,%.1f,%zu,"
+            "%.1f\n",
             (double)(mono_ns() - g_t0) * 1e-9, t->tick, t->state_hash, ftm_replay_hash(b->rep),
             (int)ftm_replay_state(b->rep), (int)t->contact_count, f.x, f.y, f.z, lat_us,
-            (int)st.updated_nodes, (double)(rx_ns - rx->source_time_ns) * 1e-3, bytes);
+            (int)st.updated_nodes, (double)(rx->arrival_ns - rx->source_time_ns) * 1e-3, bytes,
+            (double)(rx_ns - rx->arrival_ns) * 1e-3);
 }
 
 /* The server's lease can expire while it is alive (a starved or lossy
@@ -282,7 +285,7 @@ static void server_alive(bot *b)
 static void on_tick(bot *b, const ftm_wire_received *rx)
 {
     server_alive(b);
-    int64_t rx_ns = real_ns(); /* before replaying: latency is delivery only */
+    int64_t rx_ns = real_ns(); /* taken by this thread, before replaying */
     b->last_frame_ns = mono_ns();
     if (!b->rep)
         return;
@@ -290,7 +293,7 @@ static void on_tick(bot *b, const ftm_wire_received *rx)
     uint64_t applied = ftm_replay_last_frame(b->rep)->tick;
     if (ftm_replay_on_tick(b->rep, rx))
         blog("replay: out of memory");
-    double lat_us = frame_latency_us(rx, rx_ns);
+    double lat_us = frame_latency_us(rx);
     b->lat_sum_us += lat_us;
     b->lat_n++;
     if (lat_us > b->lat_max_us)
@@ -449,7 +452,7 @@ int main(int argc, char **argv)
             return 3;
         }
         fprintf(b->csv, "time_s,tick,server_hash,replica_hash,state,contacts,fx,fy,fz,"
-                        "latency_us,updated_nodes,dds_latency_us,frame_bytes\n");
+                        "latency_us,updated_nodes,dds_latency_us,frame_bytes,pickup_us\n");
     }
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);

@@ -2,7 +2,14 @@
  * (type ftm::wire::Envelope, keyed by session and sender), writers and
  * readers with the QoS of docs/protocol.md, and a publishing thread so that
  * callers never wait in dds_write (which can stall for milliseconds). No
- * globals: every transport is self-contained. */
+ * globals: every transport is self-contained.
+ *
+ * Receiving: each reader has a data-available listener, which Cyclone calls
+ * in its own receive thread as a sample arrives. It takes the samples, stamps
+ * their arrival and queues their bytes; ftm_wire_receive decodes and checks
+ * them in the caller's thread. So a message's arrival is seen when it reaches
+ * the process, not when the application thread gets round to it, and the
+ * receive thread is never held up by decoding. */
 #include "wire_internal.h"
 
 #include "ftm_envelope.h"
@@ -38,13 +45,40 @@ typedef struct queue_item {
     uint8_t data[];
 } queue_item;
 
+/* A sample as taken by the listener, decoded later by ftm_wire_receive. */
+typedef struct rx_item {
+    struct rx_item *next;
+    int64_t arrival_ns;     /* CLOCK_REALTIME in the listener */
+    int64_t source_time_ns;
+    bool valid;             /* valid_data; else an instance-state change */
+    bool alive;             /* instance_state == ALIVE */
+    uint32_t sender;
+    uint8_t kind;
+    uint64_t seq;
+    size_t size;
+    uint8_t data[];
+} rx_item;
+
+#define RX_QUEUE_MAX 8192 /* per kind; beyond it the oldest go (a gap for the reader) */
+
 typedef struct sender_seq {
     uint32_t sender;
     uint64_t last;
 } sender_seq;
 
+struct ftm_wire_transport;
+
 typedef struct kind_io {
-    dds_entity_t topic, writer, reader, readcond, waitset;
+    dds_entity_t topic, writer, reader;
+    /* receive queue: filled by the reader's listener (Cyclone's thread),
+     * emptied by ftm_wire_receive */
+    pthread_mutex_t rx_lock;
+    pthread_cond_t rx_cond;
+    rx_item *rx_head, *rx_tail;
+    int32_t rx_count;
+    uint64_t rx_dropped, rx_dropped_seen;
+    struct ftm_wire_transport *owner;
+    int kind;
     struct dds_statistics *wstats;
     uint64_t next_seq; /* under t->lock */
     /* receive side: one thread per kind */
@@ -364,6 +398,71 @@ static int make_domain(const ftm_wire_transport_def *def, ftm_error *err)
     return FTM_OK;
 }
 
+static int64_t real_now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+/* Cyclone's receive thread: take what arrived, queue it with its arrival
+ * time. Only copies; no decoding and no logging here. */
+static void on_data_available(dds_entity_t reader, void *arg)
+{
+    kind_io *io = arg;
+    const ftm_wire_transport *t = io->owner;
+    for (;;) {
+        void *samples[16] = {NULL};
+        dds_sample_info_t info[16];
+        dds_return_t n = dds_take(reader, samples, info, 16, 16);
+        if (n <= 0)
+            return;
+        int64_t arrival = real_now_ns();
+        for (int32_t i = 0; i < n; i++) {
+            const ftm_wire_Envelope *env = samples[i];
+            if (strncmp(env->session, t->session, sizeof env->session) != 0)
+                continue; /* another session on the same domain */
+            size_t size = info[i].valid_data ? env->payload._length : 0;
+            rx_item *it = malloc(sizeof *it + size);
+            if (!it) {
+                pthread_mutex_lock(&io->rx_lock);
+                io->rx_dropped++;
+                pthread_mutex_unlock(&io->rx_lock);
+                continue;
+            }
+            *it = (rx_item){.arrival_ns = arrival,
+                            .source_time_ns = info[i].source_timestamp,
+                            .valid = info[i].valid_data,
+                            .alive = info[i].instance_state == DDS_IST_ALIVE,
+                            .sender = env->sender,
+                            .kind = env->kind,
+                            .seq = env->seq,
+                            .size = size};
+            if (size)
+                memcpy(it->data, env->payload._buffer, size);
+            pthread_mutex_lock(&io->rx_lock);
+            if (io->rx_count >= RX_QUEUE_MAX) { /* nobody reads: keep the newest */
+                rx_item *old = io->rx_head;
+                io->rx_head = old->next;
+                if (!io->rx_head)
+                    io->rx_tail = NULL;
+                io->rx_count--;
+                io->rx_dropped++;
+                free(old);
+            }
+            if (io->rx_tail)
+                io->rx_tail->next = it;
+            else
+                io->rx_head = it;
+            io->rx_tail = it;
+            io->rx_count++;
+            pthread_cond_signal(&io->rx_cond);
+            pthread_mutex_unlock(&io->rx_lock);
+        }
+        dds_return_loan(reader, samples, n);
+    }
+}
+
 static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_error *err)
 {
     kind_io *io = &t->io[k];
@@ -383,22 +482,20 @@ static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_
     }
     if (sub) {
         dds_qos_t *q = kind_qos(k, false);
-        io->reader = dds_create_reader(t->participant, io->topic, q, NULL);
+        dds_listener_t *l = dds_create_listener(io);
+        if (!l) {
+            dds_delete_qos(q);
+            return wire_err(err, FTM_ENOMEM, "transport: out of memory for a listener");
+        }
+        dds_lset_data_available(l, on_data_available);
+        io->reader = dds_create_reader(t->participant, io->topic, q, l);
+        dds_delete_listener(l);
         dds_delete_qos(q);
         if (io->reader < 0) {
             int rc = dds_fail(err, "dds_create_reader", io->reader);
             io->reader = 0;
             return rc;
         }
-        io->readcond = dds_create_readcondition(io->reader, DDS_ANY_STATE);
-        if (io->readcond < 0)
-            return dds_fail(err, "dds_create_readcondition", io->readcond);
-        io->waitset = dds_create_waitset(t->participant);
-        if (io->waitset < 0)
-            return dds_fail(err, "dds_create_waitset", io->waitset);
-        dds_return_t rc = dds_waitset_attach(io->waitset, io->readcond, (dds_attach_t)k);
-        if (rc < 0)
-            return dds_fail(err, "dds_waitset_attach", rc);
     }
     return FTM_OK;
 }
@@ -450,6 +547,12 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
     pthread_mutex_init(&t->lock, NULL);
     pthread_cond_init(&t->wake, NULL);
     pthread_cond_init(&t->drained, &ca);
+    for (int k = 0; k < KINDS; k++) {
+        pthread_mutex_init(&t->io[k].rx_lock, NULL);
+        pthread_cond_init(&t->io[k].rx_cond, &ca);
+        t->io[k].owner = t;
+        t->io[k].kind = k;
+    }
     pthread_condattr_destroy(&ca);
 
     int rc = make_domain(def, err);
@@ -492,14 +595,23 @@ void ftm_wire_transport_destroy(ftm_wire_transport *t)
         pthread_mutex_unlock(&t->lock);
         pthread_join(t->thread, NULL);
     }
-    delete_participant(t);
+    delete_participant(t); /* waits for listeners in progress */
     while (t->head) {
         queue_item *it = t->head;
         t->head = it->next;
         free(it);
     }
-    for (int k = 0; k < KINDS; k++)
-        free(t->io[k].senders);
+    for (int k = 0; k < KINDS; k++) {
+        kind_io *io = &t->io[k];
+        while (io->rx_head) {
+            rx_item *it = io->rx_head;
+            io->rx_head = it->next;
+            free(it);
+        }
+        free(io->senders);
+        pthread_cond_destroy(&io->rx_cond);
+        pthread_mutex_destroy(&io->rx_lock);
+    }
     pthread_cond_destroy(&t->wake);
     pthread_cond_destroy(&t->drained);
     pthread_mutex_destroy(&t->lock);
@@ -584,53 +696,80 @@ static void reject(ftm_wire_transport *t, int kind, const char *fmt, ...)
     wire_log(t, FTM_LOG_WARN, "wire: rejected %s", buf);
 }
 
-/* Handles one taken sample: 1 if *out now holds a message, 0 if skipped. */
-static int handle_sample(ftm_wire_transport *t, int kind, const ftm_wire_Envelope *env,
-                         const dds_sample_info_t *info, ftm_wire_received *out)
+/* Handles one queued sample: 1 if *out now holds a message, 0 if skipped. */
+static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm_wire_received *out)
 {
     kind_io *io = &t->io[kind];
-    if (strncmp(env->session, t->session, sizeof env->session) != 0)
-        return 0; /* another session on the same domain */
-    if (!info->valid_data) {
-        if (kind == FTM_WIRE_STATUS && info->instance_state != DDS_IST_ALIVE) {
+    if (!it->valid) {
+        if (kind == FTM_WIRE_STATUS && !it->alive) {
             memset(out, 0, sizeof *out);
             out->msg.kind = FTM_WIRE_STATUS;
-            out->sender = env->sender;
+            out->sender = it->sender;
             out->gone = true;
-            out->source_time_ns = info->source_timestamp;
+            out->source_time_ns = it->source_time_ns;
+            out->arrival_ns = it->arrival_ns;
             return 1;
         }
         return 0;
     }
     const char *what = ftm_wire_kind_name(kind);
-    if (env->kind != kind) {
+    if (it->kind != kind) {
         reject(t, kind, "%s topic: message from participant %u seq %llu says it is a %s (kind %u)",
-               what, env->sender, (unsigned long long)env->seq, ftm_wire_kind_name(env->kind),
-               env->kind);
+               what, it->sender, (unsigned long long)it->seq, ftm_wire_kind_name(it->kind),
+               it->kind);
         return 0;
     }
     ftm_error e = {0, ""};
     ftm_wire_msg msg;
-    int rc = ftm_wire_decode(kind, env->payload._buffer, env->payload._length, &t->limits, &msg, &e);
+    int rc = ftm_wire_decode(kind, it->data, it->size, &t->limits, &msg, &e);
     if (rc) {
-        reject(t, kind, "message from participant %u seq %llu: %s", env->sender,
-               (unsigned long long)env->seq, e.message);
+        reject(t, kind, "message from participant %u seq %llu: %s", it->sender,
+               (unsigned long long)it->seq, e.message);
         return 0;
     }
     memset(out, 0, sizeof *out);
     out->msg = msg;
-    out->sender = env->sender;
-    out->seq = env->seq;
-    out->source_time_ns = info->source_timestamp;
-    out->gap = track(io, env->sender, env->seq);
+    out->sender = it->sender;
+    out->seq = it->seq;
+    out->source_time_ns = it->source_time_ns;
+    out->arrival_ns = it->arrival_ns;
+    out->gap = track(io, it->sender, it->seq);
     pthread_mutex_lock(&t->lock);
     io->stats.received++;
     io->stats.missing += out->gap;
     pthread_mutex_unlock(&t->lock);
     if (out->gap)
         wire_log(t, FTM_LOG_INFO, "wire: %s from participant %u: %llu missing before seq %llu", what,
-                 env->sender, (unsigned long long)out->gap, (unsigned long long)env->seq);
+                 it->sender, (unsigned long long)out->gap, (unsigned long long)it->seq);
     return 1;
+}
+
+/* The next queued sample of a kind, waiting until deadline (monotonic). */
+static rx_item *next_item(kind_io *io, int64_t deadline, uint64_t *dropped)
+{
+    pthread_mutex_lock(&io->rx_lock);
+    while (!io->rx_head) {
+        int64_t left = deadline - now_ns();
+        if (left <= 0)
+            break;
+        struct timespec ts;
+        clock_gettime(CLOCK_MONOTONIC, &ts);
+        int64_t at = (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec + left;
+        ts.tv_sec = at / 1000000000;
+        ts.tv_nsec = at % 1000000000;
+        pthread_cond_timedwait(&io->rx_cond, &io->rx_lock, &ts);
+    }
+    rx_item *it = io->rx_head;
+    if (it) {
+        io->rx_head = it->next;
+        if (!io->rx_head)
+            io->rx_tail = NULL;
+        io->rx_count--;
+    }
+    *dropped = io->rx_dropped - io->rx_dropped_seen;
+    io->rx_dropped_seen = io->rx_dropped;
+    pthread_mutex_unlock(&io->rx_lock);
+    return it;
 }
 
 int ftm_wire_receive(ftm_wire_transport *t, int kind, ftm_wire_received *out, int64_t timeout_ns,
@@ -645,25 +784,21 @@ int ftm_wire_receive(ftm_wire_transport *t, int kind, ftm_wire_received *out, in
     kind_io *io = &t->io[kind];
     int64_t deadline = now_ns() + (timeout_ns > 0 ? timeout_ns : 0);
     for (;;) {
-        void *samples[1] = {NULL};
-        dds_sample_info_t info;
-        dds_return_t n = dds_take(io->reader, samples, &info, 1, 1);
-        if (n < 0)
-            return dds_fail(err, "dds_take", n);
-        if (n > 0) {
-            int got = handle_sample(t, kind, samples[0], &info, out);
-            dds_return_loan(io->reader, samples, n);
-            if (got)
-                return FTM_OK;
-            continue; /* skipped one: look at the next without waiting */
-        }
-        int64_t left = deadline - now_ns();
-        if (left <= 0)
+        uint64_t dropped = 0;
+        rx_item *it = next_item(io, deadline, &dropped);
+        if (dropped)
+            wire_log(t, FTM_LOG_WARN,
+                     "wire: %llu %s message(s) dropped unread (more than %d waiting, or out of "
+                     "memory)",
+                     (unsigned long long)dropped, ftm_wire_kind_name(kind), RX_QUEUE_MAX);
+        if (!it)
             return wire_err(err, FTM_ETIMEDOUT, "%s: nothing received in %.3f s",
                             ftm_wire_kind_name(kind), (double)timeout_ns * 1e-9);
-        dds_return_t rc = dds_waitset_wait(io->waitset, NULL, 0, left);
-        if (rc < 0)
-            return dds_fail(err, "dds_waitset_wait", rc);
+        int got = handle_sample(t, kind, it, out);
+        free(it);
+        if (got)
+            return FTM_OK;
+        /* skipped one: look at the next without waiting past the deadline */
     }
 }
 

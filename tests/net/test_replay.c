@@ -320,8 +320,8 @@ static void test_material_mesh(void **state)
 static double settle(ftm_sim *sim, int32_t top, double fz)
 {
     ftm_contact c = {top, 0, FTM_CONTACT_FORCE, {0, 0, fz}};
-    for (int i = 0; i < 6000; i++)
-        assert_int_equal(ftm_replay_step(sim, 30, &c, 1, NULL), FTM_OK);
+    for (int i = 0; i < 4000; i++)
+        assert_int_equal(ftm_replay_step(sim, 8, &c, 1, NULL), FTM_OK);
     return ftm_sim_position(sim, top).z - ftm_mesh_rest_position(ftm_sim_mesh(sim), top).z;
 }
 

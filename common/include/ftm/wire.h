@@ -306,6 +306,9 @@ typedef struct ftm_wire_received {
      * message seen from a sender sets the baseline and has gap 0. */
     uint64_t gap;
     int64_t source_time_ns; /* writer's clock at dds_write */
+    /* CLOCK_REALTIME when the message reached this process (taken in
+     * Cyclone's receive thread, before the caller's thread got to it) */
+    int64_t arrival_ns;
     /* Status kind only: the sender's status instance is gone (it left, its
      * writer was deleted or its lease expired); msg is then empty. */
     bool gone;
