@@ -19,6 +19,8 @@
 #include "ftm/wire.h"
 
 #include <errno.h>
+#include <pthread.h>
+#include <sched.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdarg.h>
@@ -60,6 +62,7 @@ typedef struct options {
     bool scene_given;      /* --scene was on the command line */
     int32_t metrics_port;  /* 0: off */
     const char *control_log; /* --control-log FILE: CSV per control period */
+    int32_t rt_priority;   /* SCHED_FIFO priority of the tick and publishing threads; 0: off */
 } options;
 
 typedef struct probe {
@@ -1081,13 +1084,15 @@ static void usage(FILE *f)
             "  --offline N            run N ticks without DDS, trainees from --trainee scripts\n"
             "  --trainee ID:T0:FILE   (offline) trainee ID plays bot script FILE; tick k uses\n"
             "                         the HIP at script time T0 + k / rate (repeatable, <= 8)\n"
-            "  --reactions FILE       (offline) CSV tick,participant,probe,fx,fy,fz\n");
+            "  --reactions FILE       (offline) CSV tick,participant,probe,fx,fy,fz\n"
+            "  --rt-priority N        SCHED_FIFO priority of the tick and publishing threads\n"
+            "                         where permitted (default 10; 0: default scheduling)\n");
 }
 
 static int parse(int argc, char **argv, options *o)
 {
     *o = (options){"default", "ftm", NULL, NULL, 0, 1, 1000.0, 1.0, 0.1, 0.0, -1, 0, {NULL}, 0, NULL,
-                   -1, 0, 2.0, NULL, NULL, false, 0, NULL};
+                   -1, 0, 2.0, NULL, NULL, false, 0, NULL, 10};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -1144,6 +1149,8 @@ static int parse(int argc, char **argv, options *o)
             o->trainees[o->ntrainees++] = v;
         else if (strcmp(a, "--reactions") == 0)
             o->reactions_csv = v;
+        else if (strcmp(a, "--rt-priority") == 0)
+            o->rt_priority = (int32_t)strtol(v, &end, 10);
         else {
             fprintf(stderr, "ftm-server: unknown option %s\n", a);
             return -1;
@@ -1163,6 +1170,10 @@ static int parse(int argc, char **argv, options *o)
         (o->adaptive != 0 && o->adaptive != 1) || !(o->depth_hold_up >= 0 && o->depth_hold_up <= 3600) || o->metrics_port < 0 || o->metrics_port > 65535) {
         fprintf(stderr, "ftm-server: --depth-floor must be 0..depth, --adaptive 0 or 1, --depth-hold-up 0..3600, "
                         "--metrics-port 0..65535\n");
+        return -1;
+    }
+    if (o->rt_priority < 0 || o->rt_priority > 99) {
+        fprintf(stderr, "ftm-server: --rt-priority must be 0..99 (got %d)\n", (int)o->rt_priority);
         return -1;
     }
     if (o->offline_ticks < 0 || ((o->ntrainees || o->reactions_csv) && !o->offline_ticks)) {
@@ -1458,6 +1469,7 @@ int main(int argc, char **argv)
     wd.limits.node_count = ftm_mesh_node_count(s->mesh);
     wd.log = log_hook;
     wd.log_user = s;
+    wd.publisher_priority = s->o.rt_priority;
     if (ftm_wire_transport_create(&wd, &s->wire, &err)) {
         slog(s, "error", "%s", err.message);
         return 3;
@@ -1507,6 +1519,20 @@ int main(int argc, char **argv)
          s->o.adaptive ? "on" : "off", (int)s->ctl.def.floor, (int)s->ctl.def.max,
          s->ctl.def.budget_ns * 1e-6);
 
+    if (s->o.rt_priority > 0) {
+        /* the tick loop (this thread) and the frames' hand-off: a tick due
+         * or a frame queued runs as soon as a core is free, ahead of
+         * ordinary work on the host; they sleep between ticks. Set last, so
+         * that threads made before (DDS, metrics) keep default scheduling. */
+        struct sched_param sp = {.sched_priority = s->o.rt_priority};
+        int e = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+        if (e)
+            slog(s, "info", "real-time scheduling not permitted (%s): default scheduling",
+                 strerror(e));
+        else
+            slog(s, "info", "tick and publishing threads SCHED_FIFO priority %d",
+                 (int)s->o.rt_priority);
+    }
     s->loop = uv_default_loop();
     uv_timer_init(s->loop, &s->tick_timer);
     uv_timer_init(s->loop, &s->status_timer);

@@ -19,6 +19,7 @@
 
 #include <errno.h>
 #include <pthread.h>
+#include <sched.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -528,6 +529,9 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
         return wire_err(err, FTM_EINVAL, "transport: participant_id must not be 0");
     if ((def->publish | def->subscribe) & ~(uint32_t)FTM_WIRE_ALL_KINDS)
         return wire_err(err, FTM_EINVAL, "transport: publish/subscribe masks name unknown kinds");
+    if (def->publisher_priority < 0 || def->publisher_priority > 99)
+        return wire_err(err, FTM_EINVAL, "transport: publisher_priority %d out of range 0..99",
+                        (int)def->publisher_priority);
     if (def->queue_capacity < 0)
         return wire_err(err, FTM_EINVAL, "transport: negative queue_capacity");
 
@@ -569,10 +573,19 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
             rc = make_endpoints(t, k, pub, sub, err);
     }
     if (rc == FTM_OK) {
-        if (pthread_create(&t->thread, NULL, publisher_main, t) != 0)
+        if (pthread_create(&t->thread, NULL, publisher_main, t) != 0) {
             rc = wire_err(err, FTM_ENOMEM, "transport: cannot start the publishing thread");
-        else
+        } else {
             t->thread_started = true;
+            if (def->publisher_priority > 0) {
+                struct sched_param sp = {.sched_priority = def->publisher_priority};
+                int e = pthread_setschedparam(t->thread, SCHED_FIFO, &sp);
+                if (e)
+                    wire_log(t, FTM_LOG_INFO,
+                             "wire: publishing thread at default scheduling (SCHED_FIFO %d: %s)",
+                             (int)def->publisher_priority, strerror(e));
+            }
+        }
     }
     if (rc != FTM_OK) {
         ftm_wire_transport_destroy(t);

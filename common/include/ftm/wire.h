@@ -261,6 +261,9 @@ typedef struct ftm_wire_transport_def {
     ftm_wire_limits limits;  /* for decoding received messages */
     ftm_log_fn log;          /* rejected messages, DDS trouble; NULL: silent */
     void *log_user;
+    /* > 0: run the publishing thread SCHED_FIFO at this priority (1..99)
+     * where permitted, else at default scheduling (logged); 0: default */
+    int32_t publisher_priority;
 } ftm_wire_transport_def;
 
 /* Creates a DDS participant in the domain (creating the domain with the
