@@ -21,6 +21,7 @@
 #include "hud.h"
 #include "render.h"
 #include "screenshot.h"
+#include "script.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -37,6 +38,7 @@
 
 typedef struct options {
     const char *role, *scene, *session, *config, *name, *log_path, *device, *renderer;
+    const char *commands; /* instructor: timed session commands (bot script format) */
     uint32_t domain, id;
     double server_timeout, duration;
     int width, height, swap_interval, msaa;
@@ -71,6 +73,8 @@ typedef struct app {
     double mx, my;
     int drag; /* 0 none, 1 orbit, 2 pan, 3 probe */
     char last_cmd[96];
+    ftm_script cmds; /* --commands */
+    bool have_cmds;
 } app;
 
 static volatile sig_atomic_t g_stop;
@@ -145,6 +149,25 @@ static int take_hips(void *user, ftm_wire_probe_sample *out, int max)
 
 /* ---- input ------------------------------------------------------------------------------- */
 
+static void send_control(app *a, ftm_wire_control *c, const char *what)
+{
+    ftm_error err = {0, ""};
+    if (ftm_client_session_control(a->sess, c, &err)) {
+        alog(a, FTM_LOG_WARN, "%s: %s", what, err.message);
+        snprintf(a->last_cmd, sizeof a->last_cmd, "%s FAILED", what);
+        return;
+    }
+    if (c->command == FTM_WIRE_CMD_TISSUE)
+        snprintf(a->last_cmd, sizeof a->last_cmd, "%s (k = %.4g N/m, d = %.4g N s/m, m = %.4g kg)",
+                 what, c->tissue.stiffness, c->tissue.node_damping, c->tissue.node_mass);
+    else if (c->command == FTM_WIRE_CMD_DEPTH_LIMITS)
+        snprintf(a->last_cmd, sizeof a->last_cmd, "depth limits %d..%d", (int)c->depth_min,
+                 (int)c->depth_max);
+    else
+        snprintf(a->last_cmd, sizeof a->last_cmd, "%s", what);
+    alog(a, FTM_LOG_INFO, "sent %s", a->last_cmd);
+}
+
 static void send_command(app *a, ftm_wire_command cmd, const char *what)
 {
     if (a->role != FTM_WIRE_ROLE_INSTRUCTOR) {
@@ -166,20 +189,42 @@ static void send_command(app *a, ftm_wire_command cmd, const char *what)
     if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS && strcmp(what, "depth max -1") == 0 &&
         c.depth_max > c.depth_min)
         c.depth_max--;
-    ftm_error err = {0, ""};
-    if (ftm_client_session_control(a->sess, &c, &err)) {
-        alog(a, FTM_LOG_WARN, "%s: %s", what, err.message);
-        snprintf(a->last_cmd, sizeof a->last_cmd, "%s FAILED", what);
+    send_control(a, &c, what);
+}
+
+/* --commands: the script's commands that are due, once synced (times from
+ * the client's start, as ftm-bot plays them) */
+static void scripted_commands(app *a)
+{
+    if (!a->have_cmds || !a->view.synced_once)
         return;
+    double t = (double)(mono_ns() - a->t0) * 1e-9;
+    for (int32_t i = 0; i < a->cmds.ncmds; i++) {
+        ftm_script_command *sc = &a->cmds.cmds[i];
+        if (sc->done || t < sc->t)
+            continue;
+        sc->done = true;
+        ftm_wire_control c;
+        memset(&c, 0, sizeof c);
+        c.command = sc->cmd;
+        c.tissue = a->view.tissue;
+        c.depth_min = (int32_t)sc->value[0];
+        c.depth_max = (int32_t)sc->value[1];
+        const char *what = sc->cmd == FTM_WIRE_CMD_PAUSE    ? "pause"
+                           : sc->cmd == FTM_WIRE_CMD_RESUME ? "resume"
+                           : sc->cmd == FTM_WIRE_CMD_RESET  ? "reset"
+                                                            : "scripted";
+        if (sc->cmd == FTM_WIRE_CMD_TISSUE) {
+            double *f = sc->param == FTM_SCRIPT_STIFFNESS ? &c.tissue.stiffness
+                        : sc->param == FTM_SCRIPT_DAMPING ? &c.tissue.node_damping
+                                                          : &c.tissue.node_mass;
+            *f = sc->value[0];
+            what = sc->param == FTM_SCRIPT_STIFFNESS ? "stiffness"
+                   : sc->param == FTM_SCRIPT_DAMPING ? "damping"
+                                                     : "mass";
+        }
+        send_control(a, &c, what);
     }
-    if (cmd == FTM_WIRE_CMD_TISSUE)
-        snprintf(a->last_cmd, sizeof a->last_cmd, "%s (k = %.4g N/m)", what, c.tissue.stiffness);
-    else if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS)
-        snprintf(a->last_cmd, sizeof a->last_cmd, "depth limits %d..%d", (int)c.depth_min,
-                 (int)c.depth_max);
-    else
-        snprintf(a->last_cmd, sizeof a->last_cmd, "%s", what);
-    alog(a, FTM_LOG_INFO, "sent %s", a->last_cmd);
 }
 
 static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
@@ -303,6 +348,10 @@ static void usage(FILE *f)
             "  --scene NAME|FILE        local scene (default: the announced scene id)\n"
             "  --id N  --name TEXT      participant id (default: from pid and time), display name\n"
             "  --server-timeout S       no tick frames for S s: server counted as gone (default 3)\n"
+            "instructor:\n"
+            "  --commands FILE          send the timed commands of an ftm-bot script (pause,\n"
+            "                           resume, reset, stiffness, damping, mass, depth;\n"
+            "                           docs/bot-script.md) once synced\n"
             "trainee:\n"
             "  --device mouse|script:FILE  probe device (default mouse)\n"
             "  --renderer model|extrapolate haptic force renderer (default model)\n"
@@ -382,6 +431,8 @@ static int parse(int argc, char **argv, options *o)
             o->log_path = v;
         else if (strcmp(a, "--device") == 0)
             o->device = v;
+        else if (strcmp(a, "--commands") == 0)
+            o->commands = v;
         else if (strcmp(a, "--renderer") == 0)
             o->renderer = v;
         else if (strcmp(a, "--screenshot") == 0)
@@ -549,6 +600,7 @@ static int run(app *a)
             frame_ms = 1e3 / fps;
         }
         bool changed = ftm_client_session_snapshot(a->sess, &a->view);
+        scripted_commands(a);
         if (a->view.mesh != a->drawn_mesh)
             new_mesh(a);
         if (changed)
@@ -708,6 +760,10 @@ int main(int argc, char **argv)
         fprintf(stderr, "ftm-client: --device must be mouse or script:FILE\n");
         return 2;
     }
+    if (a->o.commands && a->role != FTM_WIRE_ROLE_INSTRUCTOR) {
+        fprintf(stderr, "ftm-client: --commands needs --role instructor\n");
+        return 2;
+    }
     if (a->o.id == 0)
         a->o.id = (uint32_t)(((uint64_t)getpid() * 2654435761u) ^ (uint64_t)time(NULL)) | 1u;
     if (a->o.log_path) {
@@ -716,6 +772,14 @@ int main(int argc, char **argv)
             fprintf(stderr, "ftm-client: cannot open %s: %s\n", a->o.log_path, strerror(errno));
             return 3;
         }
+    }
+    if (a->o.commands) {
+        if (ftm_script_load(a->o.commands, &a->cmds)) { /* says FILE:LINE: why */
+            if (a->logf)
+                fclose(a->logf);
+            return 2;
+        }
+        a->have_cmds = true;
     }
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
@@ -824,6 +888,8 @@ out_win:
 out_glfw:
     glfwTerminate();
 out:
+    if (a->have_cmds)
+        ftm_script_free(&a->cmds);
     if (a->logf)
         fclose(a->logf);
     return rc;

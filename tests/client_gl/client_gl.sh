@@ -5,6 +5,8 @@
 #       (ftm-bot, hold.bot) presses into the tissue and a deformed frame is
 #       taken once the contact has lasted 200 ticks; client-png-check
 #       asserts the pixels around the contact changed and neither is blank.
+#   instructor: an instructor client's timed commands (--commands) change
+#       the stiffness and the depth limits; server and client apply them.
 #   badinput: a scene the client cannot load, malformed tick frames, and a
 #       server that vanishes (SIGKILL): each time the client logs it, shows
 #       the red banner (checked in its screenshot) and keeps running.
@@ -65,6 +67,21 @@ screenshot)
     grep -q "synced at tick" "$dir/after.log" || fail "client never synced"
     [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
     echo "PASS screenshot: $(cat "$dir/after.out")"
+    ;;
+instructor)
+    # the GL client as instructor plays timed commands (--commands): the
+    # server applies the stiffness and the depth limits, the client's own
+    # replica switches its tissue at the frame that carries it
+    start_server
+    client instr --role instructor --id 21 --commands "$FTM_DATA/instructor.cmds" \
+        --screenshot "$dir/instr.png" --screenshot-after 4 || fail "instructor client exited with $?"
+    grep -q "tissue from tick [0-9]* (instructor 21): stiffness 100 N/m (was 50)" "$dir/server.log" ||
+        fail "the server did not apply the instructor's stiffness"
+    grep -q "depth limits \[2, 6\] from instructor 21" "$dir/server.log" ||
+        fail "the server did not apply the instructor's depth limits"
+    grep -q "sent stiffness (k = 100 N/m" "$dir/instr.log" || fail "the client did not send it"
+    grep -q "tissue now k 100 N/m" "$dir/instr.log" || fail "the client's replica did not switch"
+    echo "PASS instructor: $(grep -o 'tissue from tick [0-9]*' "$dir/server.log")"
     ;;
 badinput)
     # 1. a scene the client cannot load: banner, log, no crash; exit 1 after the timeout
