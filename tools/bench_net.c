@@ -75,7 +75,9 @@ typedef struct run_result {
     /* over the first bot's synced ticks: frame payload (its frame_bytes) and
      * what streaming the moved nodes would take, per tick */
     double frame_bytes_per_tick, stream_bytes_per_tick, moved_per_tick;
-    double *lat;         /* all latency samples [us] */
+    double *lat;         /* all latency samples [us]: server hand-off to arrival */
+    double *dds;         /* ... of them, dds_write to arrival */
+    double *pick;        /* ... arrival to the bot thread taking the frame */
     uint64_t *lat_tick;  /* their ticks */
     size_t nlat, caplat;
     /* adaptive phase */
@@ -306,26 +308,33 @@ static int read_bot_csv(const char *path, run_result *r, bool stream, int32_t no
         uint64_t tick;
         char h1[32], h2[32];
         int state, contacts, upd = 0;
-        double ddslat, fbytes = 0;
-        if (sscanf(line, "%lf,%" SCNu64 ",%31[^,],%31[^,],%d,%d,%lf,%lf,%lf,%lf,%d,%lf,%lf", &t,
+        double ddslat = NAN, fbytes = 0, pick = NAN;
+        if (sscanf(line, "%lf,%" SCNu64 ",%31[^,],%31[^,],%d,%d,%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf", &t,
                    &tick, h1, h2, &state, &contacts, &fx, &fy, &fz, &lat, &upd, &ddslat,
-                   &fbytes) < 10 ||
+                   &fbytes, &pick) < 10 ||
             state != 2)
             continue;
         if (r->nlat == r->caplat) {
             size_t cap = r->caplat ? 2 * r->caplat : 65536;
             double *l = realloc(r->lat, cap * sizeof *l);
-            uint64_t *lt = l ? realloc(r->lat_tick, cap * sizeof *lt) : NULL;
-            if (!l || !lt) {
-                free(l ? l : r->lat);
-                r->lat = NULL;
+            if (l)
+                r->lat = l;
+            double *d = l ? realloc(r->dds, cap * sizeof *d) : NULL;
+            if (d)
+                r->dds = d;
+            double *pk = d ? realloc(r->pick, cap * sizeof *pk) : NULL;
+            if (pk)
+                r->pick = pk;
+            uint64_t *lt = pk ? realloc(r->lat_tick, cap * sizeof *lt) : NULL;
+            if (!lt) {
                 fclose(f);
-                return -1;
+                return -1; /* what was grown stays owned by r */
             }
-            r->lat = l;
             r->lat_tick = lt;
             r->caplat = cap;
         }
+        r->dds[r->nlat] = ddslat;
+        r->pick[r->nlat] = pick;
         r->lat[r->nlat] = lat;
         r->lat_tick[r->nlat++] = tick;
         if (!any)
@@ -797,10 +806,32 @@ int ftm_bench_net(int argc, char **argv)
     double lat50 = windowed(&a, o.rate, 0.50), lat99 = windowed(&a, o.rate, 0.99);
     double *all = a.nlat ? malloc(a.nlat * sizeof *all) : NULL;
     double pooled99 = NAN, latmax = NAN;
+    /* where the latency goes (pooled over the run; NaN-free samples only):
+     * the server's hand-off to its publishing thread, dds_write to arrival
+     * in the bot process, and the bot thread's pickup after that */
+    double hand50 = NAN, hand99 = NAN, dds50 = NAN, dds99 = NAN, pick50 = NAN, pick99 = NAN;
     if (all) {
         memcpy(all, a.lat, a.nlat * sizeof *all);
         pooled99 = quantile(all, a.nlat, 0.99);
         latmax = all[a.nlat - 1];
+        size_t n = 0;
+        for (size_t i = 0; i < a.nlat; i++)
+            if (isfinite(a.dds[i]))
+                all[n++] = a.lat[i] - a.dds[i];
+        hand50 = quantile(all, n, 0.5);
+        hand99 = quantile(all, n, 0.99);
+        n = 0;
+        for (size_t i = 0; i < a.nlat; i++)
+            if (isfinite(a.dds[i]))
+                all[n++] = a.dds[i];
+        dds50 = quantile(all, n, 0.5);
+        dds99 = quantile(all, n, 0.99);
+        n = 0;
+        for (size_t i = 0; i < a.nlat; i++)
+            if (isfinite(a.pick[i]))
+                all[n++] = a.pick[i];
+        pick50 = quantile(all, n, 0.5);
+        pick99 = quantile(all, n, 0.99);
     }
     if (o.plot && all) {
         char path[1200];
@@ -873,6 +904,12 @@ int ftm_bench_net(int argc, char **argv)
         json_num(stdout, "ddsperf_p50_us", dp50, false);
         json_num(stdout, "ddsperf_p99_us", dp99, false);
         json_num(stdout, "latency_ratio_p99", lat99 / dp99, false);
+        json_num(stdout, "handoff_p50_us", hand50, false);
+        json_num(stdout, "handoff_p99_us", hand99, false);
+        json_num(stdout, "dds_p50_us", dds50, false);
+        json_num(stdout, "dds_p99_us", dds99, false);
+        json_num(stdout, "pickup_p50_us", pick50, false);
+        json_num(stdout, "pickup_p99_us", pick99, false);
         json_num(stdout, "bots_synced_1k", a.synced, false);
         json_num(stdout, "bots_synced_100k", b.synced, false);
         if (o.adaptive_duration > 0) {
@@ -902,6 +939,11 @@ int ftm_bench_net(int argc, char **argv)
                "1 kHz, meanwhile)\n",
             dp50, dp99);
     fprintf(t, "  latency p99 ratio FTM/raw     %.2f\n", lat99 / dp99);
+    fprintf(t, "  FTM latency, pooled p50/p99:  server hand-off %.0f / %.0f us, dds_write to "
+               "arrival %.0f / %.0f us\n",
+            hand50, hand99, dds50, dds99);
+    fprintf(t, "  (then the bot thread took the frame after %.0f / %.0f us more)\n", pick50,
+            pick99);
     fprintf(t, "  bots on the server's hash     %d of %d\n\n", a.synced, o.bots);
     fprintf(t, "bytes per tick (protobuf payload)   frames   streaming moved nodes   ratio   "
                "(server, whole run)\n");
@@ -950,11 +992,12 @@ int ftm_bench_net(int argc, char **argv)
     } else if (!ok) {
         fprintf(stderr, "ftm bench net: logs kept in %s\n", dir);
     }
-    free(a.lat);
-    free(a.lat_tick);
-    free(b.lat);
-    free(b.lat_tick);
-    free(c.lat);
-    free(c.lat_tick);
+    run_result *rs[3] = {&a, &b, &c};
+    for (int i = 0; i < 3; i++) {
+        free(rs[i]->lat);
+        free(rs[i]->dds);
+        free(rs[i]->pick);
+        free(rs[i]->lat_tick);
+    }
     return ok ? 0 : 1;
 }
