@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # A headless training session on this machine, over loopback DDS:
 # ftm-server with the default scene at 1 kHz, two scripted trainees pressing
-# the tissue (docs/sessions/trainee*.bot) and an observer, for a few seconds.
+# the tissue (docs/sessions/trainee*.bot), an instructor who makes the tissue
+# stiffer 1.5 s in (docs/sessions/instructor.bot) and an observer, for a few
+# seconds.
 # Prints what each process ended on and exits non-zero unless every
 # participant replayed the session to the server's exact state.
 # With a display (DISPLAY or WAYLAND_DISPLAY set, ftm-client built, and
@@ -41,7 +43,8 @@ if [ -n "$gui" ]; then
 else
   echo "FTM headless session on loopback: ftm-server (scene 'default', 1000 Hz, ${seconds} s)"
 fi
-echo "  + trainee 11 (docs/sessions/trainee1.bot), trainee 12 (trainee2.bot), observer 13"
+echo "  + trainee 11 (docs/sessions/trainee1.bot), trainee 12 (trainee2.bot), observer 13,"
+echo "    instructor 15 (instructor.bot: stiffness 50 -> 80 N/m at 1.5 s)"
 [ -n "$gui" ] && echo "  + instructor 14: ftm-client window (keys: docs/client.md)"
 timeout $((seconds + 20)) "$server" --scene default "${common[@]}" --duration "$seconds" \
   --log "$dir/server.log" >"$dir/server.out" 2>&1 &
@@ -59,6 +62,9 @@ p12=$!
 timeout $((seconds + 20)) "$bot" --role observer "${common[@]}" \
   --id 13 --duration $((seconds + 10)) >"$dir/b13.out" 2>"$dir/b13.err" &
 p13=$!
+timeout $((seconds + 20)) "$bot" --role instructor --script docs/sessions/instructor.bot \
+  "${common[@]}" --id 15 --duration $((seconds + 10)) >"$dir/b15.out" 2>"$dir/b15.err" &
+p15=$!
 if [ -n "$gui" ]; then
   "$client" --role instructor "${common[@]}" --id 14 --name instructor --duration "$seconds" \
     --log "$dir/client.log" >"$dir/client.out" 2>&1 &
@@ -67,13 +73,14 @@ fi
 
 status=0
 wait $spid || { echo "server failed:"; tail -5 "$dir/server.out"; status=1; }
-for p in $p11 $p12 $p13; do wait "$p" || status=1; done
+for p in $p11 $p12 $p13 $p15; do wait "$p" || status=1; done
 
 echo
-grep -E "contact on triangle|ticks in" "$dir/server.log" | sed 's/^/  server /'
+grep -E "contact on triangle|tissue from tick|ticks in" "$dir/server.log" |
+  sed -e 's/, damping .*//' -e 's/^/  server /'
 want=$(sed -n 's/^ftm-server: final tick \(.*\)$/\1/p' "$dir/server.out")
 echo "  server         final tick $want"
-for b in 11 12 13; do
+for b in 11 12 13 15; do
   got=$(sed -n "s/^ftm-bot $b: final tick \\(.*\\) synced\$/\\1/p" "$dir/b$b.out")
   stats=$(grep -o '[0-9]* mismatches.*' "$dir/b$b.err" | tail -1)
   mark="same state as the server"
