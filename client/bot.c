@@ -251,16 +251,7 @@ static void log_frame(bot *b, const ftm_wire_received *rx, int64_t rx_ns)
         if (t->reactions[i].participant == b->o.id && t->reactions[i].probe == 0)
             f = t->reactions[i].force;
     double lat_us = frame_latency_us(rx);
-    /* the frame's payload size, re-encoded (what the server sent) */
-    ftm_wire_msg m;
-    memset(&m, 0, sizeof m);
-    m.kind = FTM_WIRE_TICK;
-    m.u.tick = *t;
-    uint8_t *buf = NULL;
-    size_t bytes = 0;
-    if (ftm_wire_encode(&m, &buf, &bytes, NULL))
-        bytes = 0;
-    free(buf);
+    size_t bytes = rx->payload_size; /* as the server sent it */
     ftm_sim_stats st;
     ftm_sim_get_stats(ftm_replay_sim(b->rep), &st);
     fprintf(b->csv,

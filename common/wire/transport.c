@@ -746,6 +746,7 @@ static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm
     out->seq = it->seq;
     out->source_time_ns = it->source_time_ns;
     out->arrival_ns = it->arrival_ns;
+    out->payload_size = it->size;
     out->gap = track(io, it->sender, it->seq);
     pthread_mutex_lock(&t->lock);
     io->stats.received++;

@@ -312,6 +312,7 @@ typedef struct ftm_wire_received {
     /* CLOCK_REALTIME when the message reached this process (taken in
      * Cyclone's receive thread, before the caller's thread got to it) */
     int64_t arrival_ns;
+    size_t payload_size; /* bytes of the encoded message (Envelope.payload) */
     /* Status kind only: the sender's status instance is gone (it left, its
      * writer was deleted or its lease expired); msg is then empty. */
     bool gone;
