@@ -36,6 +36,14 @@ static double axis_factor(const ftm_material_def *m, const double d[3])
             m->axis_scale.z * d[2] * d[2]) / l2;
 }
 
+/* Stiffness factor of a link along d: (to.k a_to(d)) / (from.k a_from(d)).
+ * d and -d give the same bits (only squares enter). */
+static double link_factor(const ftm_material_def *from, const ftm_material_def *to,
+                          const double d[3])
+{
+    return (to->stiffness * axis_factor(to, d)) / (from->stiffness * axis_factor(from, d));
+}
+
 int ftm_mesh_with_material(const ftm_mesh *base, const ftm_material_def *from,
                            const ftm_material_def *to, ftm_mesh **out, ftm_error *err)
 {
@@ -44,69 +52,59 @@ int ftm_mesh_with_material(const ftm_mesh *base, const ftm_material_def *from,
     int rc;
     if ((rc = check(from, "the mesh's", err)) || (rc = check(to, "new", err)))
         return rc;
-    ftm_mesh_builder *b = ftm_mesh_builder_create();
-    if (!b)
-        return ftm_error_set(err, FTM_ENOMEM, "mesh with material: out of memory");
+    /* A copy scaled in place: the same numbering, adjacency order, colouring
+     * and padding; only masses, damping and stiffness change. O(mesh). */
+    ftm_mesh *m = ftm_mesh_clone(base);
+    if (!m)
+        return ftm_error_set(err, FTM_ENOMEM, "mesh with material: out of memory (%d nodes)",
+                             (int)base->node_count);
     const double mass_f = to->node_mass / from->node_mass;
     const double damp_f = from->node_damping > 0.0 ? to->node_damping / from->node_damping : 0.0;
-    /* Nodes in mesh order: built without reordering, the copy keeps every
-     * index, hence the adjacency order, colouring and padding of the base. */
-    for (int32_t i = 0; i < base->node_count && rc == FTM_OK; i++) {
-        ftm_node_def nd = {
-            .position = {base->rest[3 * i], base->rest[3 * i + 1], base->rest[3 * i + 2]},
-            .mass = base->mass[i] * mass_f,
-            /* a mesh built undamped gets the new damping outright */
-            .damping = from->node_damping > 0.0 ? base->damping[i] * damp_f : to->node_damping,
-            .fixed = base->fixed[i] != 0,
-        };
-        int32_t r = ftm_mesh_builder_add_node(b, &nd);
-        if (r < 0)
+    for (int32_t i = 0; i < m->node_count; i++) {
+        m->mass[i] = base->mass[i] * mass_f;
+        /* a mesh built undamped gets the new damping outright */
+        m->damping[i] = from->node_damping > 0.0 ? base->damping[i] * damp_f : to->node_damping;
+        if (!(m->mass[i] > 0.0) || !isfinite(m->mass[i]) || !(m->damping[i] >= 0.0) ||
+            !isfinite(m->damping[i])) {
             rc = ftm_error_set(err, FTM_EINVAL,
                                "mesh with material: node %d gets mass %g, damping %g", (int)i,
-                               nd.mass, nd.damping);
+                               m->mass[i], m->damping[i]);
+            goto fail;
+        }
     }
-    for (int32_t l = 0; l < base->link_count && rc == FTM_OK; l++) {
+    const double *X = base->rest;
+    for (int32_t l = 0; l < m->link_count; l++) {
         int32_t a = base->link_a[l], c = base->link_b[l];
-        double d[3] = {base->rest[3 * c] - base->rest[3 * a],
-                       base->rest[3 * c + 1] - base->rest[3 * a + 1],
-                       base->rest[3 * c + 2] - base->rest[3 * a + 2]};
+        double d[3] = {X[3 * c] - X[3 * a], X[3 * c + 1] - X[3 * a + 1], X[3 * c + 2] - X[3 * a + 2]};
         /* one factor per link, from the base's stiffness: the result depends
          * on (base, from, to) only, not on a history of changes */
-        double f = (to->stiffness * axis_factor(to, d)) / (from->stiffness * axis_factor(from, d));
-        ftm_link_def ld = {a, c, base->link_k[l] * f, base->link_len[l]};
-        if (ftm_mesh_builder_add_link(b, &ld) != FTM_OK)
+        m->link_k[l] = base->link_k[l] * link_factor(from, to, d);
+        if (!(m->link_k[l] > 0.0) || !isfinite(m->link_k[l])) {
             rc = ftm_error_set(err, FTM_EINVAL,
-                               "mesh with material: link %d (nodes %d-%d) gets stiffness %g", (int)l,
-                               (int)a, (int)c, ld.stiffness);
+                               "mesh with material: link %d (nodes %d-%d) gets stiffness %g",
+                               (int)l, (int)a, (int)c, m->link_k[l]);
+            goto fail;
+        }
     }
-    for (int32_t t = 0; t < base->tri_count && rc == FTM_OK; t++)
-        if (ftm_mesh_builder_add_triangle(b, base->tris[3 * t], base->tris[3 * t + 1],
-                                          base->tris[3 * t + 2]) != FTM_OK)
-            rc = ftm_error_set(err, FTM_EINVAL, "mesh with material: triangle %d", (int)t);
-    for (int32_t t = 0; t < base->tet_count && rc == FTM_OK; t++) {
-        const int32_t *v = base->tets + 4 * t;
-        if (ftm_mesh_builder_add_tetrahedron(b, v[0], v[1], v[2], v[3]) != FTM_OK)
-            rc = ftm_error_set(err, FTM_EINVAL, "mesh with material: tetrahedron %d", (int)t);
+    /* the adjacency's copies of link stiffness, with the same factor */
+    const int32_t deg_max = m->max_degree;
+    for (int32_t i = 0; i < m->node_count; i++) {
+        int32_t s0 = m->adj_start[i], deg = m->adj_start[i + 1] - s0;
+        for (int32_t k = 0; k < deg; k++) {
+            int32_t j = m->adj_node[s0 + k];
+            double d[3] = {X[3 * j] - X[3 * i], X[3 * j + 1] - X[3 * i + 1],
+                           X[3 * j + 2] - X[3 * i + 2]};
+            double kk = base->adj_k[s0 + k] * link_factor(from, to, d);
+            m->adj_k[s0 + k] = kk;
+            m->pad_kl[2 * ((size_t)i * (size_t)deg_max + (size_t)k)] = kk;
+        }
     }
-    for (int32_t h = 0; h < base->hex_count && rc == FTM_OK; h++)
-        if (ftm_mesh_builder_add_hexahedron(b, base->hexes + 8 * h) != FTM_OK)
-            rc = ftm_error_set(err, FTM_EINVAL, "mesh with material: hexahedron %d", (int)h);
-    ftm_mesh *m = NULL;
-    if (rc == FTM_OK) {
-        ftm_mesh_build_def bd = ftm_default_mesh_build_def();
-        bd.reorder = false;
-        bd.surface_from_tetrahedra = false; /* the base's triangles are given */
-        rc = ftm_mesh_build(b, &bd, &m, err);
-    }
-    ftm_mesh_builder_destroy(b);
-    if (rc)
-        return rc;
-    /* the same input numbering as the base (the builder's was the identity) */
-    memcpy(m->node_of_input, base->node_of_input, (size_t)base->node_count * sizeof(int32_t));
-    memcpy(m->input_of_node, base->input_of_node, (size_t)base->node_count * sizeof(int32_t));
     *out = m;
     ftm_error_clear(err);
     return FTM_OK;
+fail:
+    ftm_mesh_destroy(m);
+    return rc;
 }
 
 bool ftm_mesh_same_shape(const ftm_mesh *a, const ftm_mesh *b)

@@ -435,6 +435,54 @@ void ftm_mesh_destroy(ftm_mesh *m)
     free(m);
 }
 
+/* A deep copy; keep in step with ftm_mesh_destroy (every array it frees). */
+static void *dup(const void *src, size_t bytes)
+{
+    void *p = malloc(bytes ? bytes : 1);
+    if (p && bytes)
+        memcpy(p, src, bytes);
+    return p;
+}
+
+ftm_mesh *ftm_mesh_clone(const ftm_mesh *m)
+{
+    ftm_mesh *c = calloc(1, sizeof *c);
+    if (!c)
+        return NULL;
+    *c = *m;
+    size_t n = (size_t)m->node_count, e = (size_t)m->adj_start[m->node_count],
+           nl = (size_t)m->link_count, slots = n * (size_t)m->max_degree + 1;
+    c->rest = dup(m->rest, n * 3 * sizeof(double));
+    c->mass = dup(m->mass, n * sizeof(double));
+    c->damping = dup(m->damping, n * sizeof(double));
+    c->fixed = dup(m->fixed, n);
+    c->min_link = dup(m->min_link, n * sizeof(double));
+    c->adj_start = dup(m->adj_start, (n + 1) * sizeof(int32_t));
+    c->adj_node = dup(m->adj_node, e * sizeof(int32_t));
+    c->adj_k = dup(m->adj_k, e * sizeof(double));
+    c->adj_len = dup(m->adj_len, e * sizeof(double));
+    c->pad_node = dup(m->pad_node, slots * sizeof(int32_t));
+    c->color = dup(m->color, n);
+    c->pad_kl = dup(m->pad_kl, slots * 2 * sizeof(double));
+    c->link_a = dup(m->link_a, nl * sizeof(int32_t));
+    c->link_b = dup(m->link_b, nl * sizeof(int32_t));
+    c->link_k = dup(m->link_k, nl * sizeof(double));
+    c->link_len = dup(m->link_len, nl * sizeof(double));
+    c->tris = dup(m->tris, (size_t)m->tri_count * 3 * sizeof(int32_t));
+    c->tets = dup(m->tets, (size_t)m->tet_count * 4 * sizeof(int32_t));
+    c->hexes = dup(m->hexes, (size_t)m->hex_count * 8 * sizeof(int32_t));
+    c->node_of_input = dup(m->node_of_input, n * sizeof(int32_t));
+    c->input_of_node = dup(m->input_of_node, n * sizeof(int32_t));
+    if (!c->rest || !c->mass || !c->damping || !c->fixed || !c->min_link || !c->adj_start ||
+        !c->adj_node || !c->adj_k || !c->adj_len || !c->pad_node || !c->color || !c->pad_kl ||
+        !c->link_a || !c->link_b || !c->link_k || !c->link_len || !c->tris || !c->tets ||
+        !c->hexes || !c->node_of_input || !c->input_of_node) {
+        ftm_mesh_destroy(c);
+        return NULL;
+    }
+    return c;
+}
+
 typedef struct nb_link {
     int32_t node, link;
 } nb_link;

@@ -46,4 +46,7 @@ struct ftm_mesh {
     double mean_link_length;
 };
 
+/* A deep copy of m (NULL: out of memory), e.g. to change its material. */
+ftm_mesh *ftm_mesh_clone(const ftm_mesh *m);
+
 #endif

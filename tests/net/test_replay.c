@@ -306,6 +306,36 @@ static void test_material_mesh(void **state)
         assert_true(ftm_mesh_damping(stiff, i) == 0.5 * ftm_mesh_damping(m, i));
         assert_int_equal(ftm_mesh_input_of_node(stiff, i), ftm_mesh_input_of_node(m, i));
     }
+    /* anisotropic: an x-axis link gets the x factor exactly, and every
+     * link's two adjacency entries carry the link's own stiffness */
+    ftm_material_def ax = from;
+    ax.axis_scale.x = 4.0;
+    ftm_mesh *aniso = NULL;
+    assert_int_equal(ftm_mesh_with_material(m, &from, &ax, &aniso, &err), FTM_OK);
+    int32_t along_x = 0;
+    for (int32_t l = 0; l < ftm_mesh_link_count(m); l++) {
+        int32_t a, b;
+        double k0, k1, l0, l1;
+        ftm_mesh_link(m, l, &a, &b, &k0, &l0);
+        ftm_mesh_link(aniso, l, &a, &b, &k1, &l1);
+        ftm_vec3 pa = ftm_mesh_rest_position(m, a), pb = ftm_mesh_rest_position(m, b);
+        if (pa.y == pb.y && pa.z == pb.z) {
+            assert_true(k1 == 4.0 * k0);
+            along_x++;
+        }
+        for (int end = 0; end < 2; end++) {
+            const int32_t *nb;
+            const double *k, *len;
+            int32_t from_node = end ? b : a, to_node = end ? a : b;
+            int32_t d = ftm_mesh_neighbors(aniso, from_node, &nb, &k, &len);
+            int32_t j = 0;
+            while (j < d && nb[j] != to_node)
+                j++;
+            assert_true(j < d && k[j] == k1);
+        }
+    }
+    assert_true(along_x > 0);
+    ftm_mesh_destroy(aniso);
     to.axis_scale.y = -1.0;
     assert_int_equal(ftm_mesh_with_material(m, &from, &to, &bad, &err), FTM_EINVAL);
     assert_non_null(strstr(err.message, "axis stiffness scale y"));
