@@ -462,14 +462,17 @@ static void adaptive_traces(const net_options *o, const session_plan *pl, const 
     FILE *out = in ? fopen(path, "w") : NULL;
     char line[512];
     while (in && out && fgets(line, sizeof line, in)) {
-        double t, fx, fy, fz, lat;
+        double t, fx, fy, fz, lat, dds, bytes, pick = 0;
         uint64_t tick;
         char h1[32], h2[32];
-        int state, contacts;
-        if (sscanf(line, "%lf,%" SCNu64 ",%31[^,],%31[^,],%d,%d,%lf,%lf,%lf,%lf", &t, &tick, h1,
-                   h2, &state, &contacts, &fx, &fy, &fz, &lat) < 10)
+        int state, contacts, upd;
+        if (sscanf(line, "%lf,%" SCNu64 ",%31[^,],%31[^,],%d,%d,%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf", &t,
+                   &tick, h1, h2, &state, &contacts, &fx, &fy, &fz, &lat, &upd, &dds, &bytes,
+                   &pick) < 10)
             continue;
-        double lag = lat * 1e-6 * o->rate;
+        /* how far behind the server the bot's replay is: the frame's latency
+         * to arrival plus the wait until the bot's thread took it */
+        double lag = (lat + pick) * 1e-6 * o->rate;
         if (lag > r->max_lag_ticks)
             r->max_lag_ticks = lag;
         fprintf(out, "%.3f %.1f\n", (double)tick / o->rate, lag);

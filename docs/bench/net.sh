@@ -72,7 +72,7 @@ set title "the stopped bot's lag"
 set ylabel "lag [ticks]"
 set logscale y
 set yrange [0.1:*]
-plot "$plot/adaptive-lag.dat" using 1:2 with points pt 7 ps 0.2 lc rgb "#2ca02c" title "frame latency in ticks"
+plot "$plot/adaptive-lag.dat" using 1:2 with points pt 7 ps 0.2 lc rgb "#2ca02c" title "replay lag: frame latency + pickup, in ticks"
 unset multiplot
 GP
 echo "wrote $out.txt $out.json $img" >&2
