@@ -14,6 +14,7 @@
  *
  * Not a test: figures depend on the machine and its load. */
 #include "haptic.h"
+#include "replay.h"
 
 #include "ftm/scene.h"
 #include "ftm/sim.h"
@@ -383,8 +384,7 @@ static int make_truth(const options *o, truth *tr)
     const ftm_mesh *m = scene ? ftm_scene_mesh(scene) : NULL;
     ftm_sim_def def = {0};
     if (!rc) {
-        def = ftm_scene_sim_def(scene);
-        def.region_sleep_steps = 0; /* as the server runs a session (ftm_replay_sim_def) */
+        def = ftm_replay_sim_def(scene); /* as the server runs a session */
         rc = ftm_sim_create(m, &def, &sim, &err);
     }
     if (rc) {

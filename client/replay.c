@@ -138,7 +138,6 @@ static void sha_f64(sha256 *s, double d)
 ftm_sim_def ftm_replay_sim_def(const ftm_scene *scene)
 {
     ftm_sim_def d = ftm_scene_sim_def(scene);
-    d.region_sleep_steps = 0;
     d.log = NULL;
     d.log_user = NULL;
     return d;
@@ -313,6 +312,20 @@ int ftm_replay_make_keyframe(const ftm_sim *sim, ftm_wire_keyframe *out, ftm_err
     out->node_count = n;
     out->depth = st.depth;
     out->count = count;
+    const ftm_contact *c;
+    int32_t nc = ftm_sim_contacts(sim, &c);
+    out->contacts = malloc(((size_t)nc + 1) * sizeof *out->contacts);
+    if (!out->contacts) {
+        ftm_replay_keyframe_free(out);
+        if (err) {
+            err->code = FTM_ENOMEM;
+            snprintf(err->message, sizeof err->message, "keyframe: out of memory");
+        }
+        return FTM_ENOMEM;
+    }
+    if (nc)
+        memcpy(out->contacts, c, (size_t)nc * sizeof *c);
+    out->contact_count = nc;
     return FTM_OK;
 }
 
@@ -321,6 +334,7 @@ void ftm_replay_keyframe_free(ftm_wire_keyframe *k)
     free(k->nodes);
     free(k->positions);
     free(k->previous);
+    free(k->contacts);
     memset(k, 0, sizeof *k);
 }
 
@@ -571,7 +585,8 @@ static int load_keyframe(ftm_replay *r, const ftm_wire_keyframe *k)
     if (rc)
         return rc;
     rc = ftm_sim_load_state(r->sim, k->tick, k->depth, k->nodes, k->positions, k->previous,
-                            k->count, NULL, 0, k->has_mode ? &k->mode : NULL, &err);
+                            k->count, k->contacts, k->contact_count,
+                            k->has_mode ? &k->mode : NULL, &err);
     if (rc) {
         rlog(r, FTM_LOG_ERROR, "replay: keyframe at tick %" PRIu64 " rejected: %s", k->tick,
              err.message);
@@ -585,8 +600,22 @@ static int load_keyframe(ftm_replay *r, const ftm_wire_keyframe *k)
              k->tick, h, k->state_hash);
         return FTM_EINVAL;
     }
+    /* idle ticks after it step with its contacts, as the server did */
+    if (k->contact_count > r->last_cap) {
+        ftm_contact *c = realloc(r->last_c, (size_t)k->contact_count * sizeof *c);
+        if (c)
+            r->last_c = c;
+        ftm_contact *c2 = c ? realloc(r->last.contacts, (size_t)k->contact_count * sizeof *c2) : NULL;
+        if (c2)
+            r->last.contacts = c2;
+        if (!c || !c2)
+            return FTM_ENOMEM;
+        r->last_cap = k->contact_count;
+    }
+    if (k->contact_count)
+        memcpy(r->last_c, k->contacts, (size_t)k->contact_count * sizeof *k->contacts);
     r->last_depth = k->depth;
-    r->last_n = 0;
+    r->last_n = k->contact_count;
     r->kf_tick = k->tick;
     r->kf_loaded = true;
     r->st.keyframes_loaded++;
@@ -737,10 +766,13 @@ static int copy_keyframe(ftm_wire_keyframe *dst, const ftm_wire_keyframe *k)
     dst->nodes = malloc((n + 1) * sizeof *dst->nodes);
     dst->positions = malloc((n + 1) * 3 * sizeof(double));
     dst->previous = malloc((n + 1) * 3 * sizeof(double));
-    if (!dst->nodes || !dst->positions || !dst->previous) {
+    dst->contacts = malloc(((size_t)k->contact_count + 1) * sizeof *dst->contacts);
+    if (!dst->nodes || !dst->positions || !dst->previous || !dst->contacts) {
         ftm_replay_keyframe_free(dst);
         return FTM_ENOMEM;
     }
+    if (k->contact_count)
+        memcpy(dst->contacts, k->contacts, (size_t)k->contact_count * sizeof *k->contacts);
     if (n) {
         memcpy(dst->nodes, k->nodes, n * sizeof *dst->nodes);
         memcpy(dst->positions, k->positions, n * 3 * sizeof(double));

@@ -24,8 +24,9 @@ extern "C" {
 #define FTM_REPLAY_DIGEST_SIZE 32
 
 /* The simulation definition a session runs a scene with (server and every
- * replica): the scene's, with region sleep off (keyframes do not carry the
- * region-sleep state yet, see docs/protocol.md). */
+ * replica): the scene's, without its log callback. Region sleep included:
+ * keyframes carry the contacts and the integrator's mode, so a replica
+ * restores a sleeping region as it is (docs/protocol.md). */
 ftm_sim_def ftm_replay_sim_def(const ftm_scene *scene);
 
 /* SHA-256 over a canonical encoding of what determines the dynamics: the

@@ -145,12 +145,18 @@ static int on_keyframe(rstate *s, const ftm_record_entry *e, const ftm_wire_keyf
         return fail(s->path, e, "keyframe at tick %" PRIu64 ": tissue parameters: %s", k->tick,
                     err.message);
     if (ftm_sim_load_state(s->sim, k->tick, k->depth, k->nodes, k->positions, k->previous, k->count,
-                           NULL, 0, k->has_mode ? &k->mode : NULL, &err))
+                           k->contacts, k->contact_count, k->has_mode ? &k->mode : NULL, &err))
         return fail(s->path, e, "keyframe at tick %" PRIu64 ": %s", k->tick, err.message);
     if (ftm_sim_hash(s->sim) != k->state_hash)
         return fail(s->path, e, "keyframe at tick %" PRIu64 " restores to another hash", k->tick);
     s->last_depth = k->depth;
     s->last_n = 0;
+    if (k->contact_count) { /* the idle ticks after it step with them */
+        ftm_wire_tick kt = {.depth = k->depth, .contact_count = k->contact_count,
+                            .contacts = k->contacts};
+        if (keep_last(s, &kt))
+            return fail(s->path, e, "out of memory");
+    }
     s->resets++;
     return 0;
 }

@@ -1408,8 +1408,6 @@ int main(int argc, char **argv)
     }
     s->mesh = ftm_scene_mesh(s->scene);
     ftm_sim_def def = ftm_replay_sim_def(s->scene);
-    if (ftm_scene_sim_def(s->scene).region_sleep_steps > 0)
-        slog(s, "info", "region sleep off in sessions (keyframes do not carry it yet)");
     def.log = log_hook;
     def.log_user = s;
     s->depth = s->o.depth >= 0 ? s->o.depth : def.depth;

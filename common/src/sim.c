@@ -899,6 +899,12 @@ void ftm_sim_get_mode(const ftm_sim *sim, ftm_sim_mode *mode)
 
 const double *ftm_sim_previous_positions(const ftm_sim *sim) { return sim->xp; }
 
+int32_t ftm_sim_contacts(const ftm_sim *sim, const ftm_contact **contacts)
+{
+    *contacts = sim->contacts;
+    return sim->ncontacts;
+}
+
 int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t *nodes,
                        const double *x, const double *xp, int32_t count,
                        const ftm_contact *contacts, int32_t ncontacts, const ftm_sim_mode *mode,

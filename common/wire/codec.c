@@ -272,6 +272,43 @@ static int check_probe_input(const vctx *v, const Ftm__V1__ProbeInput *m)
     return FTM_OK;
 }
 
+/* Contact columns (tick frames, keyframes): equal lengths, nodes below
+ * limit, known kinds, finite values. */
+static int check_contacts(const vctx *v, size_t n, const uint32_t *node, size_t n_group,
+                          const uint32_t *group, size_t n_kind, const Ftm__V1__ContactKind *kind,
+                          size_t n_value, const double *value, uint32_t limit)
+{
+    if (n > INT32_MAX || n_group != n || n_kind != n || n_value != 3 * n)
+        return wire_err(v->err, FTM_EINVAL,
+                        "%s: contact columns disagree: %zu nodes, %zu groups, %zu kinds, "
+                        "%zu values (want 3 per node)",
+                        v->what, n, n_group, n_kind, n_value);
+    for (size_t i = 0; i < n; i++) {
+        if (node[i] >= limit) {
+            if (v->scene_nodes)
+                return wire_err(v->err, FTM_ERANGE,
+                                "%s: contact %zu: node %u out of range (scene has %u nodes)",
+                                v->what, i, node[i], v->scene_nodes);
+            return wire_err(v->err, FTM_ERANGE, "%s: contact %zu: node %u out of range", v->what,
+                            i, node[i]);
+        }
+        if (group[i] > INT32_MAX)
+            return wire_err(v->err, FTM_ERANGE, "%s: contact %zu: group %u out of range", v->what,
+                            i, group[i]);
+        if ((int)kind[i] != FTM__V1__CONTACT_KIND__CONTACT_FORCE &&
+            (int)kind[i] != FTM__V1__CONTACT_KIND__CONTACT_DISPLACEMENT)
+            return wire_err(v->err, FTM_EINVAL, "%s: contact %zu: unknown contact kind %d",
+                            v->what, i, (int)kind[i]);
+        for (int c = 0; c < 3; c++) {
+            double x = value[3 * i + (size_t)c];
+            if (!isfinite(x))
+                return wire_err(v->err, FTM_EINVAL, "%s: contact %zu: value.%c is not finite (%g)",
+                                v->what, i, "xyz"[c], x);
+        }
+    }
+    return FTM_OK;
+}
+
 static int check_tick(const vctx *v, const Ftm__V1__TickFrame *m)
 {
     int rc = check_version(v, m->has_version, m->version);
@@ -287,36 +324,10 @@ static int check_tick(const vctx *v, const Ftm__V1__TickFrame *m)
         return missing(v, "state_hash");
     if (m->tissue && (rc = check_tissue(v, "tissue", m->tissue)))
         return rc;
-    size_t n = m->n_contact_node;
-    if (n > INT32_MAX || m->n_contact_group != n || m->n_contact_kind != n ||
-        m->n_contact_value != 3 * n)
-        return wire_err(v->err, FTM_EINVAL,
-                        "%s: contact columns disagree: %zu nodes, %zu groups, %zu kinds, "
-                        "%zu values (want 3 per node)",
-                        v->what, n, m->n_contact_group, m->n_contact_kind, m->n_contact_value);
-    for (size_t i = 0; i < n; i++) {
-        if (m->contact_node[i] >= v->node_limit) {
-            if (v->scene_nodes)
-                return wire_err(v->err, FTM_ERANGE,
-                                "%s: contact %zu: node %u out of range (scene has %u nodes)",
-                                v->what, i, m->contact_node[i], v->scene_nodes);
-            return wire_err(v->err, FTM_ERANGE, "%s: contact %zu: node %u out of range", v->what,
-                            i, m->contact_node[i]);
-        }
-        if (m->contact_group[i] > INT32_MAX)
-            return wire_err(v->err, FTM_ERANGE, "%s: contact %zu: group %u out of range", v->what,
-                            i, m->contact_group[i]);
-        if ((int)m->contact_kind[i] != FTM__V1__CONTACT_KIND__CONTACT_FORCE &&
-            (int)m->contact_kind[i] != FTM__V1__CONTACT_KIND__CONTACT_DISPLACEMENT)
-            return wire_err(v->err, FTM_EINVAL, "%s: contact %zu: unknown contact kind %d",
-                            v->what, i, (int)m->contact_kind[i]);
-        for (int c = 0; c < 3; c++) {
-            double x = m->contact_value[3 * i + (size_t)c];
-            if (!isfinite(x))
-                return wire_err(v->err, FTM_EINVAL, "%s: contact %zu: value.%c is not finite (%g)",
-                                v->what, i, "xyz"[c], x);
-        }
-    }
+    if ((rc = check_contacts(v, m->n_contact_node, m->contact_node, m->n_contact_group,
+                             m->contact_group, m->n_contact_kind, m->contact_kind,
+                             m->n_contact_value, m->contact_value, v->node_limit)))
+        return rc;
     if (m->n_reactions > FTM_WIRE_REACTIONS_MAX)
         return wire_err(v->err, FTM_ERANGE, "%s: %zu reactions (at most %d)", v->what,
                         m->n_reactions, FTM_WIRE_REACTIONS_MAX);
@@ -428,6 +439,10 @@ static int check_keyframe(const vctx *v, const Ftm__V1__Keyframe *m)
     if (m->node_count == 0 || m->node_count > INT32_MAX)
         return wire_err(v->err, FTM_ERANGE, "%s: node_count %u out of range (1..%d)", v->what,
                         m->node_count, INT32_MAX);
+    if ((rc = check_contacts(v, m->n_contact_node, m->contact_node, m->n_contact_group,
+                             m->contact_group, m->n_contact_kind, m->contact_kind,
+                             m->n_contact_value, m->contact_value, m->node_count)))
+        return rc;
     if (v->scene_nodes && m->node_count != v->scene_nodes)
         return wire_err(v->err, FTM_ERANGE, "%s: for a mesh of %u nodes, scene has %u nodes",
                         v->what, m->node_count, v->scene_nodes);
@@ -550,6 +565,19 @@ static void *alloc_arrays(size_t a, size_t b, size_t c, void **pa, void **pb, vo
     return p;
 }
 
+static void contacts_from(const uint32_t *node, const uint32_t *group,
+                          const Ftm__V1__ContactKind *kind, const double *value, size_t n,
+                          ftm_contact *out)
+{
+    for (size_t i = 0; i < n; i++)
+        out[i] = (ftm_contact){.node = (int32_t)node[i],
+                               .group = (int32_t)group[i],
+                               .kind = kind[i] == FTM__V1__CONTACT_KIND__CONTACT_FORCE
+                                           ? FTM_CONTACT_FORCE
+                                           : FTM_CONTACT_DISPLACEMENT,
+                               .value = {value[3 * i], value[3 * i + 1], value[3 * i + 2]}};
+}
+
 static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_error *err)
 {
     memset(out, 0, sizeof *out);
@@ -607,16 +635,8 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         if (m->tissue)
             t->tissue = tissue_from(m->tissue);
         t->contact_count = (int32_t)m->n_contact_node;
-        for (size_t i = 0; i < m->n_contact_node; i++) {
-            t->contacts[i] = (ftm_contact){
-                .node = (int32_t)m->contact_node[i],
-                .group = (int32_t)m->contact_group[i],
-                .kind = m->contact_kind[i] == FTM__V1__CONTACT_KIND__CONTACT_FORCE
-                            ? FTM_CONTACT_FORCE
-                            : FTM_CONTACT_DISPLACEMENT,
-                .value = {m->contact_value[3 * i], m->contact_value[3 * i + 1],
-                          m->contact_value[3 * i + 2]}};
-        }
+        contacts_from(m->contact_node, m->contact_group, m->contact_kind, m->contact_value,
+                      m->n_contact_node, t->contacts);
         t->reaction_count = (int32_t)m->n_reactions;
         for (size_t i = 0; i < m->n_reactions; i++) {
             const Ftm__V1__ProbeReaction *pr = m->reactions[i];
@@ -640,15 +660,19 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
     case FTM_WIRE_KEYFRAME: {
         const Ftm__V1__Keyframe *m = (const void *)pm;
         ftm_wire_keyframe *k = &out->u.keyframe;
-        size_t n = m->n_node;
-        void *pos = NULL, *prev = NULL, *nodes = NULL;
-        out->storage = alloc_arrays(3 * n * sizeof(double), 3 * n * sizeof(double),
-                                    n * sizeof(int32_t), &pos, &prev, &nodes);
+        size_t n = m->n_node, nc = m->n_contact_node;
+        void *pos = NULL, *cts = NULL, *nodes = NULL;
+        out->storage = alloc_arrays(6 * n * sizeof(double), nc * sizeof(ftm_contact),
+                                    n * sizeof(int32_t), &pos, &cts, &nodes);
         if (!out->storage)
             return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
         k->positions = pos;
-        k->previous = prev;
+        k->previous = k->positions + 3 * n;
         k->nodes = nodes;
+        k->contacts = cts;
+        k->contact_count = (int32_t)nc;
+        contacts_from(m->contact_node, m->contact_group, m->contact_kind, m->contact_value, nc,
+                      k->contacts);
         k->tick = m->tick;
         k->state_hash = m->state_hash;
         k->node_count = (int32_t)m->node_count;
@@ -816,6 +840,43 @@ static void tissue_to(scratch *s, const ftm_wire_tissue *t)
     s->tissue.axis_scale = &s->vec[0];
 }
 
+/* Contacts as the protocol's columns (tick frames, keyframes). */
+static int contacts_to(scratch *s, const char *what, const ftm_contact *c, int32_t count,
+                       size_t *n_out, uint32_t **node, uint32_t **group,
+                       Ftm__V1__ContactKind **kind, double **value, ftm_error *err)
+{
+    if (count < 0 || (count && !c))
+        return wire_err(err, FTM_EINVAL, "%s: bad contact_count %d or NULL contacts", what, count);
+    size_t n = (size_t)count;
+    uint32_t *nodes = scratch_alloc(s, 2 * n * sizeof *nodes);
+    Ftm__V1__ContactKind *kinds = scratch_alloc(s, n * sizeof *kinds);
+    double *values = scratch_alloc(s, 3 * n * sizeof *values);
+    if (!nodes || !kinds || !values)
+        return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+    uint32_t *groups = nodes + n;
+    for (size_t i = 0; i < n; i++) {
+        if (c[i].node < 0 || c[i].group < 0)
+            return wire_err(err, FTM_ERANGE, "%s: contact %zu: negative node %d or group %d", what,
+                            i, c[i].node, c[i].group);
+        if (c[i].kind != FTM_CONTACT_FORCE && c[i].kind != FTM_CONTACT_DISPLACEMENT)
+            return wire_err(err, FTM_EINVAL, "%s: contact %zu: unknown contact kind %d", what, i,
+                            (int)c[i].kind);
+        nodes[i] = (uint32_t)c[i].node;
+        groups[i] = (uint32_t)c[i].group;
+        kinds[i] = c[i].kind == FTM_CONTACT_FORCE ? FTM__V1__CONTACT_KIND__CONTACT_FORCE
+                                                  : FTM__V1__CONTACT_KIND__CONTACT_DISPLACEMENT;
+        values[3 * i] = c[i].value.x;
+        values[3 * i + 1] = c[i].value.y;
+        values[3 * i + 2] = c[i].value.z;
+    }
+    *n_out = n;
+    *node = nodes;
+    *group = groups;
+    *kind = kinds;
+    *value = values;
+    return FTM_OK;
+}
+
 static int limits_to(scratch *s, const char *what, int32_t lo, int32_t hi, ftm_error *err)
 {
     if (lo < 0 || hi < 0)
@@ -924,16 +985,13 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
             (t->reaction_count && !t->reactions))
             return wire_err(err, FTM_ERANGE, "%s: bad reaction_count %d (0..%d) or NULL reactions",
                             what, t->reaction_count, FTM_WIRE_REACTIONS_MAX);
-        size_t n = (size_t)t->contact_count, nr = (size_t)t->reaction_count;
+        size_t nr = (size_t)t->reaction_count;
         Ftm__V1__TickFrame *m = scratch_alloc(s, sizeof *m);
-        uint32_t *nodes = scratch_alloc(s, 2 * n * sizeof *nodes);
-        Ftm__V1__ContactKind *kinds = scratch_alloc(s, n * sizeof *kinds);
-        double *values = scratch_alloc(s, 3 * n * sizeof *values);
         Ftm__V1__ProbeReaction *rs = scratch_alloc(s, nr * sizeof *rs);
         Ftm__V1__ProbeReaction **rptrs = scratch_alloc(s, nr * sizeof *rptrs);
         /* force, hip, contact point, contact normal */
         Ftm__V1__Vec3 *forces = scratch_alloc(s, 4 * nr * sizeof *forces);
-        if (!m || !nodes || !kinds || !values || !rs || !rptrs || !forces)
+        if (!m || !rs || !rptrs || !forces)
             return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
         ftm__v1__tick_frame__init(m);
         m->has_version = 1;
@@ -950,29 +1008,13 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
             tissue_to(s, &t->tissue);
             m->tissue = &s->tissue;
         }
-        uint32_t *groups = nodes + n;
-        for (size_t i = 0; i < n; i++) {
-            const ftm_contact *c = &t->contacts[i];
-            if (c->node < 0 || c->group < 0)
-                return wire_err(err, FTM_ERANGE, "%s: contact %zu: negative node %d or group %d",
-                                what, i, c->node, c->group);
-            if (c->kind != FTM_CONTACT_FORCE && c->kind != FTM_CONTACT_DISPLACEMENT)
-                return wire_err(err, FTM_EINVAL, "%s: contact %zu: unknown contact kind %d", what,
-                                i, (int)c->kind);
-            nodes[i] = (uint32_t)c->node;
-            groups[i] = (uint32_t)c->group;
-            kinds[i] = c->kind == FTM_CONTACT_FORCE ? FTM__V1__CONTACT_KIND__CONTACT_FORCE
-                                                    : FTM__V1__CONTACT_KIND__CONTACT_DISPLACEMENT;
-            values[3 * i] = c->value.x;
-            values[3 * i + 1] = c->value.y;
-            values[3 * i + 2] = c->value.z;
-        }
-        m->n_contact_node = m->n_contact_group = m->n_contact_kind = n;
-        m->contact_node = nodes;
-        m->contact_group = groups;
-        m->contact_kind = kinds;
-        m->n_contact_value = 3 * n;
-        m->contact_value = values;
+        int rc = contacts_to(s, what, t->contacts, t->contact_count, &m->n_contact_node,
+                             &m->contact_node, &m->contact_group, &m->contact_kind,
+                             &m->contact_value, err);
+        if (rc)
+            return rc;
+        m->n_contact_group = m->n_contact_kind = m->n_contact_node;
+        m->n_contact_value = 3 * m->n_contact_node;
         for (size_t i = 0; i < nr; i++) {
             const ftm_wire_reaction *r = &t->reactions[i];
             if (r->group < 0 || r->probe < 0)
@@ -1047,6 +1089,13 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
             im->energy_prev = md->energy_prev;
             m->mode = im;
         }
+        int rc = contacts_to(s, what, k->contacts, k->contact_count, &m->n_contact_node,
+                             &m->contact_node, &m->contact_group, &m->contact_kind,
+                             &m->contact_value, err);
+        if (rc)
+            return rc;
+        m->n_contact_group = m->n_contact_kind = m->n_contact_node;
+        m->n_contact_value = 3 * m->n_contact_node;
         for (size_t i = 0; i < n; i++) {
             if (k->nodes[i] < 0)
                 return wire_err(err, FTM_ERANGE, "%s: entry %zu: negative node %d", what, i,

@@ -518,6 +518,96 @@ static void test_tissue_replica(void **state)
     ftm_scene_destroy(sc);
 }
 
+/* ---- region sleep in a session ------------------------------------------------------- */
+
+static const char sleepy_scene[] = "[scene]\nname = sleepy\n[mesh]\ngenerator = lattice3d\n"
+                                   "nx = 8\nny = 8\nnz = 8\nspacing = 0.01\nstencil = 18\n"
+                                   "fixed_faces = zmin\n[material]\nmass = 0.001\n"
+                                   "damping = 0.3\nstiffness = 50\n[sim]\ntime_step = 1e-3\n"
+                                   "depth = 6\nregion_sleep_steps = 20\n";
+
+/* A scene whose contact region sleeps under a held load: the region falls
+ * asleep on the server and on a replica alike; a replica that joins from a
+ * keyframe taken while it sleeps (contacts and mode carried) continues
+ * bit-identically through the wake-up, the release and the relaxation. */
+static void test_region_sleep_session(void **state)
+{
+    (void)state;
+    ftm_scene *sc = NULL;
+    ftm_error err = {0, ""};
+    if (ftm_scene_parse(sleepy_scene, sizeof sleepy_scene - 1, "sleepy", &sc, &err))
+        fail_msg("%s", err.message);
+    const ftm_mesh *m = ftm_scene_mesh(sc);
+    ftm_sim_def def = ftm_replay_sim_def(sc);
+    assert_int_equal(def.region_sleep_steps, 20);
+    ftm_sim *srv = NULL;
+    assert_int_equal(ftm_sim_create(m, &def, &srv, NULL), FTM_OK);
+    ftm_replay *early = NULL, *late = NULL;
+    assert_int_equal(ftm_replay_create(sc, NULL, NULL, &early, NULL), FTM_OK);
+    assert_int_equal(ftm_replay_create(sc, NULL, NULL, &late, NULL), FTM_OK);
+    ftm_wire_keyframe k0;
+    assert_int_equal(ftm_replay_make_keyframe(srv, &k0, NULL), FTM_OK);
+    int32_t top = ftm_mesh_node_of_input(m, 3 + 8 * (3 + 8 * 7));
+    int32_t side = ftm_mesh_node_of_input(m, 4 + 8 * (3 + 8 * 7));
+    uint64_t seq = 0, slept_at = 0, late_at = 0;
+    bool late_joined = false;
+    for (uint64_t t = 1; t <= 3000; t++) {
+        /* press and hold; a second contact at 1200 wakes the region; release at 1800 */
+        ftm_contact c[2] = {{top, 0, FTM_CONTACT_DISPLACEMENT, {0, 0, -0.003}},
+                            {side, 0, FTM_CONTACT_DISPLACEMENT, {0, 0, -0.002}}};
+        int32_t n = t > 1800 ? 0 : t > 1200 ? 2 : 1;
+        assert_int_equal(ftm_replay_step(srv, 6, c, n, NULL), FTM_OK);
+        ftm_sim_stats st;
+        ftm_sim_get_stats(srv, &st);
+        if (st.region_sleeping && !slept_at)
+            slept_at = t;
+        ftm_wire_received rx;
+        memset(&rx, 0, sizeof rx);
+        rx.msg.kind = FTM_WIRE_TICK;
+        rx.msg.u.tick = (ftm_wire_tick){
+            .tick = t, .depth = 6, .contact_count = n, .contacts = c, .state_hash = ftm_sim_hash(srv)};
+        rx.sender = 1;
+        rx.seq = ++seq;
+        assert_int_equal(ftm_replay_on_tick(early, &rx), FTM_OK);
+        if (t == 1)
+            assert_int_equal(ftm_replay_on_keyframe(early, &k0), FTM_OK);
+        /* the late replica joins once the region has slept for a while */
+        if (slept_at && t >= slept_at + 100 && !late_joined) {
+            assert_true(st.region_sleeping);
+            rx.gap = 0;
+            assert_int_equal(ftm_replay_on_tick(late, &rx), FTM_OK);
+            ftm_wire_keyframe k;
+            assert_int_equal(ftm_replay_make_keyframe(srv, &k, NULL), FTM_OK);
+            assert_int_equal(k.contact_count, 1);
+            assert_true(k.has_mode && k.mode.region_sleeping);
+            assert_int_equal(ftm_replay_on_keyframe(late, &k), FTM_OK);
+            ftm_replay_keyframe_free(&k);
+            late_joined = true;
+            late_at = t;
+        } else if (late_joined) {
+            assert_int_equal(ftm_replay_on_tick(late, &rx), FTM_OK);
+        }
+        assert_int_equal(ftm_replay_state(early), FTM_WIRE_STATE_SYNCED);
+        if (ftm_replay_hash(early) != ftm_sim_hash(srv))
+            fail_msg("tick %llu: the early replica differs", (unsigned long long)t);
+        if (late_joined) {
+            assert_int_equal(ftm_replay_state(late), FTM_WIRE_STATE_SYNCED);
+            if (ftm_replay_hash(late) != ftm_sim_hash(srv))
+                fail_msg("tick %llu: the late replica (joined at %llu) differs", (unsigned long long)t,
+                         (unsigned long long)late_at);
+            ftm_sim_stats ls;
+            ftm_sim_get_stats(ftm_replay_sim(late), &ls);
+            assert_int_equal(ls.region_sleeping, st.region_sleeping);
+        }
+    }
+    assert_true(slept_at > 0 && slept_at < 1200 && late_joined);
+    ftm_replay_keyframe_free(&k0);
+    ftm_replay_destroy(early);
+    ftm_replay_destroy(late);
+    ftm_sim_destroy(srv);
+    ftm_scene_destroy(sc);
+}
+
 static void test_sha256(void **state)
 {
     (void)state;
@@ -554,6 +644,7 @@ int main(void)
         cmocka_unit_test(test_material_mesh),
         cmocka_unit_test(test_tissue_physics),
         cmocka_unit_test(test_tissue_replica),
+        cmocka_unit_test(test_region_sleep_session),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

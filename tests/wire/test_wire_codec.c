@@ -243,7 +243,11 @@ static void test_round_trip_tissue(void **state)
     assert_memory_equal(&b.u.keyframe.tissue, &t, sizeof t);
     assert_false(b.u.keyframe.has_mode);
     ftm_wire_msg_free(&b);
-    /* with the integrator's mode */
+    /* with the integrator's mode and the tick's contacts */
+    ftm_contact kc[2] = {{3, 1, FTM_CONTACT_DISPLACEMENT, {0.5, -0.25, 1e-300}},
+                         {19, 0, FTM_CONTACT_FORCE, {0, 0, -2}}};
+    k.u.keyframe.contact_count = 2;
+    k.u.keyframe.contacts = kc;
     k.u.keyframe.has_mode = true;
     k.u.keyframe.mode = (ftm_sim_mode){8, 1000, 0, true, 1.0 / 7.0, 0.0};
     round_trip(&k, &b);
@@ -252,7 +256,25 @@ static void test_round_trip_tissue(void **state)
     assert_int_equal(b.u.keyframe.mode.steps_at_substeps, 1000);
     assert_true(b.u.keyframe.mode.region_sleeping);
     assert_true(b.u.keyframe.mode.energy_budget == 1.0 / 7.0);
+    assert_int_equal(b.u.keyframe.contact_count, 2);
+    for (int i = 0; i < 2; i++) {
+        assert_int_equal(b.u.keyframe.contacts[i].node, kc[i].node);
+        assert_int_equal(b.u.keyframe.contacts[i].group, kc[i].group);
+        assert_int_equal(b.u.keyframe.contacts[i].kind, kc[i].kind);
+        assert_true(same_vec(b.u.keyframe.contacts[i].value, kc[i].value));
+    }
+    assert_memory_equal(b.u.keyframe.positions, pos, sizeof pos);
+    assert_memory_equal(b.u.keyframe.previous, pos, sizeof pos);
     ftm_wire_msg_free(&b);
+    /* a contact on a node the mesh does not have: the codec's checks (the
+     * encoder runs the decoder's) name it */
+    kc[1].node = 20;
+    uint8_t *buf = NULL;
+    size_t size = 0;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_wire_encode(&k, &buf, &size, &err), FTM_ERANGE);
+    assert_non_null(strstr(err.message, "contact 1: node 20 out of range"));
+    assert_null(buf);
 }
 
 static void test_round_trip_keyframe(void **state)

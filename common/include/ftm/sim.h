@@ -195,6 +195,10 @@ typedef struct ftm_sim_mode {
 
 void ftm_sim_get_mode(const ftm_sim *sim, ftm_sim_mode *mode);
 
+/* The contacts in force (as last set, in ascending node order); valid until
+ * the next call that changes them. Returns their count. */
+int32_t ftm_sim_contacts(const ftm_sim *sim, const ftm_contact **contacts);
+
 /* Previous positions (x_prev), 3 doubles per node, like ftm_sim_positions. */
 const double *ftm_sim_previous_positions(const ftm_sim *sim);
 

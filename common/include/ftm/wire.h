@@ -142,6 +142,8 @@ typedef struct ftm_wire_keyframe {
     /* the integrator's mode after this tick; absent: ftm_sim_load_state's default */
     bool has_mode;
     ftm_sim_mode mode;
+    int32_t contact_count; /* the contacts of this tick */
+    ftm_contact *contacts;
 } ftm_wire_keyframe;
 
 typedef enum ftm_wire_role {
