@@ -1085,8 +1085,8 @@ static void usage(FILE *f)
             "  --trainee ID:T0:FILE   (offline) trainee ID plays bot script FILE; tick k uses\n"
             "                         the HIP at script time T0 + k / rate (repeatable, <= 8)\n"
             "  --reactions FILE       (offline) CSV tick,participant,probe,fx,fy,fz\n"
-            "  --rt-priority N        SCHED_FIFO priority of the tick and publishing threads\n"
-            "                         where permitted (default 10; 0: default scheduling)\n");
+            "  --rt-priority N        SCHED_FIFO priority of the tick thread, the publishing\n"
+            "                         thread one above, where permitted (default 10; 0: off)\n");
 }
 
 static int parse(int argc, char **argv, options *o)
@@ -1172,8 +1172,8 @@ static int parse(int argc, char **argv, options *o)
                         "--metrics-port 0..65535\n");
         return -1;
     }
-    if (o->rt_priority < 0 || o->rt_priority > 99) {
-        fprintf(stderr, "ftm-server: --rt-priority must be 0..99 (got %d)\n", (int)o->rt_priority);
+    if (o->rt_priority < 0 || o->rt_priority > 98) {
+        fprintf(stderr, "ftm-server: --rt-priority must be 0..98 (got %d)\n", (int)o->rt_priority);
         return -1;
     }
     if (o->offline_ticks < 0 || ((o->ntrainees || o->reactions_csv) && !o->offline_ticks)) {
@@ -1467,7 +1467,9 @@ int main(int argc, char **argv)
     wd.limits.node_count = ftm_mesh_node_count(s->mesh);
     wd.log = log_hook;
     wd.log_user = s;
-    wd.publisher_priority = s->o.rt_priority;
+    /* one above the tick thread: a queued frame goes out at once, not when the
+     * tick has finished the rest of its work */
+    wd.publisher_priority = s->o.rt_priority > 0 ? s->o.rt_priority + 1 : 0;
     if (ftm_wire_transport_create(&wd, &s->wire, &err)) {
         slog(s, "error", "%s", err.message);
         return 3;
@@ -1528,8 +1530,8 @@ int main(int argc, char **argv)
             slog(s, "info", "real-time scheduling not permitted (%s): default scheduling",
                  strerror(e));
         else
-            slog(s, "info", "tick and publishing threads SCHED_FIFO priority %d",
-                 (int)s->o.rt_priority);
+            slog(s, "info", "tick thread SCHED_FIFO priority %d, publishing thread %d",
+                 (int)s->o.rt_priority, (int)s->o.rt_priority + 1);
     }
     s->loop = uv_default_loop();
     uv_timer_init(s->loop, &s->tick_timer);
