@@ -58,7 +58,7 @@ typedef struct schedule {
     /* rollback: previous positions overwritten in the last step; 3 per
      * schedule position, or in the colored order x, y and z vectors of 4 per block */
     double *save;
-    double *tmp;    /* Jacobi: new positions of a group */
+    double *tmp;    /* Jacobi: new positions of a group, x, y and z vectors of 4 per block */
     int32_t uses;   /* colored sweeps since the schedule was built */
     bool linked;    /* link_j / link_kl hold the blocks' links */
     int32_t cap, gcap;
@@ -108,7 +108,8 @@ struct ftm_sim {
     int32_t reaction_groups;
 
     double tol; /* sleep tolerance in metres */
-    sweep_fn sweep_blocks; /* the block kernel for this CPU (see select_kernel) */
+    sweep_fn sweep_blocks; /* the block kernels for this CPU (see select_kernel) */
+    sweep_fn sweep_jacobi;
     /* Energy guard (sim.c): the sweeps add each updated node's kinetic energy
      * m |x_new - x|^2 / 2 h^2 and a quarter of its links' k (|r| - l)^2 */
     double energy;       /* of the current substep */
@@ -155,11 +156,10 @@ void ftm_sim_schedule_links(ftm_sim *sim);
 /* sim_kernel.c: each sweep returns false if a node moved more than its
  * guard limit or to a non-finite position. */
 bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2);
-bool ftm_sweep_jacobi(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2);
 bool ftm_sweep_relax(ftm_sim *sim);
 void ftm_sim_compute_reactions(ftm_sim *sim);
 void ftm_sim_spring_force(const ftm_sim *sim, int32_t i, double f[3]);
-/* Chooses the kernel of the colored sweep: the widest this CPU supports
+/* Chooses the kernels of the colored and Jacobi sweeps: the widest this CPU supports
  * (the default), or with portable the baseline one. Both give bit-identical
  * results; tests compare them. */
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable);

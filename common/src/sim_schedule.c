@@ -40,7 +40,7 @@ static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t 
         GROW(s->node, cap, 1);
         GROW(s->block, cap, 1);
         GROW(s->save, cap, 12); /* blocks <= count */
-        GROW(s->tmp, cap, 3);
+        GROW(s->tmp, cap, 12); /* a group's blocks: <= 3 * count + 9 */
         s->cap = cap;
     }
     size_t links = (size_t)count * (size_t)max_degree * 4; /* slots of all blocks, 4 lanes */
