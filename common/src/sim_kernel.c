@@ -219,140 +219,84 @@ static bool sweep_blocks_portable(ftm_sim *sim, double *max_m2)
 }
 
 
-/* The Jacobi sweep, four nodes of a layer per vector. Every node of a layer
- * reads the state before the layer, so the layer's nodes are independent by
- * construction: blocks are cut straight from the schedule (no colouring, no
- * schedule copies) and need not wait on each other, which lets the CPU
- * overlap their square roots and divisions. Lane l does exactly what
- * spring_force and integrate do for its node (padding slots add -0.0), so
- * the state is bit-identical to updating the layer's nodes one by one from a
- * copy of the state before it. New positions go to s->tmp and are committed
- * after the layer; a node's x_prev is read by no other node and is replaced
- * at once, the old one saved (3 per schedule position) for rollback. */
-static inline __attribute__((always_inline)) bool sweep_jacobi_body(ftm_sim *sim, double *max_m2)
+/* The Jacobi sweep: the nodes of a layer read only the state before the
+ * layer, so they are independent by construction and are updated JW per
+ * vector straight from the schedule (no colouring, no schedule copies),
+ * without waiting on each other. sim_jacobi.inc holds the kernel, built with
+ * 4 lanes for AVX and SSE2 and with 8 for AVX-512 (whose 32 registers hold
+ * two blocks' chains of square roots and divisions at once). Lane l does
+ * exactly what spring_force and integrate do for its node (padding slots
+ * add -0.0), so the state is bit-identical to updating the layer's nodes one
+ * by one from a copy of the state before it; the energy is summed in the same
+ * order by every variant (an 8-lane block as its two 4-lane halves). */
+typedef double v8d __attribute__((vector_size(64)));
+typedef int64_t v8l __attribute__((vector_size(64)));
+#define CAT8(lo, hi) __builtin_shufflevector((lo), (hi), 0, 1, 2, 3, 4, 5, 6, 7)
+#define GATHER8(p, i) ((v8d){(p)[i[0]], (p)[i[1]], (p)[i[2]], (p)[i[3]], (p)[i[4]], (p)[i[5]], \
+                             (p)[i[6]], (p)[i[7]]})
+
+#define LO4(v) __builtin_shufflevector((v), (v), 0, 1, 2, 3)
+#define HI4(v) __builtin_shufflevector((v), (v), 4, 5, 6, 7)
+
+/* x, y and z of the eight points p + o[0..7] (see ftm_load_xyz4) */
+static inline __attribute__((always_inline)) void load_xyz8(const double *p, const size_t o[8],
+                                                            v8d *x, v8d *y, v8d *z)
 {
-    schedule *s = &sim->s;
-    const size_t deg = (size_t)sim->m->max_degree;
-    const int32_t *restrict pad_node = sim->m->pad_node, *restrict adj_start = sim->m->adj_start;
-    const double *restrict pad_kl = sim->m->pad_kl;
-    const double *restrict coef = sim->coef, *restrict force = sim->force, *restrict lim2 = sim->lim2;
-    const double *restrict ke_w = sim->ke_w;
-    const uint8_t *restrict kind = sim->kind;
-    double *restrict x = sim->x, *restrict xp = sim->xp, *restrict save = s->save,
-                     *restrict tmp = s->tmp;
-    const int32_t *restrict node = s->node;
-    v4d mm = {*max_m2, *max_m2, *max_m2, *max_m2}, en = {0, 0, 0, 0};
-    v4l bad = {0, 0, 0, 0};
-    static const v4d lane_w[5] = {{0, 0, 0, 0}, {1, 0, 0, 0}, {1, 1, 0, 0}, {1, 1, 1, 0},
-                                  {1, 1, 1, 1}};
-    for (int32_t g = 0; g < s->groups; g++) {
-        const int32_t k0 = s->group[g], k1 = s->group[g + 1];
-        for (int32_t k = k0; k < k1; k += 4) {
-            const int32_t lanes = k1 - k < 4 ? k1 - k : 4;
-            /* schedule positions of the lanes: spare lanes repeat the last */
-            const int32_t p[4] = {k, k + (lanes > 1), k + (lanes > 2 ? 2 : lanes - 1),
-                                  k + lanes - 1};
-            const int32_t n[4] = {node[p[0]], node[p[1]], node[p[2]], node[p[3]]};
-            const size_t i0 = 3 * (size_t)n[0], i1 = 3 * (size_t)n[1], i2 = 3 * (size_t)n[2],
-                         i3 = 3 * (size_t)n[3];
-            int32_t slots = 0;
-            for (int l = 0; l < 4; l++) {
-                int32_t d = adj_start[n[l] + 1] - adj_start[n[l]];
-                slots = d > slots ? d : slots;
-            }
-            const v4d cx = GATHER4(x, i0, i1, i2, i3), cy = GATHER4(x + 1, i0, i1, i2, i3),
-                      cz = GATHER4(x + 2, i0, i1, i2, i3);
-            v4d ax = {0, 0, 0, 0}, ay = ax, az = ax, pe = ax;
-            const int32_t *nb0 = pad_node + n[0] * deg, *nb1 = pad_node + n[1] * deg,
-                          *nb2 = pad_node + n[2] * deg, *nb3 = pad_node + n[3] * deg;
-            const double *kl0 = pad_kl + 2 * n[0] * deg, *kl1 = pad_kl + 2 * n[1] * deg,
-                         *kl2 = pad_kl + 2 * n[2] * deg, *kl3 = pad_kl + 2 * n[3] * deg;
-            for (int32_t sl = 0; sl < slots; sl++) {
-                const size_t j0 = 3 * (size_t)nb0[sl], j1 = 3 * (size_t)nb1[sl],
-                             j2 = 3 * (size_t)nb2[sl], j3 = 3 * (size_t)nb3[sl];
-                /* (k, len) pairs of lanes 0|2 and 1|3 unpacked into k and len */
-                v4d p02 = __builtin_shufflevector(LOAD2(kl0 + 2 * sl), LOAD2(kl2 + 2 * sl), 0, 1,
-                                                  2, 3),
-                    p13 = __builtin_shufflevector(LOAD2(kl1 + 2 * sl), LOAD2(kl3 + 2 * sl), 0, 1,
-                                                  2, 3);
-                const v4d kv = __builtin_shufflevector(p02, p13, 0, 4, 2, 6),
-                          rest = __builtin_shufflevector(p02, p13, 1, 5, 3, 7);
-                const v4d rx = cx - GATHER4(x, j0, j1, j2, j3),
-                          ry = cy - GATHER4(x + 1, j0, j1, j2, j3),
-                          rz = cz - GATHER4(x + 2, j0, j1, j2, j3);
-                v4d q = rx * rx + ry * ry + rz * rz, len;
-                for (int l = 0; l < 4; l++)
-                    len[l] = sqrt(q[l]);
-                len += FTM_LEN_EPS;
-                const v4d ext = len - rest, kd = kv * ext;
-                const v4d t = kd / len;
-                pe += kd * ext;
-                ax += t * rx;
-                ay += t * ry;
-                az += t * rz;
-            }
-            const v4d ca = GATHER4(coef, i0, i1, i2, i3), cb = GATHER4(coef + 1, i0, i1, i2, i3),
-                      cc = GATHER4(coef + 2, i0, i1, i2, i3);
-            v4d fx = {0, 0, 0, 0}, fy = fx, fz = fx;
-            if ((kind[n[0]] | kind[n[1]] | kind[n[2]] | kind[n[3]]) == NODE_FORCE) {
-                fx = GATHER4(force, i0, i1, i2, i3);
-                fy = GATHER4(force + 1, i0, i1, i2, i3);
-                fz = GATHER4(force + 2, i0, i1, i2, i3);
-            }
-            const v4d px = GATHER4(xp, i0, i1, i2, i3), py = GATHER4(xp + 1, i0, i1, i2, i3),
-                      pz = GATHER4(xp + 2, i0, i1, i2, i3);
-            const v4d lim = GATHER4(lim2, n[0], n[1], n[2], n[3]),
-                      kw = GATHER4(ke_w, n[0], n[1], n[2], n[3]);
-            const v4d nx = ca * (fx - ax) + cb * cx - cc * px;
-            const v4d ny = ca * (fy - ay) + cb * cy - cc * py;
-            const v4d nz = ca * (fz - az) + cb * cz - cc * pz;
-            const v4d dx = nx - cx, dy = ny - cy, dz = nz - cz;
-            const v4d m2 = dx * dx + dy * dy + dz * dz;
-            bad |= ~(m2 <= lim); /* NaN fails too */
-            en += (kw * m2 + 0.25 * pe) * lane_w[lanes];
-            v4l up = m2 > mm;
-            mm = (v4d)((up & (v4l)m2) | (~up & (v4l)mm));
-            double *t = tmp + 3 * (size_t)(k - k0);
-            *(v4du *)t = nx;
-            *(v4du *)(t + 4) = ny;
-            *(v4du *)(t + 8) = nz;
-            for (int l = 0; l < 4; l++) { /* a spare lane stores what its twin stores */
-                double *pi = xp + 3 * (size_t)n[l], *sv = save + 3 * (size_t)p[l];
-                sv[0] = px[l];
-                sv[1] = py[l];
-                sv[2] = pz[l];
-                pi[0] = cx[l];
-                pi[1] = cy[l];
-                pi[2] = cz[l];
-            }
-        }
-        /* commit the layer (tmp holds x, y, z vectors of 4 per block) */
-        for (int32_t k = k0; k < k1; k++) {
-            const double *t = tmp + 3 * (size_t)((k - k0) & ~3) + ((k - k0) & 3);
-            double *xi = x + 3 * (size_t)node[k];
-            xi[0] = t[0];
-            xi[1] = t[4];
-            xi[2] = t[8];
-        }
-    }
-    double out = *max_m2;
-    for (int l = 0; l < 4; l++)
-        out = mm[l] > out ? mm[l] : out;
-    *max_m2 = out;
-    sim->energy += (en[0] + en[1]) + (en[2] + en[3]);
-    return !(bad[0] | bad[1] | bad[2] | bad[3]);
+    v4d x0, y0, z0, x1, y1, z1;
+    ftm_load_xyz4(p, o[0], o[1], o[2], o[3], &x0, &y0, &z0);
+    ftm_load_xyz4(p, o[4], o[5], o[6], o[7], &x1, &y1, &z1);
+    *x = CAT8(x0, x1);
+    *y = CAT8(y0, y1);
+    *z = CAT8(z0, z1);
 }
 
+/* the (k, len) pairs of four padded rows at slot sl, as k and len vectors */
+static inline __attribute__((always_inline)) void load_kl4(const double *const kl[4], int32_t sl,
+                                                           v4d *k, v4d *len)
+{
+    v4d p02 = __builtin_shufflevector(LOAD2(kl[0] + 2 * sl), LOAD2(kl[2] + 2 * sl), 0, 1, 2, 3),
+        p13 = __builtin_shufflevector(LOAD2(kl[1] + 2 * sl), LOAD2(kl[3] + 2 * sl), 0, 1, 2, 3);
+    *k = __builtin_shufflevector(p02, p13, 0, 4, 2, 6);
+    *len = __builtin_shufflevector(p02, p13, 1, 5, 3, 7);
+}
+
+#define JW 4
+#define JV v4d
+#define JL v4l
+#define JNAME sweep_jacobi_body4
+#define JLOAD(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
+#define JGATHER GATHER4A
+#define GATHER4A(p, i) GATHER4(p, i[0], i[1], i[2], i[3])
+#include "sim_jacobi.inc"
+#undef JW
+#undef JV
+#undef JL
+#undef JNAME
+#undef JLOAD
+#undef JGATHER
+#define JW 8
+#define JV v8d
+#define JL v8l
+#define JNAME sweep_jacobi_body8
+#define JLOAD load_xyz8
+#define JGATHER GATHER8
+#include "sim_jacobi.inc"
+
 #if defined(__x86_64__) || defined(__i386__)
+__attribute__((target("avx512f"))) static bool sweep_jacobi_avx512(ftm_sim *sim, double *max_m2)
+{
+    return sweep_jacobi_body8(sim, max_m2);
+}
+
 __attribute__((target("avx"))) static bool sweep_jacobi_avx(ftm_sim *sim, double *max_m2)
 {
-    return sweep_jacobi_body(sim, max_m2);
+    return sweep_jacobi_body4(sim, max_m2);
 }
 #endif
 
 static bool sweep_jacobi_portable(ftm_sim *sim, double *max_m2)
 {
-    return sweep_jacobi_body(sim, max_m2);
+    return sweep_jacobi_body4(sim, max_m2);
 }
 
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
@@ -364,6 +308,8 @@ void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
         sim->sweep_blocks = sweep_blocks_avx;
         sim->sweep_jacobi = sweep_jacobi_avx;
     }
+    if (!portable && __builtin_cpu_supports("avx512f"))
+        sim->sweep_jacobi = sweep_jacobi_avx512;
 #endif
 }
 
