@@ -57,6 +57,53 @@ static void sort_layer(ftm_layering *ly, const uint8_t *color, int32_t *pos, int
     memset(pos, 0, (FTM_SHARED_COLOR + 1) * sizeof *pos);
 }
 
+/* Without sets the search writes the update order directly: order is the
+ * BFS queue. */
+static int build_plain(ftm_layering *ly, const ftm_mesh *m, const int32_t *src, int32_t ns,
+                       int32_t depth)
+{
+    const uint32_t gen = ly->gen;
+    uint32_t *restrict visit = ly->visit;
+    int32_t *restrict order = ly->order;
+    const int32_t *restrict adj_start = m->adj_start, *restrict adj_node = m->adj_node;
+    int32_t count = 0;
+    for (int32_t s = 0; s < ns; s++) {
+        visit[src[s]] = gen;
+        order[count++] = src[s];
+    }
+    ly->start[0] = 0;
+    int32_t layer = 0, head = 0;
+    while (head < count) {
+        if (layer + 2 > ly->start_cap) {
+            int32_t ncap = ly->start_cap * 2;
+            int32_t *st = realloc(ly->start, (size_t)ncap * sizeof *st);
+            if (!st)
+                return FTM_ENOMEM;
+            ly->start = st;
+            ly->start_cap = ncap;
+        }
+        const int32_t end = count;
+        if (layer < depth) {
+            for (int32_t k = head; k < end; k++) {
+                const int32_t u = order[k];
+                for (int32_t e = adj_start[u]; e < adj_start[u + 1]; e++) {
+                    const int32_t v = adj_node[e];
+                    if (visit[v] != gen) { /* branch-free was slower (docs/benchmarks.md) */
+                        visit[v] = gen;
+                        order[count++] = v;
+                    }
+                }
+            }
+        }
+        head = end;
+        ly->start[++layer] = end;
+    }
+    ly->sets = 0;
+    ly->count = count;
+    ly->layers = layer;
+    return FTM_OK;
+}
+
 int ftm_layering_build(ftm_layering *ly, const ftm_mesh *m, const int32_t *src, int32_t ns,
                        int32_t depth, bool want_sets)
 {
@@ -64,6 +111,8 @@ int ftm_layering_build(ftm_layering *ly, const ftm_mesh *m, const int32_t *src, 
         memset(ly->visit, 0, (size_t)m->node_count * sizeof *ly->visit);
         ly->gen = 1;
     }
+    if (!want_sets)
+        return build_plain(ly, m, src, ns, depth);
     const uint32_t gen = ly->gen;
     uint32_t *restrict visit = ly->visit;
     int32_t *restrict queue = ly->queue;
