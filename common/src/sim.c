@@ -565,6 +565,8 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
             if (sim->elem) {
                 ok &= ftm_elem_sweep(sim, region_m2);
             } else if (sim->def.order == FTM_ORDER_LAYER_JACOBI) {
+                if (!s->linked && s->uses++ > 0)
+                    sim->jacobi_links(sim);
                 ok &= sim->sweep_jacobi(sim, region_m2);
             } else if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
                 if (!s->linked && s->uses++ > 0)

@@ -73,8 +73,8 @@ typedef struct schedule {
      * schedule position, or in the colored order x, y and z vectors of 4 per block */
     double *save;
     double *tmp;    /* Jacobi: new positions of a group, x, y and z vectors of 4 per block */
-    int32_t uses;   /* colored sweeps since the schedule was built */
-    bool linked;    /* link_j / link_kl hold the blocks' links */
+    int32_t uses;   /* colored or Jacobi sweeps since the schedule was built */
+    bool linked;    /* link_j / link_kl hold the blocks' links (Jacobi: also block) */
     int32_t cap, gcap;
     size_t link_cap;
 } schedule;
@@ -124,6 +124,7 @@ struct ftm_sim {
     double tol; /* sleep tolerance in metres */
     sweep_fn sweep_blocks; /* the block kernels for this CPU (see select_kernel) */
     sweep_fn sweep_jacobi;
+    void (*jacobi_links)(struct ftm_sim *sim); /* slot-major links for sweep_jacobi's lanes */
     /* Energy guard (sim.c): the sweeps add each updated node's kinetic energy
      * m |x_new - x|^2 / 2 h^2 and a quarter of its links' k (|r| - l)^2 */
     double energy;       /* of the current substep */

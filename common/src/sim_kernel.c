@@ -264,6 +264,7 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #define JV v4d
 #define JL v4l
 #define JNAME sweep_jacobi_body4
+#define JLINKNAME jacobi_links4
 #define JLOAD(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
 #define JGATHER GATHER4A
 #define GATHER4A(p, i) GATHER4(p, i[0], i[1], i[2], i[3])
@@ -272,45 +273,56 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #undef JV
 #undef JL
 #undef JNAME
+#undef JLINKNAME
 #undef JLOAD
 #undef JGATHER
+#if defined(__x86_64__) || defined(__i386__) /* the 8-lane build is for AVX-512 */
 #define JW 8
 #define JV v8d
 #define JL v8l
 #define JNAME sweep_jacobi_body8
+#define JLINKNAME jacobi_links8
 #define JLOAD load_xyz8
 #define JGATHER GATHER8
 #include "sim_jacobi.inc"
 
-#if defined(__x86_64__) || defined(__i386__)
 __attribute__((target("avx512f"))) static bool sweep_jacobi_avx512(ftm_sim *sim, double *max_m2)
 {
-    return sweep_jacobi_body8(sim, max_m2);
+    return sim->s.linked ? sweep_jacobi_body8(sim, max_m2, true)
+                         : sweep_jacobi_body8(sim, max_m2, false);
 }
 
 __attribute__((target("avx"))) static bool sweep_jacobi_avx(ftm_sim *sim, double *max_m2)
 {
-    return sweep_jacobi_body4(sim, max_m2);
+    return sim->s.linked ? sweep_jacobi_body4(sim, max_m2, true)
+                         : sweep_jacobi_body4(sim, max_m2, false);
 }
 #endif
 
 static bool sweep_jacobi_portable(ftm_sim *sim, double *max_m2)
 {
-    return sweep_jacobi_body4(sim, max_m2);
+    return sim->s.linked ? sweep_jacobi_body4(sim, max_m2, true)
+                         : sweep_jacobi_body4(sim, max_m2, false);
 }
 
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
 {
     sim->sweep_blocks = sweep_blocks_portable;
     sim->sweep_jacobi = sweep_jacobi_portable;
+    sim->jacobi_links = jacobi_links4;
 #if defined(__x86_64__) || defined(__i386__)
     if (!portable && __builtin_cpu_supports("avx")) {
         sim->sweep_blocks = sweep_blocks_avx;
         sim->sweep_jacobi = sweep_jacobi_avx;
     }
-    if (!portable && __builtin_cpu_supports("avx512f"))
+    if (!portable && __builtin_cpu_supports("avx512f")) {
         sim->sweep_jacobi = sweep_jacobi_avx512;
+        sim->jacobi_links = jacobi_links8;
+    }
 #endif
+    /* Jacobi links are laid out for the kernel's lane count */
+    if (sim->def.order == FTM_ORDER_LAYER_JACOBI)
+        sim->s.linked = false;
 }
 
 /* Relaxing nodes, in ascending order. */

@@ -43,7 +43,8 @@ static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t 
         GROW(s->tmp, cap, 12); /* a group's blocks: <= 3 * count + 9 */
         s->cap = cap;
     }
-    size_t links = (size_t)count * (size_t)max_degree * 4; /* slots of all blocks, 4 lanes */
+    /* slots of all blocks: colored 4 lanes, Jacobi up to 8 (blocks <= count) */
+    size_t links = (size_t)count * (size_t)max_degree * 8;
     if (links > s->link_cap) {
         GROW(s->link_j, links, 1);
         GROW(s->link_kl, links, 2);
@@ -198,6 +199,8 @@ static void schedule_layers(ftm_sim *sim)
     s->group[g] = kk;
     s->groups = g;
     s->count = kk;
+    s->uses = 0;
+    s->linked = false;
 }
 
 /* The update schedule from the current layers and contact kinds. */
