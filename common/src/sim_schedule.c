@@ -180,23 +180,27 @@ void ftm_sim_schedule_links(ftm_sim *sim)
     s->linked = true;
 }
 
-/* Plain orders: the scheduled nodes layer by layer, one group per layer. */
+/* Plain orders: the scheduled nodes layer by layer, one group per layer.
+ * Branch-free: each node is written, and kept by advancing. */
 static void schedule_layers(ftm_sim *sim)
 {
     const ftm_layering *ly = &sim->ly;
     schedule *s = &sim->s;
+    const uint8_t *restrict kind = sim->kind;
+    const int32_t *restrict order = ly->order, *restrict start = ly->start;
+    int32_t *restrict out = s->node, *restrict group = s->group;
     int32_t kk = 0, g = 0;
     for (int32_t l = 0; l < ly->layers; l++) {
-        int32_t first = kk;
-        for (int32_t k = ly->start[l]; k < ly->start[l + 1]; k++) {
-            int32_t i = ly->order[k];
-            if (sim->kind[i] < NODE_DISP)
-                s->node[kk++] = i;
+        const int32_t first = kk;
+        for (int32_t k = start[l]; k < start[l + 1]; k++) {
+            const int32_t i = order[k];
+            out[kk] = i;
+            kk += kind[i] < NODE_DISP;
         }
-        if (kk > first)
-            s->group[g++] = first;
+        group[g] = first;
+        g += kk > first;
     }
-    s->group[g] = kk;
+    group[g] = kk;
     s->groups = g;
     s->count = kk;
     s->uses = 0;
