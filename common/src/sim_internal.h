@@ -17,8 +17,8 @@
 /* Scheduled nodes are the free and force-loaded ones (kind < NODE_DISP). */
 enum { NODE_FREE = 0, NODE_FORCE = 1, NODE_DISP = 2, NODE_FIXED = 3 };
 
-/* GCC vector extensions, for the colored order's four-lane blocks: the same
- * source compiles to AVX or SSE2 with the same IEEE results. */
+/* GCC vector extensions, for the colored and Jacobi kernels' lanes: the same
+ * source compiles to AVX-512, AVX or SSE2 with the same IEEE results. */
 typedef double v4d __attribute__((vector_size(32)));
 typedef int64_t v4l __attribute__((vector_size(32)));
 /* Lanes from four addresses. Built as one initialiser: element-by-element

@@ -26,7 +26,7 @@ set xlabel "nodes in the region (penetration depth 1..20)"
 set ylabel "time per step [µs]"
 set logscale xy
 set grid
-set key top left
+set key bottom right font ",9"
 plot "$out/table3.dat" using 2:(\$7*1000) with linespoints lw 2 title "paper: step (PIII 800 MHz)", \
      "$out/table3.dat" using 2:(\$6*1000) with linespoints lw 2 title "paper: neighbour search", \
      "$out/table3.dat" using 2:4 with linespoints lw 2 title "FTM colored: step with a fresh search", \
