@@ -1,7 +1,7 @@
-/* The colored sweep's kernels (AVX where the CPU has it, the baseline one
- * otherwise; link data read from the mesh's padded rows on a schedule's
- * first use, from the schedule's slot-major copy after) must give
- * bit-identical states: compare ftm_sim_hash. */
+/* The vector sweeps' kernels (AVX where the CPU has it, the baseline one
+ * otherwise; in the colored order link data read from the mesh's padded rows
+ * on a schedule's first use, from the schedule's slot-major copy after) must
+ * give bit-identical states: compare ftm_sim_hash. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -12,9 +12,10 @@
 #include "ftm/ftm.h"
 #include "sim_internal.h"
 
-static ftm_sim *make(const ftm_mesh *m, bool portable, bool cache)
+static ftm_sim *make(const ftm_mesh *m, ftm_order order, bool portable, bool cache)
 {
     ftm_sim_def d = ftm_default_sim_def();
+    d.order = order;
     d.time_step = 0.1;
     d.depth = 12;
     d.cache_layers = cache; /* false: a new schedule, used once, every step */
@@ -30,17 +31,16 @@ static ftm_sim *make(const ftm_mesh *m, bool portable, bool cache)
     return s;
 }
 
-static void test_portable_kernel_matches(void **state)
+static void kernels_match(ftm_order order)
 {
-    (void)state;
     ftm_mesh_builder *mb = ftm_mesh_builder_create();
     ftm_lattice2d_def ld = ftm_default_lattice2d_def();
     ftm_mesh *m = NULL;
     assert_int_equal(ftm_generate_lattice2d(mb, &ld, NULL), FTM_OK);
     assert_int_equal(ftm_mesh_build(mb, NULL, &m, NULL), FTM_OK);
     ftm_mesh_builder_destroy(mb);
-    ftm_sim *s[4] = {make(m, false, true), make(m, true, true), make(m, false, false),
-                     make(m, true, false)};
+    ftm_sim *s[4] = {make(m, order, false, true), make(m, order, true, true),
+                     make(m, order, false, false), make(m, order, true, false)};
     for (int i = 0; i < 20; i++) {
         for (int k = 0; k < 4; k++)
             assert_int_equal(ftm_sim_run(s[k], 50), FTM_OK);
@@ -56,8 +56,21 @@ static void test_portable_kernel_matches(void **state)
     ftm_mesh_destroy(m);
 }
 
+static void test_portable_kernel_matches(void **state)
+{
+    (void)state;
+    kernels_match(FTM_ORDER_LAYER_COLORED);
+}
+
+static void test_portable_jacobi_kernel_matches(void **state)
+{
+    (void)state;
+    kernels_match(FTM_ORDER_LAYER_JACOBI);
+}
+
 int main(void)
 {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_portable_kernel_matches)};
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_portable_kernel_matches),
+                                       cmocka_unit_test(test_portable_jacobi_kernel_matches)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -600,8 +600,9 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
             if (sim->elem) {
                 ok &= ftm_elem_sweep(sim, region_m2);
             } else if (sim->def.order == FTM_ORDER_LAYER_JACOBI) {
-                for (int32_t g = 0; g < s->groups; g++)
-                    ok &= ftm_sweep_jacobi(sim, s->group[g], s->group[g + 1], region_m2);
+                if (!s->linked && s->uses++ > 0)
+                    sim->jacobi_links(sim);
+                ok &= sim->sweep_jacobi(sim, region_m2);
             } else if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
                 if (!s->linked && s->uses++ > 0)
                     ftm_sim_schedule_links(sim);

@@ -17,8 +17,8 @@
 /* Scheduled nodes are the free and force-loaded ones (kind < NODE_DISP). */
 enum { NODE_FREE = 0, NODE_FORCE = 1, NODE_DISP = 2, NODE_FIXED = 3 };
 
-/* GCC vector extensions, for the colored order's four-lane blocks: the same
- * source compiles to AVX or SSE2 with the same IEEE results. */
+/* GCC vector extensions, for the colored and Jacobi kernels' lanes: the same
+ * source compiles to AVX-512, AVX or SSE2 with the same IEEE results. */
 typedef double v4d __attribute__((vector_size(32)));
 typedef int64_t v4l __attribute__((vector_size(32)));
 /* Lanes from four addresses. Built as one initialiser: element-by-element
@@ -30,6 +30,20 @@ typedef double v4du __attribute__((vector_size(32), aligned(8)));
 typedef double v2du __attribute__((vector_size(16), aligned(8)));
 #define LOAD4(p) (*(const v4du *)(p))
 #define LOAD2(p) (*(const v2du *)(p))
+
+/* The three coordinates of four points stored 3 doubles apiece at p + i0 ..
+ * p + i3 as x, y and z vectors: x and y from one 16-byte load per point
+ * (fewer instructions than four scalar loads each), z gathered. */
+static inline __attribute__((always_inline)) void ftm_load_xyz4(const double *p, size_t i0,
+                                                                size_t i1, size_t i2, size_t i3,
+                                                                v4d *x, v4d *y, v4d *z)
+{
+    v4d p02 = __builtin_shufflevector(LOAD2(p + i0), LOAD2(p + i2), 0, 1, 2, 3),
+        p13 = __builtin_shufflevector(LOAD2(p + i1), LOAD2(p + i3), 0, 1, 2, 3);
+    *x = __builtin_shufflevector(p02, p13, 0, 4, 2, 6);
+    *y = __builtin_shufflevector(p02, p13, 1, 5, 3, 7);
+    *z = GATHER4(p + 2, i0, i1, i2, i3);
+}
 
 /* FTM_ORDER_LAYER_COLORED updates up to four nodes of one independent set
  * together: schedule positions first .. first+lanes-1, over `slots` padded
@@ -58,9 +72,9 @@ typedef struct schedule {
     /* rollback: previous positions overwritten in the last step; 3 per
      * schedule position, or in the colored order x, y and z vectors of 4 per block */
     double *save;
-    double *tmp;    /* Jacobi: new positions of a group */
-    int32_t uses;   /* colored sweeps since the schedule was built */
-    bool linked;    /* link_j / link_kl hold the blocks' links */
+    double *tmp;    /* Jacobi: new positions of a group, x, y and z vectors of 4 per block */
+    int32_t uses;   /* colored or Jacobi sweeps since the schedule was built */
+    bool linked;    /* link_j / link_kl hold the blocks' links (Jacobi: also block) */
     int32_t cap, gcap;
     size_t link_cap;
 } schedule;
@@ -108,7 +122,9 @@ struct ftm_sim {
     int32_t reaction_groups;
 
     double tol; /* sleep tolerance in metres */
-    sweep_fn sweep_blocks; /* the block kernel for this CPU (see select_kernel) */
+    sweep_fn sweep_blocks; /* the block kernels for this CPU (see select_kernel) */
+    sweep_fn sweep_jacobi;
+    void (*jacobi_links)(struct ftm_sim *sim); /* slot-major links for sweep_jacobi's lanes */
     /* Energy guard (sim.c): the sweeps add each updated node's kinetic energy
      * m |x_new - x|^2 / 2 h^2 and a quarter of its links' k (|r| - l)^2 */
     double energy;       /* of the current substep */
@@ -155,11 +171,10 @@ void ftm_sim_schedule_links(ftm_sim *sim);
 /* sim_kernel.c: each sweep returns false if a node moved more than its
  * guard limit or to a non-finite position. */
 bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2);
-bool ftm_sweep_jacobi(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2);
 bool ftm_sweep_relax(ftm_sim *sim);
 void ftm_sim_compute_reactions(ftm_sim *sim);
 void ftm_sim_spring_force(const ftm_sim *sim, int32_t i, double f[3]);
-/* Chooses the kernel of the colored sweep: the widest this CPU supports
+/* Chooses the kernels of the colored and Jacobi sweeps: the widest this CPU supports
  * (the default), or with portable the baseline one. Both give bit-identical
  * results; tests compare them. */
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable);

@@ -218,45 +218,111 @@ static bool sweep_blocks_portable(ftm_sim *sim, double *max_m2)
                          : sweep_blocks_body(sim, max_m2, false);
 }
 
+
+/* The Jacobi sweep: the nodes of a layer read only the state before the
+ * layer, so they are independent by construction and are updated JW per
+ * vector straight from the schedule (no colouring, no schedule copies),
+ * without waiting on each other. sim_jacobi.inc holds the kernel, built with
+ * 4 lanes for AVX and SSE2 and with 8 for AVX-512 (whose 32 registers hold
+ * two blocks' chains of square roots and divisions at once). Lane l does
+ * exactly what spring_force and integrate do for its node (padding slots
+ * add -0.0), so the state is bit-identical to updating the layer's nodes one
+ * by one from a copy of the state before it; the energy is summed in the same
+ * order by every variant (an 8-lane block as its two 4-lane halves). */
+typedef double v8d __attribute__((vector_size(64)));
+typedef int64_t v8l __attribute__((vector_size(64)));
+#define CAT8(lo, hi) __builtin_shufflevector((lo), (hi), 0, 1, 2, 3, 4, 5, 6, 7)
+#define GATHER8(p, i) ((v8d){(p)[i[0]], (p)[i[1]], (p)[i[2]], (p)[i[3]], (p)[i[4]], (p)[i[5]], \
+                             (p)[i[6]], (p)[i[7]]})
+
+#define LO4(v) __builtin_shufflevector((v), (v), 0, 1, 2, 3)
+#define HI4(v) __builtin_shufflevector((v), (v), 4, 5, 6, 7)
+
+/* x, y and z of the eight points p + o[0..7] (see ftm_load_xyz4) */
+static inline __attribute__((always_inline)) void load_xyz8(const double *p, const size_t o[8],
+                                                            v8d *x, v8d *y, v8d *z)
+{
+    v4d x0, y0, z0, x1, y1, z1;
+    ftm_load_xyz4(p, o[0], o[1], o[2], o[3], &x0, &y0, &z0);
+    ftm_load_xyz4(p, o[4], o[5], o[6], o[7], &x1, &y1, &z1);
+    *x = CAT8(x0, x1);
+    *y = CAT8(y0, y1);
+    *z = CAT8(z0, z1);
+}
+
+/* the (k, len) pairs of four padded rows at slot sl, as k and len vectors */
+static inline __attribute__((always_inline)) void load_kl4(const double *const kl[4], int32_t sl,
+                                                           v4d *k, v4d *len)
+{
+    v4d p02 = __builtin_shufflevector(LOAD2(kl[0] + 2 * sl), LOAD2(kl[2] + 2 * sl), 0, 1, 2, 3),
+        p13 = __builtin_shufflevector(LOAD2(kl[1] + 2 * sl), LOAD2(kl[3] + 2 * sl), 0, 1, 2, 3);
+    *k = __builtin_shufflevector(p02, p13, 0, 4, 2, 6);
+    *len = __builtin_shufflevector(p02, p13, 1, 5, 3, 7);
+}
+
+#define JW 4
+#define JV v4d
+#define JL v4l
+#define JNAME sweep_jacobi_body4
+#define JLINKNAME jacobi_links4
+#define JLOAD(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
+#define JGATHER GATHER4A
+#define GATHER4A(p, i) GATHER4(p, i[0], i[1], i[2], i[3])
+#include "sim_jacobi.inc"
+#undef JW
+#undef JV
+#undef JL
+#undef JNAME
+#undef JLINKNAME
+#undef JLOAD
+#undef JGATHER
+#if defined(__x86_64__) || defined(__i386__) /* the 8-lane build is for AVX-512 */
+#define JW 8
+#define JV v8d
+#define JL v8l
+#define JNAME sweep_jacobi_body8
+#define JLINKNAME jacobi_links8
+#define JLOAD load_xyz8
+#define JGATHER GATHER8
+#include "sim_jacobi.inc"
+
+__attribute__((target("avx512f"))) static bool sweep_jacobi_avx512(ftm_sim *sim, double *max_m2)
+{
+    return sim->s.linked ? sweep_jacobi_body8(sim, max_m2, true)
+                         : sweep_jacobi_body8(sim, max_m2, false);
+}
+
+__attribute__((target("avx"))) static bool sweep_jacobi_avx(ftm_sim *sim, double *max_m2)
+{
+    return sim->s.linked ? sweep_jacobi_body4(sim, max_m2, true)
+                         : sweep_jacobi_body4(sim, max_m2, false);
+}
+#endif
+
+static bool sweep_jacobi_portable(ftm_sim *sim, double *max_m2)
+{
+    return sim->s.linked ? sweep_jacobi_body4(sim, max_m2, true)
+                         : sweep_jacobi_body4(sim, max_m2, false);
+}
+
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
 {
     sim->sweep_blocks = sweep_blocks_portable;
+    sim->sweep_jacobi = sweep_jacobi_portable;
+    sim->jacobi_links = jacobi_links4;
 #if defined(__x86_64__) || defined(__i386__)
-    if (!portable && __builtin_cpu_supports("avx"))
+    if (!portable && __builtin_cpu_supports("avx")) {
         sim->sweep_blocks = sweep_blocks_avx;
+        sim->sweep_jacobi = sweep_jacobi_avx;
+    }
+    if (!portable && __builtin_cpu_supports("avx512f")) {
+        sim->sweep_jacobi = sweep_jacobi_avx512;
+        sim->jacobi_links = jacobi_links8;
+    }
 #endif
-}
-
-/* Jacobi variant: every node of a block computed from the state before the
- * block, then committed. */
-bool ftm_sweep_jacobi(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
-{
-    const ftm_mesh *m = sim->m;
-    schedule *s = &sim->s;
-    bool ok = true;
-    double mm = *max_m2, en = 0.0;
-    for (int32_t k = k0; k < k1; k++) {
-        int32_t i = s->node[k];
-        double f[3], pe;
-        spring_force_pe(m, sim->x, i, sim->x + 3 * i, f, &pe);
-        double m2 = integrate(sim, i, sim->x + 3 * i, f, s->tmp + 3 * k);
-        ok &= m2 <= sim->lim2[i];
-        mm = m2 > mm ? m2 : mm;
-        en += sim->ke_w[i] * m2 + 0.25 * pe;
-    }
-    sim->energy += en;
-    for (int32_t k = k0; k < k1; k++) {
-        int32_t i = s->node[k];
-        double *xi = sim->x + 3 * i, *pi = sim->xp + 3 * i, *sv = s->save + 3 * k,
-               *t = s->tmp + 3 * k;
-        for (int d = 0; d < 3; d++) {
-            sv[d] = pi[d];
-            pi[d] = xi[d];
-            xi[d] = t[d];
-        }
-    }
-    *max_m2 = mm;
-    return ok;
+    /* Jacobi links are laid out for the kernel's lane count */
+    if (sim->def.order == FTM_ORDER_LAYER_JACOBI)
+        sim->s.linked = false;
 }
 
 /* Relaxing nodes, in ascending order. */

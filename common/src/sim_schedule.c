@@ -40,10 +40,11 @@ static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t 
         GROW(s->node, cap, 1);
         GROW(s->block, cap, 1);
         GROW(s->save, cap, 12); /* blocks <= count */
-        GROW(s->tmp, cap, 3);
+        GROW(s->tmp, cap, 12); /* a group's blocks: <= 3 * count + 9 */
         s->cap = cap;
     }
-    size_t links = (size_t)count * (size_t)max_degree * 4; /* slots of all blocks, 4 lanes */
+    /* slots of all blocks: colored 4 lanes, Jacobi up to 8 (blocks <= count) */
+    size_t links = (size_t)count * (size_t)max_degree * 8;
     if (links > s->link_cap) {
         GROW(s->link_j, links, 1);
         GROW(s->link_kl, links, 2);
@@ -179,25 +180,31 @@ void ftm_sim_schedule_links(ftm_sim *sim)
     s->linked = true;
 }
 
-/* Plain orders: the scheduled nodes layer by layer, one group per layer. */
+/* Plain orders: the scheduled nodes layer by layer, one group per layer.
+ * Branch-free: each node is written, and kept by advancing. */
 static void schedule_layers(ftm_sim *sim)
 {
     const ftm_layering *ly = &sim->ly;
     schedule *s = &sim->s;
+    const uint8_t *restrict kind = sim->kind;
+    const int32_t *restrict order = ly->order, *restrict start = ly->start;
+    int32_t *restrict out = s->node, *restrict group = s->group;
     int32_t kk = 0, g = 0;
     for (int32_t l = 0; l < ly->layers; l++) {
-        int32_t first = kk;
-        for (int32_t k = ly->start[l]; k < ly->start[l + 1]; k++) {
-            int32_t i = ly->order[k];
-            if (sim->kind[i] < NODE_DISP)
-                s->node[kk++] = i;
+        const int32_t first = kk;
+        for (int32_t k = start[l]; k < start[l + 1]; k++) {
+            const int32_t i = order[k];
+            out[kk] = i;
+            kk += kind[i] < NODE_DISP;
         }
-        if (kk > first)
-            s->group[g++] = first;
+        group[g] = first;
+        g += kk > first;
     }
-    s->group[g] = kk;
+    group[g] = kk;
     s->groups = g;
     s->count = kk;
+    s->uses = 0;
+    s->linked = false;
 }
 
 /* The update schedule from the current layers and contact kinds. */

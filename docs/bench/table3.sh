@@ -11,8 +11,11 @@ out=docs/bench
 "$ftm" bench table3 --json "$@" > "$out/table3.json"
 
 # rows of the JSON -> whitespace table: depth nodes search step cached paper_search paper_step
-tr '{' '\n' < "$out/table3.json" | grep '"depth"' | grep '"paper_step_ms"' |
-  sed -E 's/.*"depth":([0-9.]+).*"nodes":([0-9.]+).*"search_us":([0-9.e+-]+).*"step_us":([0-9.e+-]+).*"step_cached_us":([0-9.e+-]+).*"paper_search_ms":([0-9.e+-]+).*"paper_step_ms":([0-9.e+-]+).*/\1 \2 \3 \4 \5 \6 \7/' \
+# jacobi_search jacobi_step jacobi_cached
+tr '{' '\n' < "$out/table3.json" | grep '"paper_step_ms"' |
+  perl -ne 'my %v = /"(\w+)":([0-9.e+-]+)/g;
+    print join(" ", @v{qw(depth nodes search_us step_us step_cached_us paper_search_ms
+      paper_step_ms jacobi_search_us jacobi_step_us jacobi_step_cached_us)}), "\n"' \
   > "$out/table3.dat"
 
 gnuplot <<GP
@@ -23,12 +26,15 @@ set xlabel "nodes in the region (penetration depth 1..20)"
 set ylabel "time per step [µs]"
 set logscale xy
 set grid
-set key top left
+set key bottom right font ",9"
 plot "$out/table3.dat" using 2:(\$7*1000) with linespoints lw 2 title "paper: step (PIII 800 MHz)", \
      "$out/table3.dat" using 2:(\$6*1000) with linespoints lw 2 title "paper: neighbour search", \
-     "$out/table3.dat" using 2:4 with linespoints lw 2 title "FTM: step with a fresh search", \
-     "$out/table3.dat" using 2:5 with linespoints lw 2 title "FTM: step, layers cached", \
-     "$out/table3.dat" using 2:3 with linespoints lw 2 title "FTM: neighbour search", \
+     "$out/table3.dat" using 2:4 with linespoints lw 2 title "FTM colored: step with a fresh search", \
+     "$out/table3.dat" using 2:5 with linespoints lw 2 title "FTM colored: step, layers cached", \
+     "$out/table3.dat" using 2:3 with linespoints lw 2 title "FTM colored: neighbour search", \
+     "$out/table3.dat" using 2:9 with linespoints lw 2 dt 3 title "FTM jacobi: step with a fresh search", \
+     "$out/table3.dat" using 2:10 with linespoints lw 2 dt 3 title "FTM jacobi: step, layers cached", \
+     "$out/table3.dat" using 2:8 with linespoints lw 2 dt 3 title "FTM jacobi: neighbour search", \
      15 with lines dt 2 lc rgb "black" title "target 15 µs"
 GP
 echo "wrote $out/table3.txt $out/table3.json $out/table3.dat docs/img/table3.png"
