@@ -7,6 +7,7 @@
  * collision with the deformed surface, collide.h) -> ftm_replay_step (the
  * same call sequence every replica makes) -> tick frame, unless the scene is
  * idle (then a heartbeat frame every 100 ms). */
+#define _GNU_SOURCE /* sched_getcpu, pthread_setaffinity_np */
 #include "collide.h"
 #include "depth_ctl.h"
 #include "metrics.h"
@@ -1526,12 +1527,31 @@ int main(int argc, char **argv)
          * that threads made before (DDS, metrics) keep default scheduling. */
         struct sched_param sp = {.sched_priority = s->o.rt_priority};
         int e = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
-        if (e)
+        if (e) {
             slog(s, "info", "real-time scheduling not permitted (%s): default scheduling",
                  strerror(e));
-        else
-            slog(s, "info", "tick thread SCHED_FIFO priority %d, publishing thread %d",
-                 (int)s->o.rt_priority, (int)s->o.rt_priority + 1);
+        } else {
+            /* both on this CPU: the publishing thread, one level up, takes a
+             * queued frame by a context switch, without waking another core */
+            int cpu = sched_getcpu();
+            cpu_set_t set;
+            CPU_ZERO(&set);
+            if (cpu >= 0)
+                CPU_SET(cpu, &set);
+            if (cpu < 0 || pthread_setaffinity_np(pthread_self(), sizeof set, &set) ||
+                ftm_wire_pin_publisher(s->wire, cpu, &err)) {
+                CPU_ZERO(&set);
+                for (int c = 0; c < CPU_SETSIZE; c++)
+                    CPU_SET(c, &set);
+                pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+                cpu = -1;
+            }
+            char where[32] = "";
+            if (cpu >= 0)
+                snprintf(where, sizeof where, ", both on cpu %d", cpu);
+            slog(s, "info", "tick thread SCHED_FIFO priority %d, publishing thread %d%s",
+                 (int)s->o.rt_priority, (int)s->o.rt_priority + 1, where);
+        }
     }
     s->loop = uv_default_loop();
     uv_timer_init(s->loop, &s->tick_timer);

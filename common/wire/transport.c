@@ -10,6 +10,7 @@
  * them in the caller's thread. So a message's arrival is seen when it reaches
  * the process, not when the application thread gets round to it, and the
  * receive thread is never held up by decoding. */
+#define _GNU_SOURCE /* pthread_setaffinity_np, CPU_SET */
 #include "wire_internal.h"
 
 #include "ftm_envelope.h"
@@ -663,6 +664,19 @@ int ftm_wire_wait_matched(ftm_wire_transport *t, int kind, int32_t count, int64_
                             ftm_wire_kind_name(kind), n, count, (double)timeout_ns * 1e-9);
         sleep_ns(5000000);
     }
+}
+
+int ftm_wire_pin_publisher(ftm_wire_transport *t, int cpu, ftm_error *err)
+{
+    if (!t || !t->thread_started || cpu < 0 || cpu >= CPU_SETSIZE)
+        return wire_err(err, FTM_EINVAL, "ftm_wire_pin_publisher: bad transport or cpu %d", cpu);
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(cpu, &set);
+    int e = pthread_setaffinity_np(t->thread, sizeof set, &set);
+    if (e)
+        return wire_err(err, FTM_EINVAL, "publishing thread on cpu %d: %s", cpu, strerror(e));
+    return FTM_OK;
 }
 
 /* ---- receive ----------------------------------------------------------------- */

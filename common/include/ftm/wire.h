@@ -296,6 +296,12 @@ int ftm_wire_publish_raw(ftm_wire_transport *t, int kind, const void *payload, s
  * reader has acknowledged what was written. FTM_ETIMEDOUT otherwise. */
 int ftm_wire_flush(ftm_wire_transport *t, int64_t timeout_ns, ftm_error *err);
 
+/* Runs the publishing thread on CPU cpu only (>= 0). With the caller's
+ * thread on the same CPU at a lower real-time priority, a frame queued is
+ * written at once, by a context switch instead of a wake-up of another
+ * (possibly idle) core. FTM_EINVAL, or the error of the system call. */
+int ftm_wire_pin_publisher(ftm_wire_transport *t, int cpu, ftm_error *err);
+
 /* Waits up to timeout_ns until the writer (if this side publishes kind) or
  * else the reader of kind is matched with at least count remote endpoints. */
 int ftm_wire_wait_matched(ftm_wire_transport *t, int kind, int32_t count, int64_t timeout_ns,
