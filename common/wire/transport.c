@@ -58,10 +58,14 @@ typedef struct rx_item {
     uint8_t kind;
     uint64_t seq;
     size_t size;
+    size_t oversize; /* > 0: a payload of this many bytes, over the cap, not copied */
     uint8_t data[];
 } rx_item;
 
-#define RX_QUEUE_MAX 8192 /* per kind; beyond it the oldest go (a gap for the reader) */
+/* Per kind, beyond either the oldest go (a gap for the reader): a reader
+ * that stops reading, or a peer that floods, costs bounded memory. */
+#define RX_QUEUE_MAX 8192
+#define RX_QUEUE_BYTES (64u << 20)
 
 typedef struct sender_seq {
     uint32_t sender;
@@ -78,6 +82,7 @@ typedef struct kind_io {
     pthread_cond_t rx_cond;
     rx_item *rx_head, *rx_tail;
     int32_t rx_count;
+    size_t rx_bytes;
     uint64_t rx_dropped, rx_dropped_seen;
     struct ftm_wire_transport *owner;
     int kind;
@@ -424,7 +429,13 @@ static void on_data_available(dds_entity_t reader, void *arg)
             const ftm_wire_Envelope *env = samples[i];
             if (strncmp(env->session, t->session, sizeof env->session) != 0)
                 continue; /* another session on the same domain */
-            size_t size = info[i].valid_data ? env->payload._length : 0;
+            size_t size = info[i].valid_data ? env->payload._length : 0, over = 0;
+            size_t cap = t->limits.max_payload ? t->limits.max_payload
+                                               : ftm_wire_default_cap(io->kind);
+            if (size > cap) { /* rejected by the reader's thread, never copied */
+                over = size;
+                size = 0;
+            }
             rx_item *it = malloc(sizeof *it + size);
             if (!it) {
                 pthread_mutex_lock(&io->rx_lock);
@@ -439,16 +450,19 @@ static void on_data_available(dds_entity_t reader, void *arg)
                             .sender = env->sender,
                             .kind = env->kind,
                             .seq = env->seq,
-                            .size = size};
+                            .size = size,
+                            .oversize = over};
             if (size)
                 memcpy(it->data, env->payload._buffer, size);
             pthread_mutex_lock(&io->rx_lock);
-            if (io->rx_count >= RX_QUEUE_MAX) { /* nobody reads: keep the newest */
-                rx_item *old = io->rx_head;
+            while (io->rx_head &&
+                   (io->rx_count >= RX_QUEUE_MAX || io->rx_bytes + size > RX_QUEUE_BYTES)) {
+                rx_item *old = io->rx_head; /* nobody reads: keep the newest */
                 io->rx_head = old->next;
                 if (!io->rx_head)
                     io->rx_tail = NULL;
                 io->rx_count--;
+                io->rx_bytes -= old->size;
                 io->rx_dropped++;
                 free(old);
             }
@@ -458,6 +472,7 @@ static void on_data_available(dds_entity_t reader, void *arg)
                 io->rx_head = it;
             io->rx_tail = it;
             io->rx_count++;
+            io->rx_bytes += size;
             pthread_cond_signal(&io->rx_cond);
             pthread_mutex_unlock(&io->rx_lock);
         }
@@ -746,6 +761,13 @@ static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm
                it->kind);
         return 0;
     }
+    if (it->oversize) {
+        size_t cap = t->limits.max_payload ? t->limits.max_payload : ftm_wire_default_cap(kind);
+        reject(t, kind, "message from participant %u seq %llu: %s: payload of %zu bytes exceeds "
+               "the %zu-byte cap",
+               it->sender, (unsigned long long)it->seq, what, it->oversize, cap);
+        return 0;
+    }
     ftm_error e = {0, ""};
     ftm_wire_msg msg;
     int rc = ftm_wire_decode(kind, it->data, it->size, &t->limits, &msg, &e);
@@ -793,6 +815,7 @@ static rx_item *next_item(kind_io *io, int64_t deadline, uint64_t *dropped)
         if (!io->rx_head)
             io->rx_tail = NULL;
         io->rx_count--;
+        io->rx_bytes -= it->size;
     }
     *dropped = io->rx_dropped - io->rx_dropped_seen;
     io->rx_dropped_seen = io->rx_dropped;
@@ -816,9 +839,10 @@ int ftm_wire_receive(ftm_wire_transport *t, int kind, ftm_wire_received *out, in
         rx_item *it = next_item(io, deadline, &dropped);
         if (dropped)
             wire_log(t, FTM_LOG_WARN,
-                     "wire: %llu %s message(s) dropped unread (more than %d waiting, or out of "
-                     "memory)",
-                     (unsigned long long)dropped, ftm_wire_kind_name(kind), RX_QUEUE_MAX);
+                     "wire: %llu %s message(s) dropped unread (more than %d or %u MiB waiting, "
+                     "or out of memory)",
+                     (unsigned long long)dropped, ftm_wire_kind_name(kind), RX_QUEUE_MAX,
+                     RX_QUEUE_BYTES >> 20);
         if (!it)
             return wire_err(err, FTM_ETIMEDOUT, "%s: nothing received in %.3f s",
                             ftm_wire_kind_name(kind), (double)timeout_ns * 1e-9);
