@@ -413,6 +413,37 @@ static void test_tissue_physics(void **state)
     tissue_physics(FTM_ORDER_LAYER_JACOBI);
 }
 
+/* ftm_sim_set_mesh refuses what it cannot honour, changing nothing. */
+static void test_set_mesh_refusals(void **state)
+{
+    (void)state;
+    ftm_scene *sc = open_scene(), *other = NULL;
+    assert_int_equal(ftm_scene_builtin("membrane", &other, NULL), FTM_OK);
+    ftm_sim_def def = ftm_replay_sim_def(sc);
+    ftm_sim *sim = NULL;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_sim_create(ftm_scene_mesh(sc), &def, &sim, NULL), FTM_OK);
+    assert_int_equal(ftm_sim_set_mesh(sim, ftm_scene_mesh(other), &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "differs in shape"));
+    assert_true(ftm_sim_mesh(sim) == ftm_scene_mesh(sc));
+    ftm_sim_destroy(sim);
+    /* element forces take their material from young/poisson/density */
+    def.forces = FTM_FORCES_LINEAR_FEM;
+    def.young = 3e3;
+    def.poisson = 0.45;
+    assert_int_equal(ftm_sim_create(ftm_scene_mesh(sc), &def, &sim, &err), FTM_OK);
+    ftm_replay_material mat = {.scene = sc};
+    ftm_wire_tissue t = ftm_replay_scene_tissue(sc);
+    t.stiffness *= 2.0;
+    assert_int_equal(ftm_replay_set_tissue(&mat, sim, &t, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "element forces"));
+    assert_false(mat.changed);
+    assert_null(mat.mesh);
+    ftm_sim_destroy(sim);
+    ftm_scene_destroy(sc);
+    ftm_scene_destroy(other);
+}
+
 /* A replica switches at the frame that carries the parameters; one that lost
  * that frame resyncs from a keyframe carrying them; a late joiner starts from
  * such a keyframe. Every hash equals the server's. */
@@ -650,6 +681,7 @@ int main(void)
         cmocka_unit_test(test_replica),
         cmocka_unit_test(test_material_mesh),
         cmocka_unit_test(test_tissue_physics),
+        cmocka_unit_test(test_set_mesh_refusals),
         cmocka_unit_test(test_tissue_replica),
         cmocka_unit_test(test_region_sleep_session),
     };
