@@ -331,28 +331,21 @@ static void send_commands(bot *b, double t)
         ftm_wire_msg m;
         memset(&m, 0, sizeof m);
         m.kind = FTM_WIRE_CONTROL;
+        /* a tissue command: one parameter changed, the others as the replica runs them now */
+        ftm_wire_tissue now = ftm_replay_tissue(b->rep);
+        const char *name = ftm_script_control(c, &now, &m.u.control);
         m.u.control.issuer = b->o.id;
         m.u.control.command_id = ++b->command_id;
-        m.u.control.command = c->cmd;
-        char what[96];
-        snprintf(what, sizeof what, "%s", c->cmd == FTM_WIRE_CMD_PAUSE    ? "pause"
-                                          : c->cmd == FTM_WIRE_CMD_RESUME ? "resume"
-                                                                          : "reset");
-        if (c->cmd == FTM_WIRE_CMD_TISSUE) {
-            /* one parameter changed, the others as the replica runs them now */
-            ftm_wire_tissue *ts = &m.u.control.tissue;
-            *ts = ftm_replay_tissue(b->rep);
-            double *field = c->param == FTM_SCRIPT_STIFFNESS ? &ts->stiffness
-                            : c->param == FTM_SCRIPT_DAMPING ? &ts->node_damping
-                                                             : &ts->node_mass;
-            *field = c->value[0];
+        char what[128];
+        const ftm_wire_control *ctl = &m.u.control;
+        if (c->cmd == FTM_WIRE_CMD_TISSUE)
             snprintf(what, sizeof what, "tissue: stiffness %g N/m, damping %g N s/m, mass %g kg",
-                     ts->stiffness, ts->node_damping, ts->node_mass);
-        } else if (c->cmd == FTM_WIRE_CMD_DEPTH_LIMITS) {
-            m.u.control.depth_min = (int32_t)c->value[0];
-            m.u.control.depth_max = (int32_t)c->value[1];
-            snprintf(what, sizeof what, "depth limits %d..%d", (int)c->value[0], (int)c->value[1]);
-        }
+                     ctl->tissue.stiffness, ctl->tissue.node_damping, ctl->tissue.node_mass);
+        else if (c->cmd == FTM_WIRE_CMD_DEPTH_LIMITS)
+            snprintf(what, sizeof what, "depth limits %d..%d", (int)ctl->depth_min,
+                     (int)ctl->depth_max);
+        else
+            snprintf(what, sizeof what, "%s", name);
         ftm_error err = {0, ""};
         if (ftm_wire_publish(b->wire, &m, &err))
             blog("control: %s", err.message);

@@ -205,24 +205,7 @@ static void scripted_commands(app *a)
             continue;
         sc->done = true;
         ftm_wire_control c;
-        memset(&c, 0, sizeof c);
-        c.command = sc->cmd;
-        c.tissue = a->view.tissue;
-        c.depth_min = (int32_t)sc->value[0];
-        c.depth_max = (int32_t)sc->value[1];
-        const char *what = sc->cmd == FTM_WIRE_CMD_PAUSE    ? "pause"
-                           : sc->cmd == FTM_WIRE_CMD_RESUME ? "resume"
-                           : sc->cmd == FTM_WIRE_CMD_RESET  ? "reset"
-                                                            : "scripted";
-        if (sc->cmd == FTM_WIRE_CMD_TISSUE) {
-            double *f = sc->param == FTM_SCRIPT_STIFFNESS ? &c.tissue.stiffness
-                        : sc->param == FTM_SCRIPT_DAMPING ? &c.tissue.node_damping
-                                                          : &c.tissue.node_mass;
-            *f = sc->value[0];
-            what = sc->param == FTM_SCRIPT_STIFFNESS ? "stiffness"
-                   : sc->param == FTM_SCRIPT_DAMPING ? "damping"
-                                                     : "mass";
-        }
+        const char *what = ftm_script_control(sc, &a->view.tissue, &c);
         send_control(a, &c, what);
     }
 }

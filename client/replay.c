@@ -266,7 +266,8 @@ void ftm_replay_material_free(ftm_replay_material *mat)
     mat->changed = false;
 }
 
-int ftm_replay_make_keyframe(const ftm_sim *sim, ftm_wire_keyframe *out, ftm_error *err)
+int ftm_replay_make_keyframe(const ftm_sim *sim, const ftm_replay_material *mat,
+                             ftm_wire_keyframe *out, ftm_error *err)
 {
     const ftm_mesh *m = ftm_sim_mesh(sim);
     int32_t n = ftm_mesh_node_count(m);
@@ -309,6 +310,9 @@ int ftm_replay_make_keyframe(const ftm_sim *sim, ftm_wire_keyframe *out, ftm_err
     out->state_hash = ftm_sim_hash(sim);
     out->has_mode = true;
     ftm_sim_get_mode(sim, &out->mode);
+    out->has_tissue = mat && mat->changed;
+    if (out->has_tissue)
+        out->tissue = mat->current;
     out->node_count = n;
     out->depth = st.depth;
     out->count = count;

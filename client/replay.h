@@ -74,9 +74,12 @@ ftm_wire_tissue ftm_replay_tissue_now(const ftm_replay_material *mat);
 /* Frees the mesh; only after the simulation is destroyed. */
 void ftm_replay_material_free(ftm_replay_material *mat);
 
-/* The keyframe message of a simulation's current state (nodes not at rest).
- * Arrays are malloc'ed into *out (free with ftm_replay_keyframe_free). */
-int ftm_replay_make_keyframe(const ftm_sim *sim, ftm_wire_keyframe *out, ftm_error *err);
+/* The keyframe message of a simulation's current state: nodes not at rest,
+ * contacts, mode, and the tissue of mat when it differs from the scene's
+ * (mat NULL: the scene's). Arrays are malloc'ed into *out (free with
+ * ftm_replay_keyframe_free). */
+int ftm_replay_make_keyframe(const ftm_sim *sim, const ftm_replay_material *mat,
+                             ftm_wire_keyframe *out, ftm_error *err);
 void ftm_replay_keyframe_free(ftm_wire_keyframe *k);
 
 typedef struct ftm_replay ftm_replay;

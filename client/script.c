@@ -143,6 +143,34 @@ bad:
     return -1;
 }
 
+const char *ftm_script_control(const ftm_script_command *c, const ftm_wire_tissue *now,
+                               ftm_wire_control *out)
+{
+    memset(out, 0, sizeof *out);
+    out->command = c->cmd;
+    out->tissue = *now;
+    switch (c->cmd) {
+    case FTM_WIRE_CMD_PAUSE: return "pause";
+    case FTM_WIRE_CMD_RESUME: return "resume";
+    case FTM_WIRE_CMD_RESET: return "reset";
+    case FTM_WIRE_CMD_DEPTH_LIMITS:
+        out->depth_min = (int32_t)c->value[0];
+        out->depth_max = (int32_t)c->value[1];
+        return "depth limits";
+    case FTM_WIRE_CMD_TISSUE: break;
+    }
+    if (c->param == FTM_SCRIPT_STIFFNESS) {
+        out->tissue.stiffness = c->value[0];
+        return "stiffness";
+    }
+    if (c->param == FTM_SCRIPT_DAMPING) {
+        out->tissue.node_damping = c->value[0];
+        return "damping";
+    }
+    out->tissue.node_mass = c->value[0];
+    return "mass";
+}
+
 /* Linear interpolation; held before the first and after the last point. */
 ftm_vec3 ftm_script_at(const ftm_script *sc, double t)
 {

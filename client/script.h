@@ -42,6 +42,12 @@ typedef struct ftm_script {
 int ftm_script_load(const char *path, ftm_script *sc);
 void ftm_script_free(ftm_script *sc);
 
+/* The SessionControl of a script command; issuer and command_id are left to
+ * the sender. A tissue command changes one parameter of now, the tissue in
+ * force. Returns the command's name for logs ("pause", "stiffness", ...). */
+const char *ftm_script_control(const ftm_script_command *c, const ftm_wire_tissue *now,
+                               ftm_wire_control *out);
+
 /* The HIP at time t: linear between points, held before the first and
  * after the last. The script must have at least one point. */
 ftm_vec3 ftm_script_at(const ftm_script *sc, double t);

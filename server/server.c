@@ -335,12 +335,10 @@ static bool publish_keyframe(server *s)
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_KEYFRAME;
     ftm_error err = {0, ""};
-    if (ftm_replay_make_keyframe(s->sim, &m.u.keyframe, &err)) {
+    if (ftm_replay_make_keyframe(s->sim, &s->mat, &m.u.keyframe, &err)) {
         slog(s, "error", "keyframe: %s", err.message);
         return false;
     }
-    m.u.keyframe.has_tissue = s->mat.changed;
-    m.u.keyframe.tissue = ftm_replay_tissue_now(&s->mat);
     publish(s, &m, &s->bytes_keyframes);
     s->keyframes++;
     ftm_replay_keyframe_free(&m.u.keyframe);

@@ -380,6 +380,21 @@ static double windowed(const run_result *r, double rate, double q)
     return m;
 }
 
+/* p50 and p99 of x[i] - (sub ? sub[i] : 0) over the samples where that is
+ * finite (older bot logs lack the columns), using buf (n doubles). */
+static void pooled_part(const double *x, const double *sub, size_t n, double *buf, double *p50,
+                        double *p99)
+{
+    size_t k = 0;
+    for (size_t i = 0; i < n; i++) {
+        double v = sub ? x[i] - sub[i] : x[i];
+        if (isfinite(v))
+            buf[k++] = v;
+    }
+    *p50 = quantile(buf, k, 0.5);
+    *p99 = quantile(buf, k, 0.99);
+}
+
 /* ddsperf ping's per-second lines: "... 50% Xus 90% Yus 99% Zus ...". */
 static int parse_ddsperf(const char *path, double *p50, double *p99, FILE *series)
 {
@@ -817,24 +832,9 @@ int ftm_bench_net(int argc, char **argv)
         memcpy(all, a.lat, a.nlat * sizeof *all);
         pooled99 = quantile(all, a.nlat, 0.99);
         latmax = all[a.nlat - 1];
-        size_t n = 0;
-        for (size_t i = 0; i < a.nlat; i++)
-            if (isfinite(a.dds[i]))
-                all[n++] = a.lat[i] - a.dds[i];
-        hand50 = quantile(all, n, 0.5);
-        hand99 = quantile(all, n, 0.99);
-        n = 0;
-        for (size_t i = 0; i < a.nlat; i++)
-            if (isfinite(a.dds[i]))
-                all[n++] = a.dds[i];
-        dds50 = quantile(all, n, 0.5);
-        dds99 = quantile(all, n, 0.99);
-        n = 0;
-        for (size_t i = 0; i < a.nlat; i++)
-            if (isfinite(a.pick[i]))
-                all[n++] = a.pick[i];
-        pick50 = quantile(all, n, 0.5);
-        pick99 = quantile(all, n, 0.99);
+        pooled_part(a.lat, a.dds, a.nlat, all, &hand50, &hand99); /* lat - dds */
+        pooled_part(a.dds, NULL, a.nlat, all, &dds50, &dds99);
+        pooled_part(a.pick, NULL, a.nlat, all, &pick50, &pick99);
     }
     if (o.plot && all) {
         char path[1200];

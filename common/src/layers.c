@@ -92,6 +92,20 @@ static bool use_padded_rows(const ftm_mesh *m)
         }                                                                                      \
     } while (0)
 
+/* Room for `need` layer starts. */
+static int reserve_starts(ftm_layering *ly, int32_t need)
+{
+    if (need <= ly->start_cap)
+        return FTM_OK;
+    int32_t ncap = ly->start_cap * 2;
+    int32_t *st = realloc(ly->start, (size_t)ncap * sizeof *st);
+    if (!st)
+        return FTM_ENOMEM;
+    ly->start = st;
+    ly->start_cap = ncap;
+    return FTM_OK;
+}
+
 /* Without sets the search writes the update order directly: order is the
  * BFS queue. */
 static int build_plain(ftm_layering *ly, const ftm_mesh *m, const int32_t *src, int32_t ns,
@@ -111,14 +125,8 @@ static int build_plain(ftm_layering *ly, const ftm_mesh *m, const int32_t *src, 
     ly->start[0] = 0;
     int32_t layer = 0, head = 0;
     while (head < count) {
-        if (layer + 2 > ly->start_cap) {
-            int32_t ncap = ly->start_cap * 2;
-            int32_t *st = realloc(ly->start, (size_t)ncap * sizeof *st);
-            if (!st)
-                return FTM_ENOMEM;
-            ly->start = st;
-            ly->start_cap = ncap;
-        }
+        if (reserve_starts(ly, layer + 2))
+            return FTM_ENOMEM;
         const int32_t end = count;
         if (layer < depth) {
             for (int32_t k = head; k < end; k++) {
@@ -164,29 +172,19 @@ int ftm_layering_build(ftm_layering *ly, const ftm_mesh *m, const int32_t *src, 
     /* all sources advance together: layer l+1 is everything first reached from layer l */
     int32_t layer = 0, head = 0;
     while (head < count) {
-        if (layer + 2 > ly->start_cap) {
-            int32_t ncap = ly->start_cap * 2;
-            int32_t *st = realloc(ly->start, (size_t)ncap * sizeof *st);
-            if (!st)
-                return FTM_ENOMEM;
-            ly->start = st;
-            ly->start_cap = ncap;
-        }
+        if (reserve_starts(ly, layer + 2))
+            return FTM_ENOMEM;
         int32_t end = count;
         int32_t *next = counts[(layer + 1) & 1];
         for (int32_t k = head; layer < depth && k < end; k++) {
             const int32_t u = queue[k];
             FOR_NEW_NEIGHBOURS(u, (queue[count++] = v, next[color[v]]++));
         }
-        if (want_sets)
-            sort_layer(ly, color, counts[layer & 1], head, end);
-        else
-            memcpy(ly->order + head, queue + head, (size_t)(end - head) * sizeof *queue);
+        sort_layer(ly, color, counts[layer & 1], head, end);
         head = end;
         ly->start[++layer] = end;
     }
-    if (want_sets)
-        ly->set_start[ly->sets] = count;
+    ly->set_start[ly->sets] = count;
     ly->count = count;
     ly->layers = layer;
     return FTM_OK;

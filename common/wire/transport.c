@@ -798,17 +798,10 @@ static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm
 static rx_item *next_item(kind_io *io, int64_t deadline, uint64_t *dropped)
 {
     pthread_mutex_lock(&io->rx_lock);
-    while (!io->rx_head) {
-        int64_t left = deadline - now_ns();
-        if (left <= 0)
-            break;
-        struct timespec ts;
-        clock_gettime(CLOCK_MONOTONIC, &ts);
-        int64_t at = (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec + left;
-        ts.tv_sec = at / 1000000000;
-        ts.tv_nsec = at % 1000000000;
-        pthread_cond_timedwait(&io->rx_cond, &io->rx_lock, &ts);
-    }
+    /* rx_cond runs on CLOCK_MONOTONIC, the deadline's clock */
+    const struct timespec until = {(time_t)(deadline / 1000000000), (long)(deadline % 1000000000)};
+    while (!io->rx_head && now_ns() < deadline)
+        pthread_cond_timedwait(&io->rx_cond, &io->rx_lock, &until);
     rx_item *it = io->rx_head;
     if (it) {
         io->rx_head = it->next;

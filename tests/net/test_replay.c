@@ -59,7 +59,7 @@ static void check_continuation(uint64_t at)
     for (int i = 0; i < 20; i++)
         assert_int_equal(ftm_replay_step(b, 5, &other, 1, NULL), FTM_OK);
     ftm_wire_keyframe k;
-    assert_int_equal(ftm_replay_make_keyframe(a, &k, NULL), FTM_OK);
+    assert_int_equal(ftm_replay_make_keyframe(a, NULL, &k, NULL), FTM_OK);
     assert_true(k.tick == at);
     assert_true(k.count > 0);
     ftm_error err = {0, ""};
@@ -124,7 +124,7 @@ static void test_continue_substepped(void **state)
     ftm_sim_get_mode(a, &mode);
     assert_true(mode.substeps > 1);
     ftm_wire_keyframe k;
-    assert_int_equal(ftm_replay_make_keyframe(a, &k, NULL), FTM_OK);
+    assert_int_equal(ftm_replay_make_keyframe(a, NULL, &k, NULL), FTM_OK);
     ftm_error err = {0, ""};
     if (ftm_sim_load_state(b, k.tick, k.depth, k.nodes, k.positions, k.previous, k.count, c, n,
                            &mode, &err))
@@ -199,7 +199,7 @@ static void test_replica(void **state)
     assert_int_equal(ftm_replay_state(r), FTM_WIRE_STATE_JOINING);
 
     ftm_wire_keyframe k0;
-    assert_int_equal(ftm_replay_make_keyframe(s.sim, &k0, NULL), FTM_OK); /* tick 0 */
+    assert_int_equal(ftm_replay_make_keyframe(s.sim, NULL, &k0, NULL), FTM_OK); /* tick 0 */
     ftm_wire_received rx;
     ftm_contact store[4];
     uint64_t lost_at = 150, bad_at = 240, sent = 0;
@@ -230,7 +230,7 @@ static void test_replica(void **state)
             assert_int_equal(ftm_replay_state(r), FTM_WIRE_STATE_RESYNCING);
             /* the server answers with a keyframe of its current tick */
             ftm_wire_keyframe k;
-            assert_int_equal(ftm_replay_make_keyframe(s.sim, &k, NULL), FTM_OK);
+            assert_int_equal(ftm_replay_make_keyframe(s.sim, NULL, &k, NULL), FTM_OK);
             assert_int_equal(ftm_replay_on_keyframe(r, &k), FTM_OK);
             ftm_replay_keyframe_free(&k);
             assert_int_equal(ftm_replay_state(r), FTM_WIRE_STATE_SYNCED);
@@ -261,7 +261,7 @@ static void test_replica(void **state)
     assert_int_equal(ftm_sim_load_state(s.sim, t, 8, NULL, NULL, NULL, 0, NULL, 0, NULL, NULL),
                      FTM_OK);
     ftm_wire_keyframe kr;
-    assert_int_equal(ftm_replay_make_keyframe(s.sim, &kr, NULL), FTM_OK);
+    assert_int_equal(ftm_replay_make_keyframe(s.sim, NULL, &kr, NULL), FTM_OK);
     assert_int_equal(ftm_replay_on_keyframe(r, &kr), FTM_OK);
     assert_int_equal(ftm_replay_state(r), FTM_WIRE_STATE_SYNCED);
     assert_true(ftm_replay_hash(r) == ftm_sim_hash(s.sim));
@@ -444,6 +444,15 @@ static void test_set_mesh_refusals(void **state)
     ftm_scene_destroy(other);
 }
 
+/* The server's keyframe of its current state, to a replica. */
+static void give_keyframe(ftm_replay *r, const ftm_sim *srv, const ftm_replay_material *mat)
+{
+    ftm_wire_keyframe k;
+    assert_int_equal(ftm_replay_make_keyframe(srv, mat, &k, NULL), FTM_OK);
+    assert_int_equal(ftm_replay_on_keyframe(r, &k), FTM_OK);
+    ftm_replay_keyframe_free(&k);
+}
+
 /* A replica switches at the frame that carries the parameters; one that lost
  * that frame resyncs from a keyframe carrying them; a late joiner starts from
  * such a keyframe. Every hash equals the server's. */
@@ -461,7 +470,7 @@ static void test_tissue_replica(void **state)
     assert_int_equal(ftm_replay_create(sc, NULL, NULL, &lossy, NULL), FTM_OK);
     assert_int_equal(ftm_replay_create(sc, NULL, NULL, &late, NULL), FTM_OK);
     ftm_wire_keyframe k0;
-    assert_int_equal(ftm_replay_make_keyframe(s.sim, &k0, NULL), FTM_OK);
+    assert_int_equal(ftm_replay_make_keyframe(s.sim, NULL, &k0, NULL), FTM_OK);
     ftm_wire_tissue soft = ftm_replay_scene_tissue(sc), stiff = soft;
     soft.stiffness *= 0.5;
     soft.node_damping *= 1.5;
@@ -505,12 +514,7 @@ static void test_tissue_replica(void **state)
             if (lossy_gap) {
                 lossy_gap = false;
                 assert_int_equal(ftm_replay_state(lossy), FTM_WIRE_STATE_RESYNCING);
-                ftm_wire_keyframe k;
-                assert_int_equal(ftm_replay_make_keyframe(s.sim, &k, NULL), FTM_OK);
-                k.has_tissue = mat.changed;
-                k.tissue = ftm_replay_tissue_now(&mat);
-                assert_int_equal(ftm_replay_on_keyframe(lossy, &k), FTM_OK);
-                ftm_replay_keyframe_free(&k);
+                give_keyframe(lossy, s.sim, &mat);
             }
             assert_int_equal(ftm_replay_state(lossy), FTM_WIRE_STATE_SYNCED);
             assert_true(ftm_replay_hash(lossy) == ftm_sim_hash(s.sim));
@@ -518,12 +522,7 @@ static void test_tissue_replica(void **state)
         if (t >= join) {
             assert_int_equal(ftm_replay_on_tick(late, &rx), FTM_OK);
             if (t == join) {
-                ftm_wire_keyframe k;
-                assert_int_equal(ftm_replay_make_keyframe(s.sim, &k, NULL), FTM_OK);
-                k.has_tissue = mat.changed;
-                k.tissue = ftm_replay_tissue_now(&mat);
-                assert_int_equal(ftm_replay_on_keyframe(late, &k), FTM_OK);
-                ftm_replay_keyframe_free(&k);
+                give_keyframe(late, s.sim, &mat);
             }
             assert_int_equal(ftm_replay_state(late), FTM_WIRE_STATE_SYNCED);
             assert_true(ftm_replay_hash(late) == ftm_sim_hash(s.sim));
@@ -584,7 +583,7 @@ static void test_region_sleep_session(void **state)
     assert_int_equal(ftm_replay_create(sc, NULL, NULL, &early, NULL), FTM_OK);
     assert_int_equal(ftm_replay_create(sc, NULL, NULL, &late, NULL), FTM_OK);
     ftm_wire_keyframe k0;
-    assert_int_equal(ftm_replay_make_keyframe(srv, &k0, NULL), FTM_OK);
+    assert_int_equal(ftm_replay_make_keyframe(srv, NULL, &k0, NULL), FTM_OK);
     int32_t top = ftm_mesh_node_of_input(m, 3 + 8 * (3 + 8 * 7));
     int32_t side = ftm_mesh_node_of_input(m, 4 + 8 * (3 + 8 * 7));
     uint64_t seq = 0, slept_at = 0, late_at = 0;
@@ -615,7 +614,7 @@ static void test_region_sleep_session(void **state)
             rx.gap = 0;
             assert_int_equal(ftm_replay_on_tick(late, &rx), FTM_OK);
             ftm_wire_keyframe k;
-            assert_int_equal(ftm_replay_make_keyframe(srv, &k, NULL), FTM_OK);
+            assert_int_equal(ftm_replay_make_keyframe(srv, NULL, &k, NULL), FTM_OK);
             assert_int_equal(k.contact_count, 1);
             assert_true(k.has_mode && k.mode.region_sleeping);
             assert_int_equal(ftm_replay_on_keyframe(late, &k), FTM_OK);
