@@ -164,6 +164,16 @@ typedef struct fake_server {
     ftm_contact c[4];
 } fake_server;
 
+/* The server's simulation of the scene, as ftm-server makes it. */
+static fake_server fake_server_open(const ftm_scene *sc)
+{
+    fake_server s = {0};
+    s.m = ftm_scene_mesh(sc);
+    ftm_sim_def def = ftm_replay_sim_def(sc);
+    assert_int_equal(ftm_sim_create(s.m, &def, &s.sim, NULL), FTM_OK);
+    return s;
+}
+
 /* Runs tick t; returns true and fills rx if the server would send a frame
  * (the idle rule of docs/protocol.md). */
 static bool server_tick(fake_server *s, uint64_t t, ftm_wire_received *rx, ftm_contact *store)
@@ -190,10 +200,7 @@ static void test_replica(void **state)
 {
     (void)state;
     ftm_scene *sc = open_scene();
-    fake_server s = {0};
-    s.m = ftm_scene_mesh(sc);
-    ftm_sim_def def = ftm_replay_sim_def(sc);
-    assert_int_equal(ftm_sim_create(s.m, &def, &s.sim, NULL), FTM_OK);
+    fake_server s = fake_server_open(sc);
     ftm_replay *r = NULL;
     assert_int_equal(ftm_replay_create(sc, NULL, NULL, &r, NULL), FTM_OK);
     assert_int_equal(ftm_replay_state(r), FTM_WIRE_STATE_JOINING);
@@ -460,10 +467,7 @@ static void test_tissue_replica(void **state)
 {
     (void)state;
     ftm_scene *sc = open_scene();
-    fake_server s = {0};
-    s.m = ftm_scene_mesh(sc);
-    ftm_sim_def def = ftm_replay_sim_def(sc);
-    assert_int_equal(ftm_sim_create(s.m, &def, &s.sim, NULL), FTM_OK);
+    fake_server s = fake_server_open(sc);
     ftm_replay_material mat = {.scene = sc};
     ftm_replay *r = NULL, *lossy = NULL, *late = NULL;
     assert_int_equal(ftm_replay_create(sc, NULL, NULL, &r, NULL), FTM_OK);
@@ -537,6 +541,7 @@ static void test_tissue_replica(void **state)
     assert_true(ftm_replay_tissue(lossy).stiffness == stiff.stiffness);
     /* and the frames really differ from a run that ignores the change */
     ftm_sim *plain = NULL;
+    ftm_sim_def def = ftm_replay_sim_def(sc);
     assert_int_equal(ftm_sim_create(s.m, &def, &plain, NULL), FTM_OK);
     ftm_contact c[4];
     for (uint64_t t = 1; t <= 200; t++)
