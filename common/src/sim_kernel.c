@@ -269,10 +269,11 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #include <immintrin.h>
 
 /* The 8-lane loads are written with intrinsics: built from vector
- * extensions, GCC 12 pads each 4 + 4 concatenation with register moves, and
- * the kernel is bound by the count of vector operations in flight, not by
- * its square roots and divisions (docs/benchmarks.md): these loads took it
- * from 16.3 to 15.1 us cached at depth 20 of Table 3. */
+ * extensions, GCC 12 padded each 4 + 4 concatenation with a register move
+ * and a 512-bit shuffle, and the kernel's time follows its loads' vector
+ * operations more than its square roots and divisions (docs/benchmarks.md):
+ * these loads took it from 16.3 to 15.1-15.6 us cached at depth 20 of
+ * Table 3, bit-identical. */
 #define AVX512 __attribute__((target("avx512f"), always_inline))
 
 /* the 128-bit pairs at a, b, c and d, in that order */
