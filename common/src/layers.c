@@ -106,38 +106,53 @@ static int reserve_starts(ftm_layering *ly, int32_t need)
     return FTM_OK;
 }
 
-/* Without sets the search writes the update order directly: order is the
- * BFS queue. */
-static int build_plain(ftm_layering *ly, const ftm_mesh *m, const int32_t *src, int32_t ns,
-                       int32_t depth)
+/* The search, compiled once with and once without sets. Without them the
+ * BFS queue is the update order itself, written directly, and no colours are
+ * counted. */
+static inline __attribute__((always_inline)) int search(ftm_layering *ly, const ftm_mesh *m,
+                                                        const int32_t *src, int32_t ns,
+                                                        int32_t depth, bool want_sets)
 {
     const uint32_t gen = ly->gen;
     uint32_t *restrict visit = ly->visit;
-    int32_t *restrict order = ly->order;
+    int32_t *restrict queue = want_sets ? ly->queue : ly->order;
     const int32_t *restrict adj_start = m->adj_start, *restrict adj_node = m->adj_node;
     const size_t deg = (size_t)m->max_degree;
     const bool padded = use_padded_rows(m);
+    const uint8_t *color = m->color;
+    /* colour counts of the layer being sorted and of the one being found */
+    int32_t counts[2][FTM_SHARED_COLOR + 1] = {{0}};
     int32_t count = 0;
     for (int32_t s = 0; s < ns; s++) {
         visit[src[s]] = gen;
-        order[count++] = src[s];
+        queue[count++] = src[s];
+        if (want_sets)
+            counts[0][color[src[s]]]++;
     }
+    ly->sets = 0;
     ly->start[0] = 0;
+    /* all sources advance together: layer l+1 is everything first reached from layer l */
     int32_t layer = 0, head = 0;
     while (head < count) {
         if (reserve_starts(ly, layer + 2))
             return FTM_ENOMEM;
         const int32_t end = count;
-        if (layer < depth) {
-            for (int32_t k = head; k < end; k++) {
-                const int32_t u = order[k];
-                FOR_NEW_NEIGHBOURS(u, order[count++] = v);
-            }
+        int32_t *next = counts[(layer + 1) & 1];
+        for (int32_t k = head; layer < depth && k < end; k++) {
+            const int32_t u = queue[k];
+            FOR_NEW_NEIGHBOURS(u, {
+                queue[count++] = v;
+                if (want_sets)
+                    next[color[v]]++;
+            });
         }
+        if (want_sets)
+            sort_layer(ly, color, counts[layer & 1], head, end);
         head = end;
         ly->start[++layer] = end;
     }
-    ly->sets = 0;
+    if (want_sets)
+        ly->set_start[ly->sets] = count;
     ly->count = count;
     ly->layers = layer;
     return FTM_OK;
@@ -150,42 +165,5 @@ int ftm_layering_build(ftm_layering *ly, const ftm_mesh *m, const int32_t *src, 
         memset(ly->visit, 0, (size_t)m->node_count * sizeof *ly->visit);
         ly->gen = 1;
     }
-    if (!want_sets)
-        return build_plain(ly, m, src, ns, depth);
-    const uint32_t gen = ly->gen;
-    uint32_t *restrict visit = ly->visit;
-    int32_t *restrict queue = ly->queue;
-    const int32_t *restrict adj_start = m->adj_start, *restrict adj_node = m->adj_node;
-    const size_t deg = (size_t)m->max_degree;
-    const bool padded = use_padded_rows(m);
-    const uint8_t *color = m->color;
-    /* colour counts of the layer being sorted and of the one being found */
-    int32_t counts[2][FTM_SHARED_COLOR + 1] = {{0}};
-    int32_t count = 0;
-    for (int32_t s = 0; s < ns; s++) {
-        visit[src[s]] = gen;
-        queue[count++] = src[s];
-        counts[0][color[src[s]]]++;
-    }
-    ly->sets = 0;
-    ly->start[0] = 0;
-    /* all sources advance together: layer l+1 is everything first reached from layer l */
-    int32_t layer = 0, head = 0;
-    while (head < count) {
-        if (reserve_starts(ly, layer + 2))
-            return FTM_ENOMEM;
-        int32_t end = count;
-        int32_t *next = counts[(layer + 1) & 1];
-        for (int32_t k = head; layer < depth && k < end; k++) {
-            const int32_t u = queue[k];
-            FOR_NEW_NEIGHBOURS(u, (queue[count++] = v, next[color[v]]++));
-        }
-        sort_layer(ly, color, counts[layer & 1], head, end);
-        head = end;
-        ly->start[++layer] = end;
-    }
-    ly->set_start[ly->sets] = count;
-    ly->count = count;
-    ly->layers = layer;
-    return FTM_OK;
+    return want_sets ? search(ly, m, src, ns, depth, true) : search(ly, m, src, ns, depth, false);
 }
