@@ -166,6 +166,12 @@ void ftm_schedule_free(schedule *s);
 int ftm_sim_refresh_region(ftm_sim *sim);
 int ftm_sim_rebuild_region(ftm_sim *sim);
 int ftm_sim_rebuild_schedule(ftm_sim *sim);
+/* A block's padded link rows copied slot-major, as the vector kernels read
+ * them with linked: per slot `width` times 3 * neighbour of the lanes' nodes
+ * n[0 .. width-1], then their `width` stiffnesses and `width` rest lengths. */
+void ftm_block_copy_links(const ftm_mesh *m, const int32_t *n, int width, int32_t slots,
+                          int32_t *lj, double *lkl);
+/* Made on a schedule's second use (the colored order's blocks). */
 void ftm_sim_schedule_links(ftm_sim *sim);
 
 /* sim_kernel.c: each sweep returns false if a node moved more than its

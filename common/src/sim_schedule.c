@@ -146,36 +146,29 @@ static void schedule_blocks(ftm_sim *sim)
     s->linked = false;
 }
 
-/* Copies each block's padded link rows slot-major: per slot the four lanes'
- * 3 * neighbour, k and rest length. */
+void ftm_block_copy_links(const ftm_mesh *m, const int32_t *n, int width, int32_t slots,
+                          int32_t *lj, double *lkl)
+{
+    const size_t deg = (size_t)m->max_degree;
+    for (int32_t sl = 0; sl < slots; sl++)
+        for (int l = 0; l < width; l++) {
+            const size_t e = (size_t)n[l] * deg + (size_t)sl;
+            lj[width * sl + l] = 3 * m->pad_node[e];
+            lkl[2 * width * sl + l] = m->pad_kl[2 * e];
+            lkl[2 * width * sl + width + l] = m->pad_kl[2 * e + 1];
+        }
+}
+
+/* The colored order's blocks, four lanes each. */
 void ftm_sim_schedule_links(ftm_sim *sim)
 {
     schedule *s = &sim->s;
-    const int32_t *pad_node = sim->m->pad_node;
-    const double *pad_kl = sim->m->pad_kl;
-    const size_t deg = (size_t)sim->m->max_degree;
     for (int32_t b = 0; b < s->blocks; b++) {
+        const block bl = s->block[b];
         int32_t n[4];
-        ftm_block_lanes(s, s->block[b], n);
-        const int32_t *n0 = pad_node + n[0] * deg, *n1 = pad_node + n[1] * deg,
-                      *n2 = pad_node + n[2] * deg, *n3 = pad_node + n[3] * deg;
-        const double *kl0 = pad_kl + 2 * n[0] * deg, *kl1 = pad_kl + 2 * n[1] * deg,
-                     *kl2 = pad_kl + 2 * n[2] * deg, *kl3 = pad_kl + 2 * n[3] * deg;
-        int32_t *lj = s->link_j + 4 * (size_t)s->block[b].link;
-        double *lkl = s->link_kl + 8 * (size_t)s->block[b].link;
-        for (int32_t sl = 0; sl < s->block[b].slots; sl++) {
-            lj[4 * sl] = 3 * n0[sl];
-            lj[4 * sl + 1] = 3 * n1[sl];
-            lj[4 * sl + 2] = 3 * n2[sl];
-            lj[4 * sl + 3] = 3 * n3[sl];
-            /* the lanes' (k, len) pairs unpacked into k and len */
-            v2du p0 = LOAD2(kl0 + 2 * sl), p1 = LOAD2(kl1 + 2 * sl), p2 = LOAD2(kl2 + 2 * sl),
-                 p3 = LOAD2(kl3 + 2 * sl);
-            *(v2du *)(lkl + 8 * sl) = __builtin_shufflevector(p0, p1, 0, 2);
-            *(v2du *)(lkl + 8 * sl + 2) = __builtin_shufflevector(p2, p3, 0, 2);
-            *(v2du *)(lkl + 8 * sl + 4) = __builtin_shufflevector(p0, p1, 1, 3);
-            *(v2du *)(lkl + 8 * sl + 6) = __builtin_shufflevector(p2, p3, 1, 3);
-        }
+        ftm_block_lanes(s, bl, n);
+        ftm_block_copy_links(sim->m, n, 4, bl.slots, s->link_j + 4 * (size_t)bl.link,
+                             s->link_kl + 8 * (size_t)bl.link);
     }
     s->linked = true;
 }
