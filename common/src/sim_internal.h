@@ -72,7 +72,7 @@ typedef struct schedule {
     /* rollback: previous positions overwritten in the last step; 3 per
      * schedule position, or in the colored order x, y and z vectors of 4 per block */
     double *save;
-    double *tmp;    /* Jacobi: new positions of a group, x, y and z vectors of 4 per block */
+    double *tmp;    /* Jacobi: new positions of a group, x, y and z vectors of 4 or 8 per block */
     int32_t uses;   /* colored or Jacobi sweeps since the schedule was built */
     bool linked;    /* link_j / link_kl hold the blocks' links (Jacobi: also block) */
     int32_t cap, gcap;

@@ -229,13 +229,6 @@ static bool sweep_blocks_portable(ftm_sim *sim, double *max_m2)
  * add -0.0), so the state is bit-identical to updating the layer's nodes one
  * by one from a copy of the state before it; the energy is summed in the same
  * order by every variant (an 8-lane block as its two 4-lane halves). */
-typedef double v8d __attribute__((vector_size(64)));
-typedef int64_t v8l __attribute__((vector_size(64)));
-#define GATHER8(p, i) ((v8d){(p)[i[0]], (p)[i[1]], (p)[i[2]], (p)[i[3]], (p)[i[4]], (p)[i[5]], \
-                             (p)[i[6]], (p)[i[7]]})
-
-#define LO4(v) __builtin_shufflevector((v), (v), 0, 1, 2, 3)
-#define HI4(v) __builtin_shufflevector((v), (v), 4, 5, 6, 7)
 
 /* the (k, len) pairs of four padded rows at slot sl, as k and len vectors */
 static inline __attribute__((always_inline)) void load_kl4(const double *const kl[4], int32_t sl,
@@ -256,6 +249,7 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #define JLOAD(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
 #define JGATHER GATHER4A
 #define GATHER4A(p, i) GATHER4(p, i[0], i[1], i[2], i[3])
+#define JLOAD_KL load_kl4
 #include "sim_jacobi.inc"
 #undef JW
 #undef JV
@@ -265,8 +259,16 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #undef JLINKNAME
 #undef JLOAD
 #undef JGATHER
+#undef JLOAD_KL
 #if defined(__x86_64__) || defined(__i386__) /* the 8-lane build is for AVX-512 */
 #include <immintrin.h>
+
+typedef double v8d __attribute__((vector_size(64)));
+typedef int64_t v8l __attribute__((vector_size(64)));
+#define GATHER8(p, i) ((v8d){(p)[i[0]], (p)[i[1]], (p)[i[2]], (p)[i[3]], (p)[i[4]], (p)[i[5]], \
+                             (p)[i[6]], (p)[i[7]]})
+#define LO4(v) __builtin_shufflevector((v), (v), 0, 1, 2, 3)
+#define HI4(v) __builtin_shufflevector((v), (v), 4, 5, 6, 7)
 
 /* The 8-lane loads are written with intrinsics: built from vector
  * extensions, GCC 12 padded each 4 + 4 concatenation with a register move
@@ -318,6 +320,7 @@ static inline AVX512 void load_kl8(const double *const kl[8], int32_t sl, v8d *k
 #define JLINKNAME jacobi_links8
 #define JLOAD load_xyz8
 #define JGATHER GATHER8
+#define JLOAD_KL load_kl8
 #include "sim_jacobi.inc"
 
 __attribute__((target("avx512f"))) static bool sweep_jacobi_avx512(ftm_sim *sim, double *max_m2)

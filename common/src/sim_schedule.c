@@ -40,7 +40,7 @@ static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t 
         GROW(s->node, cap, 1);
         GROW(s->block, cap, 1);
         GROW(s->save, cap, 12); /* blocks <= count */
-        GROW(s->tmp, cap, 12); /* a group's blocks: <= 3 * count + 9 */
+        GROW(s->tmp, cap, 12); /* a group's blocks of 8: <= 3 * (count + 7), cap >= 256 */
         s->cap = cap;
     }
     /* slots of all blocks: colored 4 lanes, Jacobi up to 8 (blocks <= count) */
