@@ -86,6 +86,11 @@ size_t ftm_wire_default_cap(int kind)
     }
 }
 
+size_t wire_payload_cap(const ftm_wire_limits *limits, int kind)
+{
+    return limits && limits->max_payload ? limits->max_payload : ftm_wire_default_cap(kind);
+}
+
 /* ---- validation of unpacked (or about to be packed) protobuf-c structs ---- */
 
 typedef struct vctx {
@@ -753,7 +758,7 @@ int ftm_wire_decode(int kind, const void *data, size_t size, const ftm_wire_limi
     const char *what = ftm_wire_kind_name(kind);
     if (!data && size)
         return wire_err(err, FTM_EINVAL, "%s: payload is NULL", what);
-    size_t cap = limits && limits->max_payload ? limits->max_payload : ftm_wire_default_cap(kind);
+    size_t cap = wire_payload_cap(limits, kind);
     if (size > cap)
         return wire_err(err, FTM_ETOOBIG, "%s: payload of %zu bytes exceeds the %zu-byte cap",
                         what, size, cap);

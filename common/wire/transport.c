@@ -430,9 +430,8 @@ static void on_data_available(dds_entity_t reader, void *arg)
             if (strncmp(env->session, t->session, sizeof env->session) != 0)
                 continue; /* another session on the same domain */
             size_t size = info[i].valid_data ? env->payload._length : 0, over = 0;
-            size_t cap = t->limits.max_payload ? t->limits.max_payload
-                                               : ftm_wire_default_cap(io->kind);
-            if (size > cap) { /* rejected by the reader's thread, never copied */
+            /* over the cap: rejected by the reader's thread, never copied */
+            if (size > wire_payload_cap(&t->limits, io->kind)) {
                 over = size;
                 size = 0;
             }
@@ -762,7 +761,7 @@ static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm
         return 0;
     }
     if (it->oversize) {
-        size_t cap = t->limits.max_payload ? t->limits.max_payload : ftm_wire_default_cap(kind);
+        const size_t cap = wire_payload_cap(&t->limits, kind);
         reject(t, kind, "message from participant %u seq %llu: %s: payload of %zu bytes exceeds "
                "the %zu-byte cap",
                it->sender, (unsigned long long)it->seq, what, it->oversize, cap);

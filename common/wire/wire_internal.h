@@ -17,6 +17,10 @@ int wire_err(ftm_error *err, int code, const char *fmt, ...)
 int wire_scan(const ProtobufCMessageDescriptor *desc, const uint8_t *data, size_t size,
               const char *what, ftm_error *err);
 
+/* The payload cap of kind under limits: their max_payload if set, else the
+ * kind's default cap. limits may be NULL. */
+size_t wire_payload_cap(const ftm_wire_limits *limits, int kind);
+
 /* The protobuf-c descriptor of a kind's top-level message, NULL if none. */
 const ProtobufCMessageDescriptor *wire_descriptor(int kind);
 
