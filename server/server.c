@@ -1532,16 +1532,16 @@ int main(int argc, char **argv)
             /* both on this CPU: the publishing thread, one level up, takes a
              * queued frame by a context switch, without waking another core */
             int cpu = sched_getcpu();
-            cpu_set_t set;
+            cpu_set_t was, set;
             CPU_ZERO(&set);
             if (cpu >= 0)
                 CPU_SET(cpu, &set);
-            if (cpu < 0 || pthread_setaffinity_np(pthread_self(), sizeof set, &set) ||
-                ftm_wire_pin_publisher(s->wire, cpu, &err)) {
-                CPU_ZERO(&set);
-                for (int c = 0; c < CPU_SETSIZE; c++)
-                    CPU_SET(c, &set);
-                pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+            if (cpu < 0 || pthread_getaffinity_np(pthread_self(), sizeof was, &was)) {
+                cpu = -1;
+            } else if (pthread_setaffinity_np(pthread_self(), sizeof set, &set) ||
+                       ftm_wire_pin_publisher(s->wire, cpu, &err)) {
+                /* back to the CPUs the server was given (taskset, cgroup) */
+                pthread_setaffinity_np(pthread_self(), sizeof was, &was);
                 cpu = -1;
             }
             char where[32] = "";
