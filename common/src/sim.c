@@ -98,6 +98,7 @@ static void set_substep_length(ftm_sim *sim, double h)
         node_coef(sim->m, ftm_sim_masses(sim), i, h, sim->coef + 3 * i);
         sim->ke_w[i] = 0.5 * ftm_sim_masses(sim)[i] / (h * h);
     }
+    sim->s.linked = false; /* the schedule's blocks hold copies of the coefficients */
 }
 
 /* The layer-by-layer (Gauss-Seidel) update is not time-reversible like plain
@@ -481,6 +482,14 @@ static void restore_state(ftm_sim *sim, double *full, bool region_ran)
                     for (int d = 0; d < 3; d++)
                         sim->xp[3 * s->node[s->block[b].first + l] + d] =
                             s->save[12 * b + 4 * d + l];
+        } else if (sim->def.order == FTM_ORDER_LAYER_JACOBI) {
+            const int32_t w = sim->jacobi_lanes;
+            int32_t b = 0;
+            for (int32_t g = 0; g < s->groups; g++)
+                for (int32_t k = s->group[g]; k < s->group[g + 1]; k += w, b++)
+                    for (int32_t l = 0; l < w && k + l < s->group[g + 1]; l++)
+                        for (int d = 0; d < 3; d++)
+                            sim->xp[3 * s->node[k + l] + d] = s->save[3 * w * b + w * d + l];
         } else {
             for (int32_t k = 0; k < s->count; k++)
                 memcpy(sim->xp + 3 * s->node[k], s->save + 3 * k, 3 * sizeof(double));

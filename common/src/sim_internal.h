@@ -69,8 +69,13 @@ typedef struct schedule {
      * block's last node), stiffness and rest length, as in pad_node / pad_kl */
     int32_t *link_j;
     double *link_kl; /* per slot: k of the 4 lanes, then len */
+    /* per block, with the links: the lanes' Eq. 8 coefficients a, b and c,
+     * guard limit lim2 and energy weight ke_w (5 vectors of the lane count),
+     * so the kernels load them instead of gathering them per node */
+    double *node_c;
     /* rollback: previous positions overwritten in the last step; 3 per
-     * schedule position, or in the colored order x, y and z vectors of 4 per block */
+     * schedule position, or in the colored and Jacobi orders x, y and z
+     * vectors of the lane count per block */
     double *save;
     double *tmp;    /* Jacobi: new positions of a group, x, y and z vectors of 4 or 8 per block */
     int32_t uses;   /* colored or Jacobi sweeps since the schedule was built */
@@ -125,6 +130,7 @@ struct ftm_sim {
     sweep_fn sweep_blocks; /* the block kernels for this CPU (see select_kernel) */
     sweep_fn sweep_jacobi;
     void (*jacobi_links)(struct ftm_sim *sim); /* slot-major links for sweep_jacobi's lanes */
+    int jacobi_lanes; /* of sweep_jacobi: its blocks' width */
     /* Energy guard (sim.c): the sweeps add each updated node's kinetic energy
      * m |x_new - x|^2 / 2 h^2 and a quarter of its links' k (|r| - l)^2 */
     double energy;       /* of the current substep */
@@ -171,6 +177,9 @@ int ftm_sim_rebuild_schedule(ftm_sim *sim);
  * n[0 .. width-1], then their `width` stiffnesses and `width` rest lengths. */
 void ftm_block_copy_links(const ftm_mesh *m, const int32_t *n, int width, int32_t slots,
                           int32_t *lj, double *lkl);
+/* The per-node constants of the lanes' nodes n[0 .. width-1], as node_c
+ * holds them (a, b, c, lim2, ke_w: `width` of each). */
+void ftm_block_copy_consts(const struct ftm_sim *sim, const int32_t *n, int width, double *out);
 /* Made on a schedule's second use (the colored order's blocks). */
 void ftm_sim_schedule_links(ftm_sim *sim);
 

@@ -160,8 +160,21 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
             ay += t * ry;
             az += t * rz;
         }
-        const v4d ca = GATHER4(coef, i0, i1, i2, i3), cb = GATHER4(coef + 1, i0, i1, i2, i3),
-                  cc = GATHER4(coef + 2, i0, i1, i2, i3);
+        v4d ca, cb, cc, lim, kw;
+        if (linked) {
+            const double *nc = s->node_c + 20 * (size_t)b;
+            ca = LOAD4(nc);
+            cb = LOAD4(nc + 4);
+            cc = LOAD4(nc + 8);
+            lim = LOAD4(nc + 12);
+            kw = LOAD4(nc + 16);
+        } else {
+            ca = GATHER4(coef, i0, i1, i2, i3);
+            cb = GATHER4(coef + 1, i0, i1, i2, i3);
+            cc = GATHER4(coef + 2, i0, i1, i2, i3);
+            lim = GATHER4(lim2, n[0], n[1], n[2], n[3]);
+            kw = GATHER4(ke_w, n[0], n[1], n[2], n[3]);
+        }
         v4d fx = {0, 0, 0, 0}, fy = fx, fz = fx;
         if (bl.forced) {
             fx = GATHER4(force, i0, i1, i2, i3);
@@ -170,8 +183,6 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
         }
         const v4d px = GATHER4(xp, i0, i1, i2, i3), py = GATHER4(xp + 1, i0, i1, i2, i3),
                   pz = GATHER4(xp + 2, i0, i1, i2, i3);
-        const v4d lim = GATHER4(lim2, n[0], n[1], n[2], n[3]),
-                  kw = GATHER4(ke_w, n[0], n[1], n[2], n[3]);
         v4d nx = ca * (fx - ax) + cb * cx - cc * px;
         v4d ny = ca * (fy - ay) + cb * cy - cc * py;
         v4d nz = ca * (fz - az) + cb * cz - cc * pz;
@@ -347,6 +358,7 @@ void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
     sim->sweep_blocks = sweep_blocks_portable;
     sim->sweep_jacobi = sweep_jacobi_portable;
     sim->jacobi_links = jacobi_links4;
+    sim->jacobi_lanes = 4;
 #if defined(__x86_64__) || defined(__i386__)
     if (!portable && __builtin_cpu_supports("avx")) {
         sim->sweep_blocks = sweep_blocks_avx;
@@ -355,6 +367,7 @@ void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
     if (!portable && __builtin_cpu_supports("avx512f")) {
         sim->sweep_jacobi = sweep_jacobi_avx512;
         sim->jacobi_links = jacobi_links8;
+        sim->jacobi_lanes = 8;
     }
 #endif
     /* Jacobi links are laid out for the kernel's lane count */

@@ -19,6 +19,7 @@ void ftm_schedule_free(schedule *s)
     free(s->block);
     free(s->link_j);
     free(s->link_kl);
+    free(s->node_c);
     free(s->save);
     free(s->tmp);
     memset(s, 0, sizeof *s);
@@ -39,8 +40,9 @@ static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t 
             cap *= 2;
         GROW(s->node, cap, 1);
         GROW(s->block, cap, 1);
-        GROW(s->save, cap, 12); /* blocks <= count */
+        GROW(s->save, cap, 24); /* blocks <= count, 3 * 8 per block */
         GROW(s->tmp, cap, 12); /* a group's blocks of 8: <= 3 * (count + 7), cap >= 256 */
+        GROW(s->node_c, cap, 40); /* 5 * 8 per block, blocks <= count */
         s->cap = cap;
     }
     /* slots of all blocks: colored 4 lanes, Jacobi up to 8 (blocks <= count) */
@@ -159,6 +161,18 @@ void ftm_block_copy_links(const ftm_mesh *m, const int32_t *n, int width, int32_
         }
 }
 
+void ftm_block_copy_consts(const ftm_sim *sim, const int32_t *n, int width, double *out)
+{
+    for (int l = 0; l < width; l++) {
+        const double *c = sim->coef + 3 * (size_t)n[l];
+        out[l] = c[0];
+        out[width + l] = c[1];
+        out[2 * width + l] = c[2];
+        out[3 * width + l] = sim->lim2[n[l]];
+        out[4 * width + l] = sim->ke_w[n[l]];
+    }
+}
+
 /* The colored order's blocks, four lanes each. */
 void ftm_sim_schedule_links(ftm_sim *sim)
 {
@@ -169,6 +183,7 @@ void ftm_sim_schedule_links(ftm_sim *sim)
         ftm_block_lanes(s, bl, n);
         ftm_block_copy_links(sim->m, n, 4, bl.slots, s->link_j + 4 * (size_t)bl.link,
                              s->link_kl + 8 * (size_t)bl.link);
+        ftm_block_copy_consts(sim, n, 4, s->node_c + 20 * (size_t)b);
     }
     s->linked = true;
 }
