@@ -193,5 +193,24 @@ check "diverging run exits 3" [ "$rc" -eq 3 ]
 check "diverging run explains" grep -q 'diverged' "$tmp/err"
 check "critical time step warning" grep -q 'warning' "$tmp/err"
 
+# The Table 3 benchmark's output (its figures are timings: only their shape is
+# checked here). One run, a few steps per figure: the table, and the same run's
+# JSON in a file.
+run bench table3 --steps 55 --eq-steps 100 --json-file "$tmp/t3.json"
+check "bench table3 exits 0" [ "$rc" -eq 0 ]
+check "bench table3 prints the depth 20 row with Eq. 9's count" \
+    grep -Eq '^ +20 +1261 +1261 \|' "$tmp/out"
+check "bench table3 JSON has 8 rows" \
+    [ "$(grep -o '"depth":[0-9]*,"nodes"' "$tmp/t3.json" | wc -l)" -eq 8 ]
+check "bench table3 JSON rows have search and step times" \
+    grep -q '"depth":20,"nodes":1261,"paper_nodes":1261,"search_us":[0-9.]*,"step_us":[0-9.]*' \
+    "$tmp/t3.json"
+run bench table3 --steps 5
+check "bench table3 rejects too few steps" [ "$rc" -eq 2 ]
+check "bench table3 names the bad option" grep -q -- '--steps' "$tmp/err"
+run bench table3 --json-file "$tmp/no/such/dir/t3.json"
+check "bench table3 unwritable JSON file fails" [ "$rc" -eq 1 ]
+check "bench table3 names the file" grep -q 'no/such/dir/t3.json' "$tmp/err"
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -8,12 +8,18 @@
  * jacobi order (whose search needs no colour sets); medians over many steps,
  * beside the paper's figures (Pentium III 800 MHz). Then the intra-layer
  * order variants: step time at the deepest depth and how far their
- * equilibria differ from the paper's plain BFS order. */
+ * equilibria differ from the paper's plain BFS order.
+ *
+ * Each figure is measured in ROUNDS rounds that visit every row in turn, and
+ * reported as the median of its rounds' medians: a burst of other work on the
+ * machine (a shared virtual machine has them) then spoils one round of a few
+ * rows instead of a whole row. */
 #include "bench.h"
 
 #include "ftm/ftm.h"
 #include "layers.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -37,6 +43,7 @@ static const int paper_nodes[] = {7, 19, 37, 61, 91, 331, 721, 1261};
 static const double paper_search_ms[] = {0.02, 0.05, 0.12, 0.23, 0.39, 2.59, 10.85, 28.79};
 static const double paper_step_ms[] = {0.14, 0.25, 0.42, 0.64, 0.96, 4.17, 13.84, 30.97};
 #define NDEPTH ((int)(sizeof depths / sizeof depths[0]))
+#define ROUNDS 5
 
 typedef struct bench_setup {
     ftm_mesh *mesh;
@@ -69,7 +76,8 @@ static int setup(bench_setup *b)
     return 0;
 }
 
-/* Median time of one step [us] over `steps` steps after a warm-up. */
+/* Median time of one step [us] over `steps` steps after a warm-up of as
+ * many steps, at most 200 (the load deforms the region first). */
 static double time_steps(const bench_setup *b, int depth, ftm_order order, bool cache, int steps,
                          double *samples)
 {
@@ -81,7 +89,7 @@ static double time_steps(const bench_setup *b, int depth, ftm_order order, bool 
     if (ftm_sim_create(b->mesh, &d, &sim, NULL))
         return NAN;
     ftm_sim_set_contacts(sim, &b->load, 1, NULL);
-    ftm_sim_run(sim, 200);
+    ftm_sim_run(sim, steps < 200 ? steps : 200);
     for (int i = 0; i < steps; i++) {
         double t0 = ftm_bench_now_us();
         ftm_sim_step(sim);
@@ -142,54 +150,101 @@ static const char *order_name(ftm_order o)
 int ftm_bench_table3(int argc, char **argv)
 {
     bool json = false;
+    const char *json_file = NULL;
     int steps = 20000, eq_steps = 40000;
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--json") == 0)
             json = true;
-        else if (strcmp(argv[i], "--steps") == 0 && i + 1 < argc) {
+        else if (strcmp(argv[i], "--json-file") == 0 && i + 1 < argc)
+            json_file = argv[++i];
+        else if (strcmp(argv[i], "--eq-steps") == 0 && i + 1 < argc) {
+            eq_steps = atoi(argv[++i]);
+            if (eq_steps < 1 || eq_steps > 10000000) {
+                fprintf(stderr, "ftm bench table3: --eq-steps must be in 1..10000000\n");
+                return 2;
+            }
+        } else if (strcmp(argv[i], "--steps") == 0 && i + 1 < argc) {
             steps = atoi(argv[++i]);
             if (steps < 11 || steps > 10000000) {
                 fprintf(stderr, "ftm bench table3: --steps must be in 11..10000000\n");
                 return 2;
             }
         } else if (strcmp(argv[i], "--help") == 0) {
-            printf("usage: ftm bench table3 [--steps N] [--json]\n"
-                   "  --steps N  timed steps per measurement (default 20000)\n"
-                   "  --json     print {\"rows\":[{\"depth\":..,\"nodes\":..,\"search_us\":..,"
-                   "\"step_us\":..},...],\"orders\":[...]}\n"
-                   "             (rows also hold step_cached_us and the jacobi order's\n"
-                   "             jacobi_search_us, jacobi_step_us, jacobi_step_cached_us)\n");
+            printf("usage: ftm bench table3 [--steps N] [--eq-steps N] [--json] "
+                   "[--json-file FILE]\n"
+                   "  --steps N         timed steps per measurement (default 20000), taken in\n"
+                   "                    %d rounds over all rows\n"
+                   "  --eq-steps N      steps run to equilibrium for the order comparison\n"
+                   "                    (default 40000)\n"
+                   "  --json            print {\"rows\":[{\"depth\":..,\"nodes\":..,"
+                   "\"search_us\":..,\"step_us\":..},...],\"orders\":[...]}\n"
+                   "                    (rows also hold step_cached_us and the jacobi order's\n"
+                   "                    jacobi_search_us, jacobi_step_us, jacobi_step_cached_us)\n"
+                   "  --json-file FILE  print the table and write the same run's JSON to FILE\n",
+                   ROUNDS);
             return 0;
         } else {
             fprintf(stderr, "ftm bench table3: unknown option '%s' (try --help)\n", argv[i]);
             return 2;
         }
     }
-    bench_setup b;
-    if (setup(&b))
+    FILE *jf = NULL;
+    if (json_file && !(jf = fopen(json_file, "w"))) {
+        fprintf(stderr, "ftm bench table3: cannot write '%s': %s\n", json_file, strerror(errno));
         return 1;
-    double *samples = malloc((size_t)steps * sizeof *samples);
-    /* untimed: brings the core up to speed before the first (shortest) rows */
-    time_steps(&b, depths[NDEPTH - 1], FTM_ORDER_LAYER_COLORED, false, steps / 4 + 1, samples);
-    double search[NDEPTH], step[NDEPTH], cached[NDEPTH];
-    double jsearch[NDEPTH], jstep[NDEPTH], jcached[NDEPTH];
-    int32_t nodes[NDEPTH];
-    for (int r = 0; r < NDEPTH; r++) {
-        search[r] = time_search(&b, depths[r], true, steps, samples, &nodes[r]);
-        step[r] = time_steps(&b, depths[r], FTM_ORDER_LAYER_COLORED, false, steps, samples);
-        cached[r] = time_steps(&b, depths[r], FTM_ORDER_LAYER_COLORED, true, steps, samples);
-        jsearch[r] = time_search(&b, depths[r], false, steps, samples, &nodes[r]);
-        jstep[r] = time_steps(&b, depths[r], FTM_ORDER_LAYER_JACOBI, false, steps, samples);
-        jcached[r] = time_steps(&b, depths[r], FTM_ORDER_LAYER_JACOBI, true, steps, samples);
     }
-    /* order variants at the deepest depth */
+    bench_setup b;
+    if (setup(&b)) {
+        if (jf)
+            fclose(jf);
+        return 1;
+    }
+    const int per = steps / ROUNDS > 0 ? steps / ROUNDS : 1; /* samples per round */
+    double *samples = malloc((size_t)per * sizeof *samples);
+    /* untimed: brings the core up to speed before the first (shortest) rows */
+    time_steps(&b, depths[NDEPTH - 1], FTM_ORDER_LAYER_COLORED, false, per, samples);
+    /* per round: search, step, cached (colored), the same (jacobi) per row,
+     * then step and cached per order at the deepest depth */
+    enum { SEARCH, STEP, CACHED, JSEARCH, JSTEP, JCACHED, FIGS };
     const ftm_order orders[3] = {FTM_ORDER_BFS, FTM_ORDER_LAYER_COLORED, FTM_ORDER_LAYER_JACOBI};
     const int dmax = depths[NDEPTH - 1];
+    double fig[NDEPTH][FIGS][ROUNDS], ofig[3][2][ROUNDS];
+    int32_t nodes[NDEPTH];
+    for (int k = 0; k < ROUNDS; k++) {
+        for (int r = 0; r < NDEPTH; r++) {
+            double *f = &fig[r][0][0];
+            f[SEARCH * ROUNDS + k] = time_search(&b, depths[r], true, per, samples, &nodes[r]);
+            f[STEP * ROUNDS + k] =
+                time_steps(&b, depths[r], FTM_ORDER_LAYER_COLORED, false, per, samples);
+            f[CACHED * ROUNDS + k] =
+                time_steps(&b, depths[r], FTM_ORDER_LAYER_COLORED, true, per, samples);
+            f[JSEARCH * ROUNDS + k] = time_search(&b, depths[r], false, per, samples, &nodes[r]);
+            f[JSTEP * ROUNDS + k] =
+                time_steps(&b, depths[r], FTM_ORDER_LAYER_JACOBI, false, per, samples);
+            f[JCACHED * ROUNDS + k] =
+                time_steps(&b, depths[r], FTM_ORDER_LAYER_JACOBI, true, per, samples);
+        }
+        for (int o = 0; o < 3; o++) {
+            ofig[o][0][k] = time_steps(&b, dmax, orders[o], false, per, samples);
+            ofig[o][1][k] = time_steps(&b, dmax, orders[o], true, per, samples);
+        }
+    }
+    double search[NDEPTH], step[NDEPTH], cached[NDEPTH];
+    double jsearch[NDEPTH], jstep[NDEPTH], jcached[NDEPTH];
+    for (int r = 0; r < NDEPTH; r++) {
+        search[r] = ftm_bench_median(fig[r][SEARCH], ROUNDS);
+        step[r] = ftm_bench_median(fig[r][STEP], ROUNDS);
+        cached[r] = ftm_bench_median(fig[r][CACHED], ROUNDS);
+        jsearch[r] = ftm_bench_median(fig[r][JSEARCH], ROUNDS);
+        jstep[r] = ftm_bench_median(fig[r][JSTEP], ROUNDS);
+        jcached[r] = ftm_bench_median(fig[r][JCACHED], ROUNDS);
+    }
+    /* order variants at the deepest depth: equilibria against the bfs order */
     double ostep[3], ocached[3], odiff[3], ores[3];
     double *ref = NULL;
     for (int o = 0; o < 3; o++) {
-        ostep[o] = time_steps(&b, dmax, orders[o], false, steps, samples);
-        ocached[o] = time_steps(&b, dmax, orders[o], true, steps, samples);
+        ostep[o] = ftm_bench_median(ofig[o][0], ROUNDS);
+        ocached[o] = ftm_bench_median(ofig[o][1], ROUNDS);
         double *x = equilibrium(&b, dmax, orders[o], eq_steps, &ores[o]);
         if (!ref) {
             ref = x;
@@ -205,43 +260,60 @@ int ftm_bench_table3(int argc, char **argv)
     free(ref);
     free(samples);
 
-    if (json) {
-        printf("{\"bench\":\"table3\",\"steps\":%d,\"rows\":[", steps);
+    for (int pass = 0; pass < 2; pass++) {
+        /* the JSON to stdout (--json) and/or to the file (--json-file) */
+        FILE *out = pass == 0 ? (json ? stdout : NULL) : jf;
+        if (!out)
+            continue;
+        fprintf(out, "{\"bench\":\"table3\",\"steps\":%d,\"rounds\":%d,\"rows\":[", steps,
+                ROUNDS);
         for (int r = 0; r < NDEPTH; r++)
-            printf("%s{\"depth\":%d,\"nodes\":%d,\"paper_nodes\":%d,\"search_us\":%.3f,"
-                   "\"step_us\":%.3f,\"step_cached_us\":%.3f,\"paper_search_ms\":%.2f,"
-                   "\"paper_step_ms\":%.2f,\"node_updates_per_s\":%.4g,"
-                   "\"jacobi_search_us\":%.3f,\"jacobi_step_us\":%.3f,"
-                   "\"jacobi_step_cached_us\":%.3f}",
-                   r ? "," : "", depths[r], (int)nodes[r], paper_nodes[r], search[r], step[r],
-                   cached[r], paper_search_ms[r], paper_step_ms[r], nodes[r] / (step[r] * 1e-6),
-                   jsearch[r], jstep[r], jcached[r]);
-        printf("],\"orders\":[");
+            fprintf(out,
+                    "%s{\"depth\":%d,\"nodes\":%d,\"paper_nodes\":%d,\"search_us\":%.3f,"
+                    "\"step_us\":%.3f,\"step_cached_us\":%.3f,\"paper_search_ms\":%.2f,"
+                    "\"paper_step_ms\":%.2f,\"node_updates_per_s\":%.4g,"
+                    "\"jacobi_search_us\":%.3f,\"jacobi_step_us\":%.3f,"
+                    "\"jacobi_step_cached_us\":%.3f}",
+                    r ? "," : "", depths[r], (int)nodes[r], paper_nodes[r], search[r], step[r],
+                    cached[r], paper_search_ms[r], paper_step_ms[r], nodes[r] / (step[r] * 1e-6),
+                    jsearch[r], jstep[r], jcached[r]);
+        fprintf(out, "],\"orders\":[");
         for (int o = 0; o < 3; o++)
-            printf("%s{\"order\":\"%s\",\"depth\":%d,\"step_us\":%.3f,\"step_cached_us\":%.3f,"
-                   "\"max_diff_vs_bfs\":%.3e,\"residual\":%.3e}",
-                   o ? "," : "", order_name(orders[o]), dmax, ostep[o], ocached[o], odiff[o],
-                   ores[o]);
-        printf("]}\n");
-    } else {
+            fprintf(out,
+                    "%s{\"order\":\"%s\",\"depth\":%d,\"step_us\":%.3f,"
+                    "\"step_cached_us\":%.3f,\"max_diff_vs_bfs\":%.3e,\"residual\":%.3e}",
+                    o ? "," : "", order_name(orders[o]), dmax, ostep[o], ocached[o], odiff[o],
+                    ores[o]);
+        fprintf(out, "]}\n");
+    }
+    if (jf && fclose(jf) != 0) {
+        fprintf(stderr, "ftm bench table3: cannot write '%s'\n", json_file);
+        ftm_mesh_destroy(b.mesh);
+        return 1;
+    }
+    if (!json) {
         printf("Paper Table 3: 50x50 2D lattice, force on the centre node; medians of %d steps\n"
+               "in %d rounds over the rows (each figure: the median of its rounds' medians)\n"
                "(step = one time step with a fresh neighbour search, as the paper timed it;\n"
                " cached = the layers reused while the contact is unchanged, FTM's default;\n"
                " colored = the default order, whose search splits layers into independent\n"
                " sets; jacobi = each layer from the state before it, plain search)\n\n",
-               steps);
-        printf("%5s %6s %6s | %27s | %27s | %10s %10s %8s\n", "", "", "", "colored (default)",
-               "jacobi", "", "", "");
-        printf("%5s %6s %6s | %8s %8s %9s | %8s %8s %9s | %10s %10s %8s\n", "depth", "nodes",
+               steps, ROUNDS);
+        printf("%5s %6s %6s | %27s | %27s | %10s %10s %8s %7s\n", "", "", "", "colored (default)",
+               "jacobi", "", "", "", "");
+        printf("%5s %6s %6s | %8s %8s %9s | %8s %8s %9s | %10s %10s %8s %7s\n", "depth", "nodes",
                "Eq.9", "search", "step", "cached", "search", "step", "cached", "paper srch",
-               "paper step", "speedup");
+               "paper step", "speedup", "Mupd/s");
         for (int r = 0; r < NDEPTH; r++)
             printf("%5d %6d %6d | %8.3f %8.3f %9.3f | %8.3f %8.3f %9.3f | %8.2fms %8.2fms "
-                   "%7.0fx\n",
+                   "%7.0fx %7.1f\n",
                    depths[r], (int)nodes[r], 3 * depths[r] * depths[r] + 3 * depths[r] + 1,
                    search[r], step[r], cached[r], jsearch[r], jstep[r], jcached[r],
-                   paper_search_ms[r], paper_step_ms[r], paper_step_ms[r] * 1e3 / step[r]);
-        printf("(times in us; speedup: the paper's step over the colored step with its search)\n");
+                   paper_search_ms[r], paper_step_ms[r], paper_step_ms[r] * 1e3 / step[r],
+                   nodes[r] / step[r]);
+        printf("(times in us; speedup: the paper's step over the colored step with its search;\n"
+               " Mupd/s: million node updates per second in that step, as node_updates_per_s\n"
+               " in the JSON)\n");
         printf("\nIntra-layer order at depth %d (equilibrium after %d steps; spacing = 1):\n\n",
                dmax, eq_steps);
         printf("%8s | %10s %10s | %16s %12s\n", "order", "step us", "cached us",
