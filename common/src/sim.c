@@ -484,12 +484,15 @@ static void restore_state(ftm_sim *sim, double *full, bool region_ran)
                             s->save[12 * b + 4 * d + l];
         } else if (sim->def.order == FTM_ORDER_LAYER_JACOBI) {
             const int32_t w = sim->jacobi_lanes;
-            int32_t b = 0;
-            for (int32_t g = 0; g < s->groups; g++)
-                for (int32_t k = s->group[g]; k < s->group[g + 1]; k += w, b++)
-                    for (int32_t l = 0; l < w && k + l < s->group[g + 1]; l++)
-                        for (int d = 0; d < 3; d++)
-                            sim->xp[3 * s->node[k + l] + d] = s->save[3 * w * b + w * d + l];
+            for (int32_t g = 0, b0 = 0; g < s->groups; g++) {
+                const int32_t k0 = s->group[g], k1 = s->group[g + 1];
+                for (int32_t k = k0; k < k1; k++) {
+                    const double *js = ftm_jacobi_save(sim, b0, k0, k);
+                    for (int d = 0; d < 3; d++)
+                        sim->xp[3 * s->node[k] + d] = js[d * w];
+                }
+                b0 += (k1 - k0 + w - 1) / w;
+            }
         } else {
             for (int32_t k = 0; k < s->count; k++)
                 memcpy(sim->xp + 3 * s->node[k], s->save + 3 * k, 3 * sizeof(double));

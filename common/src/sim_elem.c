@@ -257,8 +257,9 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
     } else if (sim->def.order == FTM_ORDER_BFS) {
         for (int32_t k = 0; k < s->count; k++)
             ok &= update_node(sim, s->node[k], s->save + 3 * (size_t)k, 1, &mm);
-    } else { /* Jacobi: each layer from the state before it */
-        for (int32_t g = 0; g < s->groups; g++) {
+    } else { /* Jacobi: each layer from the state before it; save as the kernels do */
+        const int32_t w = sim->jacobi_lanes;
+        for (int32_t g = 0, b0 = 0; g < s->groups; g++) {
             for (int32_t k = s->group[g]; k < s->group[g + 1]; k++) {
                 int32_t i = s->node[k];
                 double f[3];
@@ -267,16 +268,18 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
                 ok &= m2 <= sim->lim2[i];
                 mm = m2 > mm ? m2 : mm;
             }
-            for (int32_t k = s->group[g]; k < s->group[g + 1]; k++) {
+            const int32_t k0 = s->group[g], k1 = s->group[g + 1];
+            for (int32_t k = k0; k < k1; k++) {
                 int32_t i = s->node[k];
-                double *xi = sim->x + 3 * i, *pi = sim->xp + 3 * i, *sv = s->save + 3 * k,
-                       *t = s->tmp + 3 * k;
+                double *xi = sim->x + 3 * i, *pi = sim->xp + 3 * i,
+                       *sv = ftm_jacobi_save(sim, b0, k0, k), *t = s->tmp + 3 * k;
                 for (int d = 0; d < 3; d++) {
-                    sv[d] = pi[d];
+                    sv[d * w] = pi[d];
                     pi[d] = xi[d];
                     xi[d] = t[d];
                 }
             }
+            b0 += (k1 - k0 + w - 1) / w;
         }
     }
     *max_m2 = mm;

@@ -163,6 +163,16 @@ static inline __attribute__((always_inline)) void ftm_block_lanes(const schedule
     n[3] = sn[bl.lanes - 1];
 }
 
+/* Where the Jacobi order saves the x_prev of schedule position k for
+ * rollback: in its block's x, y and z vectors of sim->jacobi_lanes each
+ * (coordinate d at [d * lanes]); b0 is the first block of k's group, k0 the
+ * group's first position. */
+static inline double *ftm_jacobi_save(const ftm_sim *sim, int32_t b0, int32_t k0, int32_t k)
+{
+    const int32_t w = sim->jacobi_lanes, off = k - k0;
+    return sim->s.save + 3 * (size_t)w * (size_t)(b0 + off / w) + off % w;
+}
+
 /* sim.c */
 int ftm_sim_relax_reserve(ftm_sim *sim, int32_t need);
 
