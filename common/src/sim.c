@@ -63,7 +63,6 @@ void ftm_sim_destroy(ftm_sim *sim)
     free(sim->xp);
     free(sim->coef);
     free(sim->force);
-    free(sim->lim2);
     free(sim->ke_w);
     free(sim->work_mark);
     free(sim->kind);
@@ -95,7 +94,7 @@ static void set_substep_length(ftm_sim *sim, double h)
 {
     sim->h_sub = h;
     for (int32_t i = 0; i < sim->n; i++) {
-        node_coef(sim->m, ftm_sim_masses(sim), i, h, sim->coef + 3 * i);
+        node_coef(sim->m, ftm_sim_masses(sim), i, h, sim->coef + FTM_COEF * i);
         sim->ke_w[i] = 0.5 * ftm_sim_masses(sim)[i] / (h * h);
     }
     sim->s.linked = false; /* the schedule's blocks hold copies of the coefficients */
@@ -157,13 +156,12 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
     size_t n = (size_t)sim->n;
     sim->x = malloc(n * 3 * sizeof(double));
     sim->xp = malloc(n * 3 * sizeof(double));
-    sim->coef = malloc(n * 3 * sizeof(double));
+    sim->coef = malloc(n * FTM_COEF * sizeof(double));
     sim->force = calloc(n * 3, sizeof(double));
-    sim->lim2 = malloc(n * sizeof(double));
     sim->ke_w = malloc(n * sizeof(double));
     sim->kind = calloc(n, 1);
     sim->relax_tmp = malloc(n * sizeof(int32_t));
-    if (!sim->x || !sim->xp || !sim->coef || !sim->force || !sim->lim2 || !sim->ke_w || !sim->kind ||
+    if (!sim->x || !sim->xp || !sim->coef || !sim->force || !sim->ke_w || !sim->kind ||
         !sim->relax_tmp ||
         ftm_layering_init(&sim->ly, sim->n) != FTM_OK) {
         ftm_sim_destroy(sim);
@@ -176,7 +174,7 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
     ftm_sim_select_kernel(sim, false);
     for (size_t i = 0; i < n; i++) {
         double lim = d.guard_motion * m->min_link[i];
-        sim->lim2[i] = isfinite(lim) ? lim * lim : INFINITY;
+        sim->coef[FTM_COEF * i + FTM_LIM2] = isfinite(lim) ? lim * lim : INFINITY;
     }
     if (d.forces != FTM_FORCES_SPRINGS && (rc = ftm_elem_create(sim, err)) != FTM_OK) {
         ftm_sim_destroy(sim);

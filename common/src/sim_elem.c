@@ -216,7 +216,7 @@ static inline void node_force(ftm_elem *el, const ftm_mesh *m, const double *x, 
 static inline double integrate(const ftm_sim *sim, int32_t i, const double cur[3],
                                const double f[3], double out[3])
 {
-    const double *c = sim->coef + 3 * i, *F = sim->force + 3 * i, *p = sim->xp + 3 * i;
+    const double *c = sim->coef + FTM_COEF * i, *F = sim->force + 3 * i, *p = sim->xp + 3 * i;
     for (int d = 0; d < 3; d++)
         out[d] = c[0] * (F[d] - f[d]) + c[1] * cur[d] - c[2] * p[d];
     double dx = out[0] - cur[0], dy = out[1] - cur[1], dz = out[2] - cur[2];
@@ -238,7 +238,7 @@ static inline bool update_node(ftm_sim *sim, int32_t i, double *save, int stride
         pi[d] = cur[d];
         xi[d] = nw[d];
     }
-    return m2 <= sim->lim2[i]; /* false for NaN too */
+    return m2 <= ftm_sim_lim2(sim, i); /* false for NaN too */
 }
 
 bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
@@ -265,7 +265,7 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
                 double f[3];
                 node_force(el, sim->m, sim->x, i, f);
                 double m2 = integrate(sim, i, sim->x + 3 * i, f, s->tmp + 3 * k);
-                ok &= m2 <= sim->lim2[i];
+                ok &= m2 <= ftm_sim_lim2(sim, i);
                 mm = m2 > mm ? m2 : mm;
             }
             const int32_t k0 = s->group[g], k1 = s->group[g + 1];

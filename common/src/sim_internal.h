@@ -14,6 +14,10 @@
  * above ~1e-134, and keeps coincident nodes (r = 0) from producing 0/0. */
 #define FTM_LEN_EPS 1e-150
 
+/* sim->coef holds FTM_COEF doubles per node; the guard's limit is the last. */
+#define FTM_COEF 4
+#define FTM_LIM2 3
+
 /* Scheduled nodes are the free and force-loaded ones (kind < NODE_DISP). */
 enum { NODE_FREE = 0, NODE_FORCE = 1, NODE_DISP = 2, NODE_FIXED = 3 };
 
@@ -92,9 +96,11 @@ struct ftm_sim {
     ftm_sim_def def;
     int32_t n;
     double *x, *xp; /* positions and previous positions, 3 per node */
-    double *coef;   /* per-node a, b, c for the current substep length */
+    /* per node, one 32-byte row: a, b, c of Eq. 8 for the current substep
+     * length and the guard's squared motion limit (FTM_LIM2); the vector
+     * kernels load a block's rows whole and transpose them */
+    double *coef;
     double *force;  /* external force, 3 per node (zero but at force contacts) */
-    double *lim2;   /* guard: squared motion limit per node */
     double *ke_w;   /* energy guard: m / 2 h_sub^2 per node (kinetic energy per squared motion) */
     uint8_t *kind;  /* NODE_* per node */
 
@@ -144,6 +150,12 @@ struct ftm_sim {
     ftm_sim_stats st;
     struct ftm_elem *elem; /* element forces (sim_elem.c); NULL = springs */
 };
+
+/* The guard's squared motion limit of node i. */
+static inline double ftm_sim_lim2(const ftm_sim *sim, int32_t i)
+{
+    return sim->coef[FTM_COEF * (size_t)i + FTM_LIM2];
+}
 
 static inline bool ftm_sim_at_rest(const ftm_sim *sim, int32_t i)
 {

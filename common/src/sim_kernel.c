@@ -51,7 +51,7 @@ static inline void spring_force(const ftm_mesh *restrict m, const double *restri
 static inline double integrate(const ftm_sim *sim, int32_t i, const double cur[3],
                                const double f[3], double out[3])
 {
-    const double *c = sim->coef + 3 * i, *F = sim->force + 3 * i, *p = sim->xp + 3 * i;
+    const double *c = sim->coef + FTM_COEF * i, *F = sim->force + 3 * i, *p = sim->xp + 3 * i;
     for (int d = 0; d < 3; d++)
         out[d] = c[0] * (F[d] - f[d]) + c[1] * cur[d] - c[2] * p[d];
     double dx = out[0] - cur[0], dy = out[1] - cur[1], dz = out[2] - cur[2];
@@ -75,7 +75,7 @@ bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
         double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe;
         spring_force_pe(m, x, i, cur, f, &pe);
         double m2 = integrate(sim, i, cur, f, nw);
-        ok &= m2 <= sim->lim2[i]; /* false for NaN too */
+        ok &= m2 <= ftm_sim_lim2(sim, i); /* false for NaN too */
         mm = m2 > mm ? m2 : mm;
         en += sim->ke_w[i] * m2 + 0.25 * pe;
         for (int d = 0; d < 3; d++) {
@@ -87,6 +87,24 @@ bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
     *max_m2 = mm;
     sim->energy += en;
     return ok;
+}
+
+/* The coefficient rows (a, b, c, lim2) of nodes on[0..3] as a, b, c and
+ * lim2 vectors: four 32-byte loads and a 4 x 4 transpose, in place of
+ * sixteen scalar loads from separate arrays (docs/benchmarks.md). */
+static inline __attribute__((always_inline)) void load_coef4(const double *p, const size_t on[4],
+                                                             v4d *a, v4d *b, v4d *c, v4d *lim2)
+{
+    const v4d r0 = LOAD4(p + FTM_COEF * on[0]), r1 = LOAD4(p + FTM_COEF * on[1]),
+              r2 = LOAD4(p + FTM_COEF * on[2]), r3 = LOAD4(p + FTM_COEF * on[3]);
+    const v4d ac01 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6),
+              bl01 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7),
+              ac23 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6),
+              bl23 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+    *a = __builtin_shufflevector(ac01, ac23, 0, 1, 4, 5);
+    *b = __builtin_shufflevector(bl01, bl23, 0, 1, 4, 5);
+    *c = __builtin_shufflevector(ac01, ac23, 2, 3, 6, 7);
+    *lim2 = __builtin_shufflevector(bl01, bl23, 2, 3, 6, 7);
 }
 
 /* The colored sweep, four nodes of an independent set per vector. Lane l
@@ -103,7 +121,7 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
     const size_t deg = (size_t)sim->m->max_degree;
     const int32_t *restrict pad_node = sim->m->pad_node;
     const double *restrict pad_kl = sim->m->pad_kl;
-    const double *restrict coef = sim->coef, *restrict force = sim->force, *restrict lim2 = sim->lim2;
+    const double *restrict coef = sim->coef, *restrict force = sim->force;
     double *restrict x = sim->x, *restrict xp = sim->xp;
     const double *restrict ke_w = sim->ke_w;
     v4d mm = {*max_m2, *max_m2, *max_m2, *max_m2}, en = {0, 0, 0, 0};
@@ -169,10 +187,8 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
             lim = LOAD4(nc + 12);
             kw = LOAD4(nc + 16);
         } else {
-            ca = GATHER4(coef, i0, i1, i2, i3);
-            cb = GATHER4(coef + 1, i0, i1, i2, i3);
-            cc = GATHER4(coef + 2, i0, i1, i2, i3);
-            lim = GATHER4(lim2, n[0], n[1], n[2], n[3]);
+            const size_t on[4] = {(size_t)n[0], (size_t)n[1], (size_t)n[2], (size_t)n[3]};
+            load_coef4(coef, on, &ca, &cb, &cc, &lim);
             kw = GATHER4(ke_w, n[0], n[1], n[2], n[3]);
         }
         v4d fx = {0, 0, 0, 0}, fy = fx, fz = fx;
@@ -261,6 +277,7 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #define JGATHER GATHER4A
 #define GATHER4A(p, i) GATHER4(p, i[0], i[1], i[2], i[3])
 #define JLOAD_KL load_kl4
+#define JLOAD_COEF load_coef4
 #include "sim_jacobi.inc"
 #undef JW
 #undef JV
@@ -271,6 +288,7 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #undef JLOAD
 #undef JGATHER
 #undef JLOAD_KL
+#undef JLOAD_COEF
 #if defined(__x86_64__) || defined(__i386__) /* the 8-lane build is for AVX-512 */
 #include <immintrin.h>
 
@@ -323,6 +341,27 @@ static inline AVX512 void load_kl8(const double *const kl[8], int32_t sl, v8d *k
     *len = (v8d)_mm512_unpackhi_pd(p0, p1);
 }
 
+/* the coefficient rows (a, b, c, lim2) of nodes on[0..7] as vectors: the
+ * rows of lanes l and l + 4 share a 512-bit register, unpacked into (a, c)
+ * and (b, lim2) pairs, which two-source permutes put in lane order */
+static inline AVX512 void load_coef8(const double *p, const size_t on[8], v8d *a, v8d *b, v8d *c,
+                                     v8d *lim2)
+{
+    __m512d r[4];
+    for (int l = 0; l < 4; l++)
+        r[l] = _mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_loadu_pd(p + FTM_COEF * on[l])),
+                                  _mm256_loadu_pd(p + FTM_COEF * on[l + 4]), 1);
+    const __m512d ac01 = _mm512_unpacklo_pd(r[0], r[1]), bl01 = _mm512_unpackhi_pd(r[0], r[1]),
+                  ac23 = _mm512_unpacklo_pd(r[2], r[3]), bl23 = _mm512_unpackhi_pd(r[2], r[3]);
+    /* elements 0, 1 of a pair, then 8, 9 (the other source), then 4, 5, 12, 13 */
+    const __m512i first = _mm512_set_epi64(13, 12, 5, 4, 9, 8, 1, 0),
+                  second = _mm512_set_epi64(15, 14, 7, 6, 11, 10, 3, 2);
+    *a = (v8d)_mm512_permutex2var_pd(ac01, first, ac23);
+    *c = (v8d)_mm512_permutex2var_pd(ac01, second, ac23);
+    *b = (v8d)_mm512_permutex2var_pd(bl01, first, bl23);
+    *lim2 = (v8d)_mm512_permutex2var_pd(bl01, second, bl23);
+}
+
 #define JW 8
 #define JV v8d
 #define JTARGET __attribute__((target("avx512f")))
@@ -332,6 +371,7 @@ static inline AVX512 void load_kl8(const double *const kl[8], int32_t sl, v8d *k
 #define JLOAD load_xyz8
 #define JGATHER GATHER8
 #define JLOAD_KL load_kl8
+#define JLOAD_COEF load_coef8
 #include "sim_jacobi.inc"
 
 __attribute__((target("avx512f"))) static bool sweep_jacobi_avx512(ftm_sim *sim, double *max_m2)
@@ -386,7 +426,7 @@ bool ftm_sweep_relax(ftm_sim *sim)
         double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe;
         spring_force_pe(sim->m, sim->x, i, cur, f, &pe);
         double m2 = integrate(sim, i, cur, f, nw);
-        ok &= m2 <= sim->lim2[i];
+        ok &= m2 <= ftm_sim_lim2(sim, i);
         en += sim->ke_w[i] * m2 + 0.25 * pe;
         for (int d = 0; d < 3; d++) {
             pi[d] = cur[d];

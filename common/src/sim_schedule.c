@@ -164,11 +164,11 @@ void ftm_block_copy_links(const ftm_mesh *m, const int32_t *n, int width, int32_
 void ftm_block_copy_consts(const ftm_sim *sim, const int32_t *n, int width, double *out)
 {
     for (int l = 0; l < width; l++) {
-        const double *c = sim->coef + 3 * (size_t)n[l];
+        const double *c = sim->coef + FTM_COEF * (size_t)n[l];
         out[l] = c[0];
         out[width + l] = c[1];
         out[2 * width + l] = c[2];
-        out[3 * width + l] = sim->lim2[n[l]];
+        out[3 * width + l] = c[FTM_LIM2];
         out[4 * width + l] = sim->ke_w[n[l]];
     }
 }
