@@ -17,6 +17,9 @@
 /* sim->coef holds FTM_COEF doubles per node; the guard's limit is the last. */
 #define FTM_COEF 4
 #define FTM_LIM2 3
+/* A block's copy of its nodes' constants (schedule.node_c): a, b, c, lim2
+ * and ke_w, a vector of the lane count each. */
+#define FTM_NODE_C 5
 
 /* Scheduled nodes are the free and force-loaded ones (kind < NODE_DISP). */
 enum { NODE_FREE = 0, NODE_FORCE = 1, NODE_DISP = 2, NODE_FIXED = 3 };
@@ -74,8 +77,8 @@ typedef struct schedule {
     int32_t *link_j;
     double *link_kl; /* per slot: k of the 4 lanes, then len */
     /* per block, with the links: the lanes' Eq. 8 coefficients a, b and c,
-     * guard limit lim2 and energy weight ke_w (5 vectors of the lane count),
-     * so the kernels load them instead of gathering them per node */
+     * guard limit lim2 and energy weight ke_w (FTM_NODE_C vectors of the lane
+     * count), so the kernels load them instead of gathering them per node */
     double *node_c;
     /* rollback: previous positions overwritten in the last step; 3 per
      * schedule position, or in the colored and Jacobi orders x, y and z

@@ -180,7 +180,7 @@ static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim
         }
         v4d ca, cb, cc, lim, kw;
         if (linked) {
-            const double *nc = s->node_c + 20 * (size_t)b;
+            const double *nc = s->node_c + FTM_NODE_C * 4 * (size_t)b;
             ca = LOAD4(nc);
             cb = LOAD4(nc + 4);
             cc = LOAD4(nc + 8);

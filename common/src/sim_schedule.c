@@ -42,7 +42,7 @@ static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t 
         GROW(s->block, cap, 1);
         GROW(s->save, cap, 24); /* blocks <= count, 3 * 8 per block */
         GROW(s->tmp, cap, 12); /* a group's blocks of 8: <= 3 * (count + 7), cap >= 256 */
-        GROW(s->node_c, cap, 40); /* 5 * 8 per block, blocks <= count */
+        GROW(s->node_c, cap, FTM_NODE_C * 8); /* per block, blocks <= count */
         s->cap = cap;
     }
     /* slots of all blocks: colored 4 lanes, Jacobi up to 8 (blocks <= count) */
@@ -183,7 +183,7 @@ void ftm_sim_schedule_links(ftm_sim *sim)
         ftm_block_lanes(s, bl, n);
         ftm_block_copy_links(sim->m, n, 4, bl.slots, s->link_j + 4 * (size_t)bl.link,
                              s->link_kl + 8 * (size_t)bl.link);
-        ftm_block_copy_consts(sim, n, 4, s->node_c + 20 * (size_t)b);
+        ftm_block_copy_consts(sim, n, 4, s->node_c + FTM_NODE_C * 4 * (size_t)b);
     }
     s->linked = true;
 }
