@@ -204,30 +204,25 @@ int ftm_bench_table3(int argc, char **argv)
     /* untimed: brings the core up to speed before the first (shortest) rows */
     time_steps(&b, depths[NDEPTH - 1], FTM_ORDER_LAYER_COLORED, false, per, samples);
     /* per round: search, step, cached (colored), the same (jacobi) per row,
-     * then step and cached per order at the deepest depth */
+     * then the bfs order's step and cached at the deepest depth (the other
+     * orders' are the last row's) */
     enum { SEARCH, STEP, CACHED, JSEARCH, JSTEP, JCACHED, FIGS };
     const ftm_order orders[3] = {FTM_ORDER_BFS, FTM_ORDER_LAYER_COLORED, FTM_ORDER_LAYER_JACOBI};
     const int dmax = depths[NDEPTH - 1];
-    double fig[NDEPTH][FIGS][ROUNDS], ofig[3][2][ROUNDS];
+    double fig[NDEPTH][FIGS][ROUNDS], bfs[2][ROUNDS];
     int32_t nodes[NDEPTH];
     for (int k = 0; k < ROUNDS; k++) {
         for (int r = 0; r < NDEPTH; r++) {
-            double *f = &fig[r][0][0];
-            f[SEARCH * ROUNDS + k] = time_search(&b, depths[r], true, per, samples, &nodes[r]);
-            f[STEP * ROUNDS + k] =
-                time_steps(&b, depths[r], FTM_ORDER_LAYER_COLORED, false, per, samples);
-            f[CACHED * ROUNDS + k] =
-                time_steps(&b, depths[r], FTM_ORDER_LAYER_COLORED, true, per, samples);
-            f[JSEARCH * ROUNDS + k] = time_search(&b, depths[r], false, per, samples, &nodes[r]);
-            f[JSTEP * ROUNDS + k] =
-                time_steps(&b, depths[r], FTM_ORDER_LAYER_JACOBI, false, per, samples);
-            f[JCACHED * ROUNDS + k] =
-                time_steps(&b, depths[r], FTM_ORDER_LAYER_JACOBI, true, per, samples);
+            const int d = depths[r];
+            fig[r][SEARCH][k] = time_search(&b, d, true, per, samples, &nodes[r]);
+            fig[r][STEP][k] = time_steps(&b, d, FTM_ORDER_LAYER_COLORED, false, per, samples);
+            fig[r][CACHED][k] = time_steps(&b, d, FTM_ORDER_LAYER_COLORED, true, per, samples);
+            fig[r][JSEARCH][k] = time_search(&b, d, false, per, samples, &nodes[r]);
+            fig[r][JSTEP][k] = time_steps(&b, d, FTM_ORDER_LAYER_JACOBI, false, per, samples);
+            fig[r][JCACHED][k] = time_steps(&b, d, FTM_ORDER_LAYER_JACOBI, true, per, samples);
         }
-        for (int o = 0; o < 3; o++) {
-            ofig[o][0][k] = time_steps(&b, dmax, orders[o], false, per, samples);
-            ofig[o][1][k] = time_steps(&b, dmax, orders[o], true, per, samples);
-        }
+        bfs[0][k] = time_steps(&b, dmax, FTM_ORDER_BFS, false, per, samples);
+        bfs[1][k] = time_steps(&b, dmax, FTM_ORDER_BFS, true, per, samples);
     }
     double search[NDEPTH], step[NDEPTH], cached[NDEPTH];
     double jsearch[NDEPTH], jstep[NDEPTH], jcached[NDEPTH];
@@ -242,9 +237,13 @@ int ftm_bench_table3(int argc, char **argv)
     /* order variants at the deepest depth: equilibria against the bfs order */
     double ostep[3], ocached[3], odiff[3], ores[3];
     double *ref = NULL;
+    ostep[0] = ftm_bench_median(bfs[0], ROUNDS);
+    ocached[0] = ftm_bench_median(bfs[1], ROUNDS);
+    ostep[1] = step[NDEPTH - 1];
+    ocached[1] = cached[NDEPTH - 1];
+    ostep[2] = jstep[NDEPTH - 1];
+    ocached[2] = jcached[NDEPTH - 1];
     for (int o = 0; o < 3; o++) {
-        ostep[o] = ftm_bench_median(ofig[o][0], ROUNDS);
-        ocached[o] = ftm_bench_median(ofig[o][1], ROUNDS);
         double *x = equilibrium(&b, dmax, orders[o], eq_steps, &ores[o]);
         if (!ref) {
             ref = x;
