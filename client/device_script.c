@@ -177,6 +177,13 @@ int ftm_script_device_parse(const char *text, size_t length, const char *name,
             rc = perr(err, FTM_EPARSE, name, line, "expected 't x y z' (4 numbers)");
             break;
         }
+        if (!(v[0] >= 0)) {
+            char msg[96];
+            snprintf(msg, sizeof msg, "time %g is negative (times are seconds from the start)",
+                     v[0]);
+            rc = perr(err, FTM_EPARSE, name, line, msg);
+            break;
+        }
         if (s->n > 0 && !(v[0] > s->p[s->n - 1].t)) {
             char msg[128];
             snprintf(msg, sizeof msg, "time %g does not increase (previous point at %g)", v[0],

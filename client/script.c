@@ -120,6 +120,10 @@ int ftm_script_load(const char *path, ftm_script *sc)
                 fprintf(stderr, "%s:%d: not a finite number\n", path, lineno);
                 goto bad;
             }
+        if (!(v[0] >= 0)) {
+            fprintf(stderr, "%s:%d: time must be >= 0\n", path, lineno);
+            goto bad;
+        }
         if (sc->npts > 0 && !(v[0] > sc->pts[sc->npts - 1].t)) {
             fprintf(stderr, "%s:%d: times must increase\n", path, lineno);
             goto bad;

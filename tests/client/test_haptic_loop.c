@@ -188,6 +188,7 @@ static void test_script_device(void **state)
         {"0 0 x 0\n", "t.bot:1: expected 't x y z' (4 numbers)"},
         {"0 0 0 nan\n", "t.bot:1: expected 't x y z' (4 numbers)"},
         {"# nothing\njoin 1\n", "t.bot: no trajectory point ('t x y z')"},
+        {"-0.2 0.35 0 0\n", "t.bot:1: time -0.2 is negative (times are seconds from the start)"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
         dev = NULL;
