@@ -345,7 +345,11 @@ void ftm_replay_keyframe_free(ftm_wire_keyframe *k)
 /* ---- the replica ------------------------------------------------------------------ */
 
 #define RING_CAP 4096            /* frames kept: unapplied ones and recent history */
-#define MAX_IDLE_GAP 100000000u  /* ticks a frame may skip (idle) before we distrust it */
+/* Ticks a frame may skip (idle) before we distrust it: the server sends a
+ * heartbeat at least every 10 s (its --heartbeat limit) at <= 100 kHz; twice
+ * that. Each idle tick is stepped (~0.2 us at rest), so this bounds what a
+ * forged frame can cost. */
+#define MAX_IDLE_GAP 2000000u
 
 typedef struct frame {
     uint64_t tick, hash, gap;
@@ -354,6 +358,7 @@ typedef struct frame {
     ftm_wire_reaction *react;
     bool has_tissue; /* new tissue parameters from this tick on */
     ftm_wire_tissue tissue;
+    bool dropped; /* broke the idle rule: not the server's, never applied */
 } frame;
 
 struct ftm_replay {
@@ -639,11 +644,24 @@ static void drop_pending(ftm_replay *r)
     r->pending_reported = false;
 }
 
+/* A frame that broke the idle rule: never applied, not even after a resync
+ * (a keyframe restores the frames after it, which would bring it back). */
+static void drop_frame(ftm_replay *r, frame *f, const char *why)
+{
+    f->dropped = true;
+    r->st.rule_breaks++;
+    enter_resync(r, why);
+}
+
 static int apply_frames(ftm_replay *r)
 {
     while (r->state == FTM_WIRE_STATE_SYNCED && r->applied < r->count) {
         frame *f = ring_at(r, r->applied);
         uint64_t cur = ftm_replay_tick(r);
+        if (f->dropped) {
+            r->applied++;
+            continue;
+        }
         if (f->gap > 0 && !(r->kf_loaded && f->tick <= r->kf_tick + 1)) {
             r->st.gaps++;
             char why[96];
@@ -657,8 +675,17 @@ static int apply_frames(ftm_replay *r)
             r->applied++;
             continue;
         }
+        /* The server leaves a tick out only when it and the frame before it
+         * have no contacts and its step moved nothing (docs/protocol.md).
+         * A frame that claims otherwise is not the server's: it is dropped
+         * and the replica resyncs, rather than step through up to
+         * MAX_IDLE_GAP loaded ticks for it. */
         if (f->tick - cur > MAX_IDLE_GAP) {
-            enter_resync(r, "frame too far ahead");
+            drop_frame(r, f, "frame too far ahead");
+            return FTM_OK;
+        }
+        if (f->tick - cur > 1 && r->last_n > 0) {
+            drop_frame(r, f, "frame skips ticks after a tick with contacts");
             return FTM_OK;
         }
         while (ftm_replay_tick(r) + 1 < f->tick) { /* ticks the server left out: idle */
@@ -667,6 +694,16 @@ static int apply_frames(ftm_replay *r)
             r->st.idle_ticks++;
             if (ftm_replay_tick(r) == before)
                 break; /* the step failed; the hash check below catches it */
+            ftm_sim_stats st;
+            ftm_sim_get_stats(r->sim, &st);
+            if (st.updated_nodes > 0) {
+                char why[128];
+                snprintf(why, sizeof why,
+                         "idle tick %" PRIu64 " moved nodes, so the server would have sent it",
+                         ftm_replay_tick(r));
+                drop_frame(r, f, why);
+                return FTM_OK;
+            }
         }
         if (f->has_tissue && set_tissue(r, f->tick, &f->tissue)) {
             enter_resync(r, "tissue parameters could not be applied");
@@ -810,6 +847,8 @@ int ftm_replay_on_keyframe(ftm_replay *r, const ftm_wire_keyframe *k)
         /* behind us: compare with the frame we applied at its tick */
         for (int32_t i = r->applied - 1; i >= 0; i--) {
             frame *f = ring_at(r, i);
+            if (f->dropped)
+                continue;
             if (f->tick < k->tick)
                 break;
             if (f->tick == k->tick) {

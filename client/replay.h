@@ -89,6 +89,7 @@ typedef struct ftm_replay_stats {
     uint64_t frames_applied;   /* frames stepped (re-applications included) */
     uint64_t idle_ticks;       /* ticks the server did not send (idle), stepped here */
     uint64_t stale_frames;     /* frames at or before the current tick, ignored */
+    uint64_t rule_breaks;      /* frames that broke the idle rule: dropped, resync */
     uint64_t mismatches;       /* hash mismatches */
     uint64_t gaps;             /* frames with a sequence gap */
     uint64_t resyncs;          /* times the replica entered RESYNCING */

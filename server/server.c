@@ -1068,7 +1068,7 @@ static void usage(FILE *f)
             "  --config FILE          Cyclone DDS configuration (default: $CYCLONEDDS_URI)\n"
             "  --rate HZ              tick rate (default 1000)\n"
             "  --keyframe-every S     periodic keyframe interval in seconds (default 1)\n"
-            "  --heartbeat S          idle heartbeat interval in seconds (default 0.1)\n"
+            "  --heartbeat S          idle heartbeat interval in seconds, <= 10 (default 0.1)\n"
             "  --depth N              penetration depth (default: the scene's)\n"
             "  --duration S           stop after S seconds (default: until SIGINT/SIGTERM)\n"
             "  --id N                 participant id (default 1)\n"
@@ -1159,10 +1159,12 @@ static int parse(int argc, char **argv, options *o)
             return -1;
         }
     }
+    /* the heartbeat bounds the ticks a frame may skip, which replicas check
+     * (MAX_IDLE_GAP in client/replay.c: 10 s at 100 kHz, twice over) */
     if (!(o->rate > 0 && o->rate <= 100000) || !(o->keyframe_every > 0) ||
-        !(o->heartbeat > 0) || o->duration < 0 || o->id == 0) {
-        fprintf(stderr, "ftm-server: --rate, --keyframe-every, --heartbeat must be > 0, "
-                        "--id non-zero\n");
+        !(o->heartbeat > 0 && o->heartbeat <= 10) || o->duration < 0 || o->id == 0) {
+        fprintf(stderr, "ftm-server: --rate must be in (0, 100000], --keyframe-every > 0, "
+                        "--heartbeat in (0, 10] seconds, --id non-zero\n");
         return -1;
     }
     if (o->depth_floor < -1 || (o->depth >= 0 && o->depth_floor > o->depth) ||

@@ -1,7 +1,8 @@
 /* ftm_sim_load_state and the replay library, in one process (no network):
  * a simulation restored from another's keyframe continues bit-identically;
- * a replica follows frames with idle ticks left out, resyncs on a gap or a
- * mismatch, and restores a reset keyframe. */
+ * a replica follows frames with idle ticks left out, resyncs on a gap, a
+ * mismatch or a frame that breaks the idle rule, and restores a reset
+ * keyframe. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -274,6 +275,75 @@ static void test_replica(void **state)
     assert_true(ftm_replay_hash(r) == ftm_sim_hash(s.sim));
     ftm_replay_keyframe_free(&kr);
 
+    ftm_replay_keyframe_free(&k0);
+    ftm_replay_destroy(r);
+    ftm_sim_destroy(s.sim);
+    ftm_scene_destroy(sc);
+}
+
+/* A tick frame that breaks the idle rule (docs/protocol.md) is not the
+ * server's: the replica resyncs at once instead of stepping towards it. A
+ * forged tick number used to cost up to 100,000,000 steps. */
+static void forge_frame(ftm_replay *r, uint64_t tick, uint64_t seq, uint64_t want_tick)
+{
+    ftm_wire_received rx;
+    memset(&rx, 0, sizeof rx);
+    rx.msg.kind = FTM_WIRE_TICK;
+    rx.msg.u.tick = (ftm_wire_tick){.tick = tick, .depth = 8};
+    rx.sender = 1;
+    rx.seq = seq;
+    assert_int_equal(ftm_replay_on_tick(r, &rx), FTM_OK);
+    assert_int_equal(ftm_replay_state(r), FTM_WIRE_STATE_RESYNCING);
+    assert_true(ftm_replay_tick(r) == want_tick);
+}
+
+static void test_forged_tick_jumps(void **state)
+{
+    (void)state;
+    ftm_scene *sc = open_scene();
+    fake_server s = fake_server_open(sc);
+    ftm_replay *r = NULL;
+    assert_int_equal(ftm_replay_create(sc, NULL, NULL, &r, NULL), FTM_OK);
+    ftm_wire_keyframe k0;
+    assert_int_equal(ftm_replay_make_keyframe(s.sim, NULL, &k0, NULL), FTM_OK);
+    ftm_wire_received rx;
+    ftm_contact store[4];
+    int forged = 0;
+    for (uint64_t t = 1; t <= 4000; t++) {
+        if (!server_tick(&s, t, &rx, store))
+            continue;
+        assert_int_equal(ftm_replay_on_tick(r, &rx), FTM_OK);
+        if (t == 1)
+            assert_int_equal(ftm_replay_on_keyframe(r, &k0), FTM_OK);
+        assert_int_equal(ftm_replay_state(r), FTM_WIRE_STATE_SYNCED);
+        assert_true(ftm_replay_tick(r) == t);
+        ftm_sim_stats st;
+        ftm_sim_get_stats(ftm_replay_sim(r), &st);
+        if (t == 100) { /* in contact: no tick may be left out after this one */
+            assert_true(rx.msg.u.tick.contact_count > 0);
+            forge_frame(r, t + 1000, ++s.seq, t);
+        } else if (t == 230) { /* released, relaxing: an idle tick would move nodes */
+            assert_true(rx.msg.u.tick.contact_count == 0 && st.updated_nodes > 0);
+            forge_frame(r, t + 1000, ++s.seq, t + 1);
+        } else if (t == 4000) { /* at rest: idle ticks are legitimate, but not this many */
+            assert_true(st.updated_nodes == 0);
+            forge_frame(r, t + 2000001, ++s.seq, t);
+        } else {
+            continue;
+        }
+        forged++;
+        /* the server answers the resync with a keyframe of its tick */
+        ftm_wire_keyframe k;
+        assert_int_equal(ftm_replay_make_keyframe(s.sim, NULL, &k, NULL), FTM_OK);
+        assert_int_equal(ftm_replay_on_keyframe(r, &k), FTM_OK);
+        ftm_replay_keyframe_free(&k);
+        assert_int_equal(ftm_replay_state(r), FTM_WIRE_STATE_SYNCED);
+        assert_true(ftm_replay_hash(r) == ftm_sim_hash(s.sim));
+    }
+    assert_int_equal(forged, 3);
+    ftm_replay_stats st;
+    ftm_replay_get_stats(r, &st);
+    assert_true(st.resyncs == 3 && st.rule_breaks == 3 && st.mismatches == 0 && st.gaps == 0);
     ftm_replay_keyframe_free(&k0);
     ftm_replay_destroy(r);
     ftm_sim_destroy(s.sim);
@@ -683,6 +753,7 @@ int main(void)
         cmocka_unit_test(test_continue_relaxing),
         cmocka_unit_test(test_continue_substepped),
         cmocka_unit_test(test_replica),
+        cmocka_unit_test(test_forged_tick_jumps),
         cmocka_unit_test(test_material_mesh),
         cmocka_unit_test(test_tissue_physics),
         cmocka_unit_test(test_set_mesh_refusals),
