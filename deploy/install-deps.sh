@@ -9,6 +9,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config   # toolchain
   clang                                           # second compiler: determinism check
+  libclang-rt-14-dev                              # libFuzzer + sanitizers for clang (tests/fuzz)
   libcmocka-dev                                   # unit tests
   gnuplot-nox                                     # benchmark plots in docs/
   libsuitesparse-dev                              # FEM reference (CHOLMOD)

@@ -2,8 +2,9 @@
 # All tests, from a fresh clone: installs dependencies, then builds and runs
 # the test suite twice, as a release build with warnings as errors and as an
 # AddressSanitizer + UndefinedBehaviorSanitizer build; then the whole tree is
-# built with clang (warnings as errors) and its determinism tests run, and the
-# client's threaded tests run under ThreadSanitizer.
+# built with clang (warnings as errors) and its determinism tests run, the
+# client's threaded tests run under ThreadSanitizer, and the fuzz targets run
+# a short fixed-seed libFuzzer session each (docs/fuzzing.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -34,5 +35,12 @@ cmake -S . -B build/tsan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTM_WERROR=ON -DFTM
 cmake --build build/tsan -j "$jobs" --target test_haptic test_haptic_loop
 TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 \
   ctest --test-dir build/tsan --output-on-failure -R '^test_haptic(_loop)?$' || status=1
+
+echo "== fuzz targets (clang, libFuzzer, ASan+UBSan): a fixed number of inputs from seed 1 =="
+# campaigns proper are run by hand (docs/fuzzing.md); the corpus itself is
+# replayed by CTest in every build above
+tests/fuzz/run.sh --build build/fuzz --runs 3000 fuzz_scene fuzz_mesh fuzz_wire fuzz_record \
+    fuzz_script || status=1
+tests/fuzz/run.sh --build build/fuzz --runs 150 fuzz_replica || status=1
 
 exit $status
