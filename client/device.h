@@ -109,9 +109,9 @@ int ftm_mouse_target(ftm_device *d, ftm_vec3 *hip);
 
 /* A trajectory in the ftm-bot script format (docs/bot-script.md): lines
  * `t x y z` (seconds, metres), linearly interpolated, held before the first
- * and after the last point; `#` comments; the bot's control lines (join,
- * leave, pause, resume, reset) are ignored. Time 0 is the first read.
- * Errors name the file and line. */
+ * and after the last point; `#` comments; the bot's commands are parsed
+ * (script_text.h, the parser every reader of the format shares) and then
+ * ignored. Time 0 is the first read. Errors name the file and line. */
 int ftm_script_device_open(const char *path, const ftm_device_def *def, ftm_device **out,
                            ftm_error *err);
 int ftm_script_device_parse(const char *text, size_t length, const char *name,

@@ -6,13 +6,7 @@
 #define FTM_CLIENT_SCRIPT_H
 
 #include "ftm/wire.h"
-
-#define FTM_SCRIPT_COMMANDS_MAX 64
-
-typedef struct ftm_script_point {
-    double t;   /* [s] */
-    ftm_vec3 p; /* HIP [m] */
-} ftm_script_point;
+#include "script_text.h" /* the format's parser, ftm_script_point */
 
 /* What a tissue command changes (the rest is kept as announced). */
 typedef enum ftm_script_param {
@@ -30,8 +24,8 @@ typedef struct ftm_script_command {
 } ftm_script_command;
 
 typedef struct ftm_script {
-    ftm_script_point *pts; /* times strictly increasing */
-    int32_t npts, cap;
+    ftm_script_point *pts; /* times >= 0, strictly increasing */
+    int32_t npts;
     ftm_script_command cmds[FTM_SCRIPT_COMMANDS_MAX];
     int32_t ncmds;
     double join, leave; /* leave < 0: none */
@@ -48,8 +42,8 @@ void ftm_script_free(ftm_script *sc);
 const char *ftm_script_control(const ftm_script_command *c, const ftm_wire_tissue *now,
                                ftm_wire_control *out);
 
-/* The HIP at time t: linear between points, held before the first and
- * after the last. The script must have at least one point. */
+/* The HIP at time t (ftm_script_points_at). The script must have at least
+ * one point. */
 ftm_vec3 ftm_script_at(const ftm_script *sc, double t);
 
 #endif

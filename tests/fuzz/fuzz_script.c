@@ -1,52 +1,66 @@
-/* ftm-bot scripts: the bot's loader (ftm_script_load, a path) and the
- * scripted haptic device's parser (ftm_script_device_parse, a buffer) read
- * the same format. Properties: either rejects with an error, or yields a
- * script whose times are >= 0 and increase, and whose interpolated positions
- * are finite. */
+/* ftm-bot scripts: the format's parser (ftm_script_text_parse) and its
+ * three readers: the bot's loader (ftm_script_load, a path), and the
+ * scripted haptic device (ftm_script_device_parse). Properties: a refusal
+ * has a message naming the file; an accepted script has times >= 0 that
+ * increase and a finite trajectory; every reader accepts the same texts
+ * (the device also needs a point) and sees the same trajectory, bit for
+ * bit. Before they shared one parser, the bot read "7 0 0+1" as four
+ * numbers and the device refused it. */
 #include "fuzz.h"
 
 #include "device.h"
 #include "script.h"
+#include "script_text.h"
 
 #include <math.h>
-#include <stdio.h>
 #include <string.h>
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    const char *path = fuzz_write_file("f.bot", data, size);
-    ftm_script sc;
-    memset(&sc, 0, sizeof sc);
-    if (ftm_script_load(path, &sc) == 0) {
-        for (int32_t i = 0; i < sc.npts; i++)
-            fuzz_check(sc.pts[i].t >= 0 && (i == 0 || sc.pts[i].t > sc.pts[i - 1].t));
-        fuzz_check(sc.ncmds >= 0 && sc.ncmds <= FTM_SCRIPT_COMMANDS_MAX);
-        if (sc.npts > 0) {
-            double t0 = sc.pts[0].t, t1 = sc.pts[sc.npts - 1].t;
-            for (int k = -1; k <= 5; k++) {
-                ftm_vec3 p = ftm_script_at(&sc, t0 + (t1 - t0) * k / 4.0);
-                fuzz_check(isfinite(p.x) && isfinite(p.y) && isfinite(p.z));
-            }
-        }
-        ftm_script_free(&sc);
-    }
-
-    ftm_device_def def = ftm_default_device_def();
-    ftm_device *d = NULL;
+    const char *text = (const char *)data;
+    ftm_script_text st;
     ftm_error err;
     memset(&err, 0, sizeof err);
-    int rc = ftm_script_device_parse((const char *)data, size, "f.bot", &def, &d, &err);
+    int rc = ftm_script_text_parse(text, size, "f.bot", &st, &err);
     if (rc != FTM_OK) {
-        fuzz_check(rc < 0 && d == NULL && strstr(err.message, "f.bot") != NULL);
-        return 0;
+        fuzz_check(rc < 0 && st.pts == NULL && strstr(err.message, "f.bot") != NULL);
+    } else {
+        for (int32_t i = 0; i < st.npts; i++)
+            fuzz_check(st.pts[i].t >= 0 && (i == 0 || st.pts[i].t > st.pts[i - 1].t));
+        fuzz_check(st.ncmds >= 0 && st.ncmds <= FTM_SCRIPT_COMMANDS_MAX);
+        for (int32_t i = 0; i < st.ncmds; i++)
+            fuzz_check(st.cmds[i].t >= 0 && isfinite(st.cmds[i].value[0]) &&
+                       isfinite(st.cmds[i].value[1]));
     }
-    double dur = ftm_script_device_duration(d);
-    fuzz_check(isfinite(dur) && dur >= 0);
-    for (int k = -1; k <= 5; k++) {
-        ftm_vec3 p;
-        fuzz_check(ftm_script_device_position(d, dur * k / 4.0, &p) == FTM_OK);
-        fuzz_check(isfinite(p.x) && isfinite(p.y) && isfinite(p.z));
+
+    ftm_script sc;
+    const char *path = fuzz_write_file("f.bot", data, size);
+    int loaded = ftm_script_load(path, &sc) == 0;
+    fuzz_check(loaded == (rc == FTM_OK));
+    ftm_device *d = NULL;
+    int drc = ftm_script_device_parse(text, size, "f.bot", NULL, &d, &err);
+    fuzz_check((drc == FTM_OK) == (rc == FTM_OK && st.npts > 0));
+    if (drc != FTM_OK)
+        fuzz_check(d == NULL && strstr(err.message, "f.bot") != NULL);
+    if (loaded) {
+        fuzz_check(sc.npts == st.npts && sc.ncmds == st.ncmds);
+        fuzz_check(sc.join == st.join && sc.leave == st.leave);
     }
-    ftm_device_destroy(d);
+    if (d) {
+        double dur = ftm_script_device_duration(d);
+        fuzz_check(isfinite(dur) && dur >= 0 && dur == st.pts[st.npts - 1].t);
+        for (int k = -1; k <= 9; k++) {
+            double t = dur * k / 8.0;
+            ftm_vec3 a, b = ftm_script_at(&sc, t), c = ftm_script_points_at(st.pts, st.npts, t);
+            fuzz_check(ftm_script_device_position(d, t, &a) == FTM_OK);
+            fuzz_check(isfinite(a.x) && isfinite(a.y) && isfinite(a.z));
+            fuzz_check(memcmp(&a, &b, sizeof a) == 0 && memcmp(&a, &c, sizeof a) == 0);
+        }
+        ftm_device_destroy(d);
+    }
+    if (loaded)
+        ftm_script_free(&sc);
+    if (rc == FTM_OK)
+        ftm_script_text_free(&st);
     return 0;
 }

@@ -1,0 +1,267 @@
+/* The ftm-bot script format: one parser for every reader (script_text.h). */
+#include "script_text.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int fail(ftm_error *err, int code, const char *name, int32_t line, const char *fmt, ...)
+{
+    if (err) {
+        char msg[256];
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(msg, sizeof msg, fmt, ap);
+        va_end(ap);
+        err->code = code;
+        if (line > 0)
+            snprintf(err->message, sizeof err->message, "%.200s:%d: %s", name, (int)line, msg);
+        else
+            snprintf(err->message, sizeof err->message, "%.200s: %s", name, msg);
+    }
+    return code;
+}
+
+static const struct {
+    const char *word;
+    int values;                  /* numbers after the time */
+    ftm_script_keyword keyword;  /* 0: join or leave */
+} keywords[] = {
+    {"join", 0, 0},
+    {"leave", 0, 0},
+    {"pause", 0, FTM_SCRIPT_KW_PAUSE},
+    {"resume", 0, FTM_SCRIPT_KW_RESUME},
+    {"reset", 0, FTM_SCRIPT_KW_RESET},
+    {"stiffness", 1, FTM_SCRIPT_KW_STIFFNESS},
+    {"damping", 1, FTM_SCRIPT_KW_DAMPING},
+    {"mass", 1, FTM_SCRIPT_KW_MASS},
+    {"depth", 2, FTM_SCRIPT_KW_DEPTH},
+};
+
+/* A whole token as a finite number ("0+1", "1e999", "nan" are not). */
+static bool number(const char *tok, double *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(tok, &end);
+    if (end == tok || *end || errno == ERANGE || !isfinite(v))
+        return false;
+    *out = v;
+    return true;
+}
+
+static bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
+
+/* Splits a line (comment already cut) into at most max tokens, writing NULs;
+ * returns the count, max + 1 if there are more. */
+static int tokens(char *s, char **tok, int max)
+{
+    int n = 0;
+    for (;;) {
+        while (is_blank(*s))
+            s++;
+        if (!*s)
+            return n;
+        if (n == max)
+            return max + 1;
+        tok[n++] = s;
+        while (*s && !is_blank(*s))
+            s++;
+        if (*s)
+            *s++ = '\0';
+    }
+}
+
+static int command(ftm_script_text *sc, char **tok, int ntok, const char *name, int32_t line,
+                   ftm_error *err)
+{
+    size_t k = 0;
+    while (k < sizeof keywords / sizeof *keywords && strcmp(keywords[k].word, tok[0]) != 0)
+        k++;
+    if (k == sizeof keywords / sizeof *keywords)
+        return fail(err, FTM_EPARSE, name, line,
+                    "unknown keyword '%.32s' (join, leave, pause, resume, reset, stiffness, "
+                    "damping, mass, depth)",
+                    tok[0]);
+    double t;
+    if (ntok < 2 || !number(tok[1], &t))
+        return fail(err, FTM_EPARSE, name, line, "expected '<keyword> <time> [values]'");
+    if (!(t >= 0))
+        return fail(err, FTM_EPARSE, name, line,
+                    "time %g is negative (times are seconds from the start)", t);
+    int want = keywords[k].values;
+    double v[2] = {0, 0};
+    for (int i = 0; i < want; i++)
+        if (ntok < 3 + i || !number(tok[2 + i], &v[i]))
+            return fail(err, FTM_EPARSE, name, line,
+                        "'%s' needs %d finite number(s) after the time", tok[0], want);
+    if (ntok > 2 + want)
+        return fail(err, FTM_EPARSE, name, line, "extra text after '%s'", tok[0]);
+    ftm_script_keyword kw = keywords[k].keyword;
+    if (kw == 0) {
+        if (tok[0][0] == 'j')
+            sc->join = t;
+        else
+            sc->leave = t;
+        return FTM_OK;
+    }
+    if (kw == FTM_SCRIPT_KW_DAMPING && !(v[0] >= 0))
+        return fail(err, FTM_EPARSE, name, line, "damping must be >= 0");
+    if ((kw == FTM_SCRIPT_KW_STIFFNESS || kw == FTM_SCRIPT_KW_MASS) && !(v[0] > 0))
+        return fail(err, FTM_EPARSE, name, line, "%s must be > 0", tok[0]);
+    if (kw == FTM_SCRIPT_KW_DEPTH && !(v[0] >= 0 && v[1] >= v[0] && v[1] <= 1e6 &&
+                                    v[0] == floor(v[0]) && v[1] == floor(v[1])))
+        return fail(err, FTM_EPARSE, name, line,
+                    "depth limits must be whole numbers 0 <= min <= max <= 1000000");
+    if (sc->ncmds == FTM_SCRIPT_COMMANDS_MAX)
+        return fail(err, FTM_EPARSE, name, line, "more than %d commands",
+                    FTM_SCRIPT_COMMANDS_MAX);
+    sc->cmds[sc->ncmds++] = (ftm_script_entry){kw, t, {v[0], v[1]}, line};
+    return FTM_OK;
+}
+
+static int point(ftm_script_text *sc, int32_t *cap, char **tok, int ntok, const char *name,
+                 int32_t line, ftm_error *err)
+{
+    double v[4];
+    if (ntok != 4)
+        return fail(err, FTM_EPARSE, name, line, "expected 't x y z' (4 numbers)");
+    for (int i = 0; i < 4; i++)
+        if (!number(tok[i], &v[i]))
+            return fail(err, FTM_EPARSE, name, line, "expected 't x y z' (4 numbers)");
+    if (!(v[0] >= 0))
+        return fail(err, FTM_EPARSE, name, line,
+                    "time %g is negative (times are seconds from the start)", v[0]);
+    if (sc->npts > 0 && !(v[0] > sc->pts[sc->npts - 1].t))
+        return fail(err, FTM_EPARSE, name, line, "time %g does not increase (previous point at %g)",
+                    v[0], sc->pts[sc->npts - 1].t);
+    if (sc->npts == *cap) {
+        int32_t nc = *cap ? 2 * *cap : 64;
+        ftm_script_point *np = realloc(sc->pts, (size_t)nc * sizeof *np);
+        if (!np)
+            return fail(err, FTM_ENOMEM, name, line, "out of memory");
+        sc->pts = np;
+        *cap = nc;
+    }
+    sc->pts[sc->npts++] = (ftm_script_point){v[0], {v[1], v[2], v[3]}};
+    return FTM_OK;
+}
+
+int ftm_script_text_parse(const char *text, size_t length, const char *name,
+                          ftm_script_text *out, ftm_error *err)
+{
+    if (!name)
+        name = "script";
+    memset(out, 0, sizeof *out);
+    out->leave = -1.0;
+    if (!text && length > 0)
+        return fail(err, FTM_EINVAL, name, 0, "no text");
+    int32_t cap = 0, line = 0;
+    int rc = FTM_OK;
+    size_t pos = 0;
+    char buf[FTM_SCRIPT_LINE_MAX + 1];
+    while (pos < length && rc == FTM_OK) {
+        const char *nl = memchr(text + pos, '\n', length - pos);
+        size_t len = nl ? (size_t)(nl - (text + pos)) : length - pos;
+        line++;
+        if (len > FTM_SCRIPT_LINE_MAX) {
+            rc = fail(err, FTM_EPARSE, name, line, "line longer than %d bytes",
+                      FTM_SCRIPT_LINE_MAX);
+            break;
+        }
+        memcpy(buf, text + pos, len);
+        buf[len] = '\0';
+        pos += len + 1;
+        if (strlen(buf) != len) {
+            rc = fail(err, FTM_EPARSE, name, line, "NUL byte (not a text file?)");
+            break;
+        }
+        char *hash = strchr(buf, '#');
+        if (hash)
+            *hash = '\0';
+        char *tok[5];
+        int ntok = tokens(buf, tok, 4);
+        if (ntok == 0)
+            continue;
+        if (isalpha((unsigned char)tok[0][0]))
+            rc = command(out, tok, ntok, name, line, err);
+        else
+            rc = point(out, &cap, tok, ntok, name, line, err);
+    }
+    if (rc != FTM_OK) {
+        ftm_script_text_free(out);
+        out->leave = -1.0;
+    }
+    return rc;
+}
+
+int ftm_script_text_read(const char *path, ftm_script_text *out, ftm_error *err)
+{
+    memset(out, 0, sizeof *out);
+    out->leave = -1.0;
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return fail(err, FTM_EIO, path, 0, "cannot open: %s", strerror(errno));
+    size_t cap = 4096, n = 0;
+    char *text = malloc(cap);
+    int rc = FTM_OK;
+    while (text) {
+        n += fread(text + n, 1, cap - n, f);
+        if (n < cap)
+            break;
+        if (cap > FTM_SCRIPT_FILE_MAX) {
+            rc = fail(err, FTM_EPARSE, path, 0, "larger than %zu MiB", FTM_SCRIPT_FILE_MAX >> 20);
+            break;
+        }
+        char *grown = realloc(text, 2 * cap);
+        if (!grown) {
+            free(text);
+            text = NULL;
+            break;
+        }
+        text = grown;
+        cap *= 2;
+    }
+    bool bad = ferror(f);
+    fclose(f);
+    if (rc == FTM_OK && !text)
+        rc = fail(err, FTM_ENOMEM, path, 0, "out of memory");
+    if (rc == FTM_OK && bad)
+        rc = fail(err, FTM_EIO, path, 0, "read error");
+    if (rc == FTM_OK)
+        rc = ftm_script_text_parse(text, n, path, out, err);
+    free(text);
+    return rc;
+}
+
+void ftm_script_text_free(ftm_script_text *s)
+{
+    free(s->pts);
+    s->pts = NULL;
+    s->npts = 0;
+    s->ncmds = 0;
+}
+
+ftm_vec3 ftm_script_points_at(const ftm_script_point *p, int32_t n, double t)
+{
+    if (t <= p[0].t)
+        return p[0].p;
+    if (t >= p[n - 1].t)
+        return p[n - 1].p;
+    int32_t lo = 0, hi = n - 1; /* p[lo].t <= t < p[hi].t */
+    while (hi - lo > 1) {
+        int32_t mid = lo + (hi - lo) / 2;
+        if (p[mid].t <= t)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    double w = (t - p[lo].t) / (p[hi].t - p[lo].t);
+    ftm_vec3 a = p[lo].p, b = p[hi].p;
+    return (ftm_vec3){a.x + w * (b.x - a.x), a.y + w * (b.y - a.y), a.z + w * (b.z - a.z)};
+}

@@ -1,0 +1,66 @@
+/* The ftm-bot script format (docs/bot-script.md), parsed in one place for
+ * every reader: ftm-bot, ftm-client --commands and ftm-server --offline
+ * (script.h), and the scripted haptic device (device.h), so that a file
+ * means the same trajectory to all of them. No wire types here: commands
+ * come back as keywords with their numbers.
+ *
+ * Library ftm_script_text: libftm's base types only. */
+#ifndef FTM_CLIENT_SCRIPT_TEXT_H
+#define FTM_CLIENT_SCRIPT_TEXT_H
+
+#include "ftm/base.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define FTM_SCRIPT_COMMANDS_MAX 64 /* timed commands (join and leave not counted) */
+#define FTM_SCRIPT_LINE_MAX 511    /* bytes of a line, without its newline */
+#define FTM_SCRIPT_FILE_MAX ((size_t)64 << 20)
+
+typedef struct ftm_script_point {
+    double t;   /* [s], >= 0 */
+    ftm_vec3 p; /* HIP [m] */
+} ftm_script_point;
+
+typedef enum ftm_script_keyword {
+    FTM_SCRIPT_KW_PAUSE = 1,
+    FTM_SCRIPT_KW_RESUME,
+    FTM_SCRIPT_KW_RESET,
+    FTM_SCRIPT_KW_STIFFNESS, /* value[0] > 0 [N/m] */
+    FTM_SCRIPT_KW_DAMPING,   /* value[0] >= 0 [N s/m] */
+    FTM_SCRIPT_KW_MASS,      /* value[0] > 0 [kg] */
+    FTM_SCRIPT_KW_DEPTH,     /* value[0] = min, value[1] = max: whole, 0 <= min <= max <= 1e6 */
+} ftm_script_keyword;
+
+typedef struct ftm_script_entry {
+    ftm_script_keyword keyword;
+    double t; /* [s], >= 0 */
+    double value[2];
+    int32_t line;
+} ftm_script_entry;
+
+typedef struct ftm_script_text {
+    ftm_script_point *pts; /* times strictly increasing; NULL when npts == 0 */
+    int32_t npts;
+    ftm_script_entry cmds[FTM_SCRIPT_COMMANDS_MAX]; /* in file order */
+    int32_t ncmds;
+    double join;  /* `join t`, default 0 */
+    double leave; /* `leave t`, -1: none */
+} ftm_script_text;
+
+/* Parses a script held in memory; name is used in error messages
+ * ("trainee.bot:7: expected 't x y z' (4 numbers)"). On error (FTM_EPARSE,
+ * FTM_ENOMEM) *out is empty and needs no free. Every number must be a whole
+ * token ("0+1" is not two numbers) and finite. */
+int ftm_script_text_parse(const char *text, size_t length, const char *name,
+                          ftm_script_text *out, ftm_error *err);
+/* Reads and parses a file (at most FTM_SCRIPT_FILE_MAX bytes); FTM_EIO
+ * naming the path if it cannot be read. */
+int ftm_script_text_read(const char *path, ftm_script_text *out, ftm_error *err);
+void ftm_script_text_free(ftm_script_text *s);
+
+/* The HIP at time t: linear between points (exactly a point at its time),
+ * held before the first and after the last. n >= 1. */
+ftm_vec3 ftm_script_points_at(const ftm_script_point *p, int32_t n, double t);
+
+#endif
