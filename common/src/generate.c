@@ -2,6 +2,7 @@
 #include "ftm/generate.h"
 
 #include "error.h"
+#include "material.h"
 
 #include <math.h>
 
@@ -27,25 +28,6 @@ ftm_lattice3d_def ftm_default_lattice3d_def(void)
 
 #define FTM_MAX_LATTICE_NODES (64 * 1024 * 1024)
 
-static int check_material(const ftm_material_def *m, const char *who, ftm_error *err)
-{
-    if (!(m->node_mass > 0.0) || !isfinite(m->node_mass))
-        return ftm_error_set(err, FTM_EINVAL, "%s: node mass must be > 0 (got %g)", who,
-                             m->node_mass);
-    if (!(m->node_damping >= 0.0) || !isfinite(m->node_damping))
-        return ftm_error_set(err, FTM_EINVAL, "%s: node damping must be >= 0 (got %g)", who,
-                             m->node_damping);
-    if (!(m->stiffness > 0.0) || !isfinite(m->stiffness))
-        return ftm_error_set(err, FTM_EINVAL, "%s: stiffness must be > 0 (got %g)", who,
-                             m->stiffness);
-    const double *s = &m->axis_scale.x;
-    for (int i = 0; i < 3; i++)
-        if (!(s[i] > 0.0) || !isfinite(s[i]))
-            return ftm_error_set(err, FTM_EINVAL, "%s: axis stiffness scale %c must be > 0 (got %g)",
-                                 who, "xyz"[i], s[i]);
-    return FTM_OK;
-}
-
 /* Stiffness of a link along direction (dx, dy, dz), scaled per axis. */
 static double axis_stiffness(const ftm_material_def *m, double dx, double dy, double dz)
 {
@@ -69,7 +51,7 @@ int ftm_generate_lattice2d(ftm_mesh_builder *b, const ftm_lattice2d_def *def, ft
                              who, (int)def->nx, (int)def->ny, FTM_MAX_LATTICE_NODES);
     if (!(def->spacing > 0.0) || !isfinite(def->spacing))
         return ftm_error_set(err, FTM_EINVAL, "%s: spacing must be > 0 (got %g)", who, def->spacing);
-    int rc = check_material(&def->material, who, err);
+    int rc = ftm_material_check(&def->material, who, err);
     if (rc)
         return rc;
     const double a = def->spacing, pitch = def->spacing * sqrt(3.0) / 2.0;
@@ -138,7 +120,7 @@ int ftm_generate_lattice3d(ftm_mesh_builder *b, const ftm_lattice3d_def *def, ft
         return ftm_error_set(err, FTM_EINVAL,
                              "%s: size %d x %d x %d out of range (2..; at most %d nodes)", who,
                              (int)def->nx, (int)def->ny, (int)def->nz, FTM_MAX_LATTICE_NODES);
-    const double *sp = &def->spacing.x;
+    const double sp[3] = {def->spacing.x, def->spacing.y, def->spacing.z};
     for (int i = 0; i < 3; i++)
         if (!(sp[i] > 0.0) || !isfinite(sp[i]))
             return ftm_error_set(err, FTM_EINVAL, "%s: spacing %c must be > 0 (got %g)", who,
@@ -151,7 +133,7 @@ int ftm_generate_lattice3d(ftm_mesh_builder *b, const ftm_lattice3d_def *def, ft
         if (!(def->class_scale[i] > 0.0) || !isfinite(def->class_scale[i]))
             return ftm_error_set(err, FTM_EINVAL, "%s: link class scale %d must be > 0 (got %g)",
                                  who, i, def->class_scale[i]);
-    int rc = check_material(&def->material, who, err);
+    int rc = ftm_material_check(&def->material, who, err);
     if (rc)
         return rc;
 

@@ -7,9 +7,11 @@
 #include "load_internal.h"
 
 #include "error.h"
+#include "material.h"
 #include "text.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -27,22 +29,9 @@ int ftm_load_check_args(const ftm_mesh_builder *builder, const char *path,
         return ftm_error_set(err, FTM_EINVAL, "%s: mesh builder is NULL", path);
     if (!material)
         return ftm_error_set(err, FTM_EINVAL, "%s: material is NULL", path);
-    const ftm_material_def *m = material;
-    if (!(isfinite(m->node_mass) && m->node_mass > 0))
-        return ftm_error_set(err, FTM_EINVAL, "%s: material node_mass must be > 0 (got %g)", path,
-                             m->node_mass);
-    if (!(isfinite(m->node_damping) && m->node_damping >= 0))
-        return ftm_error_set(err, FTM_EINVAL, "%s: material node_damping must be >= 0 (got %g)",
-                             path, m->node_damping);
-    if (!(isfinite(m->stiffness) && m->stiffness > 0))
-        return ftm_error_set(err, FTM_EINVAL, "%s: material stiffness must be > 0 (got %g)", path,
-                             m->stiffness);
-    const ftm_vec3 s = m->axis_scale;
-    if (!(isfinite(s.x) && isfinite(s.y) && isfinite(s.z) && s.x >= 0 && s.y >= 0 && s.z >= 0))
-        return ftm_error_set(err, FTM_EINVAL,
-                             "%s: material axis_scale must be finite and >= 0 (got %g %g %g)",
-                             path, s.x, s.y, s.z);
-    return FTM_OK;
+    char who[FTM_ERROR_MESSAGE_MAX / 2];
+    snprintf(who, sizeof who, "%.200s: material", path);
+    return ftm_material_check(material, who, err);
 }
 
 int ftm_load_read_file(const char *path, char **data, size_t *length, ftm_error *err)

@@ -1,29 +1,29 @@
 /* A mesh with another material (tissue parameters changed during a session). */
 #include "ftm/generate.h"
 #include "error.h"
+#include "material.h"
 #include "mesh_internal.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-static int check(const ftm_material_def *m, const char *which, ftm_error *err)
+int ftm_material_check(const ftm_material_def *m, const char *who, ftm_error *err)
 {
     if (!(m->node_mass > 0.0) || !isfinite(m->node_mass))
-        return ftm_error_set(err, FTM_EINVAL, "material (%s): node mass must be > 0 (got %g)",
-                             which, m->node_mass);
+        return ftm_error_set(err, FTM_EINVAL, "%s: node mass must be > 0 (got %g)", who,
+                             m->node_mass);
     if (!(m->node_damping >= 0.0) || !isfinite(m->node_damping))
-        return ftm_error_set(err, FTM_EINVAL, "material (%s): node damping must be >= 0 (got %g)",
-                             which, m->node_damping);
+        return ftm_error_set(err, FTM_EINVAL, "%s: node damping must be >= 0 (got %g)", who,
+                             m->node_damping);
     if (!(m->stiffness > 0.0) || !isfinite(m->stiffness))
-        return ftm_error_set(err, FTM_EINVAL, "material (%s): stiffness must be > 0 (got %g)",
-                             which, m->stiffness);
-    const double *s = &m->axis_scale.x;
+        return ftm_error_set(err, FTM_EINVAL, "%s: stiffness must be > 0 (got %g)", who,
+                             m->stiffness);
+    const double s[3] = {m->axis_scale.x, m->axis_scale.y, m->axis_scale.z};
     for (int i = 0; i < 3; i++)
         if (!(s[i] > 0.0) || !isfinite(s[i]))
-            return ftm_error_set(err, FTM_EINVAL,
-                                 "material (%s): axis stiffness scale %c must be > 0 (got %g)",
-                                 which, "xyz"[i], s[i]);
+            return ftm_error_set(err, FTM_EINVAL, "%s: axis stiffness scale %c must be > 0 (got %g)",
+                                 who, "xyz"[i], s[i]);
     return FTM_OK;
 }
 
@@ -50,7 +50,8 @@ int ftm_mesh_with_material(const ftm_mesh *base, const ftm_material_def *from,
     if (!base || !from || !to || !out)
         return ftm_error_set(err, FTM_EINVAL, "mesh with material: null argument");
     int rc;
-    if ((rc = check(from, "the mesh's", err)) || (rc = check(to, "new", err)))
+    if ((rc = ftm_material_check(from, "material (the mesh's)", err)) ||
+        (rc = ftm_material_check(to, "material (new)", err)))
         return rc;
     /* A copy scaled in place: the same numbering, adjacency order, colouring
      * and padding; only masses, damping and stiffness change. O(mesh). */

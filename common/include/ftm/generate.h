@@ -29,7 +29,7 @@ typedef struct ftm_material_def {
     double node_mass;    /* mass of every node [kg] */
     double node_damping; /* nodal damping d [N s/m] */
     double stiffness;    /* spring stiffness k [N/m] before axis scaling */
-    ftm_vec3 axis_scale; /* per-axis stiffness factors, default (1, 1, 1) */
+    ftm_vec3 axis_scale; /* per-axis stiffness factors, each > 0, default (1, 1, 1) */
 } ftm_material_def;
 
 ftm_material_def ftm_default_material_def(void);
