@@ -1101,18 +1101,49 @@ static void test_guard_off_blows_up(void **state)
     ftm_mesh_destroy(m);
 }
 
-/* max_substeps = 1: the guard cannot substep, so the step fails and the state
- * is exactly as before the call, in every order (each keeps its own rollback
- * copy of the previous positions it overwrote). */
-static void unstable_step_leaves_state(ftm_order order)
+/* A step that fails leaves the state exactly as before the call, in every
+ * order (each keeps its own rollback copy of the previous positions it
+ * overwrote). max_substeps = 1: the guard cannot substep. max_substeps = 8:
+ * it raises the substeps three times first, which rescales every moving
+ * node's previous position and the substep length; a failure gives those
+ * back too (found by tests/fuzz/fuzz_scene: the hash differed). */
+static void unstable_step_leaves_state(ftm_order order, int32_t max_substeps)
 {
     ftm_mesh *m = guard_mesh();
     log_count lc = {0, 0};
-    ftm_sim *s = guard_sim_order(m, 50.0, true, 1, &lc, order);
+    ftm_sim *s = guard_sim_order(m, 50.0, true, max_substeps, &lc, order);
     size_t n3 = (size_t)ftm_mesh_node_count(m) * 3;
+    if (max_substeps > 1) { /* in motion, so that raising the substeps rescales x_prev */
+        int32_t n = ftm_mesh_node_count(m), count = 0;
+        int32_t *nodes = malloc((size_t)n * sizeof *nodes);
+        double *x = malloc(n3 * sizeof *x), *xp = malloc(n3 * sizeof *xp);
+        assert_true(nodes && x && xp);
+        for (int32_t i = 0; i < n; i++) {
+            if (ftm_mesh_fixed(m, i))
+                continue;
+            ftm_vec3 r = ftm_mesh_rest_position(m, i);
+            double *xi = x + 3 * count, *pi = xp + 3 * count;
+            xi[0] = pi[0] = r.x;
+            xi[1] = r.y;
+            pi[1] = r.y + 1e-3 * (double)(i % 7);
+            xi[2] = pi[2] = r.z;
+            nodes[count++] = i;
+        }
+        const ftm_contact *c = NULL;
+        int32_t nc = ftm_sim_contacts(s, &c);
+        ftm_error err = {0, ""};
+        if (ftm_sim_load_state(s, 0, 20, nodes, x, xp, count, c, nc, NULL, &err))
+            fail_msg("%s", err.message);
+        free(nodes);
+        free(x);
+        free(xp);
+    }
     int failures = 0;
     for (int i = 0; i < 20; i++) {
         double *before = copy_positions(s);
+        double *prev = malloc(n3 * sizeof *prev);
+        assert_non_null(prev);
+        memcpy(prev, ftm_sim_previous_positions(s), n3 * sizeof *prev);
         uint64_t h = ftm_sim_hash(s);
         ftm_sim_stats st0, st1;
         ftm_sim_get_stats(s, &st0);
@@ -1122,12 +1153,15 @@ static void unstable_step_leaves_state(ftm_order order)
         if (rc == FTM_EUNSTABLE) {
             failures++;
             assert_memory_equal(ftm_sim_positions(s), before, n3 * sizeof(double));
+            assert_memory_equal(ftm_sim_previous_positions(s), prev, n3 * sizeof(double));
             assert_true(ftm_sim_hash(s) == h);
             assert_true(st1.unstable_steps == st0.unstable_steps + 1);
+            assert_int_equal(st1.substeps, st0.substeps);
         } else {
             assert_int_equal(rc, FTM_OK);
         }
         free(before);
+        free(prev);
     }
     assert_true(failures > 0);
     ftm_sim_destroy(s);
@@ -1137,9 +1171,11 @@ static void unstable_step_leaves_state(ftm_order order)
 static void test_unstable_step_leaves_state(void **state)
 {
     (void)state;
-    unstable_step_leaves_state(FTM_ORDER_LAYER_COLORED);
-    unstable_step_leaves_state(FTM_ORDER_BFS);
-    unstable_step_leaves_state(FTM_ORDER_LAYER_JACOBI);
+    for (int32_t max_substeps = 1; max_substeps <= 8; max_substeps *= 8) {
+        unstable_step_leaves_state(FTM_ORDER_LAYER_COLORED, max_substeps);
+        unstable_step_leaves_state(FTM_ORDER_BFS, max_substeps);
+        unstable_step_leaves_state(FTM_ORDER_LAYER_JACOBI, max_substeps);
+    }
 }
 
 /* Slow growth (docs/stability.md): light damping below the critical step.

@@ -680,6 +680,13 @@ int ftm_sim_step(ftm_sim *sim)
     if (echeck && work_reserve(sim))
         return FTM_ENOMEM;
     double region_m2 = 0.0;
+    /* what a step that fails even at max_substeps must give back bit for bit:
+     * raising the substeps rescales every moving node's x_prev and changes
+     * the substep length and the energy account (xp0: taken at the first
+     * raise) */
+    const int32_t substeps0 = sim->substeps, at_substeps0 = sim->steps_at_substeps;
+    const double h0 = sim->h_sub, budget0 = sim->budget;
+    double *xp0 = NULL;
     for (;;) {
         double *full = NULL;
         int rc = save_state(sim, &full);
@@ -702,6 +709,7 @@ int ftm_sim_step(ftm_sim *sim)
                 sim->energy_prev = sim->energy;
             }
             free(full);
+            free(xp0);
             break;
         }
         restore_state(sim, full, region_active);
@@ -719,7 +727,24 @@ int ftm_sim_step(ftm_sim *sim)
             ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_ERROR,
                      "step %llu diverged even with %d substeps; state kept as before the step",
                      (unsigned long long)sim->st.step, (int)sim->substeps);
+            if (xp0) {
+                memcpy(sim->xp, xp0, (size_t)sim->n * 3 * sizeof *xp0);
+                free(xp0);
+                sim->substeps = substeps0;
+                sim->st.substeps = substeps0;
+                set_substep_length(sim, h0);
+            }
+            sim->steps_at_substeps = at_substeps0;
+            sim->budget = budget0;
             return FTM_EUNSTABLE;
+        }
+        if (!xp0) {
+            xp0 = malloc((size_t)sim->n * 3 * sizeof *xp0);
+            if (!xp0) {
+                sim->budget = budget0;
+                return FTM_ENOMEM; /* the state is as before the step */
+            }
+            memcpy(xp0, sim->xp, (size_t)sim->n * 3 * sizeof *xp0);
         }
         change_substeps(sim, sim->substeps * 2);
         ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
