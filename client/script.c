@@ -15,21 +15,18 @@ int ftm_script_load(const char *path, ftm_script *sc)
         fprintf(stderr, "%s\n", err.message);
         return -1;
     }
-    static const struct {
-        ftm_wire_command cmd;
-        ftm_script_param param;
-    } to_wire[] = {
-        [FTM_SCRIPT_KW_PAUSE] = {FTM_WIRE_CMD_PAUSE, 0},
-        [FTM_SCRIPT_KW_RESUME] = {FTM_WIRE_CMD_RESUME, 0},
-        [FTM_SCRIPT_KW_RESET] = {FTM_WIRE_CMD_RESET, 0},
-        [FTM_SCRIPT_KW_STIFFNESS] = {FTM_WIRE_CMD_TISSUE, FTM_SCRIPT_STIFFNESS},
-        [FTM_SCRIPT_KW_DAMPING] = {FTM_WIRE_CMD_TISSUE, FTM_SCRIPT_DAMPING},
-        [FTM_SCRIPT_KW_MASS] = {FTM_WIRE_CMD_TISSUE, FTM_SCRIPT_MASS},
-        [FTM_SCRIPT_KW_DEPTH] = {FTM_WIRE_CMD_DEPTH_LIMITS, 0},
+    static const ftm_wire_command to_wire[] = {
+        [FTM_SCRIPT_KW_PAUSE] = FTM_WIRE_CMD_PAUSE,
+        [FTM_SCRIPT_KW_RESUME] = FTM_WIRE_CMD_RESUME,
+        [FTM_SCRIPT_KW_RESET] = FTM_WIRE_CMD_RESET,
+        [FTM_SCRIPT_KW_STIFFNESS] = FTM_WIRE_CMD_TISSUE,
+        [FTM_SCRIPT_KW_DAMPING] = FTM_WIRE_CMD_TISSUE,
+        [FTM_SCRIPT_KW_MASS] = FTM_WIRE_CMD_TISSUE,
+        [FTM_SCRIPT_KW_DEPTH] = FTM_WIRE_CMD_DEPTH_LIMITS,
     };
     for (int32_t i = 0; i < text.ncmds; i++) {
         const ftm_script_entry *e = &text.cmds[i];
-        sc->cmds[i] = (ftm_script_command){e->t, to_wire[e->keyword].cmd, to_wire[e->keyword].param,
+        sc->cmds[i] = (ftm_script_command){e->t, e->keyword, to_wire[e->keyword],
                                            {e->value[0], e->value[1]}, false};
     }
     sc->ncmds = text.ncmds;
@@ -46,26 +43,25 @@ const char *ftm_script_control(const ftm_script_command *c, const ftm_wire_tissu
     memset(out, 0, sizeof *out);
     out->command = c->cmd;
     out->tissue = *now;
-    switch (c->cmd) {
-    case FTM_WIRE_CMD_PAUSE: return "pause";
-    case FTM_WIRE_CMD_RESUME: return "resume";
-    case FTM_WIRE_CMD_RESET: return "reset";
-    case FTM_WIRE_CMD_DEPTH_LIMITS:
+    switch (c->keyword) {
+    case FTM_SCRIPT_KW_PAUSE: return "pause";
+    case FTM_SCRIPT_KW_RESUME: return "resume";
+    case FTM_SCRIPT_KW_RESET: return "reset";
+    case FTM_SCRIPT_KW_DEPTH:
         out->depth_min = (int32_t)c->value[0];
         out->depth_max = (int32_t)c->value[1];
         return "depth limits";
-    case FTM_WIRE_CMD_TISSUE: break;
-    }
-    if (c->param == FTM_SCRIPT_STIFFNESS) {
+    case FTM_SCRIPT_KW_STIFFNESS:
         out->tissue.stiffness = c->value[0];
         return "stiffness";
-    }
-    if (c->param == FTM_SCRIPT_DAMPING) {
+    case FTM_SCRIPT_KW_DAMPING:
         out->tissue.node_damping = c->value[0];
         return "damping";
+    case FTM_SCRIPT_KW_MASS:
+        out->tissue.node_mass = c->value[0];
+        return "mass";
     }
-    out->tissue.node_mass = c->value[0];
-    return "mass";
+    return "unknown";
 }
 
 ftm_vec3 ftm_script_at(const ftm_script *sc, double t)

@@ -8,18 +8,11 @@
 #include "ftm/wire.h"
 #include "script_text.h" /* the format's parser, ftm_script_point */
 
-/* What a tissue command changes (the rest is kept as announced). */
-typedef enum ftm_script_param {
-    FTM_SCRIPT_STIFFNESS = 1,
-    FTM_SCRIPT_DAMPING = 2,
-    FTM_SCRIPT_MASS = 3,
-} ftm_script_param;
-
 typedef struct ftm_script_command {
     double t;
-    ftm_wire_command cmd;
-    ftm_script_param param; /* FTM_WIRE_CMD_TISSUE: which parameter */
-    double value[2];        /* TISSUE: the new value; DEPTH_LIMITS: min, max */
+    ftm_script_keyword keyword; /* a tissue keyword: which parameter changes */
+    ftm_wire_command cmd;       /* the SessionControl command it sends */
+    double value[2];            /* TISSUE: the new value; DEPTH_LIMITS: min, max */
     bool done;
 } ftm_script_command;
 

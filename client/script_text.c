@@ -1,8 +1,10 @@
-/* The ftm-bot script format: one parser for every reader (script_text.h). */
+/* The ftm-bot script format: one parser for every reader (script_text.h).
+ * Lines, tokens and numbers come from libftm's text reader (common/src/text.h),
+ * the one the scene and mesh parsers use. */
 #include "script_text.h"
+#include "text.h"
 
 #include <ctype.h>
-#include <errno.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdbool.h>
@@ -27,13 +29,15 @@ static int fail(ftm_error *err, int code, const char *name, int32_t line, const 
     return code;
 }
 
+enum { KW_JOIN = -1, KW_LEAVE = -2 }; /* set a time of the script, not a command */
+
 static const struct {
     const char *word;
-    int values;                  /* numbers after the time */
-    ftm_script_keyword keyword;  /* 0: join or leave */
+    int values;  /* numbers after the time */
+    int keyword; /* ftm_script_keyword, KW_JOIN or KW_LEAVE */
 } keywords[] = {
-    {"join", 0, 0},
-    {"leave", 0, 0},
+    {"join", 0, KW_JOIN},
+    {"leave", 0, KW_LEAVE},
     {"pause", 0, FTM_SCRIPT_KW_PAUSE},
     {"resume", 0, FTM_SCRIPT_KW_RESUME},
     {"reset", 0, FTM_SCRIPT_KW_RESET},
@@ -43,51 +47,31 @@ static const struct {
     {"depth", 2, FTM_SCRIPT_KW_DEPTH},
 };
 
+typedef struct token {
+    const char *p;
+    size_t n;
+} token;
+
 /* A whole token as a finite number ("0+1", "1e999", "nan" are not). */
-static bool number(const char *tok, double *out)
+static bool number(token t, double *out) { return ftm_text_parse_double(t.p, t.n, out); }
+
+static bool token_is(token t, const char *word)
 {
-    char *end;
-    errno = 0;
-    double v = strtod(tok, &end);
-    if (end == tok || *end || errno == ERANGE || !isfinite(v))
-        return false;
-    *out = v;
-    return true;
+    return strlen(word) == t.n && memcmp(word, t.p, t.n) == 0;
 }
 
-static bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
-
-/* Splits a line (comment already cut) into at most max tokens, writing NULs;
- * returns the count, max + 1 if there are more. */
-static int tokens(char *s, char **tok, int max)
-{
-    int n = 0;
-    for (;;) {
-        while (is_blank(*s))
-            s++;
-        if (!*s)
-            return n;
-        if (n == max)
-            return max + 1;
-        tok[n++] = s;
-        while (*s && !is_blank(*s))
-            s++;
-        if (*s)
-            *s++ = '\0';
-    }
-}
-
-static int command(ftm_script_text *sc, char **tok, int ntok, const char *name, int32_t line,
-                   ftm_error *err)
+static int command(ftm_script_text *sc, const token *tok, int ntok, const char *name,
+                   int32_t line, ftm_error *err)
 {
     size_t k = 0;
-    while (k < sizeof keywords / sizeof *keywords && strcmp(keywords[k].word, tok[0]) != 0)
+    while (k < sizeof keywords / sizeof *keywords && !token_is(tok[0], keywords[k].word))
         k++;
     if (k == sizeof keywords / sizeof *keywords)
         return fail(err, FTM_EPARSE, name, line,
-                    "unknown keyword '%.32s' (join, leave, pause, resume, reset, stiffness, "
+                    "unknown keyword '%.*s' (join, leave, pause, resume, reset, stiffness, "
                     "damping, mass, depth)",
-                    tok[0]);
+                    (int)(tok[0].n < 32 ? tok[0].n : 32), tok[0].p);
+    const char *word = keywords[k].word;
     double t;
     if (ntok < 2 || !number(tok[1], &t))
         return fail(err, FTM_EPARSE, name, line, "expected '<keyword> <time> [values]'");
@@ -99,21 +83,18 @@ static int command(ftm_script_text *sc, char **tok, int ntok, const char *name, 
     for (int i = 0; i < want; i++)
         if (ntok < 3 + i || !number(tok[2 + i], &v[i]))
             return fail(err, FTM_EPARSE, name, line,
-                        "'%s' needs %d finite number(s) after the time", tok[0], want);
+                        "'%s' needs %d finite number(s) after the time", word, want);
     if (ntok > 2 + want)
-        return fail(err, FTM_EPARSE, name, line, "extra text after '%s'", tok[0]);
-    ftm_script_keyword kw = keywords[k].keyword;
-    if (kw == 0) {
-        if (tok[0][0] == 'j')
-            sc->join = t;
-        else
-            sc->leave = t;
+        return fail(err, FTM_EPARSE, name, line, "extra text after '%s'", word);
+    const int kw = keywords[k].keyword;
+    if (kw == KW_JOIN || kw == KW_LEAVE) {
+        *(kw == KW_JOIN ? &sc->join : &sc->leave) = t;
         return FTM_OK;
     }
     if (kw == FTM_SCRIPT_KW_DAMPING && !(v[0] >= 0))
         return fail(err, FTM_EPARSE, name, line, "damping must be >= 0");
     if ((kw == FTM_SCRIPT_KW_STIFFNESS || kw == FTM_SCRIPT_KW_MASS) && !(v[0] > 0))
-        return fail(err, FTM_EPARSE, name, line, "%s must be > 0", tok[0]);
+        return fail(err, FTM_EPARSE, name, line, "%s must be > 0", word);
     if (kw == FTM_SCRIPT_KW_DEPTH && !(v[0] >= 0 && v[1] >= v[0] && v[1] <= 1e6 &&
                                     v[0] == floor(v[0]) && v[1] == floor(v[1])))
         return fail(err, FTM_EPARSE, name, line,
@@ -121,12 +102,12 @@ static int command(ftm_script_text *sc, char **tok, int ntok, const char *name, 
     if (sc->ncmds == FTM_SCRIPT_COMMANDS_MAX)
         return fail(err, FTM_EPARSE, name, line, "more than %d commands",
                     FTM_SCRIPT_COMMANDS_MAX);
-    sc->cmds[sc->ncmds++] = (ftm_script_entry){kw, t, {v[0], v[1]}, line};
+    sc->cmds[sc->ncmds++] = (ftm_script_entry){(ftm_script_keyword)kw, t, {v[0], v[1]}, line};
     return FTM_OK;
 }
 
-static int point(ftm_script_text *sc, int32_t *cap, char **tok, int ntok, const char *name,
-                 int32_t line, ftm_error *err)
+static int point(ftm_script_text *sc, int32_t *cap, const token *tok, int ntok,
+                 const char *name, int32_t line, ftm_error *err)
 {
     double v[4];
     if (ntok != 4)
@@ -161,37 +142,34 @@ int ftm_script_text_parse(const char *text, size_t length, const char *name,
     out->leave = -1.0;
     if (!text && length > 0)
         return fail(err, FTM_EINVAL, name, 0, "no text");
-    int32_t cap = 0, line = 0;
+    ftm_text txt;
+    ftm_text_init(&txt, name, text, length);
+    int32_t cap = 0;
     int rc = FTM_OK;
-    size_t pos = 0;
-    char buf[FTM_SCRIPT_LINE_MAX + 1];
-    while (pos < length && rc == FTM_OK) {
-        const char *nl = memchr(text + pos, '\n', length - pos);
-        size_t len = nl ? (size_t)(nl - (text + pos)) : length - pos;
-        line++;
+    const char *line;
+    size_t len;
+    while (rc == FTM_OK && ftm_text_next_line(&txt, &line, &len)) {
         if (len > FTM_SCRIPT_LINE_MAX) {
-            rc = fail(err, FTM_EPARSE, name, line, "line longer than %d bytes",
+            rc = fail(err, FTM_EPARSE, name, txt.line, "line longer than %d bytes",
                       FTM_SCRIPT_LINE_MAX);
             break;
         }
-        memcpy(buf, text + pos, len);
-        buf[len] = '\0';
-        pos += len + 1;
-        if (strlen(buf) != len) {
-            rc = fail(err, FTM_EPARSE, name, line, "NUL byte (not a text file?)");
+        if (memchr(line, '\0', len)) {
+            rc = fail(err, FTM_EPARSE, name, txt.line, "NUL byte (not a text file?)");
             break;
         }
-        char *hash = strchr(buf, '#');
-        if (hash)
-            *hash = '\0';
-        char *tok[5];
-        int ntok = tokens(buf, tok, 4);
+        const char *hash = memchr(line, '#', len);
+        const char *cur = line, *end = hash ? hash : line + len;
+        token tok[5]; /* a fifth means too many for any line */
+        int ntok = 0;
+        while (ntok < 5 && ftm_text_token(&cur, end, &tok[ntok].p, &tok[ntok].n))
+            ntok++;
         if (ntok == 0)
             continue;
-        if (isalpha((unsigned char)tok[0][0]))
-            rc = command(out, tok, ntok, name, line, err);
+        if (isalpha((unsigned char)tok[0].p[0]))
+            rc = command(out, tok, ntok, name, txt.line, err);
         else
-            rc = point(out, &cap, tok, ntok, name, line, err);
+            rc = point(out, &cap, tok, ntok, name, txt.line, err);
     }
     if (rc != FTM_OK) {
         ftm_script_text_free(out);
@@ -204,37 +182,12 @@ int ftm_script_text_read(const char *path, ftm_script_text *out, ftm_error *err)
 {
     memset(out, 0, sizeof *out);
     out->leave = -1.0;
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return fail(err, FTM_EIO, path, 0, "cannot open: %s", strerror(errno));
-    size_t cap = 4096, n = 0;
-    char *text = malloc(cap);
-    int rc = FTM_OK;
-    while (text) {
-        n += fread(text + n, 1, cap - n, f);
-        if (n < cap)
-            break;
-        if (cap > FTM_SCRIPT_FILE_MAX) {
-            rc = fail(err, FTM_EPARSE, path, 0, "larger than %zu MiB", FTM_SCRIPT_FILE_MAX >> 20);
-            break;
-        }
-        char *grown = realloc(text, 2 * cap);
-        if (!grown) {
-            free(text);
-            text = NULL;
-            break;
-        }
-        text = grown;
-        cap *= 2;
-    }
-    bool bad = ferror(f);
-    fclose(f);
-    if (rc == FTM_OK && !text)
-        rc = fail(err, FTM_ENOMEM, path, 0, "out of memory");
-    if (rc == FTM_OK && bad)
-        rc = fail(err, FTM_EIO, path, 0, "read error");
-    if (rc == FTM_OK)
-        rc = ftm_script_text_parse(text, n, path, out, err);
+    char *text;
+    size_t length;
+    int rc = ftm_text_read_file(path, FTM_SCRIPT_FILE_MAX, &text, &length, err);
+    if (rc)
+        return rc;
+    rc = ftm_script_text_parse(text, length, path, out, err);
     free(text);
     return rc;
 }

@@ -4,7 +4,8 @@
  * means the same trajectory to all of them. No wire types here: commands
  * come back as keywords with their numbers.
  *
- * Library ftm_script_text: libftm's base types only. */
+ * Library ftm_script_text: libftm only (its base types, and the text reader
+ * its scene and mesh parsers use). */
 #ifndef FTM_CLIENT_SCRIPT_TEXT_H
 #define FTM_CLIENT_SCRIPT_TEXT_H
 
@@ -54,8 +55,8 @@ typedef struct ftm_script_text {
  * token ("0+1" is not two numbers) and finite. */
 int ftm_script_text_parse(const char *text, size_t length, const char *name,
                           ftm_script_text *out, ftm_error *err);
-/* Reads and parses a file (at most FTM_SCRIPT_FILE_MAX bytes); FTM_EIO
- * naming the path if it cannot be read. */
+/* Reads and parses a file; errors name the path: FTM_EIO if it cannot be
+ * read, FTM_ERANGE over FTM_SCRIPT_FILE_MAX bytes, FTM_EPARSE with a NUL byte. */
 int ftm_script_text_read(const char *path, ftm_script_text *out, ftm_error *err);
 void ftm_script_text_free(ftm_script_text *s);
 

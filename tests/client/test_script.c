@@ -75,7 +75,7 @@ static void test_readers_agree(void **state)
     unlink(path);
     assert_int_equal(sc.npts, 4);
     assert_int_equal(sc.ncmds, 3);
-    assert_true(sc.cmds[0].cmd == FTM_WIRE_CMD_TISSUE && sc.cmds[0].param == FTM_SCRIPT_STIFFNESS);
+    assert_true(sc.cmds[0].cmd == FTM_WIRE_CMD_TISSUE && sc.cmds[0].keyword == FTM_SCRIPT_KW_STIFFNESS);
     assert_true(sc.cmds[1].cmd == FTM_WIRE_CMD_DEPTH_LIMITS && sc.cmds[2].cmd == FTM_WIRE_CMD_PAUSE);
     assert_true(sc.join == 0.5 && sc.leave == 3.0);
     for (int k = -10; k <= 170; k++) {
