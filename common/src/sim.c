@@ -652,6 +652,31 @@ static void sleep_relaxed(ftm_sim *sim)
     sim->nrelax = w;
 }
 
+/* What a step that fails (even at max_substeps, or for memory) gives back
+ * bit for bit: raising the substeps rescales every moving node's x_prev and
+ * changes the substep length; the guard also moves the energy account. xp is
+ * copied at the first raise. */
+typedef struct step_origin {
+    int32_t substeps, steps_at_substeps;
+    double h_sub, budget;
+    double *xp;
+} step_origin;
+
+/* The state as when o was taken (x is already restored); frees o's copy. */
+static void give_back(ftm_sim *sim, step_origin *o)
+{
+    if (o->xp) {
+        memcpy(sim->xp, o->xp, (size_t)sim->n * 3 * sizeof *o->xp);
+        free(o->xp);
+        o->xp = NULL;
+        sim->substeps = o->substeps;
+        sim->st.substeps = o->substeps;
+        set_substep_length(sim, o->h_sub);
+    }
+    sim->steps_at_substeps = o->steps_at_substeps;
+    sim->budget = o->budget;
+}
+
 int ftm_sim_step(ftm_sim *sim)
 {
     const bool region_changed =
@@ -680,18 +705,14 @@ int ftm_sim_step(ftm_sim *sim)
     if (echeck && work_reserve(sim))
         return FTM_ENOMEM;
     double region_m2 = 0.0;
-    /* what a step that fails even at max_substeps must give back bit for bit:
-     * raising the substeps rescales every moving node's x_prev and changes
-     * the substep length and the energy account (xp0: taken at the first
-     * raise) */
-    const int32_t substeps0 = sim->substeps, at_substeps0 = sim->steps_at_substeps;
-    const double h0 = sim->h_sub, budget0 = sim->budget;
-    double *xp0 = NULL;
+    step_origin origin = {sim->substeps, sim->steps_at_substeps, sim->h_sub, sim->budget, NULL};
     for (;;) {
         double *full = NULL;
         int rc = save_state(sim, &full);
-        if (rc)
+        if (rc) {
+            give_back(sim, &origin);
             return rc;
+        }
         if (echeck)
             work_begin(sim);
         bool ok = attempt_step(sim, region_active, &region_m2), energy_fail = false;
@@ -709,7 +730,7 @@ int ftm_sim_step(ftm_sim *sim)
                 sim->energy_prev = sim->energy;
             }
             free(full);
-            free(xp0);
+            free(origin.xp);
             break;
         }
         restore_state(sim, full, region_active);
@@ -727,24 +748,16 @@ int ftm_sim_step(ftm_sim *sim)
             ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_ERROR,
                      "step %llu diverged even with %d substeps; state kept as before the step",
                      (unsigned long long)sim->st.step, (int)sim->substeps);
-            if (xp0) {
-                memcpy(sim->xp, xp0, (size_t)sim->n * 3 * sizeof *xp0);
-                free(xp0);
-                sim->substeps = substeps0;
-                sim->st.substeps = substeps0;
-                set_substep_length(sim, h0);
-            }
-            sim->steps_at_substeps = at_substeps0;
-            sim->budget = budget0;
+            give_back(sim, &origin);
             return FTM_EUNSTABLE;
         }
-        if (!xp0) {
-            xp0 = malloc((size_t)sim->n * 3 * sizeof *xp0);
-            if (!xp0) {
-                sim->budget = budget0;
-                return FTM_ENOMEM; /* the state is as before the step */
+        if (!origin.xp) {
+            origin.xp = malloc((size_t)sim->n * 3 * sizeof *origin.xp);
+            if (!origin.xp) {
+                give_back(sim, &origin);
+                return FTM_ENOMEM;
             }
-            memcpy(xp0, sim->xp, (size_t)sim->n * 3 * sizeof *xp0);
+            memcpy(origin.xp, sim->xp, (size_t)sim->n * 3 * sizeof *origin.xp);
         }
         change_substeps(sim, sim->substeps * 2);
         ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
