@@ -99,6 +99,12 @@ size_t ftm_metrics_render(const ftm_metrics_snapshot *s, char *buf, size_t size)
     put(&o, "ftm_dds_throttle_total %llu\n", (unsigned long long)s->throttle_count);
     metric(&o, "ftm_inputs_rejected_total", "counter", "Probe input and control messages rejected.");
     put(&o, "ftm_inputs_rejected_total %llu\n", (unsigned long long)s->inputs_rejected);
+    metric(&o, "ftm_probe_push_limited_total", "counter",
+           "Probe-ticks whose push into the tissue was shortened to the limit.");
+    put(&o, "ftm_probe_push_limited_total %llu\n", (unsigned long long)s->push_limited);
+    metric(&o, "ftm_unstable_ticks_total", "counter",
+           "Steps that stayed unstable at the most substeps: the tissue was reset to rest.");
+    put(&o, "ftm_unstable_ticks_total %llu\n", (unsigned long long)s->unstable_ticks);
     metric(&o, "ftm_record_bytes", "gauge", "Bytes written to the session recording.");
     put(&o, "ftm_record_bytes %llu\n", (unsigned long long)s->record_bytes);
     metric(&o, "ftm_participants", "gauge", "Participants known (not lost).");

@@ -37,6 +37,8 @@ typedef struct ftm_metrics_snapshot {
     uint64_t step_bucket[FTM_METRICS_STEP_BUCKETS + 1]; /* per bucket (not cumulative); last = +Inf */
     double step_last_period_s;     /* mean step time of the last 100 ms */
     uint64_t inputs_rejected;
+    uint64_t push_limited;   /* probe-ticks whose push was shortened to the limit */
+    uint64_t unstable_ticks; /* steps the guard could not save: tissue reset */
     uint64_t record_bytes;
     int32_t nparts;
     ftm_metrics_part parts[FTM_METRICS_PARTS];

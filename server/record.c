@@ -4,6 +4,7 @@
 #include "ftm/v1/ftm.pb-c.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -121,6 +122,8 @@ int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_w
     hd.node_count = (uint32_t)h->node_count;
     hd.has_start_unix_ns = true;
     hd.start_unix_ns = h->start_unix_ns;
+    hd.has_max_penetration = h->max_penetration > 0;
+    hd.max_penetration = h->max_penetration;
     Ftm__V1__RecordEntry m = FTM__V1__RECORD_ENTRY__INIT;
     m.header = &hd;
     int rc = put_entry(w, &m, err);
@@ -286,6 +289,10 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
             rc = rec_err(err, FTM_EPARSE,
                          "%s: header: tick_rate_hz, node_count or depth limits missing or invalid",
                          path);
+        else if (hd->has_max_penetration &&
+                 !(isfinite(hd->max_penetration) && hd->max_penetration > 0))
+            rc = rec_err(err, FTM_EPARSE, "%s: header: max_penetration %g is not a positive length",
+                         path, hd->max_penetration);
         else {
             snprintf(h->scene_id, sizeof h->scene_id, "%s", hd->scene_id);
             memcpy(h->digest, hd->content_digest.data, hd->content_digest.len);
@@ -295,6 +302,7 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
             h->depth_min = (int32_t)hd->depth_min;
             h->node_count = (int32_t)hd->node_count;
             h->start_unix_ns = hd->start_unix_ns;
+            h->max_penetration = hd->has_max_penetration ? hd->max_penetration : 0.0;
             r->index = 1;
         }
     }

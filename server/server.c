@@ -64,6 +64,7 @@ typedef struct options {
     int32_t metrics_port;  /* 0: off */
     const char *control_log; /* --control-log FILE: CSV per control period */
     int32_t rt_priority;   /* SCHED_FIFO priority of the tick and publishing threads; 0: off */
+    double max_penetration; /* --max-penetration M [m]; 0: not given, the scene's size */
 } options;
 
 typedef struct probe {
@@ -72,6 +73,9 @@ typedef struct probe {
     int32_t tri;
     ftm_vec3 anchor; /* crossing point in rest coordinates */
     ftm_vec3 normal; /* the triangle's rest normal, pointing to where the HIP came from */
+    ftm_vec3 push;   /* imposed on the triangle: HIP - anchor, at most the push limit long */
+    bool limited;    /* push is HIP - anchor shortened to the limit */
+    bool limit_told; /* the log said so during this contact */
 } probe;
 
 typedef struct participant {
@@ -103,6 +107,8 @@ typedef struct server {
     uint8_t digest[FTM_REPLAY_DIGEST_SIZE];
     int32_t depth;
     bool paused;
+    double max_push;       /* longest push a probe imposes [m]; INFINITY: none */
+    uint64_t push_limited; /* probe-ticks whose push was shortened to max_push */
 
     uv_loop_t *loop;
     uv_timer_t tick_timer, status_timer, stop_timer;
@@ -693,6 +699,31 @@ static ftm_vec3 rest_normal(server *s, int32_t tr)
 /* Whether a HIP moving by d crosses the triangle from outside to inside. */
 static bool entering(server *s, int32_t tr, ftm_vec3 d) { return v_dot(rest_normal(s, tr), d) < 0.0; }
 
+/* A probe's push: HIP - anchor, shortened along itself to the limit. A HIP
+ * far inside the tissue (a device glitch, a forged input) would otherwise
+ * impose a displacement no step can follow: the guard would give up and the
+ * tissue be reset for every participant. The replicas get the shortened
+ * push in the frame, so they need not know the limit. */
+static ftm_vec3 probe_push(server *s, const participant *p, int k, probe *pr)
+{
+    ftm_vec3 pen = v_sub(pr->hip, pr->anchor);
+    double len = sqrt(v_dot(pen, pen));
+    pr->limited = len > s->max_push;
+    if (pr->limited) {
+        double f = s->max_push / len; /* 0 if len overflowed: no push rather than NaN */
+        pen = (ftm_vec3){pen.x * f, pen.y * f, pen.z * f};
+        s->push_limited++;
+        if (!pr->limit_told)
+            slog(s, "warn",
+                 "participant %u probe %d: HIP %.4g m from its contact point; push limited to "
+                 "%.4g m (--max-penetration) while it is further",
+                 p->id, k, len, s->max_push);
+        pr->limit_told = true;
+    }
+    pr->push = pen;
+    return pen;
+}
+
 /* Probe HIPs -> displacement contacts on the collided triangles' vertices.
  * Returns the contact count; *nreact the probes in contact. */
 static int32_t probe_contacts(server *s, int32_t *nreact)
@@ -728,6 +759,7 @@ static int32_t probe_contacts(server *s, int32_t *nreact)
                     pr->normal = rest_normal(s, tr);
                     pr->tri = tr;
                     pr->contact = true;
+                    pr->limit_told = false;
                     slog(s, "info", "participant %u probe %d: contact on triangle %d", p->id, k,
                          (int)tr);
                 }
@@ -739,7 +771,7 @@ static int32_t probe_contacts(server *s, int32_t *nreact)
             if (reserve_contacts(s, n + 3))
                 return n;
             int32_t group = i * MAX_PROBES + k;
-            ftm_vec3 pen = v_sub(pr->hip, pr->anchor);
+            ftm_vec3 pen = probe_push(s, p, k, pr);
             const int32_t *v = tris + 3 * pr->tri;
             for (int q = 0; q < 3; q++) {
                 bool taken = ftm_mesh_fixed(s->mesh, v[q]);
@@ -753,6 +785,16 @@ static int32_t probe_contacts(server *s, int32_t *nreact)
     }
     *nreact = nr;
     return n;
+}
+
+/* At the end of a run: what kept the tissue in bounds, if anything did. */
+static void log_limits(server *s)
+{
+    if (s->push_limited || s->unstable)
+        slog(s, "info",
+             "%" PRIu64 " probe-ticks with the push limited to %.4g m; %" PRIu64
+             " unstable ticks (tissue reset)",
+             s->push_limited, s->max_push, s->unstable);
 }
 
 static void note_step(server *s, double ns)
@@ -800,10 +842,13 @@ static void run_tick(server *s)
         /* the local force model for the client's haptic loop (docs/haptics.md) */
         const probe *pb = &s->parts[re->group / MAX_PROBES].probes[re->group % MAX_PROBES];
         re->hip = pb->hip;
-        re->has_model = ftm_sim_contact_stiffness(s->sim, re->group, re->stiffness) > 0;
+        /* a limited push does not follow the HIP: no local model, the client
+         * holds the force */
+        re->has_model = !pb->limited &&
+                        ftm_sim_contact_stiffness(s->sim, re->group, re->stiffness) > 0;
         if (re->has_model) {
             ftm_stiffness_make_passive(re->stiffness);
-            ftm_stiffness_secant_scale(re->stiffness, re->force, v_sub(pb->hip, pb->anchor));
+            ftm_stiffness_secant_scale(re->stiffness, re->force, pb->push);
         }
         double nl = sqrt(v_dot(pb->normal, pb->normal));
         re->has_plane = nl > 0.0; /* the release rule of probe_contacts, for the client */
@@ -964,6 +1009,8 @@ static void control_period(server *s)
     m->step_sum_s = s->step_sum_ns * 1e-9;
     memcpy(m->step_bucket, s->step_bucket, sizeof m->step_bucket);
     m->step_last_period_s = s->step_recent_ns * 1e-9;
+    m->push_limited = s->push_limited;
+    m->unstable_ticks = s->unstable;
     for (int i = 0; i < MAX_PARTICIPANTS; i++)
         m->inputs_rejected += s->parts[i].used ? s->parts[i].rejected : 0;
     m->record_bytes = ftm_record_bytes(s->rec);
@@ -1084,6 +1131,8 @@ static void usage(FILE *f)
             "  --trainee ID:T0:FILE   (offline) trainee ID plays bot script FILE; tick k uses\n"
             "                         the HIP at script time T0 + k / rate (repeatable, <= 8)\n"
             "  --reactions FILE       (offline) CSV tick,participant,probe,fx,fy,fz\n"
+            "  --max-penetration M    longest push a probe imposes on the tissue, in metres\n"
+            "                         (default: the scene's size, its rest bounding box's longest side)\n"
             "  --rt-priority N        SCHED_FIFO priority of the tick thread, the publishing\n"
             "                         thread one above, where permitted (default 10; 0: off)\n");
 }
@@ -1091,7 +1140,7 @@ static void usage(FILE *f)
 static int parse(int argc, char **argv, options *o)
 {
     *o = (options){"default", "ftm", NULL, NULL, 0, 1, 1000.0, 1.0, 0.1, 0.0, -1, 0, {NULL}, 0, NULL,
-                   -1, 0, 2.0, NULL, NULL, false, 0, NULL, 10};
+                   -1, 0, 2.0, NULL, NULL, false, 0, NULL, 10, 0.0};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -1150,6 +1199,14 @@ static int parse(int argc, char **argv, options *o)
             o->reactions_csv = v;
         else if (strcmp(a, "--rt-priority") == 0)
             o->rt_priority = (int32_t)strtol(v, &end, 10);
+        else if (strcmp(a, "--max-penetration") == 0) {
+            o->max_penetration = strtod(v, &end);
+            if (!*end && !(isfinite(o->max_penetration) && o->max_penetration > 0)) {
+                fprintf(stderr, "ftm-server: --max-penetration must be a length > 0 in metres "
+                                "(got '%s')\n", v);
+                return -1;
+            }
+        }
         else {
             fprintf(stderr, "ftm-server: unknown option %s\n", a);
             return -1;
@@ -1358,6 +1415,7 @@ static int run_offline(server *s)
          s->tick, s->frames, s->idle_ticks,
          s->tick ? (double)s->bytes_frames / (double)s->tick : 0.0,
          s->tick ? s->step_ns_total / (double)s->tick * 1e-3 : 0.0);
+    log_limits(s);
     if (rc == 0)
         printf("ftm-server: final tick %" PRIu64 " hash %016" PRIx64 "\n", s->tick,
                ftm_sim_hash(s->sim));
@@ -1367,6 +1425,24 @@ static int run_offline(server *s)
     for (int i = 0; i < n; i++)
         ftm_script_free(&sc[i]);
     return rc;
+}
+
+/* The longest side of the mesh's rest bounding box: the default push limit.
+ * A probe pushing the surface further than the whole tissue is deep is no
+ * longer touching it but passing through it. */
+static double scene_size(const ftm_mesh *m)
+{
+    int32_t n = ftm_mesh_node_count(m);
+    if (n <= 0)
+        return INFINITY;
+    ftm_vec3 lo = ftm_mesh_rest_position(m, 0), hi = lo;
+    for (int32_t i = 1; i < n; i++) {
+        ftm_vec3 x = ftm_mesh_rest_position(m, i);
+        lo = (ftm_vec3){fmin(lo.x, x.x), fmin(lo.y, x.y), fmin(lo.z, x.z)};
+        hi = (ftm_vec3){fmax(hi.x, x.x), fmax(hi.y, x.y), fmax(hi.z, x.z)};
+    }
+    double size = fmax(hi.x - lo.x, fmax(hi.y - lo.y, hi.z - lo.z));
+    return size > 0 ? size : INFINITY;
 }
 
 int main(int argc, char **argv)
@@ -1393,6 +1469,8 @@ int main(int argc, char **argv)
         }
         s->o.depth = rh.depth_max;
         s->o.rate = rh.tick_rate_hz;
+        /* the recording's limit; none in recordings made before there was one */
+        s->o.max_penetration = rh.max_penetration > 0 ? rh.max_penetration : INFINITY;
         s->o.adaptive = 0;
         s->o.depth_floor = -1;
     }
@@ -1408,6 +1486,7 @@ int main(int argc, char **argv)
         return 3;
     }
     s->mesh = ftm_scene_mesh(s->scene);
+    s->max_push = s->o.max_penetration > 0 ? s->o.max_penetration : scene_size(s->mesh);
     ftm_sim_def def = ftm_replay_sim_def(s->scene);
     def.log = log_hook;
     def.log_user = s;
@@ -1438,9 +1517,10 @@ int main(int argc, char **argv)
     ftm_collide_stats cs;
     ftm_collide_get_stats(s->collide, &cs);
     slog(s, "info",
-         "scene '%s': %d nodes, %d surface triangles; collision grid %dx%dx%d cells of %.4g m",
+         "scene '%s': %d nodes, %d surface triangles; collision grid %dx%dx%d cells of %.4g m; "
+         "probe push limit %.4g m",
          ftm_scene_name(s->scene), (int)ftm_mesh_node_count(s->mesh), (int)cs.triangles,
-         (int)cs.dims[0], (int)cs.dims[1], (int)cs.dims[2], cs.cell_size);
+         (int)cs.dims[0], (int)cs.dims[1], (int)cs.dims[2], cs.cell_size, s->max_push);
 
     if (s->o.offline_ticks > 0 || s->o.replay) {
         int rc = s->o.replay ? replay_inputs(s) : run_offline(s);
@@ -1485,6 +1565,7 @@ int main(int argc, char **argv)
         rh.depth_max = s->ctl.def.max;
         rh.depth_min = s->ctl.def.floor;
         rh.node_count = ftm_mesh_node_count(s->mesh);
+        rh.max_penetration = isfinite(s->max_push) ? s->max_push : 0.0;
         struct timespec ts;
         clock_gettime(CLOCK_REALTIME, &ts);
         rh.start_unix_ns = (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
@@ -1596,6 +1677,7 @@ int main(int argc, char **argv)
     slog(s, "info", "depth %d at the end, range [%d, %d]: %" PRIu64 " decreases, %" PRIu64
          " increases", (int)s->depth, (int)s->ctl.def.floor, (int)s->ctl.def.max,
          s->ctl.decreases, s->ctl.increases);
+    log_limits(s);
     int rc = 0;
     if (s->rec) {
         uint64_t bytes = ftm_record_bytes(s->rec);

@@ -12,6 +12,10 @@ refused() { # expected-text options...
 refused "--heartbeat in (0, 10] seconds" --heartbeat 10.5 --offline 1
 refused "--heartbeat in (0, 10] seconds" --heartbeat 0 --offline 1
 refused "--rate must be in (0, 100000]" --rate 100001 --offline 1
+for v in 0 -0.01 nan inf 1e999 1e-999; do
+    refused "--max-penetration must be a length > 0 in metres (got '$v')" --max-penetration "$v" --offline 1
+done
+refused "--max-penetration: bad number '5cm'" --max-penetration 5cm --offline 1
 timeout 20 "$FTM_SERVER" --heartbeat 10 --rate 100000 --offline 5 >/dev/null 2>&1 ||
     fail "--heartbeat 10 --rate 100000 refused"
 echo "PASS server options"

@@ -158,7 +158,9 @@ tissue)
     ;;
 record)
     rec="$dir/session.rec"
-    start_server --duration 3.5 --record "$rec"
+    # a push limit below the bot's 4 mm press: the replay must take it from
+    # the recording's header to reproduce the contacts
+    start_server --duration 3.5 --record "$rec" --max-penetration 0.002
     timeout 60 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
         --duration 20 >"$dir/bot11.out" 2>"$dir/bot11.err" &
     b11=$!
@@ -166,6 +168,7 @@ record)
     wait $b11 || fail "bot 11 exited with $?"
     check_hashes 11
     grep -q "contact on triangle" "$dir/server.log" || fail "no probe contact on the server"
+    grep -q "push limited to 0.002 m" "$dir/server.log" || fail "the push was not limited"
     timeout 60 "$FTM_SERVER" --replay "$rec" >"$dir/replay.out" 2>"$dir/replay.err" ||
         fail "replay of the recording failed"
     got=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/replay.out")
@@ -296,7 +299,8 @@ for n in ["ftm_tick_rate_hz", "ftm_tick_rate_target_hz", "ftm_ticks_total", "ftm
           "ftm_step_seconds_count", "ftm_step_seconds_sum", 'ftm_step_seconds_bucket{le="+Inf"}',
           "ftm_depth", "ftm_depth_min", "ftm_depth_max", 'ftm_depth_changes_total{direction="down"}',
           "ftm_frames_sent_total", "ftm_keyframes_sent_total", 'ftm_bytes_sent_total{kind="tick_frame"}',
-          "ftm_heartbeats_sent_total", "ftm_participants"]:
+          "ftm_heartbeats_sent_total", "ftm_participants", "ftm_probe_push_limited_total",
+          "ftm_unstable_ticks_total"]:
     assert n in a and n in b, "missing " + n
 for n in ["ftm_ticks_total", "ftm_frames_sent_total", "ftm_step_seconds_count",
           'ftm_bytes_sent_total{kind="tick_frame"}']:
