@@ -345,11 +345,6 @@ void ftm_replay_keyframe_free(ftm_wire_keyframe *k)
 /* ---- the replica ------------------------------------------------------------------ */
 
 #define RING_CAP 4096            /* frames kept: unapplied ones and recent history */
-/* Ticks a frame may skip (idle) before we distrust it: the server sends a
- * heartbeat at least every 10 s (its --heartbeat limit) at <= 100 kHz; twice
- * that. Each idle tick is stepped (~0.2 us at rest), so this bounds what a
- * forged frame can cost. */
-#define MAX_IDLE_GAP 2000000u
 
 typedef struct frame {
     uint64_t tick, hash, gap;
@@ -679,8 +674,8 @@ static int apply_frames(ftm_replay *r)
          * have no contacts and its step moved nothing (docs/protocol.md).
          * A frame that claims otherwise is not the server's: it is dropped
          * and the replica resyncs, rather than step through up to
-         * MAX_IDLE_GAP loaded ticks for it. */
-        if (f->tick - cur > MAX_IDLE_GAP) {
+         * FTM_WIRE_MAX_TICK_GAP loaded ticks for it. */
+        if (f->tick - cur > FTM_WIRE_MAX_TICK_GAP) {
             drop_frame(r, f, "frame too far ahead");
             return FTM_OK;
         }

@@ -41,6 +41,6 @@ echo "== fuzz targets (clang, libFuzzer, ASan+UBSan): a fixed number of inputs f
 # replayed by CTest in every build above
 tests/fuzz/run.sh --build build/fuzz --runs 3000 fuzz_scene fuzz_mesh fuzz_wire fuzz_record \
     fuzz_script || status=1
-tests/fuzz/run.sh --build build/fuzz --runs 150 fuzz_replica || status=1
+tests/fuzz/run.sh --build build/fuzz --runs 150 fuzz_replica fuzz_session || status=1
 
 exit $status

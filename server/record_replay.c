@@ -95,6 +95,11 @@ static int on_frame(rstate *s, const ftm_record_entry *e, const ftm_wire_tick *t
     if (t->tick <= cur)
         return fail(s->path, e, "tick frame %" PRIu64 " out of order (replayed up to tick %" PRIu64 ")",
                     t->tick, cur);
+    if (t->tick - cur > FTM_WIRE_MAX_TICK_GAP) /* not a server's: it would take hours */
+        return fail(s->path, e,
+                    "tick frame %" PRIu64 " is %" PRIu64 " ticks after tick %" PRIu64
+                    "; a server sends a frame at least every %u ticks",
+                    t->tick, t->tick - cur, cur, FTM_WIRE_MAX_TICK_GAP);
     ftm_error err = {0, ""};
     while (sim_tick(s->sim) + 1 < t->tick) {
         uint64_t before = sim_tick(s->sim);

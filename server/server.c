@@ -15,6 +15,7 @@
 #include "record_replay.h"
 #include "replay.h"
 #include "script.h"
+#include "server.h"
 
 #include "ftm/scene.h"
 #include "ftm/wire.h"
@@ -65,6 +66,7 @@ typedef struct options {
     const char *control_log; /* --control-log FILE: CSV per control period */
     int32_t rt_priority;   /* SCHED_FIFO priority of the tick and publishing threads; 0: off */
     double max_penetration; /* --max-penetration M [m]; 0: not given, the scene's size */
+    const char *inputs;     /* --inputs FILE: re-run a recording's inputs (frames ignored) */
 } options;
 
 typedef struct probe {
@@ -1125,6 +1127,8 @@ static void usage(FILE *f)
             "  --depth-hold-up S      calm time before each depth increase (default 2)\n"
             "  --record FILE          record every input and published message to FILE\n"
             "  --replay FILE          re-simulate a recording, check every hash, exit\n"
+            "  --inputs FILE          run a recording's inputs through this server, without DDS\n"
+            "                         (its frames ignored; with --record, record the result)\n"
             "  --metrics-port N       Prometheus metrics on http://127.0.0.1:N/metrics (0: off)\n"
             "  --control-log FILE     CSV every 100 ms: time, tick, depth, step, lag, backlog, rate\n"
             "  --offline N            run N ticks without DDS, trainees from --trainee scripts\n"
@@ -1140,7 +1144,7 @@ static void usage(FILE *f)
 static int parse(int argc, char **argv, options *o)
 {
     *o = (options){"default", "ftm", NULL, NULL, 0, 1, 1000.0, 1.0, 0.1, 0.0, -1, 0, {NULL}, 0, NULL,
-                   -1, 0, 2.0, NULL, NULL, false, 0, NULL, 10, 0.0};
+                   -1, 0, 2.0, NULL, NULL, false, 0, NULL, 10, 0.0, NULL};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -1187,6 +1191,8 @@ static int parse(int argc, char **argv, options *o)
             o->record = v;
         else if (strcmp(a, "--replay") == 0)
             o->replay = v;
+        else if (strcmp(a, "--inputs") == 0)
+            o->inputs = v;
         else if (strcmp(a, "--control-log") == 0)
             o->control_log = v;
         else if (strcmp(a, "--metrics-port") == 0)
@@ -1217,7 +1223,7 @@ static int parse(int argc, char **argv, options *o)
         }
     }
     /* the heartbeat bounds the ticks a frame may skip, which replicas check
-     * (MAX_IDLE_GAP in client/replay.c: 10 s at 100 kHz, twice over) */
+     * (FTM_WIRE_MAX_TICK_GAP: 10 s at 100 kHz, twice over) */
     if (!(o->rate > 0 && o->rate <= 100000) || !(o->keyframe_every > 0) ||
         !(o->heartbeat > 0 && o->heartbeat <= 10) || o->duration < 0 || o->id == 0) {
         fprintf(stderr, "ftm-server: --rate must be in (0, 100000], --keyframe-every > 0, "
@@ -1232,6 +1238,12 @@ static int parse(int argc, char **argv, options *o)
     }
     if (o->rt_priority < 0 || o->rt_priority > 98) {
         fprintf(stderr, "ftm-server: --rt-priority must be 0..98 (got %d)\n", (int)o->rt_priority);
+        return -1;
+    }
+    if ((o->replay != NULL) + (o->inputs != NULL) + (o->offline_ticks != 0) > 1 ||
+        (o->record && (o->replay || o->offline_ticks))) {
+        fprintf(stderr, "ftm-server: --replay, --inputs and --offline exclude each other; "
+                        "--record goes with a session or --inputs\n");
         return -1;
     }
     if (o->offline_ticks < 0 || ((o->ntrainees || o->reactions_csv) && !o->offline_ticks)) {
@@ -1252,32 +1264,46 @@ static int parse(int argc, char **argv, options *o)
  * logic as online — collision, contacts, ftm_replay_step — each at the tick
  * it was handled; every recorded tick frame is then compared with what this
  * run produced: contacts (bit-exact) and state hash. Depths come from the
- * recorded frames (the controller's choices depend on the clock). */
+ * recorded frames (the controller's choices depend on the clock).
+ * --inputs: the same without the frames (neither compared nor used for the
+ * depth), recording the inputs and this run's frames if --record is given. */
 static int replay_inputs(server *s)
 {
+    const char *path = s->o.replay ? s->o.replay : s->o.inputs;
+    const char *mode = s->o.replay ? "--replay" : "--inputs";
     ftm_record_header h;
     ftm_record_reader *rd = NULL;
     ftm_error err = {0, ""};
-    if (ftm_record_open(s->o.replay, &h, &rd, &err)) {
-        fprintf(stderr, "ftm-server --replay: %s\n", err.message);
+    if (ftm_record_open(path, &h, &rd, &err)) {
+        fprintf(stderr, "ftm-server %s: %s\n", mode, err.message);
         return 1;
     }
     s->replaying = true;
     s->period_ns = 1e9 / s->o.rate;
     ftm_wire_limits lim = {0, 0, ftm_mesh_node_count(s->mesh)};
-    uint64_t frames = 0, inputs = 0;
+    uint64_t frames = 0, inputs = 0, end_tick = 0;
     int rc = 0;
     char why[FTM_ERROR_MESSAGE_MAX + 64] = "";
     ftm_record_entry e;
     for (;;) {
         int got = ftm_record_next(rd, &e, &err);
         if (got < 0) {
-            fprintf(stderr, "ftm-server --replay: %s\n", err.message);
+            fprintf(stderr, "ftm-server %s: %s\n", mode, err.message);
             rc = 1;
             break;
         }
         if (got == 0)
             break;
+        if (e.tick > end_tick && e.tick - end_tick > FTM_WIRE_MAX_TICK_GAP) {
+            /* every tick between is run: a forged tick would take hours */
+            snprintf(why, sizeof why,
+                     "tick %" PRIu64 " is %" PRIu64 " ticks after the entries before it; a "
+                     "session records a frame at least every %u ticks",
+                     e.tick, e.tick - end_tick, FTM_WIRE_MAX_TICK_GAP);
+            break;
+        }
+        if (e.tick > end_tick)
+            end_tick = e.tick;
         if (e.incoming) {
             if (e.tick < s->tick) {
                 snprintf(why, sizeof why, "input handled at tick %" PRIu64 " after tick %" PRIu64,
@@ -1287,6 +1313,8 @@ static int replay_inputs(server *s)
             while (s->tick < e.tick) /* the server runs every tick, idle or not */
                 run_tick(s);
             inputs++;
+            /* --inputs --record: as drain records them, before handling */
+            record_entry(s, true, e.kind, e.sender, e.payload, e.size, e.gone, e.lost);
             if (e.lost) {
                 participant *p = find_part(s, e.sender, false);
                 if (p) {
@@ -1311,7 +1339,7 @@ static int replay_inputs(server *s)
             else if (e.kind == FTM_WIRE_PROBE_INPUT)
                 on_probe_input(s, &rx);
             ftm_wire_received_free(&rx);
-        } else if (e.kind == FTM_WIRE_TICK) {
+        } else if (e.kind == FTM_WIRE_TICK && !s->o.inputs) {
             ftm_wire_msg m;
             if (ftm_wire_decode(e.kind, e.payload, e.size, &lim, &m, &err)) {
                 snprintf(why, sizeof why, "%s", err.message);
@@ -1347,9 +1375,16 @@ static int replay_inputs(server *s)
         }
     }
     if (why[0]) {
-        fprintf(stderr, "ftm-server --replay: %s: entry %" PRIu64 " (byte %" PRIu64 "): %s\n",
-                s->o.replay, e.index, e.offset, why);
+        fprintf(stderr, "ftm-server %s: %s: entry %" PRIu64 " (byte %" PRIu64 "): %s\n", mode,
+                path, e.index, e.offset, why);
         rc = 1;
+    } else if (rc == 0 && s->o.inputs) {
+        while (s->tick < end_tick) /* on to where the recorded session ended */
+            run_tick(s);
+        log_limits(s);
+        printf("inputs %s: %" PRIu64 " inputs through collision and the step; "
+               "final tick %" PRIu64 " hash %016" PRIx64 "\n",
+               path, inputs, s->tick, ftm_sim_hash(s->sim));
     } else if (rc == 0) {
         printf("replay %s from the inputs: %" PRIu64 " inputs through collision and the step, "
                "%" PRIu64 " tick frames with equal contacts and hash\n",
@@ -1445,21 +1480,45 @@ static double scene_size(const ftm_mesh *m)
     return size > 0 ? size : INFINITY;
 }
 
-int main(int argc, char **argv)
+static int open_recording(server *s, ftm_error *err)
+{
+    ftm_record_header rh;
+    memset(&rh, 0, sizeof rh);
+    snprintf(rh.scene_id, sizeof rh.scene_id, "%s", s->o.scene);
+    memcpy(rh.digest, s->digest, FTM_REPLAY_DIGEST_SIZE);
+    rh.digest_len = FTM_REPLAY_DIGEST_SIZE;
+    rh.tick_rate_hz = (uint32_t)(s->o.rate + 0.5);
+    rh.depth_max = s->ctl.def.max;
+    rh.depth_min = s->ctl.def.floor;
+    rh.node_count = ftm_mesh_node_count(s->mesh);
+    rh.max_penetration = isfinite(s->max_push) ? s->max_push : 0.0;
+    rh.start_unix_ns = real_ns();
+    int rc = ftm_record_create(s->o.record, &rh, &s->rec, err);
+    if (rc == FTM_OK)
+        slog(s, "info", "recording the session to %s", s->o.record);
+    return rc;
+}
+
+int ftm_server_main(int argc, char **argv)
 {
     static server srv;
     server *s = &srv;
+    memset(s, 0, sizeof *s); /* called again by the fuzz target (tests/fuzz) */
     if (parse(argc, argv, &s->o))
         return 2;
     if (s->o.replay) { /* first the frames alone, then the inputs (replay_inputs) */
         int rc = ftm_server_replay(s->o.replay, s->o.scene_given ? s->o.scene : NULL);
         if (rc)
             return rc;
+    }
+    if (s->o.replay || s->o.inputs) { /* the session's settings from the recording */
+        const char *path = s->o.replay ? s->o.replay : s->o.inputs;
         ftm_record_header rh;
         ftm_record_reader *rr = NULL;
         ftm_error e0 = {0, ""};
-        if (ftm_record_open(s->o.replay, &rh, &rr, &e0)) {
-            fprintf(stderr, "ftm-server --replay: %s\n", e0.message);
+        if (ftm_record_open(path, &rh, &rr, &e0)) {
+            fprintf(stderr, "ftm-server %s: %s\n", s->o.replay ? "--replay" : "--inputs",
+                    e0.message);
             return 1;
         }
         ftm_record_close_reader(rr);
@@ -1467,10 +1526,13 @@ int main(int argc, char **argv)
             snprintf(s->replay_scene, sizeof s->replay_scene, "%s", rh.scene_id);
             s->o.scene = s->replay_scene;
         }
-        s->o.depth = rh.depth_max;
         s->o.rate = rh.tick_rate_hz;
+        /* --inputs may try another depth or push limit; --replay must not */
+        if (s->o.replay || s->o.depth < 0)
+            s->o.depth = rh.depth_max;
         /* the recording's limit; none in recordings made before there was one */
-        s->o.max_penetration = rh.max_penetration > 0 ? rh.max_penetration : INFINITY;
+        if (s->o.replay || !(s->o.max_penetration > 0))
+            s->o.max_penetration = rh.max_penetration > 0 ? rh.max_penetration : INFINITY;
         s->o.adaptive = 0;
         s->o.depth_floor = -1;
     }
@@ -1522,8 +1584,24 @@ int main(int argc, char **argv)
          ftm_scene_name(s->scene), (int)ftm_mesh_node_count(s->mesh), (int)cs.triangles,
          (int)cs.dims[0], (int)cs.dims[1], (int)cs.dims[2], cs.cell_size, s->max_push);
 
-    if (s->o.offline_ticks > 0 || s->o.replay) {
-        int rc = s->o.replay ? replay_inputs(s) : run_offline(s);
+    if (s->o.offline_ticks > 0 || s->o.replay || s->o.inputs) {
+        int rc = 0;
+        if (s->o.inputs) { /* as a session starts: announcement, the rest state */
+            if (s->o.record && open_recording(s, &err)) {
+                slog(s, "error", "%s", err.message);
+                rc = 3;
+            }
+            s->period_ns = 1e9 / s->o.rate;
+            publish_announce(s);
+            publish_keyframe(s);
+        }
+        if (rc == 0)
+            rc = s->o.offline_ticks > 0 ? run_offline(s) : replay_inputs(s);
+        if (s->rec && ftm_record_close(s->rec, &err)) {
+            fprintf(stderr, "ftm-server: %s\n", err.message);
+            rc = 3;
+        }
+        s->rec = NULL;
         ftm_collide_destroy(s->collide);
         ftm_sim_destroy(s->sim);
         ftm_replay_material_free(&s->mat);
@@ -1555,25 +1633,9 @@ int main(int argc, char **argv)
         slog(s, "error", "%s", err.message);
         return 3;
     }
-    if (s->o.record) {
-        ftm_record_header rh;
-        memset(&rh, 0, sizeof rh);
-        snprintf(rh.scene_id, sizeof rh.scene_id, "%s", s->o.scene);
-        memcpy(rh.digest, s->digest, FTM_REPLAY_DIGEST_SIZE);
-        rh.digest_len = FTM_REPLAY_DIGEST_SIZE;
-        rh.tick_rate_hz = (uint32_t)(s->o.rate + 0.5);
-        rh.depth_max = s->ctl.def.max;
-        rh.depth_min = s->ctl.def.floor;
-        rh.node_count = ftm_mesh_node_count(s->mesh);
-        rh.max_penetration = isfinite(s->max_push) ? s->max_push : 0.0;
-        struct timespec ts;
-        clock_gettime(CLOCK_REALTIME, &ts);
-        rh.start_unix_ns = (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
-        if (ftm_record_create(s->o.record, &rh, &s->rec, &err)) {
-            slog(s, "error", "%s", err.message);
-            return 3;
-        }
-        slog(s, "info", "recording the session to %s", s->o.record);
+    if (s->o.record && open_recording(s, &err)) {
+        slog(s, "error", "%s", err.message);
+        return 3;
     }
     if (s->o.control_log) {
         if (!(s->control_csv = fopen(s->o.control_log, "w"))) {

@@ -16,6 +16,10 @@ for v in 0 -0.01 nan inf 1e999 1e-999; do
     refused "--max-penetration must be a length > 0 in metres (got '$v')" --max-penetration "$v" --offline 1
 done
 refused "--max-penetration: bad number '5cm'" --max-penetration 5cm --offline 1
+refused "--replay, --inputs and --offline exclude each other" --replay a.rec --inputs b.rec
+refused "--record goes with a session or --inputs" --offline 5 --record x.rec
+refused "--record goes with a session or --inputs" --replay a.rec --record x.rec
+refused "ftm-server --inputs: /nonexistent/a.rec" --inputs /nonexistent/a.rec
 timeout 20 "$FTM_SERVER" --heartbeat 10 --rate 100000 --offline 5 >/dev/null 2>&1 ||
     fail "--heartbeat 10 --rate 100000 refused"
 echo "PASS server options"

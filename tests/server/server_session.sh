@@ -263,6 +263,72 @@ EOF
     grep -q "every hash equal" "$dir/inputs.out" || fail "altered inputs: the frames alone should still replay"
     grep -q "tick [0-9]*: the inputs give [0-9]* contacts, the frame has" "$dir/inputs.err" ||
         fail "altered inputs: no contact mismatch named"
+    # entries far in the future (a forged or corrupted file): refused at
+    # once, not stepped through for hours: a copy of the last tick frame
+    # 10^12 ticks on (the frames' replay), and a gone event as far on (the
+    # inputs' re-run)
+    python3 - "$rec" "$dir/far-frame.rec" "$dir/far-input.rec" <<'EOF' || fail "could not forge entries"
+import sys
+data = bytes(open(sys.argv[1], 'rb').read())
+def varint(b, i):
+    v = s = 0
+    while True:
+        c = b[i]; i += 1; v |= (c & 0x7f) << s; s += 7
+        if not c & 0x80: return v, i
+def put(v):
+    out = bytearray()
+    while True:
+        c = v & 0x7f; v >>= 7
+        out.append(c | (0x80 if v else 0))
+        if not v: return bytes(out)
+def fields(b):  # (field, wire type, value or raw bytes)
+    i, out = 0, []
+    while i < len(b):
+        key, i = varint(b, i); f, t = key >> 3, key & 7
+        if t == 0: v, i = varint(b, i); out.append((f, t, v))
+        elif t == 1: out.append((f, t, b[i:i + 8])); i += 8
+        elif t == 2: n, i = varint(b, i); out.append((f, t, b[i:i + n])); i += n
+        elif t == 5: out.append((f, t, b[i:i + 4])); i += 4
+    return out
+def encode(fs):
+    out = bytearray()
+    for f, t, v in fs:
+        out += put(f << 3 | t)
+        out += put(v) if t == 0 else (put(len(v)) + v if t == 2 else v)
+    return bytes(out)
+i, last = 8, None
+while i < len(data):
+    n, j = varint(data, i)
+    e = fields(data[j:j + n])
+    d = {f: v for f, t, v in e}
+    if d.get(3) == 3 and d.get(6, 0) == 0:  # an outgoing tick frame
+        last = e
+    i = j + n
+payload = [v for f, t, v in last if f == 4][0]
+frame = [(f, t, v + 10**12 if f == 2 else v) for f, t, v in fields(payload)]
+entry = encode([(f, t, encode(frame) if f == 4 else v) for f, t, v in last])
+open(sys.argv[2], 'wb').write(data + put(len(entry)) + entry)
+gone = encode([(2, 0, 10**12), (3, 0, 5), (5, 0, 11), (6, 0, 1), (7, 0, 1)])
+open(sys.argv[3], 'wb').write(data + put(len(gone)) + gone)
+EOF
+    if timeout 60 "$FTM_SERVER" --replay "$dir/far-frame.rec" >"$dir/far-frame.out" 2>"$dir/far-frame.err"; then
+        fail "a tick frame 10^12 ticks ahead was accepted"
+    fi
+    grep -q "tick frame [0-9]* is [0-9]* ticks after tick [0-9]*; a server sends a frame at least every 2000000 ticks" \
+        "$dir/far-frame.err" || fail "the far tick frame was not refused clearly: $(cat "$dir/far-frame.err")"
+    if timeout 60 "$FTM_SERVER" --replay "$dir/far-input.rec" >"$dir/far-input.out" 2>"$dir/far-input.err"; then
+        fail "an input 10^12 ticks ahead was accepted"
+    fi
+    grep -q "tick 1000000000000 is [0-9]* ticks after the entries before it" "$dir/far-input.err" ||
+        fail "the far input was not refused clearly: $(cat "$dir/far-input.err")"
+    # --inputs: the recorded inputs through this server again reach the live
+    # server's final state; recorded again, they replay
+    timeout 60 "$FTM_SERVER" --inputs "$rec" --record "$dir/rerun.rec" >"$dir/rerun.out" 2>"$dir/rerun.err" ||
+        fail "--inputs failed: $(tail -3 "$dir/rerun.err")"
+    got=$(sed -n 's/^inputs .*; \(final tick .*\)$/\1/p' "$dir/rerun.out")
+    [ "$got" = "$want" ] || fail "--inputs ends on '$got', the server on '$want'"
+    timeout 60 "$FTM_SERVER" --replay "$dir/rerun.rec" >"$dir/rerun-replay.out" 2>"$dir/rerun-replay.err" ||
+        fail "the recording made by --inputs does not replay: $(tail -3 "$dir/rerun-replay.err")"
     printf 'not a recording\n' >"$dir/junk.rec"
     if timeout 60 "$FTM_SERVER" --replay "$dir/junk.rec" >/dev/null 2>"$dir/junk.err"; then
         fail "a non-recording was accepted"

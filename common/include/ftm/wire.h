@@ -61,6 +61,12 @@ const char *ftm_wire_kind_name(int kind);
 #define FTM_WIRE_DIGEST_MAX 64     /* content digest bytes */
 #define FTM_WIRE_DISPLAY_MAX 64    /* participant display name incl. NUL */
 #define FTM_WIRE_SAMPLES_MAX 4096  /* probe samples per ProbeInput */
+/* Most ticks one tick frame may be ahead of the one before it. The server
+ * sends a frame at least every 10 s (its --heartbeat limit) at <= 100 kHz;
+ * this is twice that. Replicas and the replay of a recording step every
+ * skipped tick (~0.2 us at rest), so the bound also caps what a forged
+ * frame or recording entry costs them. */
+#define FTM_WIRE_MAX_TICK_GAP 2000000u
 #define FTM_WIRE_REACTIONS_MAX 4096
 
 typedef struct ftm_wire_tissue {

@@ -1,0 +1,3 @@
+#include "server.h"
+
+int main(int argc, char **argv) { return ftm_server_main(argc, argv); }
