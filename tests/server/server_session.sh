@@ -184,37 +184,23 @@ record)
     fi
     grep -q "truncated: entry [0-9]* at byte [0-9]*" "$dir/trunc.err" || fail "no clear truncation error"
     # one tick frame's state hash altered: the replay names that tick
-    tick=$(python3 - "$rec" "$dir/bad.rec" <<'EOF'
+    tick=$(PYTHONPATH="$here" python3 - "$rec" "$dir/bad.rec" <<'EOF'
 import sys
+from recfile import *
 data = bytearray(open(sys.argv[1], 'rb').read())
-def varint(b, i):
-    v = s = 0
-    while True:
-        c = b[i]; i += 1; v |= (c & 0x7f) << s; s += 7
-        if not c & 0x80: return v, i
-def fields(b, i, end):
-    while i < end:
-        key, i = varint(b, i); f, t = key >> 3, key & 7
-        if t == 0: v, i = varint(b, i); yield f, v, None
-        elif t == 1: yield f, bytes(b[i:i + 8]), i; i += 8
-        elif t == 2: n, i = varint(b, i); yield f, (i, n), i; i += n
-        elif t == 5: i += 4
-        else: raise SystemExit("bad wire type")
-i, frames = 8, 0
-while i < len(data):
-    n, i = varint(data, i)
-    e = {f: v for f, v, _ in fields(data, i, i + n)}
-    if e.get(3) == 3 and not e.get(6) and 4 in e:
+frames = 0
+for at, fs in entries(data):
+    e = {f: (v, a) for f, t, v, a in fs}
+    if e.get(KIND, (0,))[0] == KIND_TICK_FRAME and not e.get(INCOMING, (0,))[0] and PAYLOAD in e:
         frames += 1
-        off, size = e[4]
         if frames == 100:
-            tf = {f: (v, at) for f, v, at in fields(data, off, off + size)}
-            tick, at = tf[2][0], tf[9][1]  # tick; state_hash (fixed64) offset
-            data[at] ^= 0x01
+            payload, off = e[PAYLOAD]
+            tf = {f: (v, a) for f, t, v, a in fields(data, off, off + len(payload))}
+            tick, hash_at = tf[2][0], tf[9][1]  # TickFrame.tick; state_hash (fixed64)
+            data[hash_at] ^= 0x01
             open(sys.argv[2], 'wb').write(data)
             print(tick)
             break
-    i += n
 EOF
 )
     [ -n "$tick" ] || fail "could not alter a tick frame"
@@ -224,36 +210,21 @@ EOF
     grep -q "tick $tick: state hash differs" "$dir/bad.err" || fail "the mismatch does not name tick $tick"
     # every probe input's z moved by one ulp: the frames still replay, the
     # inputs no longer give the recorded contacts
-    python3 - "$rec" "$dir/inputs.rec" <<'EOF' || fail "could not alter the probe inputs"
+    PYTHONPATH="$here" python3 - "$rec" "$dir/inputs.rec" <<'EOF' || fail "could not alter the probe inputs"
 import sys
+from recfile import *
 data = bytearray(open(sys.argv[1], 'rb').read())
-def varint(b, i):
-    v = s = 0
-    while True:
-        c = b[i]; i += 1; v |= (c & 0x7f) << s; s += 7
-        if not c & 0x80: return v, i
-def fields(b, i, end):
-    while i < end:
-        key, i = varint(b, i); f, t = key >> 3, key & 7
-        if t == 0: v, i = varint(b, i); yield f, v, None
-        elif t == 1: yield f, None, i; i += 8
-        elif t == 2: n, i = varint(b, i); yield f, n, i; i += n
-        elif t == 5: i += 4
-        else: raise SystemExit("bad wire type")
-i, moved = 8, 0
-while i < len(data):
-    n, i = varint(data, i)
-    e = {f: (v, at) for f, v, at in fields(data, i, i + n)}
-    if e.get(3, (0,))[0] == 2 and e.get(6, (0,))[0] == 1 and 4 in e:
-        size, off = e[4]
-        for f, ln, at in fields(data, off, off + size):
-            if f == 4:  # ProbeSample
-                for g, ln2, at2 in fields(data, at, at + ln):
-                    if g == 3:  # position
-                        for h, _, at3 in fields(data, at2, at2 + ln2):
-                            if h == 3:  # z
-                                data[at3] ^= 0x01; moved += 1
-    i += n
+moved = 0
+def sub(v, at, field):  # the nested messages of one field
+    return [(v2, a2) for f, t, v2, a2 in fields(data, at, at + len(v)) if f == field]
+for at, fs in entries(data):
+    e = {f: (v, a) for f, t, v, a in fs}
+    if e.get(KIND, (0,))[0] == KIND_PROBE_INPUT and e.get(INCOMING, (0,))[0] and PAYLOAD in e:
+        for sample in sub(*e[PAYLOAD], 4):  # ProbeInput.samples
+            for pos in sub(*sample, 3):  # ProbeSample.position
+                for z, z_at in sub(*pos, 3):  # Vec3.z
+                    data[z_at] ^= 0x01
+                    moved += 1
 assert moved > 100, moved
 open(sys.argv[2], 'wb').write(data)
 EOF
@@ -267,49 +238,19 @@ EOF
     # once, not stepped through for hours: a copy of the last tick frame
     # 10^12 ticks on (the frames' replay), and a gone event as far on (the
     # inputs' re-run)
-    python3 - "$rec" "$dir/far-frame.rec" "$dir/far-input.rec" <<'EOF' || fail "could not forge entries"
+    PYTHONPATH="$here" python3 - "$rec" "$dir/far-frame.rec" "$dir/far-input.rec" <<'EOF' || fail "could not forge entries"
 import sys
-data = bytes(open(sys.argv[1], 'rb').read())
-def varint(b, i):
-    v = s = 0
-    while True:
-        c = b[i]; i += 1; v |= (c & 0x7f) << s; s += 7
-        if not c & 0x80: return v, i
-def put(v):
-    out = bytearray()
-    while True:
-        c = v & 0x7f; v >>= 7
-        out.append(c | (0x80 if v else 0))
-        if not v: return bytes(out)
-def fields(b):  # (field, wire type, value or raw bytes)
-    i, out = 0, []
-    while i < len(b):
-        key, i = varint(b, i); f, t = key >> 3, key & 7
-        if t == 0: v, i = varint(b, i); out.append((f, t, v))
-        elif t == 1: out.append((f, t, b[i:i + 8])); i += 8
-        elif t == 2: n, i = varint(b, i); out.append((f, t, b[i:i + n])); i += n
-        elif t == 5: out.append((f, t, b[i:i + 4])); i += 4
-    return out
-def encode(fs):
-    out = bytearray()
-    for f, t, v in fs:
-        out += put(f << 3 | t)
-        out += put(v) if t == 0 else (put(len(v)) + v if t == 2 else v)
-    return bytes(out)
-i, last = 8, None
-while i < len(data):
-    n, j = varint(data, i)
-    e = fields(data[j:j + n])
-    d = {f: v for f, t, v in e}
-    if d.get(3) == 3 and d.get(6, 0) == 0:  # an outgoing tick frame
-        last = e
-    i = j + n
-payload = [v for f, t, v in last if f == 4][0]
-frame = [(f, t, v + 10**12 if f == 2 else v) for f, t, v in fields(payload)]
-entry = encode([(f, t, encode(frame) if f == 4 else v) for f, t, v in last])
-open(sys.argv[2], 'wb').write(data + put(len(entry)) + entry)
-gone = encode([(2, 0, 10**12), (3, 0, 5), (5, 0, 11), (6, 0, 1), (7, 0, 1)])
-open(sys.argv[3], 'wb').write(data + put(len(gone)) + gone)
+from recfile import *
+data = open(sys.argv[1], 'rb').read()
+last = [fs for at, fs in entries(data)
+        if {f: v for f, t, v, a in fs}.get(KIND) == KIND_TICK_FRAME
+        and not {f: v for f, t, v, a in fs}.get(INCOMING)][-1]
+payload = [v for f, t, v, a in last if f == PAYLOAD][0]
+frame = [(f, t, v + 10**12 if f == 2 else v) for f, t, v, a in fields(payload)]  # TickFrame.tick
+far = [(f, t, encode(frame) if f == PAYLOAD else v) for f, t, v, a in last]
+open(sys.argv[2], 'wb').write(data + entry(far))
+gone = [(TICK, 0, 10**12), (KIND, 0, KIND_STATUS), (5, 0, 11), (INCOMING, 0, 1), (7, 0, 1)]
+open(sys.argv[3], 'wb').write(data + entry(gone))
 EOF
     if timeout 60 "$FTM_SERVER" --replay "$dir/far-frame.rec" >"$dir/far-frame.out" 2>"$dir/far-frame.err"; then
         fail "a tick frame 10^12 ticks ahead was accepted"
