@@ -102,6 +102,11 @@ adaptive)
     grep -q "depth $min\.\.8 ([1-9][0-9]* changes)" "$dir/replay.out" || fail "replay saw no depth changes"
     grep -q "from the inputs: .* tick frames with equal contacts and hash" "$dir/replay.out" ||
         fail "the inputs did not reproduce the frames"
+    # --inputs takes the depths from the frames too: the live final state
+    timeout 60 "$FTM_SERVER" --inputs "$dir/adaptive.rec" >"$dir/inputs.out" 2>"$dir/inputs.err" ||
+        fail "--inputs of the adaptive session failed: $(tail -3 "$dir/inputs.err")"
+    got=$(sed -n 's/^inputs .*; \(final tick .*\)$/\1/p' "$dir/inputs.out")
+    [ "$got" = "$want" ] || fail "--inputs ends on '$got', the server on '$want'"
     echo "PASS adaptive: $want; lowest depth $min, at the end $end; $(sed -n 's/.*; \(depth [0-9.]* ([0-9]* changes)\).*/replayed \1/p' "$dir/replay.out")"
     ;;
 tissue)
