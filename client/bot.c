@@ -159,6 +159,7 @@ typedef struct bot {
     ftm_scene *scene;
     ftm_replay *rep;
     FILE *csv;
+    bool push_limited;  /* the last frame said the server limited our push */
     uint32_t server_id; /* 0 until known; frames from anyone else are ignored */
     uint64_t foreign;   /* messages ignored: not from the server */
     bool server_left;
@@ -289,8 +290,17 @@ static void on_tick(bot *b, const ftm_wire_received *rx)
     b->lat_n++;
     if (lat_us > b->lat_max_us)
         b->lat_max_us = lat_us;
-    if (ftm_replay_last_frame(b->rep)->tick != applied)
+    if (ftm_replay_last_frame(b->rep)->tick != applied) {
         log_frame(b, rx, rx_ns);
+        const ftm_wire_tick *t = ftm_replay_last_frame(b->rep);
+        bool limited = false;
+        for (int32_t i = 0; i < t->reaction_count; i++)
+            limited |= t->reactions[i].participant == b->o.id && t->reactions[i].push_limited;
+        if (limited && !b->push_limited)
+            blog("tick %" PRIu64 ": the server limits our push (HIP beyond --max-penetration)",
+                 t->tick);
+        b->push_limited = limited;
+    }
     if (ftm_replay_state(b->rep) != before)
         publish_status(b, ftm_replay_state(b->rep));
 }

@@ -497,6 +497,7 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
             p->probe = r->probe;
             p->own = r->participant == s->cfg.id;
             p->force = r->force;
+            p->push_limited = r->push_limited;
             p->contact = contact_centroid(x, t, r->group, &p->in_contact);
             if (p->own && r->probe == 0 && s->force_valid)
                 v->own_force = r->force;

@@ -53,6 +53,7 @@ typedef struct ftm_client_probe {
     bool in_contact;  /* a contact group with a reaction in the last frame */
     ftm_vec3 contact; /* centroid of the group's contact nodes, current positions */
     ftm_vec3 force;   /* reaction force [N] */
+    bool push_limited; /* the server shortened its push to the limit (HIP too deep) */
 } ftm_client_probe;
 
 typedef struct ftm_client_part {

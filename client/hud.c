@@ -59,8 +59,8 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         const ftm_client_probe *p = &v->probes[i];
         if (!p->in_contact)
             continue;
-        LINE("reaction %u/%d %.3f N%s", p->participant, (int)p->probe, norm(p->force),
-             p->own ? " (you)" : "");
+        LINE("reaction %u/%d %.3f N%s%s", p->participant, (int)p->probe, norm(p->force),
+             p->own ? " (you)" : "", p->push_limited ? "  too deep: push limited" : "");
     }
     if (v->mismatches || v->resyncs || v->rejected)
         LINE("mismatches %" PRIu64 "  resyncs %" PRIu64 "  rejected %" PRIu64, v->mismatches,

@@ -847,6 +847,7 @@ static void run_tick(server *s)
         re->hip = pb->hip;
         /* a limited push does not follow the HIP: no local model, the client
          * holds the force */
+        re->push_limited = pb->limited;
         re->has_model = !pb->limited &&
                         ftm_sim_contact_stiffness(s->sim, re->group, re->stiffness) > 0;
         if (re->has_model) {

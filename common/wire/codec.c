@@ -648,7 +648,9 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
             t->reactions[i] = (ftm_wire_reaction){.group = (int32_t)pr->group,
                                                   .participant = pr->participant_id,
                                                   .probe = (int32_t)pr->probe,
-                                                  .force = vec_from(pr->force)};
+                                                  .force = vec_from(pr->force),
+                                                  .push_limited = pr->has_push_limited &&
+                                                                  pr->push_limited};
             if (pr->n_stiffness == 9 && pr->hip) {
                 t->reactions[i].has_model = true;
                 t->reactions[i].hip = vec_from(pr->hip);
@@ -1038,6 +1040,8 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
                 rs[i].n_stiffness = 9;
                 rs[i].stiffness = (double *)r->stiffness; /* only read while packing */
             }
+            rs[i].has_push_limited = r->push_limited;
+            rs[i].push_limited = r->push_limited;
             if (r->has_plane) {
                 vec_to(&forces[2 * nr + i], r->contact_point);
                 vec_to(&forces[3 * nr + i], r->contact_normal);

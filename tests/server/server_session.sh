@@ -174,6 +174,7 @@ record)
     check_hashes 11
     grep -q "contact on triangle" "$dir/server.log" || fail "no probe contact on the server"
     grep -q "push limited to 0.002 m" "$dir/server.log" || fail "the push was not limited"
+    grep -q "the server limits our push" "$dir/bot11.err" || fail "the trainee was not told its push was limited"
     timeout 60 "$FTM_SERVER" --replay "$rec" >"$dir/replay.out" 2>"$dir/replay.err" ||
         fail "replay of the recording failed"
     got=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/replay.out")

@@ -104,7 +104,8 @@ static ftm_wire_msg sample_tick(int n, uint64_t tick)
             .value = {odd_values[i % NODD], odd_values[(i + 1) % NODD], odd_values[(i + 2) % NODD]}};
     }
     tick_reactions[0] = (ftm_wire_reaction){.group = 0, .participant = 17, .probe = 0, .force = {0.5, -0.25, 1e-9}};
-    tick_reactions[1] = (ftm_wire_reaction){.group = 2, .participant = 18, .probe = 1, .force = {-0.0, 0, DBL_MAX}};
+    tick_reactions[1] = (ftm_wire_reaction){.group = 2, .participant = 18, .probe = 1, .force = {-0.0, 0, DBL_MAX},
+                                            .push_limited = true};
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_TICK;
@@ -209,6 +210,7 @@ static void test_round_trip_tick(void **state)
         assert_int_equal(r->reactions[i].participant, tick_reactions[i].participant);
         assert_int_equal(r->reactions[i].probe, tick_reactions[i].probe);
         assert_true(same_vec(r->reactions[i].force, tick_reactions[i].force));
+        assert_int_equal(r->reactions[i].push_limited, tick_reactions[i].push_limited);
     }
     ftm_wire_msg_free(&b);
 }

@@ -116,6 +116,9 @@ typedef struct ftm_wire_reaction {
     bool has_plane;           /* contact_point and contact_normal are valid */
     ftm_vec3 contact_point;   /* [m] rest coordinates */
     ftm_vec3 contact_normal;  /* outward, unit length */
+    /* the HIP is beyond the server's push limit: the push was shortened (and
+     * has_model is false: the force does not follow the HIP) */
+    bool push_limited;
 } ftm_wire_reaction;
 
 typedef struct ftm_wire_tick {
