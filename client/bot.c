@@ -335,7 +335,7 @@ static void send_commands(bot *b, double t)
 {
     for (int32_t i = 0; i < b->sc.ncmds; i++) {
         ftm_script_command *c = &b->sc.cmds[i];
-        if (c->done || t < c->t)
+        if (c->done || t < c->e.t)
             continue;
         c->done = true;
         ftm_wire_msg m;
@@ -348,10 +348,10 @@ static void send_commands(bot *b, double t)
         m.u.control.command_id = ++b->command_id;
         char what[128];
         const ftm_wire_control *ctl = &m.u.control;
-        if (c->cmd == FTM_WIRE_CMD_TISSUE)
+        if (ctl->command == FTM_WIRE_CMD_TISSUE)
             snprintf(what, sizeof what, "tissue: stiffness %g N/m, damping %g N s/m, mass %g kg",
                      ctl->tissue.stiffness, ctl->tissue.node_damping, ctl->tissue.node_mass);
-        else if (c->cmd == FTM_WIRE_CMD_DEPTH_LIMITS)
+        else if (ctl->command == FTM_WIRE_CMD_DEPTH_LIMITS)
             snprintf(what, sizeof what, "depth limits %d..%d", (int)ctl->depth_min,
                      (int)ctl->depth_max);
         else

@@ -201,7 +201,7 @@ static void scripted_commands(app *a)
     double t = (double)(mono_ns() - a->t0) * 1e-9;
     for (int32_t i = 0; i < a->cmds.ncmds; i++) {
         ftm_script_command *sc = &a->cmds.cmds[i];
-        if (sc->done || t < sc->t)
+        if (sc->done || t < sc->e.t)
             continue;
         sc->done = true;
         ftm_wire_control c;

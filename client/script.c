@@ -15,20 +15,8 @@ int ftm_script_load(const char *path, ftm_script *sc)
         fprintf(stderr, "%s\n", err.message);
         return -1;
     }
-    static const ftm_wire_command to_wire[] = {
-        [FTM_SCRIPT_KW_PAUSE] = FTM_WIRE_CMD_PAUSE,
-        [FTM_SCRIPT_KW_RESUME] = FTM_WIRE_CMD_RESUME,
-        [FTM_SCRIPT_KW_RESET] = FTM_WIRE_CMD_RESET,
-        [FTM_SCRIPT_KW_STIFFNESS] = FTM_WIRE_CMD_TISSUE,
-        [FTM_SCRIPT_KW_DAMPING] = FTM_WIRE_CMD_TISSUE,
-        [FTM_SCRIPT_KW_MASS] = FTM_WIRE_CMD_TISSUE,
-        [FTM_SCRIPT_KW_DEPTH] = FTM_WIRE_CMD_DEPTH_LIMITS,
-    };
-    for (int32_t i = 0; i < text.ncmds; i++) {
-        const ftm_script_entry *e = &text.cmds[i];
-        sc->cmds[i] = (ftm_script_command){e->t, e->keyword, to_wire[e->keyword],
-                                           {e->value[0], e->value[1]}, false};
-    }
+    for (int32_t i = 0; i < text.ncmds; i++)
+        sc->cmds[i] = (ftm_script_command){text.cmds[i], false};
     sc->ncmds = text.ncmds;
     sc->pts = text.pts; /* ours now */
     sc->npts = text.npts;
@@ -41,24 +29,28 @@ const char *ftm_script_control(const ftm_script_command *c, const ftm_wire_tissu
                                ftm_wire_control *out)
 {
     memset(out, 0, sizeof *out);
-    out->command = c->cmd;
     out->tissue = *now;
-    switch (c->keyword) {
-    case FTM_SCRIPT_KW_PAUSE: return "pause";
-    case FTM_SCRIPT_KW_RESUME: return "resume";
-    case FTM_SCRIPT_KW_RESET: return "reset";
+    const double *v = c->e.value;
+    switch (c->e.keyword) {
+    case FTM_SCRIPT_KW_PAUSE: out->command = FTM_WIRE_CMD_PAUSE; return "pause";
+    case FTM_SCRIPT_KW_RESUME: out->command = FTM_WIRE_CMD_RESUME; return "resume";
+    case FTM_SCRIPT_KW_RESET: out->command = FTM_WIRE_CMD_RESET; return "reset";
     case FTM_SCRIPT_KW_DEPTH:
-        out->depth_min = (int32_t)c->value[0];
-        out->depth_max = (int32_t)c->value[1];
+        out->command = FTM_WIRE_CMD_DEPTH_LIMITS;
+        out->depth_min = (int32_t)v[0];
+        out->depth_max = (int32_t)v[1];
         return "depth limits";
     case FTM_SCRIPT_KW_STIFFNESS:
-        out->tissue.stiffness = c->value[0];
+        out->command = FTM_WIRE_CMD_TISSUE;
+        out->tissue.stiffness = v[0];
         return "stiffness";
     case FTM_SCRIPT_KW_DAMPING:
-        out->tissue.node_damping = c->value[0];
+        out->command = FTM_WIRE_CMD_TISSUE;
+        out->tissue.node_damping = v[0];
         return "damping";
     case FTM_SCRIPT_KW_MASS:
-        out->tissue.node_mass = c->value[0];
+        out->command = FTM_WIRE_CMD_TISSUE;
+        out->tissue.node_mass = v[0];
         return "mass";
     }
     return "unknown";

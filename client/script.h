@@ -8,11 +8,9 @@
 #include "ftm/wire.h"
 #include "script_text.h" /* the format's parser, ftm_script_point */
 
+/* A timed command as parsed (keyword, time, values) and whether it was sent. */
 typedef struct ftm_script_command {
-    double t;
-    ftm_script_keyword keyword; /* a tissue keyword: which parameter changes */
-    ftm_wire_command cmd;       /* the SessionControl command it sends */
-    double value[2];            /* TISSUE: the new value; DEPTH_LIMITS: min, max */
+    ftm_script_entry e;
     bool done;
 } ftm_script_command;
 

@@ -75,8 +75,12 @@ static void test_readers_agree(void **state)
     unlink(path);
     assert_int_equal(sc.npts, 4);
     assert_int_equal(sc.ncmds, 3);
-    assert_true(sc.cmds[0].cmd == FTM_WIRE_CMD_TISSUE && sc.cmds[0].keyword == FTM_SCRIPT_KW_STIFFNESS);
-    assert_true(sc.cmds[1].cmd == FTM_WIRE_CMD_DEPTH_LIMITS && sc.cmds[2].cmd == FTM_WIRE_CMD_PAUSE);
+    ftm_wire_control ctl[3];
+    ftm_wire_tissue now = {1, 1, 1, {1, 1, 1}};
+    for (int i = 0; i < 3; i++)
+        ftm_script_control(&sc.cmds[i], &now, &ctl[i]);
+    assert_true(ctl[0].command == FTM_WIRE_CMD_TISSUE && sc.cmds[0].e.keyword == FTM_SCRIPT_KW_STIFFNESS);
+    assert_true(ctl[1].command == FTM_WIRE_CMD_DEPTH_LIMITS && ctl[2].command == FTM_WIRE_CMD_PAUSE);
     assert_true(sc.join == 0.5 && sc.leave == 3.0);
     for (int k = -10; k <= 170; k++) {
         double t = k * 0.01;
