@@ -6,28 +6,10 @@
 
 #include <ctype.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-static int fail(ftm_error *err, int code, const char *name, int32_t line, const char *fmt, ...)
-{
-    if (err) {
-        char msg[256];
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(msg, sizeof msg, fmt, ap);
-        va_end(ap);
-        err->code = code;
-        if (line > 0)
-            snprintf(err->message, sizeof err->message, "%.200s:%d: %s", name, (int)line, msg);
-        else
-            snprintf(err->message, sizeof err->message, "%.200s: %s", name, msg);
-    }
-    return code;
-}
 
 enum { KW_JOIN = -1, KW_LEAVE = -2 }; /* set a time of the script, not a command */
 
@@ -67,40 +49,40 @@ static int command(ftm_script_text *sc, const token *tok, int ntok, const char *
     while (k < sizeof keywords / sizeof *keywords && !token_is(tok[0], keywords[k].word))
         k++;
     if (k == sizeof keywords / sizeof *keywords)
-        return fail(err, FTM_EPARSE, name, line,
+        return ftm_text_error(err, FTM_EPARSE, name, line,
                     "unknown keyword '%.*s' (join, leave, pause, resume, reset, stiffness, "
                     "damping, mass, depth)",
                     (int)(tok[0].n < 32 ? tok[0].n : 32), tok[0].p);
     const char *word = keywords[k].word;
     double t;
     if (ntok < 2 || !number(tok[1], &t))
-        return fail(err, FTM_EPARSE, name, line, "expected '<keyword> <time> [values]'");
+        return ftm_text_error(err, FTM_EPARSE, name, line, "expected '<keyword> <time> [values]'");
     if (!(t >= 0))
-        return fail(err, FTM_EPARSE, name, line,
+        return ftm_text_error(err, FTM_EPARSE, name, line,
                     "time %g is negative (times are seconds from the start)", t);
     int want = keywords[k].values;
     double v[2] = {0, 0};
     for (int i = 0; i < want; i++)
         if (ntok < 3 + i || !number(tok[2 + i], &v[i]))
-            return fail(err, FTM_EPARSE, name, line,
+            return ftm_text_error(err, FTM_EPARSE, name, line,
                         "'%s' needs %d finite number(s) after the time", word, want);
     if (ntok > 2 + want)
-        return fail(err, FTM_EPARSE, name, line, "extra text after '%s'", word);
+        return ftm_text_error(err, FTM_EPARSE, name, line, "extra text after '%s'", word);
     const int kw = keywords[k].keyword;
     if (kw == KW_JOIN || kw == KW_LEAVE) {
         *(kw == KW_JOIN ? &sc->join : &sc->leave) = t;
         return FTM_OK;
     }
     if (kw == FTM_SCRIPT_KW_DAMPING && !(v[0] >= 0))
-        return fail(err, FTM_EPARSE, name, line, "damping must be >= 0");
+        return ftm_text_error(err, FTM_EPARSE, name, line, "damping must be >= 0");
     if ((kw == FTM_SCRIPT_KW_STIFFNESS || kw == FTM_SCRIPT_KW_MASS) && !(v[0] > 0))
-        return fail(err, FTM_EPARSE, name, line, "%s must be > 0", word);
+        return ftm_text_error(err, FTM_EPARSE, name, line, "%s must be > 0", word);
     if (kw == FTM_SCRIPT_KW_DEPTH && !(v[0] >= 0 && v[1] >= v[0] && v[1] <= 1e6 &&
                                     v[0] == floor(v[0]) && v[1] == floor(v[1])))
-        return fail(err, FTM_EPARSE, name, line,
+        return ftm_text_error(err, FTM_EPARSE, name, line,
                     "depth limits must be whole numbers 0 <= min <= max <= 1000000");
     if (sc->ncmds == FTM_SCRIPT_COMMANDS_MAX)
-        return fail(err, FTM_EPARSE, name, line, "more than %d commands",
+        return ftm_text_error(err, FTM_EPARSE, name, line, "more than %d commands",
                     FTM_SCRIPT_COMMANDS_MAX);
     sc->cmds[sc->ncmds++] = (ftm_script_entry){(ftm_script_keyword)kw, t, {v[0], v[1]}, line};
     return FTM_OK;
@@ -111,21 +93,21 @@ static int point(ftm_script_text *sc, int32_t *cap, const token *tok, int ntok,
 {
     double v[4];
     if (ntok != 4)
-        return fail(err, FTM_EPARSE, name, line, "expected 't x y z' (4 numbers)");
+        return ftm_text_error(err, FTM_EPARSE, name, line, "expected 't x y z' (4 numbers)");
     for (int i = 0; i < 4; i++)
         if (!number(tok[i], &v[i]))
-            return fail(err, FTM_EPARSE, name, line, "expected 't x y z' (4 numbers)");
+            return ftm_text_error(err, FTM_EPARSE, name, line, "expected 't x y z' (4 numbers)");
     if (!(v[0] >= 0))
-        return fail(err, FTM_EPARSE, name, line,
+        return ftm_text_error(err, FTM_EPARSE, name, line,
                     "time %g is negative (times are seconds from the start)", v[0]);
     if (sc->npts > 0 && !(v[0] > sc->pts[sc->npts - 1].t))
-        return fail(err, FTM_EPARSE, name, line, "time %g does not increase (previous point at %g)",
+        return ftm_text_error(err, FTM_EPARSE, name, line, "time %g does not increase (previous point at %g)",
                     v[0], sc->pts[sc->npts - 1].t);
     if (sc->npts == *cap) {
         int32_t nc = *cap ? 2 * *cap : 64;
         ftm_script_point *np = realloc(sc->pts, (size_t)nc * sizeof *np);
         if (!np)
-            return fail(err, FTM_ENOMEM, name, line, "out of memory");
+            return ftm_text_error(err, FTM_ENOMEM, name, line, "out of memory");
         sc->pts = np;
         *cap = nc;
     }
@@ -141,7 +123,7 @@ int ftm_script_text_parse(const char *text, size_t length, const char *name,
     memset(out, 0, sizeof *out);
     out->leave = -1.0;
     if (!text && length > 0)
-        return fail(err, FTM_EINVAL, name, 0, "no text");
+        return ftm_text_error(err, FTM_EINVAL, name, 0, "no text");
     ftm_text txt;
     ftm_text_init(&txt, name, text, length);
     int32_t cap = 0;
@@ -150,12 +132,12 @@ int ftm_script_text_parse(const char *text, size_t length, const char *name,
     size_t len;
     while (rc == FTM_OK && ftm_text_next_line(&txt, &line, &len)) {
         if (len > FTM_SCRIPT_LINE_MAX) {
-            rc = fail(err, FTM_EPARSE, name, txt.line, "line longer than %d bytes",
+            rc = ftm_text_error(err, FTM_EPARSE, name, txt.line, "line longer than %d bytes",
                       FTM_SCRIPT_LINE_MAX);
             break;
         }
         if (memchr(line, '\0', len)) {
-            rc = fail(err, FTM_EPARSE, name, txt.line, "NUL byte (not a text file?)");
+            rc = ftm_text_error(err, FTM_EPARSE, name, txt.line, "NUL byte (not a text file?)");
             break;
         }
         const char *hash = memchr(line, '#', len);

@@ -224,12 +224,11 @@ __attribute__((format(printf, 4, 5)))
 static int
 fail_at(const parser *p, int32_t line, int code, const char *fmt, ...)
 {
-    char msg[FTM_ERROR_MESSAGE_MAX];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
+    int rc = ftm_text_verror(p->err, code, p->name, line, fmt, ap);
     va_end(ap);
-    return ftm_error_set(p->err, code, "%s:%d: %s", p->name, (int)line, msg);
+    return rc;
 }
 
 /* Prints at most this many characters of an offending token. */

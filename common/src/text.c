@@ -3,6 +3,7 @@
 #include "error.h"
 
 #include <errno.h>
+#include <stdarg.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -137,4 +138,23 @@ bool ftm_text_parse_int(const char *tok, size_t len, int64_t *out)
         return false;
     *out = v;
     return true;
+}
+
+int ftm_text_verror(ftm_error *err, int code, const char *name, int32_t line, const char *fmt,
+                    va_list ap)
+{
+    char msg[FTM_ERROR_MESSAGE_MAX];
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    if (line > 0)
+        return ftm_error_set(err, code, "%.200s:%d: %s", name, (int)line, msg);
+    return ftm_error_set(err, code, "%.200s: %s", name, msg);
+}
+
+int ftm_text_error(ftm_error *err, int code, const char *name, int32_t line, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int rc = ftm_text_verror(err, code, name, line, fmt, ap);
+    va_end(ap);
+    return rc;
 }

@@ -5,6 +5,8 @@
 
 #include "ftm/base.h"
 
+#include <stdarg.h>
+
 typedef struct ftm_text {
     const char *name; /* file name for messages */
     const char *data; /* NUL-terminated */
@@ -26,6 +28,16 @@ bool ftm_text_next_line(ftm_text *t, const char **line, size_t *length);
 
 /* Splits the next whitespace-separated token off [*cur, end); false if none. */
 bool ftm_text_token(const char **cur, const char *end, const char **tok, size_t *toklen);
+
+/* An error at a line of a named text: FTM error code `code` with the message
+ * "NAME:LINE: reason" (line > 0) or "NAME: reason", the name cut to 200
+ * bytes so the reason fits. Returns code. */
+#if defined(__GNUC__)
+__attribute__((format(printf, 5, 6)))
+#endif
+int ftm_text_error(ftm_error *err, int code, const char *name, int32_t line, const char *fmt, ...);
+int ftm_text_verror(ftm_error *err, int code, const char *name, int32_t line, const char *fmt,
+                    va_list ap);
 
 /* Whole-token number parsing; false on trailing junk, overflow or (for
  * doubles) a non-finite value. */
