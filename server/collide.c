@@ -192,6 +192,7 @@ int ftm_collide_create(const ftm_mesh *m, ftm_collide **out, ftm_error *err)
     c->st.cells = c->dim[0] * c->dim[1] * c->dim[2];
     memcpy(c->st.dims, c->dim, sizeof c->dim);
     c->st.cell_size = c->h;
+    c->st.extent = ext;
     c->st.triangles = nt;
     c->cells = calloc((size_t)c->st.cells, sizeof *c->cells);
     if (!c->cells)

@@ -23,6 +23,7 @@ typedef struct ftm_collide_stats {
     int32_t triangles, cells;   /* surface triangles, grid cells */
     int32_t dims[3];
     double cell_size;
+    double extent;              /* longest side of the rest surface's bounding box; 0: none */
     uint64_t updates, refiled;  /* update calls; triangles re-filed */
     uint64_t queries, tested;   /* segment queries; triangle tests */
 } ftm_collide_stats;

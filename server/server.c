@@ -1138,7 +1138,7 @@ static void usage(FILE *f)
             "                         the HIP at script time T0 + k / rate (repeatable, <= 8)\n"
             "  --reactions FILE       (offline) CSV tick,participant,probe,fx,fy,fz\n"
             "  --max-penetration M    longest push a probe imposes on the tissue, in metres\n"
-            "                         (default: the scene's size, its rest bounding box's longest side)\n"
+            "                         (default: the scene's size, the longest side of its rest surface's box)\n"
             "  --rt-priority N        SCHED_FIFO priority of the tick thread, the publishing\n"
             "                         thread one above, where permitted (default 10; 0: off)\n");
 }
@@ -1466,24 +1466,6 @@ static int run_offline(server *s)
     return rc;
 }
 
-/* The longest side of the mesh's rest bounding box: the default push limit.
- * A probe pushing the surface further than the whole tissue is deep is no
- * longer touching it but passing through it. */
-static double scene_size(const ftm_mesh *m)
-{
-    int32_t n = ftm_mesh_node_count(m);
-    if (n <= 0)
-        return INFINITY;
-    ftm_vec3 lo = ftm_mesh_rest_position(m, 0), hi = lo;
-    for (int32_t i = 1; i < n; i++) {
-        ftm_vec3 x = ftm_mesh_rest_position(m, i);
-        lo = (ftm_vec3){fmin(lo.x, x.x), fmin(lo.y, x.y), fmin(lo.z, x.z)};
-        hi = (ftm_vec3){fmax(hi.x, x.x), fmax(hi.y, x.y), fmax(hi.z, x.z)};
-    }
-    double size = fmax(hi.x - lo.x, fmax(hi.y - lo.y, hi.z - lo.z));
-    return size > 0 ? size : INFINITY;
-}
-
 static int open_recording(server *s, ftm_error *err)
 {
     ftm_record_header rh;
@@ -1553,7 +1535,6 @@ int ftm_server_main(int argc, char **argv)
         return 3;
     }
     s->mesh = ftm_scene_mesh(s->scene);
-    s->max_push = s->o.max_penetration > 0 ? s->o.max_penetration : scene_size(s->mesh);
     ftm_sim_def def = ftm_replay_sim_def(s->scene);
     def.log = log_hook;
     def.log_user = s;
@@ -1583,6 +1564,11 @@ int ftm_server_main(int argc, char **argv)
     ftm_replay_scene_digest(s->scene, s->digest);
     ftm_collide_stats cs;
     ftm_collide_get_stats(s->collide, &cs);
+    /* the default push limit, the scene's size: a probe pushing the surface
+     * further than the whole tissue is deep is passing through it */
+    s->max_push = s->o.max_penetration > 0 ? s->o.max_penetration
+                  : cs.extent > 0          ? cs.extent
+                                           : INFINITY;
     char limit[32] = "none (the recording has none)";
     if (isfinite(s->max_push))
         snprintf(limit, sizeof limit, "%.4g m", s->max_push);
