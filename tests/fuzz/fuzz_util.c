@@ -1,7 +1,6 @@
 /* Scratch files for the targets whose parsers read paths. */
 #include "fuzz.h"
 
-#include <dirent.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
