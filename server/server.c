@@ -111,6 +111,7 @@ typedef struct server {
     bool paused;
     double max_push;       /* longest push a probe imposes [m]; INFINITY: none */
     uint64_t push_limited; /* probe-ticks whose push was shortened to max_push */
+    uint64_t rejected_unknown; /* messages from senders with no status yet (log rate) */
 
     uv_loop_t *loop;
     uv_timer_t tick_timer, status_timer, stop_timer;
@@ -201,8 +202,6 @@ static double hist_quantile(const uint32_t *h, double q)
     return 0.0;
 }
 
-static server *g_log_server; /* for the log hooks of libftm/ftm_wire */
-
 static void slog(server *s, const char *level, const char *fmt, ...)
 {
     char buf[1024];
@@ -220,7 +219,7 @@ static void slog(server *s, const char *level, const char *fmt, ...)
 
 static void log_hook(void *user, ftm_log_level level, const char *message)
 {
-    server *s = user ? user : g_log_server;
+    server *s = user; /* every hook is registered with its server */
     static const char *names[] = {"debug", "info", "warn", "error"};
     slog(s, names[level < 4 ? level : 3], "%s", message);
 }
@@ -489,8 +488,7 @@ static void on_status(server *s, ftm_wire_received *rx)
 
 static void reject(server *s, participant *p, uint32_t id, const char *what, const char *why)
 {
-    static uint64_t unknown;
-    uint64_t n = p ? ++p->rejected : ++unknown;
+    uint64_t n = p ? ++p->rejected : ++s->rejected_unknown;
     if (n <= 3 || (n & (n - 1)) == 0) /* 1, 2, 3, 4, 8, 16, ... */
         slog(s, "warn", "%s from participant %u rejected (%" PRIu64 " so far): %s", what, id, n,
              why);
@@ -1524,7 +1522,6 @@ int ftm_server_main(int argc, char **argv)
         s->o.depth_floor = -1;
     }
     s->t_start_ns = mono_ns();
-    g_log_server = s;
     if (s->o.log_path && !(s->logf = fopen(s->o.log_path, "w"))) {
         fprintf(stderr, "ftm-server: cannot open %s: %s\n", s->o.log_path, strerror(errno));
         return 3;
