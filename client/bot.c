@@ -30,6 +30,7 @@ typedef struct options {
     const char *role, *script, *scene, *session, *config, *log_path, *name;
     uint32_t domain, id;
     double duration, resync_timeout, input_period;
+    double rejoin; /* after the server leaves, wait this long for it to restart [s] */
 } options;
 
 static volatile sig_atomic_t g_stop;
@@ -85,12 +86,14 @@ static void usage(FILE *f)
             "  --duration S           stop after S seconds (default 10; also when the server leaves)\n"
             "  --resync-timeout S     fail if not synced for S seconds (default 5)\n"
             "  --input-period S       probe input batch period (default 0.001)\n"
+            "  --rejoin S             when the server leaves, wait S seconds for it to restart\n"
+            "                         and rejoin it (default 0: stop)\n"
             "  --log FILE             CSV: one line per applied frame\n");
 }
 
 static int parse(int argc, char **argv, options *o)
 {
-    *o = (options){NULL, NULL, NULL, "ftm", NULL, NULL, NULL, 0, 0, 10.0, 5.0, 0.001};
+    *o = (options){.session = "ftm", .duration = 10.0, .resync_timeout = 5.0, .input_period = 0.001};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -128,6 +131,8 @@ static int parse(int argc, char **argv, options *o)
             o->resync_timeout = strtod(v, &end);
         else if (strcmp(a, "--input-period") == 0)
             o->input_period = strtod(v, &end);
+        else if (strcmp(a, "--rejoin") == 0)
+            o->rejoin = strtod(v, &end);
         else {
             fprintf(stderr, "ftm-bot: unknown option %s\n", a);
             return -1;
@@ -143,6 +148,10 @@ static int parse(int argc, char **argv, options *o)
     }
     if (!(o->duration > 0) || !(o->resync_timeout > 0) || !(o->input_period > 0)) {
         fprintf(stderr, "ftm-bot: --duration, --resync-timeout, --input-period must be > 0\n");
+        return -1;
+    }
+    if (!(o->rejoin >= 0 && o->rejoin <= 3600)) {
+        fprintf(stderr, "ftm-bot: --rejoin must be 0..3600 seconds\n");
         return -1;
     }
     return 0;
@@ -164,6 +173,8 @@ typedef struct bot {
     uint64_t foreign;   /* messages ignored: not from the server */
     bool server_left;
     bool server_gone; /* left by a `gone` event (lease expiry), not a LEAVING status */
+    uint64_t server_start; /* the announced start of the server process we replay */
+    uint32_t restarts;     /* server restarts rejoined */
     int64_t server_left_ns;
     int64_t last_frame_ns;
     uint64_t command_id;
@@ -205,12 +216,31 @@ static ftm_wire_state cur_state(const bot *b)
 static void on_announce(bot *b, const ftm_wire_announce *a)
 {
     ftm_error err = {0, ""};
+    /* another process under the server's id: its state starts afresh, so
+     * does the replica (same scene: checked below) */
+    if (b->rep && a->server_start_ns && b->server_start && a->server_start_ns != b->server_start) {
+        blog("server %u restarted (a new process, announcing tick %" PRIu64 "; we were at tick %"
+             PRIu64 "): rejoining", b->server_id, a->tick, ftm_replay_tick(b->rep));
+        ftm_replay_destroy(b->rep);
+        b->rep = NULL;
+        b->restarts++;
+        b->server_left = b->server_gone = false;
+        b->last_frame_ns = mono_ns();
+        if (ftm_replay_create(b->scene, log_hook, NULL, &b->rep, &err)) {
+            blog("replay: %s", err.message);
+            return;
+        }
+        publish_status(b, FTM_WIRE_STATE_JOINING);
+    }
     if (!b->scene) {
         const char *name = b->o.scene ? b->o.scene : a->scene_id;
-        if (ftm_scene_open(name, &b->scene, &err)) {
+        char path[1024];
+        if (ftm_wire_open_scene(name, &b->scene, path, sizeof path, &err)) {
             blog("cannot load scene '%s': %s", name, err.message);
             return;
         }
+        if (strcmp(path, name) != 0)
+            blog("scene '%s': %s", name, path);
         if (ftm_replay_create(b->scene, log_hook, NULL, &b->rep, &err)) {
             blog("replay: %s", err.message);
             ftm_scene_destroy(b->scene);
@@ -229,6 +259,8 @@ static void on_announce(bot *b, const ftm_wire_announce *a)
         ftm_scene_destroy(b->scene);
         b->scene = NULL;
     }
+    if (b->rep)
+        b->server_start = a->server_start_ns;
 }
 
 /* Server-to-bot latency of a frame [us]: from the server's send time in the
@@ -497,6 +529,8 @@ int main(int argc, char **argv)
          * process (or the server) was stalled: wait for it to come back for
          * the resync timeout before giving up. */
         int64_t grace = b->server_gone ? (int64_t)(b->o.resync_timeout * 1e9) : SEC / 2;
+        if (grace < (int64_t)(b->o.rejoin * 1e9)) /* waiting for a restart */
+            grace = (int64_t)(b->o.rejoin * 1e9);
         if (b->server_left && now - b->server_left_ns > grace && now - b->last_frame_ns > SEC / 5) {
             why = b->server_gone ? "server gone" : "server left";
             break;
@@ -577,6 +611,8 @@ int main(int argc, char **argv)
          rs.keyframes_loaded, b->lat_n ? b->lat_sum_us / (double)b->lat_n : 0.0, b->lat_max_us,
          rs.frames_applied ? rs.replay_ns_total / (double)(rs.frames_applied + rs.idle_ticks) * 1e-3
                            : 0.0);
+    if (b->restarts)
+        blog("%u server restart%s rejoined", b->restarts, b->restarts > 1 ? "s" : "");
     printf("ftm-bot %u: final tick %" PRIu64 " hash %016" PRIx64 " %s\n", b->o.id,
            b->rep ? ftm_replay_tick(b->rep) : 0, b->rep ? ftm_replay_hash(b->rep) : 0,
            st == FTM_WIRE_STATE_SYNCED ? "synced" : "not-synced");

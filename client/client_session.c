@@ -41,6 +41,7 @@ struct ftm_client_session {
     uint32_t server_id; /* 0 until the first announcement */
     uint64_t foreign;   /* messages ignored: not from the server */
     bool server_left;
+    uint64_t server_start; /* the announced start of the server process we replay */
     int64_t last_frame_ns, last_status_ns, last_input_ns, last_publish_ns;
     uint64_t newest_rx_tick;
     int64_t last_latency_ns;
@@ -157,13 +158,32 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
     s->ann = *a;
     s->have_ann = true;
     s->dirty = true;
+    /* another process under the server's id (a service restarted it): its
+     * state starts afresh, so does the replica; the scene is checked below */
+    if (s->rep && a->server_start_ns && s->server_start && a->server_start_ns != s->server_start) {
+        slog(s, FTM_LOG_INFO,
+             "server %u restarted (a new process, announcing tick %" PRIu64 "; we were at tick %"
+             PRIu64 "): rejoining", s->server_id, a->tick, ftm_replay_tick(s->rep));
+        force_off(s, "server restarted");
+        ftm_replay_destroy(s->rep);
+        s->rep = NULL;
+        s->server_left = s->silent_reported = false;
+        s->last_frame_ns = mono_ns();
+        s->newest_rx_tick = 0;
+        if (ftm_replay_create(s->scene, s->cfg.log, s->cfg.log_user, &s->rep, &err)) {
+            slog(s, FTM_LOG_ERROR, "replay: %s", err.message);
+            return;
+        }
+        publish_status(s, FTM_WIRE_STATE_JOINING);
+    }
     if (s->scene && !s->rep)
         return; /* rejected before (digest mismatch): the banner stays */
     if (!s->scene) {
         const char *name = s->cfg.scene ? s->cfg.scene : a->scene_id;
         if (strcmp(s->failed_scene, name) == 0)
             return;
-        if (ftm_scene_open(name, &s->scene, &err)) {
+        char path[1024];
+        if (ftm_wire_open_scene(name, &s->scene, path, sizeof path, &err)) {
             snprintf(s->failed_scene, sizeof s->failed_scene, "%s", name);
             slog(s, FTM_LOG_ERROR, "cannot load scene '%s': %s", name, err.message);
             pthread_mutex_lock(&s->lock);
@@ -179,6 +199,8 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
             slog(s, FTM_LOG_ERROR, "replay: %s", err.message);
             return;
         }
+        if (strcmp(path, name) != 0)
+            slog(s, FTM_LOG_INFO, "scene '%s': %s", name, path);
         slog(s, FTM_LOG_INFO, "joined session: scene '%s', %u Hz, tick %" PRIu64 "%s",
              a->scene_id, a->tick_rate_hz, a->tick, a->paused ? " (paused)" : "");
         const ftm_mesh *m = ftm_scene_mesh(s->scene);
@@ -198,6 +220,8 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         drop_scene(s);
         force_off(s, "scene mismatch");
     }
+    if (s->rep)
+        s->server_start = a->server_start_ns;
 }
 
 static ftm_client_part *find_part(ftm_client_session *s, uint32_t id, bool add)

@@ -163,9 +163,29 @@ static enum MHD_Result handler(void *cls, struct MHD_Connection *c, const char *
     return ret;
 }
 
-int ftm_metrics_start(uint16_t port, ftm_metrics **out, ftm_error *err)
+int ftm_metrics_start(const char *addr, uint16_t port, ftm_metrics **out, ftm_error *err)
 {
     *out = NULL;
+    struct sockaddr_storage ss;
+    memset(&ss, 0, sizeof ss);
+    struct sockaddr_in *v4 = (struct sockaddr_in *)&ss;
+    struct sockaddr_in6 *v6 = (struct sockaddr_in6 *)&ss;
+    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_ERROR_LOG;
+    if (!addr)
+        addr = "127.0.0.1";
+    if (inet_pton(AF_INET, addr, &v4->sin_addr) == 1) {
+        v4->sin_family = AF_INET;
+        v4->sin_port = htons(port);
+    } else if (inet_pton(AF_INET6, addr, &v6->sin6_addr) == 1) {
+        v6->sin6_family = AF_INET6;
+        v6->sin6_port = htons(port);
+        flags |= MHD_USE_IPv6;
+    } else {
+        err->code = FTM_EINVAL;
+        snprintf(err->message, sizeof err->message,
+                 "metrics: '%.200s' is not an IPv4 or IPv6 address", addr);
+        return FTM_EINVAL;
+    }
     ftm_metrics *m = calloc(1, sizeof *m);
     if (!m) {
         err->code = FTM_ENOMEM;
@@ -173,21 +193,17 @@ int ftm_metrics_start(uint16_t port, ftm_metrics **out, ftm_error *err)
         return FTM_ENOMEM;
     }
     pthread_mutex_init(&m->lock, NULL);
-    struct sockaddr_in sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sin_family = AF_INET;
-    sa.sin_port = htons(port);
-    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK); /* localhost only */
-    m->daemon = MHD_start_daemon(MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_ERROR_LOG, port, NULL,
-                                 NULL, handler, m, MHD_OPTION_SOCK_ADDR, (struct sockaddr *)&sa,
-                                 MHD_OPTION_CONNECTION_LIMIT, 8u, MHD_OPTION_CONNECTION_TIMEOUT,
-                                 5u, MHD_OPTION_END);
+    m->daemon = MHD_start_daemon(flags, port, NULL, NULL, handler, m, MHD_OPTION_SOCK_ADDR,
+                                 (struct sockaddr *)&ss, MHD_OPTION_CONNECTION_LIMIT, 8u,
+                                 MHD_OPTION_CONNECTION_TIMEOUT, 5u, MHD_OPTION_END);
     if (!m->daemon) {
         pthread_mutex_destroy(&m->lock);
         free(m);
         err->code = FTM_EIO;
         snprintf(err->message, sizeof err->message,
-                 "metrics: cannot listen on 127.0.0.1:%u (port in use?)", (unsigned)port);
+                 "metrics: cannot listen on %s%.200s%s:%u (port in use, or no such local address?)",
+                 v6->sin6_family == AF_INET6 ? "[" : "", addr,
+                 v6->sin6_family == AF_INET6 ? "]" : "", (unsigned)port);
         return FTM_EIO;
     }
     *out = m;

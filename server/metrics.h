@@ -1,4 +1,4 @@
-/* Prometheus metrics of ftm-server over HTTP on 127.0.0.1 (libmicrohttpd;
+/* Prometheus metrics of ftm-server over HTTP, on 127.0.0.1 unless told (libmicrohttpd;
  * docs/server.md, "Metrics"). The tick thread hands a snapshot over with
  * ftm_metrics_update (copied under a mutex, every 100 ms); the HTTP thread
  * renders the text format from its own copy, so a slow scraper never
@@ -46,8 +46,9 @@ typedef struct ftm_metrics_snapshot {
 
 typedef struct ftm_metrics ftm_metrics;
 
-/* Serves http://127.0.0.1:port/metrics from a thread of libmicrohttpd. */
-int ftm_metrics_start(uint16_t port, ftm_metrics **out, ftm_error *err);
+/* Serves http://addr:port/metrics from a thread of libmicrohttpd; addr is an
+ * IPv4 or IPv6 address (NULL: 127.0.0.1). */
+int ftm_metrics_start(const char *addr, uint16_t port, ftm_metrics **out, ftm_error *err);
 void ftm_metrics_update(ftm_metrics *m, const ftm_metrics_snapshot *s);
 /* The text exposition of s into buf (for tests and the handler); returns the
  * length it needs (like snprintf). */

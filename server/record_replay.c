@@ -181,7 +181,7 @@ int ftm_server_replay(const char *path, const char *scene_name)
     memset(&s, 0, sizeof s);
     s.path = path;
     const char *name = scene_name ? scene_name : h.scene_id;
-    if (ftm_scene_open(name, &scene, &err)) {
+    if (ftm_wire_open_scene(name, &scene, NULL, 0, &err)) {
         rc = fail(path, NULL, "scene '%s': %s", name, err.message);
         goto done;
     }

@@ -20,7 +20,10 @@
 #include "ftm/scene.h"
 #include "ftm/wire.h"
 
+#include <arpa/inet.h>
 #include <errno.h>
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <pthread.h>
 #include <sched.h>
 #include <inttypes.h>
@@ -67,6 +70,9 @@ typedef struct options {
     int32_t rt_priority;   /* SCHED_FIFO priority of the tick and publishing threads; 0: off */
     double max_penetration; /* --max-penetration M [m]; 0: not given, the scene's size */
     const char *inputs;     /* --inputs FILE: re-run a recording's inputs (frames ignored) */
+    const char *metrics_addr; /* --metrics-addr: the address the metrics listen on */
+    const char *record_dir; /* --record-dir DIR: a new recording per run, named by session and time */
+    bool check;             /* --check: set everything up, report, exit */
 } options;
 
 typedef struct probe {
@@ -111,7 +117,10 @@ typedef struct server {
     bool paused;
     double max_push;       /* longest push a probe imposes [m]; INFINITY: none */
     uint64_t push_limited; /* probe-ticks whose push was shortened to max_push */
+    uint64_t start_unix_ns;    /* wall clock at start: announced, so replicas tell a restart */
     uint64_t rejected_unknown; /* messages from senders with no status yet (log rate) */
+    char record_path[1024];    /* --record-dir: this run's recording */
+    char scene_path[1024];     /* the file the scene came from (its name for a built-in) */
 
     uv_loop_t *loop;
     uv_timer_t tick_timer, status_timer, stop_timer;
@@ -313,6 +322,7 @@ static void publish_announce(server *s)
     a->node_count = ftm_mesh_node_count(s->mesh);
     a->tick = s->tick;
     a->paused = s->paused;
+    a->server_start_ns = s->start_unix_ns;
     publish(s, &m, NULL);
 }
 
@@ -1129,7 +1139,11 @@ static void usage(FILE *f)
             "  --replay FILE          re-simulate a recording, check every hash, exit\n"
             "  --inputs FILE          run a recording's inputs through this server, without DDS\n"
             "                         (its frames ignored; with --record, record the result)\n"
-            "  --metrics-port N       Prometheus metrics on http://127.0.0.1:N/metrics (0: off)\n"
+            "  --metrics-port N       Prometheus metrics on http://ADDR:N/metrics (0: off)\n"
+            "  --metrics-addr ADDR    address the metrics listen on (default 127.0.0.1)\n"
+            "  --record-dir DIR       record each run to a new file DIR/SESSION-<UTC time>.rec\n"
+            "  --check                set up as for the session (scene, DDS, files, metrics),\n"
+            "                         print what it would be and exit: 0 if it would start\n"
             "  --control-log FILE     CSV every 100 ms: time, tick, depth, step, lag, backlog, rate\n"
             "  --offline N            run N ticks without DDS, trainees from --trainee scripts\n"
             "  --trainee ID:T0:FILE   (offline) trainee ID plays bot script FILE; tick k uses\n"
@@ -1143,13 +1157,18 @@ static void usage(FILE *f)
 
 static int parse(int argc, char **argv, options *o)
 {
-    *o = (options){"default", "ftm", NULL, NULL, 0, 1, 1000.0, 1.0, 0.1, 0.0, -1, 0, {NULL}, 0, NULL,
-                   -1, 0, 2.0, NULL, NULL, false, 0, NULL, 10, 0.0, NULL};
+    *o = (options){.scene = "default", .session = "ftm", .id = 1, .rate = 1000.0,
+                   .keyframe_every = 1.0, .heartbeat = 0.1, .depth = -1, .depth_floor = -1,
+                   .depth_hold_up = 2.0, .rt_priority = 10, .metrics_addr = "127.0.0.1"};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             usage(stdout);
             exit(0);
+        }
+        if (strcmp(a, "--check") == 0) {
+            o->check = true;
+            continue;
         }
         if (i + 1 >= argc) {
             fprintf(stderr, "ftm-server: %s needs a value (or unknown option)\n", a);
@@ -1199,8 +1218,23 @@ static int parse(int argc, char **argv, options *o)
             o->metrics_port = (int32_t)strtol(v, &end, 10);
         else if (strcmp(a, "--offline") == 0)
             o->offline_ticks = strtoll(v, &end, 10);
-        else if (strcmp(a, "--trainee") == 0 && o->ntrainees < 8)
+        else if (strcmp(a, "--metrics-addr") == 0) {
+            unsigned char addr[16];
+            if (inet_pton(AF_INET, v, addr) != 1 && inet_pton(AF_INET6, v, addr) != 1) {
+                fprintf(stderr, "ftm-server: --metrics-addr needs an IPv4 or IPv6 address "
+                                "(got '%s')\n", v);
+                return -1;
+            }
+            o->metrics_addr = v;
+        } else if (strcmp(a, "--record-dir") == 0)
+            o->record_dir = v;
+        else if (strcmp(a, "--trainee") == 0) {
+            if (o->ntrainees == 8) {
+                fprintf(stderr, "ftm-server: at most 8 --trainee options\n");
+                return -1;
+            }
             o->trainees[o->ntrainees++] = v;
+        }
         else if (strcmp(a, "--reactions") == 0)
             o->reactions_csv = v;
         else if (strcmp(a, "--rt-priority") == 0)
@@ -1244,6 +1278,15 @@ static int parse(int argc, char **argv, options *o)
         (o->record && (o->replay || o->offline_ticks))) {
         fprintf(stderr, "ftm-server: --replay, --inputs and --offline exclude each other; "
                         "--record goes with a session or --inputs\n");
+        return -1;
+    }
+    if (o->record_dir && (o->record || o->replay || o->inputs || o->offline_ticks)) {
+        fprintf(stderr, "ftm-server: --record-dir goes with a session, without --record\n");
+        return -1;
+    }
+    if (o->check && (o->replay || o->inputs || o->offline_ticks)) {
+        fprintf(stderr, "ftm-server: --check checks a session's set-up: not with --replay, "
+                        "--inputs or --offline\n");
         return -1;
     }
     if (o->offline_ticks < 0 || ((o->ntrainees || o->reactions_csv) && !o->offline_ticks)) {
@@ -1464,8 +1507,59 @@ static int run_offline(server *s)
     return rc;
 }
 
+/* --record-dir: DIR/SESSION-YYYYMMDDTHHMMSSZ.rec, claimed with O_EXCL so that
+ * no earlier session's recording is overwritten (a restart within the same
+ * second gets -2, -3, ...). */
+static int claim_record_path(server *s, ftm_error *err)
+{
+    char name[128], stamp[32];
+    size_t n = 0;
+    for (const char *c = s->o.session; *c && n + 1 < 64; c++) /* the session as a file name */
+        name[n++] = (*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') ||
+                            (*c >= '0' && *c <= '9') || *c == '-' || *c == '_' || *c == '.'
+                        ? *c
+                        : '_';
+    name[n] = '\0';
+    time_t now = (time_t)(real_ns() / 1000000000u);
+    struct tm tm;
+    gmtime_r(&now, &tm);
+    strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
+    for (int k = 1; k <= 100; k++) {
+        char suffix[8] = "";
+        if (k > 1)
+            snprintf(suffix, sizeof suffix, "-%d", k);
+        int len = snprintf(s->record_path, sizeof s->record_path, "%s/%s-%s%s.rec",
+                           s->o.record_dir, name[0] && name[0] != '.' ? name : "session", stamp,
+                           suffix);
+        if (len < 0 || (size_t)len >= sizeof s->record_path) {
+            err->code = FTM_EINVAL;
+            snprintf(err->message, sizeof err->message, "--record-dir %.200s: path too long",
+                     s->o.record_dir);
+            return FTM_EINVAL;
+        }
+        int fd = open(s->record_path, O_WRONLY | O_CREAT | O_EXCL, 0644);
+        if (fd >= 0) {
+            close(fd);
+            s->o.record = s->record_path;
+            return FTM_OK;
+        }
+        if (errno != EEXIST) {
+            err->code = FTM_EIO;
+            snprintf(err->message, sizeof err->message, "--record-dir: cannot create %.300s: %s",
+                     s->record_path, strerror(errno));
+            return FTM_EIO;
+        }
+    }
+    err->code = FTM_EIO;
+    snprintf(err->message, sizeof err->message, "--record-dir %.300s: 100 recordings of '%s' "
+             "this second already", s->o.record_dir, name);
+    return FTM_EIO;
+}
+
 static int open_recording(server *s, ftm_error *err)
 {
+    if (s->o.record_dir && !s->o.record && claim_record_path(s, err))
+        return err->code;
     ftm_record_header rh;
     memset(&rh, 0, sizeof rh);
     snprintf(rh.scene_id, sizeof rh.scene_id, "%s", s->o.scene);
@@ -1481,6 +1575,119 @@ static int open_recording(server *s, ftm_error *err)
     if (rc == FTM_OK)
         slog(s, "info", "recording the session to %s", s->o.record);
     return rc;
+}
+
+/* Whether a file may be created in the directory of `path` (dir: path is the
+ * directory itself); a reason in `why` if not. */
+static bool can_create_in(const char *path, bool dir, char *why, size_t cap)
+{
+    char d[1024];
+    snprintf(d, sizeof d, "%s", path);
+    if (!dir) {
+        char *slash = strrchr(d, '/');
+        if (!slash)
+            snprintf(d, sizeof d, ".");
+        else if (slash == d)
+            d[1] = '\0';
+        else
+            *slash = '\0';
+    }
+    struct stat st;
+    if (stat(d, &st) != 0) {
+        snprintf(why, cap, "%s: %s", d, strerror(errno));
+        return false;
+    }
+    if (!S_ISDIR(st.st_mode)) {
+        snprintf(why, cap, "%s: not a directory", d);
+        return false;
+    }
+    if (access(d, W_OK | X_OK) != 0) {
+        snprintf(why, cap, "%s: %s", d, strerror(errno));
+        return false;
+    }
+    return true;
+}
+
+/* --check: everything a session needs was set up (scene, simulation, collision
+ * grid, DDS participant); try what remains without starting the session (the
+ * metrics' address, where recordings and logs go, real-time scheduling), say
+ * what the session would be, and exit: 0 if it would start, 3 if not. For an
+ * ExecStartPre= of the service (deploy/) and for whoever writes its options. */
+static int check_setup(server *s)
+{
+    int bad = 0;
+    char why[1200];
+    printf("scene       %s", s->o.scene);
+    if (strcmp(s->scene_path, s->o.scene) != 0)
+        printf(" (%s)", s->scene_path);
+    printf(": %d nodes\ndigest      ", (int)ftm_mesh_node_count(s->mesh));
+    for (int i = 0; i < FTM_REPLAY_DIGEST_SIZE; i++)
+        printf("%02x", s->digest[i]);
+    printf(" (every participant must load a scene with this digest)\n");
+    printf("session     '%s' on DDS domain %u, participant id %u, configuration %s\n",
+           s->o.session, s->o.domain, s->o.id,
+           s->o.config ? s->o.config : getenv("CYCLONEDDS_URI") ? getenv("CYCLONEDDS_URI")
+                                                                : "Cyclone's default");
+    printf("ticks       %.0f Hz, depth %d, adaptive %s (range %d..%d), keyframe every %g s\n",
+           s->o.rate, (int)s->depth, s->o.adaptive ? "on" : "off", (int)s->ctl.def.floor,
+           (int)s->ctl.def.max, s->o.keyframe_every);
+    if (isfinite(s->max_push))
+        printf("push limit  %.4g m\n", s->max_push);
+    else
+        printf("push limit  none\n");
+    struct {
+        const char *what, *path;
+        bool dir;
+    } files[] = {{"recording", s->o.record_dir ? s->o.record_dir : s->o.record, s->o.record_dir != NULL},
+                 {"control log", s->o.control_log, false},
+                 {"log", s->o.log_path, false}};
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        if (!files[i].path)
+            continue;
+        if (can_create_in(files[i].path, files[i].dir, why, sizeof why)) {
+            printf("%-11s %s%s\n", files[i].what, files[i].path,
+                   files[i].dir ? "/ (a new file per run)" : "");
+        } else {
+            printf("%-11s FAILS: cannot create files in %s\n", files[i].what, why);
+            bad++;
+        }
+    }
+    if (s->o.metrics_port > 0) {
+        ftm_error err = {0, ""};
+        if (ftm_metrics_start(s->o.metrics_addr, (uint16_t)s->o.metrics_port, &s->metrics, &err)) {
+            printf("metrics     FAILS: %s\n", err.message);
+            bad++;
+        } else {
+            printf("metrics     http://%s%s%s:%d/metrics (listened, then closed)\n",
+                   strchr(s->o.metrics_addr, ':') ? "[" : "", s->o.metrics_addr,
+                   strchr(s->o.metrics_addr, ':') ? "]" : "", (int)s->o.metrics_port);
+            ftm_metrics_stop(s->metrics);
+            s->metrics = NULL;
+        }
+    }
+    if (s->o.rt_priority > 0) {
+        struct sched_param sp = {.sched_priority = s->o.rt_priority}, was;
+        int policy, e = pthread_getschedparam(pthread_self(), &policy, &was);
+        if (!e)
+            e = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+        if (e) {
+            printf("real-time   not permitted (%s): the tick thread would run at default "
+                   "scheduling\n", strerror(e));
+        } else {
+            pthread_setschedparam(pthread_self(), policy, &was);
+            printf("real-time   SCHED_FIFO priority %d permitted\n", (int)s->o.rt_priority);
+        }
+    }
+    printf("ftm-server --check: %s\n", bad ? "the session would NOT start" : "ok");
+    fflush(stdout);
+    ftm_wire_transport_destroy(s->wire);
+    ftm_collide_destroy(s->collide);
+    ftm_sim_destroy(s->sim);
+    ftm_replay_material_free(&s->mat);
+    ftm_scene_destroy(s->scene);
+    if (s->logf)
+        fclose(s->logf);
+    return bad ? 3 : 0;
 }
 
 int ftm_server_main(int argc, char **argv)
@@ -1522,15 +1729,18 @@ int ftm_server_main(int argc, char **argv)
         s->o.depth_floor = -1;
     }
     s->t_start_ns = mono_ns();
+    s->start_unix_ns = real_ns();
     if (s->o.log_path && !(s->logf = fopen(s->o.log_path, "w"))) {
         fprintf(stderr, "ftm-server: cannot open %s: %s\n", s->o.log_path, strerror(errno));
         return 3;
     }
     ftm_error err = {0, ""};
-    if (ftm_scene_open(s->o.scene, &s->scene, &err)) {
+    if (ftm_wire_open_scene(s->o.scene, &s->scene, s->scene_path, sizeof s->scene_path, &err)) {
         slog(s, "error", "%s", err.message);
         return 3;
     }
+    if (strcmp(s->scene_path, s->o.scene) != 0)
+        slog(s, "info", "scene '%s': %s", s->o.scene, s->scene_path);
     s->mesh = ftm_scene_mesh(s->scene);
     ftm_sim_def def = ftm_replay_sim_def(s->scene);
     def.log = log_hook;
@@ -1624,7 +1834,9 @@ int ftm_server_main(int argc, char **argv)
         slog(s, "error", "%s", err.message);
         return 3;
     }
-    if (s->o.record && open_recording(s, &err)) {
+    if (s->o.check)
+        return check_setup(s);
+    if ((s->o.record || s->o.record_dir) && open_recording(s, &err)) {
         slog(s, "error", "%s", err.message);
         return 3;
     }
@@ -1637,11 +1849,12 @@ int ftm_server_main(int argc, char **argv)
                                 "backlog,rexmit_ratio,tick_rate_hz\n");
     }
     if (s->o.metrics_port > 0) {
-        if (ftm_metrics_start((uint16_t)s->o.metrics_port, &s->metrics, &err)) {
+        if (ftm_metrics_start(s->o.metrics_addr, (uint16_t)s->o.metrics_port, &s->metrics, &err)) {
             slog(s, "error", "%s", err.message);
             return 3;
         }
-        slog(s, "info", "metrics on http://127.0.0.1:%d/metrics", (int)s->o.metrics_port);
+        slog(s, "info", "metrics on http://%s%s%s:%d/metrics", strchr(s->o.metrics_addr, ':') ? "[" : "",
+             s->o.metrics_addr, strchr(s->o.metrics_addr, ':') ? "]" : "", (int)s->o.metrics_port);
     }
     s->period_ns = 1e9 / s->o.rate;
     publish_announce(s);

@@ -462,6 +462,57 @@ static void test_data_scenes(void **state)
     }
 }
 
+/* A scene named by another machine: found by base name along a search list. */
+static void test_open_search(void **state)
+{
+    (void)state;
+    char dir[512], path[1024];
+    snprintf(dir, sizeof dir, "%s/scenes", FTM_TEST_DATA);
+    ftm_scene *scene = NULL;
+    ftm_error err;
+    /* a path that exists elsewhere on the server: the base name along the list */
+    char search[1200];
+    snprintf(search, sizeof search, "/nonexistent-ftm::%s", dir);
+    if (ftm_scene_open_search("/srv/ftm/scenes/two_probes.scene", search, &scene, path,
+                              sizeof path, &err) != FTM_OK)
+        fail_msg("%s", err.message);
+    char want[1100];
+    snprintf(want, sizeof want, "%s/two_probes.scene", dir);
+    assert_string_equal(path, want);
+    ftm_scene *direct = NULL;
+    assert_int_equal(ftm_scene_open(want, &direct, &err), FTM_OK);
+    assert_int_equal(ftm_mesh_node_count(ftm_scene_mesh(scene)),
+                     ftm_mesh_node_count(ftm_scene_mesh(direct)));
+    ftm_scene_destroy(direct);
+    ftm_scene_destroy(scene);
+    /* built-ins and files as given come first; the path says which */
+    assert_int_equal(ftm_scene_open_search("membrane", search, &scene, path, sizeof path, &err),
+                     FTM_OK);
+    assert_string_equal(path, "membrane");
+    ftm_scene_destroy(scene);
+    assert_int_equal(ftm_scene_open_search(want, NULL, &scene, NULL, 0, &err), FTM_OK);
+    ftm_scene_destroy(scene);
+    /* nowhere: FTM_ENOENT naming every place tried */
+    assert_int_equal(ftm_scene_open_search("a/b/none.scene", search, &scene, path, sizeof path,
+                                           &err),
+                     FTM_ENOENT);
+    assert_null(scene);
+    assert_string_equal(path, "");
+    char tried[1200];
+    snprintf(tried, sizeof tried, "tried a/b/none.scene, /nonexistent-ftm/none.scene, %s/none.scene",
+             dir);
+    if (!strstr(err.message, "scene 'a/b/none.scene' not found") || !strstr(err.message, tried))
+        fail_msg("message: %s", err.message);
+    /* without a list: ftm_scene_open's own message */
+    assert_int_equal(ftm_scene_open_search("nosuch", "", &scene, NULL, 0, &err), FTM_ENOENT);
+    assert_non_null(strstr(err.message, "unknown scene 'nosuch'"));
+    /* a file found along the list that is malformed: its own error, file and line */
+    snprintf(search, sizeof search, "%s", FTM_TEST_DATA);
+    assert_int_equal(ftm_scene_open_search("x/bad_index.obj", search, &scene, NULL, 0, &err),
+                     FTM_EPARSE);
+    assert_non_null(strstr(err.message, "bad_index.obj:"));
+}
+
 /* --------------------------------------------------------------- built-ins */
 
 static void test_builtins(void **state)
@@ -673,6 +724,7 @@ int main(void)
         cmocka_unit_test(test_parse_length_is_respected),
         cmocka_unit_test(test_file_mesh),
         cmocka_unit_test(test_data_scenes),
+        cmocka_unit_test(test_open_search),
         cmocka_unit_test(test_builtins),
         cmocka_unit_test(test_contacts_at),
         cmocka_unit_test(test_sequential_loads_same_node),

@@ -1448,6 +1448,55 @@ int ftm_scene_open(const char *name_or_path, ftm_scene **out, ftm_error *err)
     return ftm_scene_load_file(name_or_path, out, err);
 }
 
+int ftm_scene_open_search(const char *name_or_path, const char *search, ftm_scene **out,
+                          char *path, size_t path_cap, ftm_error *err)
+{
+    if (!name_or_path || !out || (path_cap && !path))
+        return ftm_error_set(err, FTM_EINVAL, "ftm_scene_open_search: NULL argument");
+    *out = NULL;
+    if (path_cap)
+        path[0] = '\0';
+    FILE *f = NULL;
+    if (builtin_index(name_or_path) >= 0 || (f = fopen(name_or_path, "rb"))) {
+        if (f)
+            fclose(f);
+        if (path_cap)
+            snprintf(path, path_cap, "%s", name_or_path);
+        return ftm_scene_open(name_or_path, out, err);
+    }
+    const char *base = strrchr(name_or_path, '/');
+    base = base ? base + 1 : name_or_path;
+    /* the places tried, for the error; a long search list is cut with "..." */
+    char tried[320];
+    int used = snprintf(tried, sizeof tried, "%s", name_or_path);
+    char cand[4096];
+    for (const char *d = search; base[0] && d && *d;) {
+        const char *end = strchr(d, ':');
+        size_t len = end ? (size_t)(end - d) : strlen(d);
+        if (len > 0 && len + strlen(base) + 2 <= sizeof cand) {
+            memcpy(cand, d, len);
+            snprintf(cand + len, sizeof cand - len, "/%s", base);
+            if ((f = fopen(cand, "rb"))) {
+                fclose(f);
+                if (path_cap)
+                    snprintf(path, path_cap, "%s", cand);
+                return ftm_scene_load_file(cand, out, err);
+            }
+            if (used >= 0 && (size_t)used < sizeof tried)
+                used += snprintf(tried + used, sizeof tried - (size_t)used, ", %s", cand);
+        }
+        d = end ? end + 1 : d + len;
+    }
+    if (used < 0 || (size_t)used >= sizeof tried)
+        memcpy(tried + sizeof tried - 4, "...", 4);
+    if (!search || !*search)
+        return ftm_scene_open(name_or_path, out, err); /* its own message */
+    char names[256];
+    list_builtins(names, sizeof names);
+    return ftm_error_set(err, FTM_ENOENT, "scene '%s' not found: not a built-in (%s); tried %s",
+                         name_or_path, names, tried);
+}
+
 void ftm_scene_destroy(ftm_scene *scene)
 {
     if (!scene)

@@ -604,6 +604,7 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         a->node_count = (int32_t)m->node_count;
         a->tick = m->tick;
         a->paused = m->paused != 0;
+        a->server_start_ns = m->has_server_start_ns ? m->server_start_ns : 0;
         return FTM_OK;
     }
     case FTM_WIRE_PROBE_INPUT: {
@@ -943,6 +944,8 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         m->tick = a->tick;
         m->has_paused = 1;
         m->paused = a->paused;
+        m->has_server_start_ns = a->server_start_ns != 0;
+        m->server_start_ns = a->server_start_ns;
         *out = &m->base;
         return FTM_OK;
     }

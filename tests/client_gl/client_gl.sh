@@ -9,7 +9,8 @@
 #       the stiffness and the depth limits; server and client apply them.
 #   badinput: a scene the client cannot load, malformed tick frames, and a
 #       server that vanishes (SIGKILL): each time the client logs it, shows
-#       the red banner (checked in its screenshot) and keeps running.
+#       the red banner (checked in its screenshot) and keeps running. Then a
+#       server restarted (a new process on the session): the client rejoins.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
 set -u
 mode=${1:?mode}
@@ -117,6 +118,27 @@ badinput)
     grep -q "no tick frames from the server" "$dir/vanish.log" || fail "silence not logged"
     "$FTM_PNG_CHECK" banner "$dir/vanish.png" || fail "no banner for the vanished server"
     [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/vanish.png" "$dir/noscene.png" "$(dirname "$FTM_KEEP_SCREENSHOT")/"
+
+    # 4. the server is restarted (SIGTERM, then a new process on the same
+    # session, as its service restarts it): the client rejoins the new one
+    rm -f "$dir/server.log"
+    start_server
+    client restart --screenshot "$dir/restart.png" --screenshot-after 8 &
+    cpid=$!
+    i=0
+    until grep -q "synced at tick" "$dir/restart.log" 2>/dev/null; do
+        i=$((i + 1)); [ $i -gt 300 ] && fail "client did not sync before the restart"
+        sleep 0.05
+    done
+    kill -TERM $server
+    wait $server
+    rm -f "$dir/server.log"
+    start_server
+    wait $cpid; rc=$?
+    [ $rc -eq 0 ] || fail "client exited with $rc after the server restarted"
+    grep -q "server 1 restarted (a new process" "$dir/restart.log" || fail "restart not noticed"
+    [ "$(grep -c "synced at tick" "$dir/restart.log")" -ge 2 ] ||
+        fail "the client did not sync again with the new server"
     echo "PASS badinput"
     ;;
 *)

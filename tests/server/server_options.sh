@@ -20,6 +20,16 @@ refused "--replay, --inputs and --offline exclude each other" --replay a.rec --i
 refused "--record goes with a session or --inputs" --offline 5 --record x.rec
 refused "--record goes with a session or --inputs" --replay a.rec --record x.rec
 refused "ftm-server --inputs: /nonexistent/a.rec" --inputs /nonexistent/a.rec
+for v in localhost 127.0.0 300.1.1.1 ::g ''; do
+    refused "--metrics-addr needs an IPv4 or IPv6 address (got '$v')" --metrics-addr "$v" --offline 1
+done
+refused "--record-dir goes with a session, without --record" --record-dir /tmp --record x.rec
+refused "--record-dir goes with a session, without --record" --record-dir /tmp --offline 5
+refused "--check checks a session's set-up: not with --replay" --check --replay a.rec
+refused "--check checks a session's set-up: not with --replay" --offline 5 --check
+t="--trainee 1:0:a.bot"
+# shellcheck disable=SC2086 # nine options
+refused "at most 8 --trainee options" --offline 5 $t $t $t $t $t $t $t $t $t
 timeout 20 "$FTM_SERVER" --heartbeat 10 --rate 100000 --offline 5 >/dev/null 2>&1 ||
     fail "--heartbeat 10 --rate 100000 refused"
 echo "PASS server options"

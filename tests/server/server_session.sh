@@ -9,8 +9,12 @@
 #             and the final line, from the frames and again from the inputs; a truncated copy, a copy with one frame's
 #             hash altered and a non-recording are rejected with a clear error
 #             (the altered one naming its tick).
-#   metrics:  --metrics-port: /metrics has the metric names, the tick and
-#             frame counters rise between two scrapes, 404 elsewhere.
+#   metrics:  --metrics-port on --metrics-addr 127.0.0.2: /metrics has the metric
+#             names, the tick and frame counters rise between two scrapes, 404
+#             elsewhere, nothing on 127.0.0.1.
+#   restart:  an observer with --rejoin outlives its server; a new server
+#             process on the same session (a service restart) is noticed by
+#             its announcement and rejoined, ending on the new server's hash.
 # Every process runs under `timeout`; the test itself has a CTest TIMEOUT.
 set -u
 mode=${1:?mode}
@@ -286,14 +290,15 @@ EOF
     ;;
 metrics)
     port=$(( 20000 + $$ % 20000 ))
-    start_server --duration 5 --metrics-port $port
+    # another loopback address than the default, which must then not answer
+    start_server --duration 5 --metrics-port $port --metrics-addr 127.0.0.2
     timeout 60 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
         --duration 20 >"$dir/bot11.out" 2>"$dir/bot11.err" &
     b11=$!
     sleep 1.5
     timeout 30 python3 - $port $rate >"$dir/metrics.out" 2>"$dir/metrics.err" <<'EOF'
 import sys, time, urllib.request, urllib.error
-url = "http://127.0.0.1:%s" % sys.argv[1]
+url = "http://127.0.0.2:%s" % sys.argv[1]
 rate = float(sys.argv[2])
 def get(path="/metrics"):
     with urllib.request.urlopen(url + path, timeout=5) as r:
@@ -327,6 +332,11 @@ try:
     get("/nope"); raise AssertionError("/nope answered")
 except urllib.error.HTTPError as e:
     assert e.code == 404
+try:
+    urllib.request.urlopen("http://127.0.0.1:%s/metrics" % sys.argv[1], timeout=5)
+    raise AssertionError("metrics also served on 127.0.0.1, not only on --metrics-addr")
+except urllib.error.URLError:
+    pass
 print("ticks %d -> %d, frames %d -> %d, rate %.1f Hz, depth %d, %s %d" % (
     a["ftm_ticks_total"], b["ftm_ticks_total"], a["ftm_frames_sent_total"],
     b["ftm_frames_sent_total"], b["ftm_tick_rate_hz"], b["ftm_depth"], lag[0], b[lag[0]]))
@@ -337,6 +347,38 @@ EOF
     [ $rc -eq 0 ] || { cat "$dir/metrics.err"; fail "metrics check failed"; }
     check_hashes 11
     echo "PASS metrics: $(cat "$dir/metrics.out")"
+    ;;
+restart)
+    # server A; observer 13 told to wait for a restart (--rejoin); A stops
+    # (as a service restart stops it) and server B, a new process with the
+    # same session and id, starts with trainee 11 pressing: 13 must notice
+    # the new process, rejoin it and end on B's tick and hash. B runs fewer
+    # ticks than A: a replica that took B's frames for A's would wait for
+    # B's ticks to pass A's before its resync could catch up (never, here)
+    start_server --duration 4
+    timeout 60 "$FTM_BOT" --role observer $common --id 13 --rejoin 2 --duration 30 \
+        >"$dir/bot13.out" 2>"$dir/bot13.err" &
+    b13=$!
+    i=0
+    until grep -q "synced at tick" "$dir/bot13.err" 2>/dev/null; do
+        i=$((i + 1)); [ $i -gt 200 ] && fail "observer did not sync with server A"
+        sleep 0.05
+    done
+    wait $server || fail "server A exited with $?"
+    a_final=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/server.out")
+    mv "$dir/server.log" "$dir/serverA.log"; mv "$dir/server.out" "$dir/serverA.out"
+    sleep 1 # longer than a stopped bot's grace (0.5 s): only --rejoin keeps 13
+    start_server --duration 2.6
+    timeout 60 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
+        --duration 20 >"$dir/bot11.out" 2>"$dir/bot11.err"
+    wait $server || fail "server B exited with $?"
+    wait $b13 || fail "observer 13 exited with $?"
+    check_hashes 11 13
+    grep -q "server 1 leaving" "$dir/bot13.err" || fail "the observer did not see server A leave"
+    grep -q "server 1 restarted (a new process" "$dir/bot13.err" || fail "no restart noticed"
+    grep -q "1 server restart rejoined" "$dir/bot13.err" || fail "the restart was not counted"
+    grep -q "participant 11 probe 0: contact" "$dir/server.log" || fail "trainee 11 never pressed on B"
+    echo "PASS restart: server A $a_final; observer rejoined server B and ended on its $want"
     ;;
 *)
     echo "unknown mode $mode"; exit 2 ;;

@@ -138,6 +138,7 @@ static void test_round_trip_announce(void **state)
     a->node_count = 12345;
     a->tick = UINT64_MAX - 1;
     a->paused = true;
+    a->server_start_ns = 1795000000123456789ull;
     round_trip(&m, &b);
     const ftm_wire_announce *r = &b.u.announce;
     assert_string_equal(r->scene_id, "liver-probe");
@@ -154,6 +155,12 @@ static void test_round_trip_announce(void **state)
     assert_int_equal(r->node_count, 12345);
     assert_true(r->tick == UINT64_MAX - 1);
     assert_true(r->paused);
+    assert_true(r->server_start_ns == 1795000000123456789ull);
+    ftm_wire_msg_free(&b);
+    /* optional: a server that does not send it announces 0 */
+    a->server_start_ns = 0;
+    round_trip(&m, &b);
+    assert_true(b.u.announce.server_start_ns == 0);
     ftm_wire_msg_free(&b);
 }
 

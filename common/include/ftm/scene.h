@@ -41,6 +41,14 @@ int ftm_scene_builtin(const char *name, ftm_scene **out, ftm_error *err);
 const char *const *ftm_scene_builtin_names(void);
 /* A name that is a built-in loads it, anything else is read as a file. */
 int ftm_scene_open(const char *name_or_path, ftm_scene **out, ftm_error *err);
+/* As ftm_scene_open, for a scene named by another machine (a server's
+ * announcement, a deployment's configuration): when name_or_path is neither
+ * a built-in nor a file, the file of the same base name is looked for in each
+ * directory of `search` (':'-separated, in order; NULL or "" for none). The
+ * path opened is written to `path` (the name for a built-in) when path_cap
+ * is not 0. FTM_ENOENT names every place tried. */
+int ftm_scene_open_search(const char *name_or_path, const char *search, ftm_scene **out,
+                          char *path, size_t path_cap, ftm_error *err);
 void ftm_scene_destroy(ftm_scene *scene);
 
 const char *ftm_scene_name(const ftm_scene *scene);

@@ -88,6 +88,7 @@ typedef struct ftm_wire_announce {
     int32_t node_count; /* > 0 */
     uint64_t tick;
     bool paused;
+    uint64_t server_start_ns; /* the server process's start (its incarnation); 0: not sent */
 } ftm_wire_announce;
 
 typedef struct ftm_wire_probe_sample {
@@ -364,6 +365,20 @@ int ftm_wire_get_stats(ftm_wire_transport *t, int kind, ftm_wire_stats *stats, f
 
 /* The DDS topic name of a kind, e.g. "ftm_v1_tick_frame"; NULL if unknown. */
 const char *ftm_wire_topic_name(int kind);
+
+struct ftm_scene;
+/* Opens the scene a SceneAnnounce's scene_id (or a --scene option) names, as
+ * every FTM program resolves it: a built-in name; a file as given; else the
+ * file of that base name in the directories of the FTM_SCENE_PATH environment
+ * variable (':'-separated), then in share/ftm/scenes beside the program's
+ * bin/ directory, then in the installed share/ftm/scenes. A server and its
+ * clients may so name a scene file that lives at different paths on their
+ * machines; the announcement's content digest tells whether they loaded the
+ * same. The path opened goes to `path` when path_cap is not 0. */
+int ftm_wire_open_scene(const char *scene_id, struct ftm_scene **out, char *path, size_t path_cap,
+                        ftm_error *err);
+/* The search list ftm_wire_open_scene uses, ':'-separated. */
+void ftm_wire_scene_search(char *buf, size_t cap);
 
 #ifdef __cplusplus
 }
