@@ -14,6 +14,7 @@
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
 set -u
 mode=${1:?mode}
+. "$(cd "$(dirname "$0")" && pwd)/../wait_for.sh"
 : "${FTM_SERVER:?}" "${FTM_BOT:?}" "${FTM_CLIENT:?}" "${FTM_PNG_CHECK:?}" "${FTM_CONFIG:?}"
 : "${FTM_DATA:?}"
 if ! command -v xvfb-run >/dev/null 2>&1 || ! command -v Xvfb >/dev/null 2>&1; then
@@ -45,11 +46,7 @@ start_server() {
     "$FTM_SERVER" --scene default $common --rate "${FTM_TEST_RATE:-500}" --duration 80 \
         --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
     server=$!
-    i=0
-    until grep -q "session '$session'" "$dir/server.log" 2>/dev/null; do
-        i=$((i + 1)); [ $i -gt 200 ] && fail "server did not start"
-        sleep 0.05
-    done
+    wait_for "$dir/server.log" "session '$session'" "server did not start"
 }
 
 case $mode in
@@ -107,11 +104,7 @@ badinput)
     # 3. the server vanishes (SIGKILL, no LEAVING): the client notices the silence
     client vanish --server-timeout 1 --screenshot "$dir/vanish.png" --screenshot-after 6 &
     cpid=$!
-    i=0
-    until grep -q "synced at tick" "$dir/vanish.log" 2>/dev/null; do
-        i=$((i + 1)); [ $i -gt 300 ] && fail "client did not sync before the kill"
-        sleep 0.05
-    done
+    wait_for "$dir/vanish.log" "synced at tick" "client did not sync before the kill" 300
     kill -KILL $server
     wait $cpid; rc=$?
     [ $rc -eq 0 ] || fail "client exited with $rc after the server vanished"
@@ -125,11 +118,7 @@ badinput)
     start_server
     client restart --screenshot "$dir/restart.png" --screenshot-after 8 &
     cpid=$!
-    i=0
-    until grep -q "synced at tick" "$dir/restart.log" 2>/dev/null; do
-        i=$((i + 1)); [ $i -gt 300 ] && fail "client did not sync before the restart"
-        sleep 0.05
-    done
+    wait_for "$dir/restart.log" "synced at tick" "client did not sync before the restart" 300
     kill -TERM $server
     wait $server
     rm -f "$dir/server.log"

@@ -16,6 +16,7 @@
 # Every process runs under `timeout`; the test has a CTest TIMEOUT.
 set -u
 : "${FTM_BUILD:?}" "${FTM_TEST_RATE:?}"
+. "$(cd "$(dirname "$0")" && pwd)/../wait_for.sh"
 dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-install.XXXXXX")
 trap 'rm -rf "$dir"' EXIT
 p=$dir/prefix
@@ -96,11 +97,7 @@ timeout 60 "$p/bin/ftm-server" --scene default.scene $common --rate "$FTM_TEST_R
     --duration 3.5 --rt-priority 0 --record-dir "$dir/rec" --log "$dir/server.log" \
     >"$dir/server.out" 2>"$dir/server.err" &
 server=$!
-i=0
-until grep -q "session '$session'" "$dir/server.log" 2>/dev/null; do
-    i=$((i + 1)); [ $i -gt 200 ] && fail "server did not start"
-    sleep 0.05
-done
+wait_for "$dir/server.log" "session '$session'" "server did not start"
 timeout 60 "$p/bin/ftm-bot" --role trainee --script "$p/share/ftm/sessions/trainee1.bot" $common \
     --id 11 --duration 20 >"$dir/bot.out" 2>"$dir/bot.err"
 wait $server || fail "server exited with $?"

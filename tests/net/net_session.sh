@@ -18,6 +18,7 @@
 #          are ignored by the bots, and every bot ends on the server's hash.
 # Every process runs under `timeout`; the test itself has a CTest TIMEOUT.
 set -u
+. "$(cd "$(dirname "$0")" && pwd)/../wait_for.sh"
 mode=${1:?mode}
 : "${FTM_SERVER:?}" "${FTM_BOT:?}" "${FTM_CONFIG:?}" "${FTM_SCRIPTS:?}"
 dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-net-$mode.XXXXXX")
@@ -44,11 +45,7 @@ timeout 30 "$FTM_SERVER" --scene default $common --rate $rate --duration $durati
     --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
 server=$!
 # wait (bounded) for the server to be up before the bots start
-i=0
-until grep -q "session '$session'" "$dir/server.log" 2>/dev/null; do
-    i=$((i + 1)); [ $i -gt 100 ] && fail "server did not start"
-    sleep 0.05
-done
+wait_for "$dir/server.log" "session '$session'" "server did not start" 100
 
 # (the trainee to be killed runs without `timeout`, so that $b11 is the bot
 # itself; its own --duration bounds it)

@@ -20,6 +20,7 @@ set -u
 mode=${1:?mode}
 : "${FTM_SERVER:?}" "${FTM_BOT:?}" "${FTM_CONFIG:?}" "${FTM_SCRIPTS:?}"
 here=$(cd "$(dirname "$0")" && pwd)
+. "$here/../wait_for.sh"
 dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-server-$mode.XXXXXX")
 trap 'rm -rf "$dir"' EXIT
 # a DDS domain of our own (tests/net uses 1..97, tests/wire 100..219; the
@@ -41,11 +42,7 @@ start_server() { # extra server options...
     timeout 60 "$FTM_SERVER" --scene default $common --rate $rate --log "$dir/server.log" "$@" \
         >"$dir/server.out" 2>"$dir/server.err" &
     server=$!
-    i=0
-    until grep -q "session '$session'" "$dir/server.log" 2>/dev/null; do
-        i=$((i + 1)); [ $i -gt 200 ] && fail "server did not start"
-        sleep 0.05
-    done
+    wait_for "$dir/server.log" "session '$session'" "server did not start"
 }
 # the bots' final lines against the server's
 check_hashes() { # bot ids...
@@ -359,11 +356,7 @@ restart)
     timeout 60 "$FTM_BOT" --role observer $common --id 13 --rejoin 2 --duration 30 \
         >"$dir/bot13.out" 2>"$dir/bot13.err" &
     b13=$!
-    i=0
-    until grep -q "synced at tick" "$dir/bot13.err" 2>/dev/null; do
-        i=$((i + 1)); [ $i -gt 200 ] && fail "observer did not sync with server A"
-        sleep 0.05
-    done
+    wait_for "$dir/bot13.err" "synced at tick" "observer did not sync with server A"
     wait $server || fail "server A exited with $?"
     a_final=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/server.out")
     mv "$dir/server.log" "$dir/serverA.log"; mv "$dir/server.out" "$dir/serverA.out"
