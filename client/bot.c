@@ -226,11 +226,21 @@ static void on_announce(bot *b, const ftm_wire_announce *a)
         b->restarts++;
         b->server_left = b->server_gone = false;
         b->last_frame_ns = mono_ns();
-        if (ftm_replay_create(b->scene, log_hook, NULL, &b->rep, &err)) {
-            blog("replay: %s", err.message);
-            return;
+        uint8_t d[FTM_REPLAY_DIGEST_SIZE];
+        ftm_replay_scene_digest(b->scene, d);
+        if (!b->o.scene &&
+            !(a->digest_len == FTM_REPLAY_DIGEST_SIZE && memcmp(d, a->digest, sizeof d) == 0)) {
+            /* it serves another scene: load that one below, as on joining */
+            blog("the restarted server has another scene: '%s'", a->scene_id);
+            ftm_scene_destroy(b->scene);
+            b->scene = NULL;
+        } else {
+            if (ftm_replay_create(b->scene, log_hook, NULL, &b->rep, &err)) {
+                blog("replay: %s", err.message);
+                return;
+            }
+            publish_status(b, FTM_WIRE_STATE_JOINING);
         }
-        publish_status(b, FTM_WIRE_STATE_JOINING);
     }
     if (!b->scene) {
         const char *name = b->o.scene ? b->o.scene : a->scene_id;

@@ -34,6 +34,9 @@ struct ftm_client_session {
 
     /* session thread only */
     ftm_scene *scene;
+    ftm_scene *retired[8]; /* scenes of servers before a restart: the render
+                              thread may still draw them; freed at stop */
+    int32_t nretired;
     ftm_replay *rep;
     char failed_scene[FTM_WIRE_NAME_MAX]; /* announced id we could not load */
     ftm_wire_announce ann;
@@ -170,11 +173,22 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         s->server_left = s->silent_reported = false;
         s->last_frame_ns = mono_ns();
         s->newest_rx_tick = 0;
-        if (ftm_replay_create(s->scene, s->cfg.log, s->cfg.log_user, &s->rep, &err)) {
-            slog(s, FTM_LOG_ERROR, "replay: %s", err.message);
-            return;
+        uint8_t d[FTM_REPLAY_DIGEST_SIZE];
+        ftm_replay_scene_digest(s->scene, d);
+        bool same = a->digest_len == FTM_REPLAY_DIGEST_SIZE && memcmp(d, a->digest, sizeof d) == 0;
+        if (!same && !s->cfg.scene && s->nretired < (int32_t)(sizeof s->retired / sizeof *s->retired)) {
+            /* it serves another scene: load that one below, as on joining */
+            slog(s, FTM_LOG_INFO, "the restarted server has another scene: '%s'", a->scene_id);
+            s->retired[s->nretired++] = s->scene;
+            s->scene = NULL;
+            s->failed_scene[0] = '\0';
+        } else {
+            if (ftm_replay_create(s->scene, s->cfg.log, s->cfg.log_user, &s->rep, &err)) {
+                slog(s, FTM_LOG_ERROR, "replay: %s", err.message);
+                return;
+            }
+            publish_status(s, FTM_WIRE_STATE_JOINING);
         }
-        publish_status(s, FTM_WIRE_STATE_JOINING);
     }
     if (s->scene && !s->rep)
         return; /* rejected before (digest mismatch): the banner stays */
@@ -703,6 +717,8 @@ void ftm_client_session_stop(ftm_client_session *s)
     pthread_join(s->thread, NULL);
     ftm_wire_transport_destroy(s->wire);
     ftm_replay_destroy(s->rep);
+    for (int32_t k = 0; k < s->nretired; k++)
+        ftm_scene_destroy(s->retired[k]);
     ftm_scene_destroy(s->scene);
     ftm_client_view_free(&s->shared);
     pthread_mutex_destroy(&s->lock);

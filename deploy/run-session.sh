@@ -47,7 +47,7 @@ echo "  + trainee 11 (docs/sessions/trainee1.bot), trainee 12 (trainee2.bot), ob
 echo "    instructor 15 (instructor.bot: stiffness 50 -> 80 N/m at 1.5 s)"
 [ -n "$gui" ] && echo "  + instructor 14: ftm-client window (keys: docs/client.md)"
 timeout $((seconds + 20)) "$server" --scene default "${common[@]}" --duration "$seconds" \
-  --log "$dir/server.log" >"$dir/server.out" 2>&1 &
+  --log "$dir/server.log" --report "$dir/report.json" >"$dir/server.out" 2>&1 &
 spid=$!
 for _ in $(seq 100); do
   grep -q "session '" "$dir/server.log" 2>/dev/null && break
@@ -89,7 +89,9 @@ for b in 11 12 13 15; do
 done
 peak=$(awk -F, 'NR > 1 { f = sqrt($7*$7 + $8*$8 + $9*$9); if (f > m) m = f } END { printf "%.3g", m }' \
   "$dir/trainee11.csv")
-echo "  trainee 11 peak reaction force: $peak N"
+echo "  trainee 11 peak reaction force: $peak N (as its bot received it)"
+echo "  debriefing, from the server's session report (--report; KEEP=1 keeps $dir/report.json):"
+sed -n 's/^\[ *[0-9.]*\] info: \(participant .* probe [0-9]*: [0-9]* touch.*\)$/    \1/p' "$dir/server.log"
 if [ -n "$gui" ]; then
   wait $p14; rc=$?
   echo "  instructor window: exit $rc ($(grep -c "" "$dir/client.log" 2>/dev/null || echo 0) log lines)"

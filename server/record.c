@@ -124,6 +124,7 @@ int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_w
     hd.start_unix_ns = h->start_unix_ns;
     hd.has_max_penetration = h->max_penetration > 0;
     hd.max_penetration = h->max_penetration;
+    hd.session = h->session[0] ? (char *)h->session : NULL;
     Ftm__V1__RecordEntry m = FTM__V1__RECORD_ENTRY__INIT;
     m.header = &hd;
     int rc = put_entry(w, &m, err);
@@ -293,6 +294,8 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
                  !(isfinite(hd->max_penetration) && hd->max_penetration > 0))
             rc = rec_err(err, FTM_EPARSE, "%s: header: max_penetration %g is not a positive length",
                          path, hd->max_penetration);
+        else if (hd->session && strlen(hd->session) >= sizeof h->session)
+            rc = rec_err(err, FTM_EPARSE, "%s: header: session name longer than 127 bytes", path);
         else {
             snprintf(h->scene_id, sizeof h->scene_id, "%s", hd->scene_id);
             memcpy(h->digest, hd->content_digest.data, hd->content_digest.len);
@@ -303,6 +306,7 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
             h->node_count = (int32_t)hd->node_count;
             h->start_unix_ns = hd->start_unix_ns;
             h->max_penetration = hd->has_max_penetration ? hd->max_penetration : 0.0;
+            snprintf(h->session, sizeof h->session, "%s", hd->session ? hd->session : "");
             r->index = 1;
         }
     }

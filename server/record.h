@@ -27,6 +27,7 @@ typedef struct ftm_record_header {
     int32_t node_count;
     uint64_t start_unix_ns;
     double max_penetration; /* probe push limit [m]; 0: none (recordings made before it) */
+    char session[128];      /* the session's name; "" in recordings made before it */
 } ftm_record_header;
 
 typedef struct ftm_record_entry {

@@ -14,6 +14,7 @@
 #include "record.h"
 #include "record_replay.h"
 #include "replay.h"
+#include "report.h"
 #include "script.h"
 #include "server.h"
 
@@ -65,6 +66,7 @@ typedef struct options {
     const char *record;    /* --record FILE */
     const char *replay;    /* --replay FILE: replay a recording and exit */
     bool scene_given;      /* --scene was on the command line */
+    bool session_given;    /* --session was */
     int32_t metrics_port;  /* 0: off */
     const char *control_log; /* --control-log FILE: CSV per control period */
     int32_t rt_priority;   /* SCHED_FIFO priority of the tick and publishing threads; 0: off */
@@ -73,6 +75,7 @@ typedef struct options {
     const char *metrics_addr; /* --metrics-addr: the address the metrics listen on */
     const char *record_dir; /* --record-dir DIR: a new recording per run, named by session and time */
     bool check;             /* --check: set everything up, report, exit */
+    const char *report;     /* --report FILE: the session report (report.h) as JSON */
 } options;
 
 typedef struct probe {
@@ -98,6 +101,7 @@ typedef struct participant {
     uint64_t hash;
     int64_t lag;      /* ticks behind the last published frame, at its last status */
     double replay_ns; /* its replay time per tick, as reported */
+    int32_t report;   /* its entry in the session report, -1: none */
     probe probes[MAX_PROBES];
 } participant;
 
@@ -121,6 +125,8 @@ typedef struct server {
     uint64_t rejected_unknown; /* messages from senders with no status yet (log rate) */
     char record_path[1024];    /* --record-dir: this run's recording */
     char scene_path[1024];     /* the file the scene came from (its name for a built-in) */
+    ftm_report report;         /* what each participant did (--report, the closing log) */
+    int32_t depth_lo, depth_hi; /* depths used by the ticks run */
 
     uv_loop_t *loop;
     uv_timer_t tick_timer, status_timer, stop_timer;
@@ -177,6 +183,7 @@ typedef struct server {
     bool replaying;              /* --replay: publish (encode) every tick for the check */
     bool depth_from_frames;      /* --replay, --inputs without --depth: the recorded depths */
     char replay_scene[FTM_WIRE_NAME_MAX];
+    char replay_session[128];
 } server;
 
 static uint64_t mono_ns(void)
@@ -413,6 +420,7 @@ static participant *find_part(server *s, uint32_t id, bool create)
     if (!create || !free_slot)
         return NULL;
     memset(free_slot, 0, sizeof *free_slot);
+    free_slot->report = -1;
     free_slot->used = true;
     free_slot->id = id;
     return free_slot;
@@ -490,6 +498,8 @@ static void on_status(server *s, ftm_wire_received *rx)
     p->lag = lag_of(s, st->last_applied_tick);
     p->replay_ns = st->replay_ns_per_tick;
     snprintf(p->name, sizeof p->name, "%s", st->name);
+    ftm_report_seen(&s->report, p->id, role_name(p->role), p->name, s->tick);
+    p->report = ftm_report_index(&s->report, p->id);
     if (st->state == FTM_WIRE_STATE_JOINING || st->state == FTM_WIRE_STATE_RESYNCING)
         s->keyframe_due = true;
     if (st->state == FTM_WIRE_STATE_LEAVING)
@@ -771,6 +781,8 @@ static int32_t probe_contacts(server *s, int32_t *nreact)
                     pr->tri = tr;
                     pr->contact = true;
                     pr->limit_told = false;
+                    if (p->report >= 0)
+                        s->report.parts[p->report].probes[k].touches++;
                     slog(s, "info", "participant %u probe %d: contact on triangle %d", p->id, k,
                          (int)tr);
                 }
@@ -867,7 +879,18 @@ static void run_tick(server *s)
         re->contact_point = pb->anchor;
         if (re->has_plane)
             re->contact_normal = (ftm_vec3){pb->normal.x / nl, pb->normal.y / nl, pb->normal.z / nl};
+        const participant *rp = &s->parts[re->group / MAX_PROBES];
+        if (rp->report >= 0) {
+            ftm_report_part *part = &s->report.parts[rp->report];
+            ftm_report_contact(&part->probes[re->probe], s->tick, re->force,
+                               sqrt(v_dot(pb->push, pb->push)), pb->limited);
+            part->last_tick = s->tick;
+        }
     }
+    if (s->depth_lo == 0 || s->depth < s->depth_lo)
+        s->depth_lo = s->depth;
+    if (s->depth > s->depth_hi)
+        s->depth_hi = s->depth;
     /* keep the collision grid current: the region's nodes may have moved */
     const int32_t *order = NULL, *start = NULL;
     int32_t layers = ftm_sim_layers(s->sim, &order, &start);
@@ -1141,7 +1164,10 @@ static void usage(FILE *f)
             "                         (its frames ignored; with --record, record the result)\n"
             "  --metrics-port N       Prometheus metrics on http://ADDR:N/metrics (0: off)\n"
             "  --metrics-addr ADDR    address the metrics listen on (default 127.0.0.1)\n"
-            "  --record-dir DIR       record each run to a new file DIR/SESSION-<UTC time>.rec\n"
+            "  --record-dir DIR       record each run to a new file DIR/SESSION-<UTC time>.rec,\n"
+            "                         with its report (--report) beside it as .json\n"
+            "  --report FILE          at the end, what each participant did as JSON (touches,\n"
+            "                         contact time, forces, pushes); also with --replay/--inputs\n"
             "  --check                set up as for the session (scene, DDS, files, metrics),\n"
             "                         print what it would be and exit: 0 if it would start\n"
             "  --control-log FILE     CSV every 100 ms: time, tick, depth, step, lag, backlog, rate\n"
@@ -1180,8 +1206,10 @@ static int parse(int argc, char **argv, options *o)
         if (strcmp(a, "--scene") == 0) {
             o->scene = v;
             o->scene_given = true;
-        } else if (strcmp(a, "--session") == 0)
+        } else if (strcmp(a, "--session") == 0) {
             o->session = v;
+            o->session_given = true;
+        }
         else if (strcmp(a, "--config") == 0)
             o->config = v;
         else if (strcmp(a, "--log") == 0)
@@ -1228,6 +1256,8 @@ static int parse(int argc, char **argv, options *o)
             o->metrics_addr = v;
         } else if (strcmp(a, "--record-dir") == 0)
             o->record_dir = v;
+        else if (strcmp(a, "--report") == 0)
+            o->report = v;
         else if (strcmp(a, "--trainee") == 0) {
             if (o->ntrainees == 8) {
                 fprintf(stderr, "ftm-server: at most 8 --trainee options\n");
@@ -1467,6 +1497,8 @@ static int run_offline(server *s)
         t0[i] = off;
         who[i] = find_part(s, (uint32_t)id, true);
         who[i]->role = FTM_WIRE_ROLE_TRAINEE;
+        ftm_report_seen(&s->report, (uint32_t)id, "trainee", "offline", 0);
+        who[i]->report = ftm_report_index(&s->report, (uint32_t)id);
         who[i]->state = FTM_WIRE_STATE_SYNCED;
         snprintf(who[i]->name, sizeof who[i]->name, "offline");
     }
@@ -1563,6 +1595,7 @@ static int open_recording(server *s, ftm_error *err)
     ftm_record_header rh;
     memset(&rh, 0, sizeof rh);
     snprintf(rh.scene_id, sizeof rh.scene_id, "%s", s->o.scene);
+    snprintf(rh.session, sizeof rh.session, "%s", s->o.session);
     memcpy(rh.digest, s->digest, FTM_REPLAY_DIGEST_SIZE);
     rh.digest_len = FTM_REPLAY_DIGEST_SIZE;
     rh.tick_rate_hz = (uint32_t)(s->o.rate + 0.5);
@@ -1575,6 +1608,50 @@ static int open_recording(server *s, ftm_error *err)
     if (rc == FTM_OK)
         slog(s, "info", "recording the session to %s", s->o.record);
     return rc;
+}
+
+/* The session report: a closing log line per trainee probe that touched
+ * the tissue, and --report FILE. Returns 0, or 3 if the file fails. */
+static int finish_report(server *s)
+{
+    for (int32_t i = 0; i < s->report.count; i++) {
+        const ftm_report_part *p = &s->report.parts[i];
+        for (int k = 0; k < FTM_REPORT_PROBES; k++) {
+            const ftm_report_probe *q = &p->probes[k];
+            if (!q->contact_ticks)
+                continue;
+            slog(s, "info",
+                 "participant %u (%s '%s') probe %d: %u touch%s, %.2f s in contact, peak %.3g N "
+                 "at tick %" PRIu64 ", mean %.3g N, deepest push %.1f mm%s",
+                 p->id, p->role, p->name, k, q->touches, q->touches == 1 ? "" : "es",
+                 (double)q->contact_ticks / s->o.rate, q->peak_force, q->peak_tick,
+                 q->force_sum / (double)q->contact_ticks, q->max_push * 1e3,
+                 q->limited_ticks ? " (push limited)" : "");
+        }
+    }
+    /* --record-dir: each run's report beside its recording, NAME.json */
+    const char *path = s->o.report;
+    char beside[sizeof s->record_path + 8];
+    if (!path && s->record_path[0]) {
+        size_t n = strlen(s->record_path);
+        snprintf(beside, sizeof beside, "%.*s.json", (int)(n > 4 ? n - 4 : n), s->record_path);
+        path = beside;
+    }
+    if (!path)
+        return 0;
+    ftm_report_session rs = {s->o.session, s->o.scene, s->digest, FTM_REPLAY_DIGEST_SIZE,
+                             s->tick, s->o.rate, s->depth_lo, s->depth_hi, s->unstable,
+                             s->tissue_changes};
+    FILE *f = fopen(path, "w");
+    int rc = f ? ftm_report_write_json(&s->report, &rs, f) : -1;
+    if (f && fclose(f) != 0)
+        rc = -1;
+    if (rc) {
+        slog(s, "error", "report %s: cannot write: %s", path, strerror(errno));
+        return 3;
+    }
+    slog(s, "info", "report: %s (%d participants)", path, (int)s->report.count);
+    return 0;
 }
 
 /* Whether a file may be created in the directory of `path` (dir: path is the
@@ -1640,6 +1717,7 @@ static int check_setup(server *s)
         bool dir;
     } files[] = {{"recording", s->o.record_dir ? s->o.record_dir : s->o.record, s->o.record_dir != NULL},
                  {"control log", s->o.control_log, false},
+                 {"report", s->o.report, false},
                  {"log", s->o.log_path, false}};
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         if (!files[i].path)
@@ -1716,6 +1794,10 @@ int ftm_server_main(int argc, char **argv)
         if (!s->o.scene_given) {
             snprintf(s->replay_scene, sizeof s->replay_scene, "%s", rh.scene_id);
             s->o.scene = s->replay_scene;
+        }
+        if (!s->o.session_given && rh.session[0]) { /* the report names it */
+            snprintf(s->replay_session, sizeof s->replay_session, "%s", rh.session);
+            s->o.session = s->replay_session;
         }
         s->o.rate = rh.tick_rate_hz;
         /* --inputs may try another depth or push limit; --replay must not */
@@ -1798,6 +1880,9 @@ int ftm_server_main(int argc, char **argv)
         }
         if (rc == 0)
             rc = s->o.offline_ticks > 0 ? run_offline(s) : replay_inputs(s);
+        if (rc == 0)
+            rc = finish_report(s);
+        ftm_report_free(&s->report);
         if (s->rec && ftm_record_close(s->rec, &err)) {
             fprintf(stderr, "ftm-server: %s\n", err.message);
             rc = 3;
@@ -1944,7 +2029,8 @@ int ftm_server_main(int argc, char **argv)
          " increases", (int)s->depth, (int)s->ctl.def.floor, (int)s->ctl.def.max,
          s->ctl.decreases, s->ctl.increases);
     log_limits(s);
-    int rc = 0;
+    int rc = finish_report(s);
+    ftm_report_free(&s->report);
     if (s->rec) {
         uint64_t bytes = ftm_record_bytes(s->rec);
         if (ftm_record_close(s->rec, &err)) {

@@ -10,7 +10,8 @@
 #   badinput: a scene the client cannot load, malformed tick frames, and a
 #       server that vanishes (SIGKILL): each time the client logs it, shows
 #       the red banner (checked in its screenshot) and keeps running. Then a
-#       server restarted (a new process on the session): the client rejoins.
+#       server restarted (a new process on the session): the client rejoins;
+#       and restarted with another scene: the client loads and draws it.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
 set -u
 mode=${1:?mode}
@@ -40,11 +41,11 @@ client() { # name, then client options
     ASAN_OPTIONS=$client_asan timeout 90 xvfb-run -a -s "-screen 0 1280x800x24" \
         "$FTM_CLIENT" $common --size 960x600 --log "$dir/$n.log" "$@" >"$dir/$n.out" 2>"$dir/$n.err"
 }
-start_server() {
+start_server() { # extra server options...
     # no `timeout` wrapper: $server must be the server itself (SIGKILL below);
     # --duration bounds it and the EXIT trap kills it
     "$FTM_SERVER" --scene default $common --rate "${FTM_TEST_RATE:-500}" --duration 80 \
-        --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
+        --log "$dir/server.log" "$@" >"$dir/server.out" 2>"$dir/server.err" &
     server=$!
     wait_for "$dir/server.log" "session '$session'" "server did not start"
 }
@@ -123,14 +124,27 @@ badinput)
     wait $server
     rm -f "$dir/server.log"
     start_server
-    wait $cpid; rc=$?
-    [ $rc -eq 0 ] || fail "client exited with $rc after the server restarted"
-    grep -q "server 1 restarted (a new process" "$dir/restart.log" || fail "restart not noticed"
     # (the session may go from JOINING to synced between two of its looks,
     # so the replica's own line is the one to look for)
-    awk '/server 1 restarted/ { r = 1 } r && /replay: synced from keyframe/ { ok = 1 }
-         END { exit !ok }' "$dir/restart.log" ||
-        fail "the client did not sync again with the new server"
+    wait_for "$dir/restart.log" "server 1 restarted (a new process" "restart not noticed" 300
+    i=0
+    until awk '/server 1 restarted/ { r = 1 } r && /replay: synced from keyframe/ { ok = 1 }
+               END { exit !ok }' "$dir/restart.log"; do
+        i=$((i + 1)); [ $i -gt 300 ] && fail "the client did not sync again with the new server"
+        sleep 0.05
+    done
+    # and once more, the new server with another scene: the client loads it
+    kill -TERM $server
+    wait $server
+    rm -f "$dir/server.log"
+    start_server --scene membrane
+    wait $cpid; rc=$?
+    [ $rc -eq 0 ] || fail "client exited with $rc after the server restarted"
+    grep -q "the restarted server has another scene: 'membrane'" "$dir/restart.log" ||
+        fail "the client did not notice the new scene"
+    awk '/another scene/ { r = 1 } r && /replay: synced from keyframe/ { ok = 1 }
+         END { exit !ok }' "$dir/restart.log" || fail "the client did not sync on the new scene"
+    grep -q "screenshot .* tick [0-9]*, contact none" "$dir/restart.log" || fail "no screenshot"
     echo "PASS badinput"
     ;;
 *)

@@ -10,7 +10,8 @@
 #     share/ftm/scenes by the server, by a trainee bot that learns the name
 #     from the server's announcement, and by --replay; the bot ends on the
 #     server's tick and hash; an unknown scene fails with the places tried;
-#   - --record-dir makes a new recording per run, never overwriting;
+#   - --record-dir makes a new recording per run, never overwriting, with
+#     its session report beside it, equal to the report of its --replay;
 #   - (unsanitized builds) a program compiled against the installed libftm
 #     with pkg-config builds and runs a scene.
 # Every process runs under `timeout`; the test has a CTest TIMEOUT.
@@ -114,14 +115,20 @@ case ${rec##*/} in
 "$session"-[0-9][0-9][0-9][0-9][0-9][0-9][0-9][0-9]T[0-9][0-9][0-9][0-9][0-9][0-9]Z.rec) ;;
 *) fail "recording name ${rec##*/} is not SESSION-YYYYMMDDTHHMMSSZ.rec" ;;
 esac
-timeout 60 "$p/bin/ftm-server" --replay "$rec" >"$dir/replay.out" 2>"$dir/replay.err" ||
-    fail "--replay of the installed session's recording failed"
+timeout 60 "$p/bin/ftm-server" --replay "$rec" --report "$dir/replay.json" >"$dir/replay.out" \
+    2>"$dir/replay.err" || fail "--replay of the installed session's recording failed"
+# the run's report beside its recording, as the replay of the recording reports it
+[ -s "${rec%.rec}.json" ] || fail "no report beside the recording"
+cmp -s "${rec%.rec}.json" "$dir/replay.json" || fail "the report beside the recording differs from its replay's"
+grep -q "\"session\":\"$session\"" "$dir/replay.json" || fail "the replay's report does not name the session"
 # a second run in the same second or later: a new file, the first untouched
 sum=$(cksum <"$rec")
 timeout 60 "$p/bin/ftm-server" --scene default.scene $common --duration 0.3 --rt-priority 0 \
     --record-dir "$dir/rec" >"$dir/server2.out" 2>"$dir/server2.err" || fail "second server run failed"
 set -- "$dir/rec/$session"-*.rec
 [ $# -eq 2 ] || fail "a second run did not make a second recording: $*"
+set -- "$dir/rec/$session"-*.json
+[ $# -eq 2 ] || fail "a second run did not make a second report: $*"
 [ "$(cksum <"$rec")" = "$sum" ] || fail "the first recording was changed by the second run"
 
 # 4. libftm for other programs, through pkg-config
@@ -179,4 +186,5 @@ CEOF
     embed="libftm with pkg-config: $(cat "$dir/embed.out")"
 fi
 echo "PASS install: $verified; ExecStartPre --check ok; bot and server on $want with" \
-    "default.scene from share/ftm/scenes; recording ${rec##*/} replays; $embed"
+    "default.scene from share/ftm/scenes; recording ${rec##*/} replays, its report beside it" \
+    "equals the replay's; $embed"

@@ -12,9 +12,11 @@
 #   metrics:  --metrics-port on --metrics-addr 127.0.0.2: /metrics has the metric
 #             names, the tick and frame counters rise between two scrapes, 404
 #             elsewhere, nothing on 127.0.0.1.
-#   restart:  an observer with --rejoin outlives its server; a new server
-#             process on the same session (a service restart) is noticed by
-#             its announcement and rejoined, ending on the new server's hash.
+#   restart:  an observer with --rejoin outlives its server; new server
+#             processes on the same session (service restarts) are noticed
+#             by their announcements and rejoined: one on the same scene,
+#             with a trainee pressing, then one on another scene, which the
+#             observer loads; it ends on the last server's hash.
 # Every process runs under `timeout`; the test itself has a CTest TIMEOUT.
 set -u
 mode=${1:?mode}
@@ -166,9 +168,9 @@ record)
     rec="$dir/session.rec"
     # a push limit below the bot's 4 mm press: the replay must take it from
     # the recording's header to reproduce the contacts
-    start_server --duration 3.5 --record "$rec" --max-penetration 0.002
+    start_server --duration 3.5 --record "$rec" --max-penetration 0.002 --report "$dir/live.json"
     timeout 60 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
-        --duration 20 >"$dir/bot11.out" 2>"$dir/bot11.err" &
+        --duration 20 --log "$dir/bot11.csv" >"$dir/bot11.out" 2>"$dir/bot11.err" &
     b11=$!
     wait $server || fail "server exited with $?"
     wait $b11 || fail "bot 11 exited with $?"
@@ -176,8 +178,28 @@ record)
     grep -q "contact on triangle" "$dir/server.log" || fail "no probe contact on the server"
     grep -q "push limited to 0.002 m" "$dir/server.log" || fail "the push was not limited"
     grep -q "the server limits our push" "$dir/bot11.err" || fail "the trainee was not told its push was limited"
-    timeout 60 "$FTM_SERVER" --replay "$rec" >"$dir/replay.out" 2>"$dir/replay.err" ||
-        fail "replay of the recording failed"
+    timeout 60 "$FTM_SERVER" --replay "$rec" --report "$dir/replay.json" >"$dir/replay.out" \
+        2>"$dir/replay.err" || fail "replay of the recording failed"
+    # the session report: the replay's equals the live one; the trainee's
+    # peak force is the one its bot received in that tick's frame
+    report=$(timeout 30 python3 - "$dir/live.json" "$dir/replay.json" "$dir/bot11.csv" <<'EOF'
+import csv, json, math, sys
+live, rep = (json.load(open(p)) for p in sys.argv[1:3])
+assert live == rep, "replay report differs:\n%s\n%s" % (live, rep)
+(t,) = [p for p in live["participants"] if p["id"] == 11]
+assert t["role"] == "trainee", t
+(pr,) = t["probes"]
+assert pr["probe"] == 0 and pr["touches"] == 1 and pr["contact_ticks"] > 0, pr
+assert pr["push_limited_ticks"] > 0 and abs(pr["max_push_m"] - 0.002) < 1e-12, pr
+rows = {int(r["tick"]): math.sqrt(float(r["fx"])**2 + float(r["fy"])**2 + float(r["fz"])**2)
+        for r in csv.DictReader(open(sys.argv[3]))}
+peak = pr["peak_force_n"]
+assert abs(rows[pr["peak_force_tick"]] - peak) <= 1e-8 * peak, (rows[pr["peak_force_tick"]], peak)
+assert max(rows.values()) <= peak * (1 + 1e-8), (max(rows.values()), peak)
+print("peak %.4g N at tick %d, %d contact ticks, %d limited" % (
+    peak, pr["peak_force_tick"], pr["contact_ticks"], pr["push_limited_ticks"]))
+EOF
+) || fail "session report: $report"
     got=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/replay.out")
     [ "$got" = "$want" ] || fail "replay ends on '$got', the server on '$want'"
     grep -q "every hash equal" "$dir/replay.out" || fail "no replay summary"
@@ -282,7 +304,8 @@ EOF
         fail "a non-recording was accepted"
     fi
     grep -q "not an FTM recording" "$dir/junk.err" || fail "no clear error for a non-recording"
-    echo "PASS record: $want; $(head -n 1 "$dir/replay.out" | sed 's/^replay [^:]*: //'); $size bytes;" \
+    echo "PASS record: $want; report (live = replay): $report;" \
+        "$(head -n 1 "$dir/replay.out" | sed 's/^replay [^:]*: //'); $size bytes;" \
         "rejected: $(cat "$dir/trunc.err" "$dir/bad.err" "$dir/inputs.err" | grep "replay:" | sed 's/^ftm-server --replay: [^:]*: //' | tr '\n' '|')"
     ;;
 metrics)
@@ -349,9 +372,11 @@ restart)
     # server A; observer 13 told to wait for a restart (--rejoin); A stops
     # (as a service restart stops it) and server B, a new process with the
     # same session and id, starts with trainee 11 pressing: 13 must notice
-    # the new process, rejoin it and end on B's tick and hash. B runs fewer
+    # the new process, rejoin it and be on B's tick and hash. B runs fewer
     # ticks than A: a replica that took B's frames for A's would wait for
-    # B's ticks to pass A's before its resync could catch up (never, here)
+    # B's ticks to pass A's before its resync could catch up (never, here).
+    # Then server C restarts the session with another scene (membrane):
+    # 13 loads it and ends on C's tick and hash.
     start_server --duration 4
     timeout 60 "$FTM_BOT" --role observer $common --id 13 --rejoin 2 --duration 30 \
         >"$dir/bot13.out" 2>"$dir/bot13.err" &
@@ -365,13 +390,23 @@ restart)
     timeout 60 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
         --duration 20 >"$dir/bot11.out" 2>"$dir/bot11.err"
     wait $server || fail "server B exited with $?"
+    check_hashes 11
+    b_final=$want
+    grep -q "participant 11 probe 0: contact" "$dir/server.log" || fail "trainee 11 never pressed on B"
+    grep -q "participant 13 (observer.*synced" "$dir/server.log" || fail "13 never synced with B"
+    mv "$dir/server.log" "$dir/serverB.log"; mv "$dir/server.out" "$dir/serverB.out"
+    sleep 1
+    start_server --duration 1.5 --scene membrane
+    wait $server || fail "server C exited with $?"
     wait $b13 || fail "observer 13 exited with $?"
-    check_hashes 11 13
+    check_hashes 13
     grep -q "server 1 leaving" "$dir/bot13.err" || fail "the observer did not see server A leave"
     grep -q "server 1 restarted (a new process" "$dir/bot13.err" || fail "no restart noticed"
-    grep -q "1 server restart rejoined" "$dir/bot13.err" || fail "the restart was not counted"
-    grep -q "participant 11 probe 0: contact" "$dir/server.log" || fail "trainee 11 never pressed on B"
-    echo "PASS restart: server A $a_final; observer rejoined server B and ended on its $want"
+    grep -q "the restarted server has another scene: 'membrane'" "$dir/bot13.err" ||
+        fail "the scene change was not noticed"
+    grep -q "2 server restarts rejoined" "$dir/bot13.err" || fail "the restarts were not counted"
+    echo "PASS restart: server A $a_final; observer rejoined server B ($b_final) and server C" \
+        "with another scene, ending on its $want"
     ;;
 *)
     echo "unknown mode $mode"; exit 2 ;;

@@ -28,6 +28,7 @@ static void write_sample(void)
     h.depth_min = 2;
     h.node_count = 1728;
     h.max_penetration = 0.0125;
+    snprintf(h.session, sizeof h.session, "ward-3");
     ftm_record_writer *w = NULL;
     ftm_error err = {0, ""};
     assert_int_equal(ftm_record_create(path, &h, &w, &err), FTM_OK);
@@ -101,6 +102,7 @@ static void round_trip(void **state)
     assert_int_equal(h.depth_min, 2);
     assert_int_equal(h.node_count, 1728);
     assert_true(h.max_penetration == 0.0125);
+    assert_string_equal(h.session, "ward-3");
     ftm_record_entry e;
     for (int i = 0; i < 10; i++) {
         assert_int_equal(ftm_record_next(r, &e, &err), 1);

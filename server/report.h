@@ -1,0 +1,69 @@
+/* The session report (ftm-server --report FILE, docs/server.md): what each
+ * participant did, for the instructor's debriefing. Trainees' probes count
+ * touches, time in contact, the reaction force (peak with its tick, mean,
+ * impulse) and how deep they pushed. Everything is counted in ticks from
+ * the tick logic alone, never from the clock, so a --replay or --inputs run
+ * of a recording reports exactly what the live session did. */
+#ifndef FTM_SERVER_REPORT_H
+#define FTM_SERVER_REPORT_H
+
+#include "ftm/base.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#define FTM_REPORT_PROBES 4
+#define FTM_REPORT_MAX_PARTICIPANTS 1024 /* distinct ids; more are counted, not kept */
+
+typedef struct ftm_report_probe {
+    uint32_t touches;         /* contacts begun */
+    uint64_t contact_ticks;   /* ticks with a reaction force on this probe */
+    uint64_t limited_ticks;   /* of those, ticks with the push limited */
+    uint64_t peak_tick;       /* tick of the largest force */
+    double peak_force;        /* largest |reaction| [N] */
+    double force_sum;         /* sum of |reaction| over contact ticks [N] */
+    double max_push;          /* longest push imposed on the tissue [m] */
+} ftm_report_probe;
+
+typedef struct ftm_report_part {
+    uint32_t id;
+    char role[16];
+    char name[64];
+    uint64_t first_tick, last_tick; /* first and last tick seen: status or contact */
+    ftm_report_probe probes[FTM_REPORT_PROBES];
+} ftm_report_part;
+
+typedef struct ftm_report {
+    ftm_report_part *parts; /* in order of first appearance */
+    int32_t count, cap;
+    uint64_t dropped; /* statuses from ids beyond FTM_REPORT_MAX_PARTICIPANTS */
+} ftm_report;
+
+/* What the report says of the session as a whole. */
+typedef struct ftm_report_session {
+    const char *session, *scene;
+    const uint8_t *digest;
+    int digest_len;
+    uint64_t ticks;
+    double tick_rate_hz;
+    int32_t depth_min, depth_max;
+    uint64_t unstable_ticks, tissue_changes;
+} ftm_report_session;
+
+/* The entry of participant `id`, made at its first status (tick); NULL when
+ * FTM_REPORT_MAX_PARTICIPANTS are kept already (counted in dropped) or out
+ * of memory. Pointers stay valid until the next call that adds an entry:
+ * keep the index (ftm_report_index) instead. */
+ftm_report_part *ftm_report_seen(ftm_report *r, uint32_t id, const char *role, const char *name,
+                                 uint64_t tick);
+/* Index of participant id's entry, or -1. */
+int32_t ftm_report_index(const ftm_report *r, uint32_t id);
+/* A tick of contact on a probe: its reaction force, the length of its push. */
+void ftm_report_contact(ftm_report_probe *p, uint64_t tick, ftm_vec3 force, double push,
+                        bool limited);
+/* The report as JSON (one object); returns 0 or the stdio error. */
+int ftm_report_write_json(const ftm_report *r, const ftm_report_session *s, FILE *f);
+void ftm_report_free(ftm_report *r);
+
+#endif

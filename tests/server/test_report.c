@@ -1,0 +1,90 @@
+/* The session report (server/report.h): accumulation, the participant cap,
+ * and JSON that stays valid whatever names the peers send. */
+#include "report.h"
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+static void test_contact_stats(void **state)
+{
+    (void)state;
+    ftm_report r = {0};
+    ftm_report_part *p = ftm_report_seen(&r, 11, "trainee", "anna", 5);
+    assert_non_null(p);
+    ftm_report_probe *q = &p->probes[1];
+    q->touches++;
+    ftm_report_contact(q, 10, (ftm_vec3){3, 4, 0}, 0.002, false);  /* 5 N */
+    ftm_report_contact(q, 11, (ftm_vec3){0, 0, -6}, 0.004, true);  /* 6 N */
+    ftm_report_contact(q, 12, (ftm_vec3){6, 0, 0}, 0.001, false);  /* 6 N again: first kept */
+    assert_int_equal(q->contact_ticks, 3);
+    assert_int_equal(q->limited_ticks, 1);
+    assert_true(q->peak_force == 6.0);
+    assert_int_equal(q->peak_tick, 11);
+    assert_true(q->force_sum == 17.0);
+    assert_true(q->max_push == 0.004);
+    /* seen again: same entry, role and name updated, first tick kept */
+    p = ftm_report_seen(&r, 11, "observer", "anna b", 40);
+    assert_int_equal(r.count, 1);
+    assert_string_equal(p->role, "observer");
+    assert_int_equal(p->first_tick, 5);
+    assert_int_equal(p->last_tick, 40);
+    assert_int_equal(ftm_report_index(&r, 11), 0);
+    assert_int_equal(ftm_report_index(&r, 12), -1);
+    ftm_report_free(&r);
+}
+
+static void test_cap(void **state)
+{
+    (void)state;
+    ftm_report r = {0};
+    for (uint32_t id = 1; id <= FTM_REPORT_MAX_PARTICIPANTS + 10; id++)
+        ftm_report_seen(&r, id, "bot", "x", id);
+    assert_int_equal(r.count, FTM_REPORT_MAX_PARTICIPANTS);
+    assert_int_equal(r.dropped, 10);
+    assert_null(ftm_report_seen(&r, 99999, "bot", "x", 1));
+    assert_non_null(ftm_report_seen(&r, 1, "bot", "x", 2)); /* a kept one still updates */
+    ftm_report_free(&r);
+}
+
+static void test_json_escapes_names(void **state)
+{
+    (void)state;
+    ftm_report r = {0};
+    ftm_report_part *p = ftm_report_seen(&r, 7, "trainee", "a\"b\\c\x01\n\xc3\xa9", 0);
+    p->probes[0].touches = 1;
+    ftm_report_contact(&p->probes[0], 3, (ftm_vec3){0, 0, 2}, 0.001, false);
+    uint8_t digest[2] = {0xab, 0x01};
+    ftm_report_session s = {"ward \"3\"", "default", digest, 2, 1000, 1000.0, 8, 8, 0, 0};
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&buf, &len);
+    assert_non_null(f);
+    assert_int_equal(ftm_report_write_json(&r, &s, f), 0);
+    fclose(f);
+    if (!strstr(buf, "\"name\":\"a\\\"b\\\\c\\u0001\\u000a\\u00c3\\u00a9\""))
+        fail_msg("name not escaped: %s", buf);
+    assert_non_null(strstr(buf, "\"session\":\"ward \\\"3\\\"\""));
+    assert_non_null(strstr(buf, "\"scene_digest\":\"ab01\""));
+    assert_non_null(strstr(buf, "\"seconds\":1,"));
+    assert_non_null(strstr(buf, "\"contact_ticks\":1,"));
+    assert_non_null(strstr(buf, "\"peak_force_n\":2,\"peak_force_tick\":3,"));
+    free(buf);
+    ftm_report_free(&r);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_contact_stats),
+        cmocka_unit_test(test_cap),
+        cmocka_unit_test(test_json_escapes_names),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
