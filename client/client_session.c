@@ -1,5 +1,6 @@
 /* The client's session thread; see client_session.h and docs/client.md. */
 #include "client_session.h"
+#include "report.h"
 
 #include "replay.h"
 
@@ -52,6 +53,8 @@ struct ftm_client_session {
     int32_t nhips;
     ftm_client_part parts[FTM_CLIENT_MAX_PARTS];
     int32_t nparts;
+    ftm_report live;    /* the session report, from the frames received */
+    uint64_t live_tick; /* newest frame counted in it */
     uint64_t rejected_seen;
     int64_t reject_until_ns;
     char reject_msg[200];
@@ -173,6 +176,8 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         s->server_left = s->silent_reported = false;
         s->last_frame_ns = mono_ns();
         s->newest_rx_tick = 0;
+        ftm_report_free(&s->live); /* a new session: its ticks start again */
+        s->live_tick = 0;
         uint8_t d[FTM_REPLAY_DIGEST_SIZE];
         ftm_replay_scene_digest(s->scene, d);
         bool same = a->digest_len == FTM_REPLAY_DIGEST_SIZE && memcmp(d, a->digest, sizeof d) == 0;
@@ -238,6 +243,39 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         s->server_start = a->server_start_ns;
 }
 
+static const char *role_word(ftm_wire_role r)
+{
+    switch (r) {
+    case FTM_WIRE_ROLE_SERVER: return "server";
+    case FTM_WIRE_ROLE_TRAINEE: return "trainee";
+    case FTM_WIRE_ROLE_INSTRUCTOR: return "instructor";
+    case FTM_WIRE_ROLE_OBSERVER: return "observer";
+    case FTM_WIRE_ROLE_BOT: return "bot";
+    }
+    return "unknown";
+}
+
+/* Each new frame's reaction forces into the live report: the figures the
+ * server's --report will give, seen from here (frames before joining are
+ * not seen). */
+static void count_reactions(ftm_client_session *s, const ftm_wire_tick *t)
+{
+    if (t->tick <= s->live_tick)
+        return; /* a frame counted already */
+    s->live_tick = t->tick;
+    for (int32_t i = 0; i < t->reaction_count; i++) {
+        const ftm_wire_reaction *re = &t->reactions[i];
+        if (re->probe < 0 || re->probe >= FTM_REPORT_PROBES)
+            continue;
+        int32_t k = ftm_report_index(&s->live, re->participant);
+        if (k < 0 && !ftm_report_seen(&s->live, re->participant, "trainee", "", t->tick))
+            continue;
+        k = ftm_report_index(&s->live, re->participant);
+        ftm_report_contact(&s->live.parts[k].probes[re->probe], t->tick, re->force, 0.0,
+                           re->push_limited);
+    }
+}
+
 static ftm_client_part *find_part(ftm_client_session *s, uint32_t id, bool add)
 {
     for (int32_t i = 0; i < s->nparts; i++)
@@ -282,6 +320,7 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         p->tick = st->last_applied_tick;
         snprintf(p->name, sizeof p->name, "%s", st->name);
     }
+    ftm_report_seen(&s->live, rx->sender, role_word(st->role), st->name, st->last_applied_tick);
 }
 
 static void on_probe_input(ftm_client_session *s, const ftm_wire_received *rx)
@@ -338,6 +377,8 @@ static void on_tick(ftm_client_session *s, const ftm_wire_received *rx)
     const ftm_wire_tick *t = &rx->msg.u.tick;
     if (t->tick > s->newest_rx_tick)
         s->newest_rx_tick = t->tick;
+    if (s->rep)
+        count_reactions(s, t);
     s->last_latency_ns = real_ns() - rx->source_time_ns;
     if (!s->rep)
         return;
@@ -563,6 +604,15 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
     }
     v->nparts = s->nparts;
     memcpy(v->parts, s->parts, (size_t)s->nparts * sizeof s->parts[0]);
+    for (int32_t i = 0; i < v->nparts; i++) {
+        int32_t k = ftm_report_index(&s->live, v->parts[i].id);
+        if (k >= 0) {
+            const ftm_report_probe *q = &s->live.parts[k].probes[0];
+            v->parts[i].contact_ticks = q->contact_ticks;
+            v->parts[i].peak_force = q->peak_force;
+            v->parts[i].peak_tick = q->peak_tick;
+        }
+    }
     pthread_mutex_unlock(&s->lock);
     s->last_publish_ns = now;
     s->dirty = false;
@@ -644,6 +694,16 @@ static void *session_main(void *arg)
             publish_view(s, now, caught_up); /* (read without lock: only this thread writes it) */
     }
     force_off(s, "client stopping");
+    for (int32_t i = 0; i < s->live.count; i++)
+        for (int k = 0; k < FTM_REPORT_PROBES; k++) {
+            const ftm_report_probe *q = &s->live.parts[i].probes[k];
+            if (q->contact_ticks)
+                slog(s, FTM_LOG_INFO,
+                     "participant %u probe %d, from the frames received: %.2f s in contact, "
+                     "peak %.17g N at tick %" PRIu64, s->live.parts[i].id, k,
+                     (double)q->contact_ticks / (s->ann.tick_rate_hz ? s->ann.tick_rate_hz : 1),
+                     q->peak_force, q->peak_tick);
+        }
     publish_status(s, FTM_WIRE_STATE_LEAVING);
     ftm_wire_flush(s->wire, SEC, NULL);
     return NULL;
@@ -717,6 +777,7 @@ void ftm_client_session_stop(ftm_client_session *s)
     pthread_join(s->thread, NULL);
     ftm_wire_transport_destroy(s->wire);
     ftm_replay_destroy(s->rep);
+    ftm_report_free(&s->live);
     for (int32_t k = 0; k < s->nretired; k++)
         ftm_scene_destroy(s->retired[k]);
     ftm_scene_destroy(s->scene);

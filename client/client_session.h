@@ -62,6 +62,10 @@ typedef struct ftm_client_part {
     ftm_wire_state state;
     uint64_t tick;
     char name[FTM_WIRE_DISPLAY_MAX];
+    /* a trainee's probe 0 as the frames received so far show it (report.h):
+     * time in contact and the peak reaction force */
+    uint64_t contact_ticks, peak_tick;
+    double peak_force;
 } ftm_client_part;
 
 /* What the render thread draws. Arrays are owned by the view. */

@@ -71,8 +71,13 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         LINE("participants:");
         for (int32_t i = 0; i < v->nparts && n < FTM_HUD_LINES - 4; i++) {
             const ftm_client_part *p = &v->parts[i];
-            LINE("  %u %s %s tick %" PRIu64 " %s", p->id, ftm_hud_role_name(p->role),
-                 ftm_hud_state_name(p->state), p->tick, p->name);
+            if (p->contact_ticks > 0) /* a trainee that has touched: the figures to debrief */
+                LINE("  %u %s %s tick %" PRIu64 " %s  %.1f s in contact, peak %.2f N", p->id,
+                     ftm_hud_role_name(p->role), ftm_hud_state_name(p->state), p->tick, p->name,
+                     (double)p->contact_ticks / (v->rate_hz ? v->rate_hz : 1), p->peak_force);
+            else
+                LINE("  %u %s %s tick %" PRIu64 " %s", p->id, ftm_hud_role_name(p->role),
+                     ftm_hud_state_name(p->state), p->tick, p->name);
         }
         LINE("keys: space pause/resume  backspace reset  +/- depth max  k/j stiffness");
         if (in->last_command)

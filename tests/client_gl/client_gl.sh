@@ -6,7 +6,9 @@
 #       taken once the contact has lasted 200 ticks; client-png-check
 #       asserts the pixels around the contact changed and neither is blank.
 #   instructor: an instructor client's timed commands (--commands) change
-#       the stiffness and the depth limits; server and client apply them.
+#       the stiffness and the depth limits; server and client apply them;
+#       a trainee bot presses meanwhile, and the instructor's debriefing
+#       figures (peak force and its tick) are those of the bot's frames.
 #   badinput: a scene the client cannot load, malformed tick frames, and a
 #       server that vanishes (SIGKILL): each time the client logs it, shows
 #       the red banner (checked in its screenshot) and keeps running. Then a
@@ -71,16 +73,37 @@ instructor)
     # the GL client as instructor plays timed commands (--commands): the
     # server applies the stiffness and the depth limits, the client's own
     # replica switches its tissue at the frame that carries it
+    # A trainee bot presses from about 3 s to 5.5 s, when it leaves: the
+    # instructor's debriefing figures (HUD, closing log) must be those of
+    # the frames the trainee received.
     start_server
+    timeout 60 "$FTM_BOT" --role trainee --script "$FTM_DATA/hold.bot" $common --id 11 \
+        --duration 5.5 --log "$dir/bot11.csv" >"$dir/bot.out" 2>"$dir/bot.err" &
+    bpid=$!
     client instr --role instructor --id 21 --commands "$FTM_DATA/instructor.cmds" \
-        --screenshot "$dir/instr.png" --screenshot-after 4 || fail "instructor client exited with $?"
+        --screenshot "$dir/instr.png" --screenshot-after 7 || fail "instructor client exited with $?"
+    wait $bpid || fail "trainee bot exited with $?"
     grep -q "tissue from tick [0-9]* (instructor 21): stiffness 100 N/m (was 50)" "$dir/server.log" ||
         fail "the server did not apply the instructor's stiffness"
     grep -q "depth limits \[2, 6\] from instructor 21" "$dir/server.log" ||
         fail "the server did not apply the instructor's depth limits"
     grep -q "sent stiffness (k = 100 N/m" "$dir/instr.log" || fail "the client did not send it"
     grep -q "tissue now k 100 N/m" "$dir/instr.log" || fail "the client's replica did not switch"
-    echo "PASS instructor: $(grep -o 'tissue from tick [0-9]*' "$dir/server.log")"
+    line=$(grep "participant 11 probe 0, from the frames received" "$dir/instr.log") ||
+        fail "no debriefing line for trainee 11 in the instructor's log"
+    debrief=$(timeout 30 python3 - "$dir/bot11.csv" "$line" <<'EOF'
+import csv, math, re, sys
+m = re.search(r"([0-9.]+) s in contact, peak ([0-9.eE+-]+) N at tick ([0-9]+)", sys.argv[2])
+secs, peak, tick = float(m.group(1)), float(m.group(2)), int(m.group(3))
+rows = {int(r["tick"]): math.sqrt(float(r["fx"])**2 + float(r["fy"])**2 + float(r["fz"])**2)
+        for r in csv.DictReader(open(sys.argv[1]))}
+assert secs > 0.5, sys.argv[2]
+assert abs(rows[tick] - peak) <= 1e-8 * peak, (rows[tick], peak)
+assert max(rows.values()) <= peak * (1 + 1e-8), (max(rows.values()), peak)
+print("peak %.4g N at tick %d, %.2f s in contact" % (peak, tick, secs))
+EOF
+) || fail "instructor's debriefing: $debrief"
+    echo "PASS instructor: $(grep -o 'tissue from tick [0-9]*' "$dir/server.log"); trainee 11 as the instructor saw it: $debrief"
     ;;
 badinput)
     # 1. a scene the client cannot load: banner, log, no crash; exit 1 after the timeout

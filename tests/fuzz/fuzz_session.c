@@ -12,8 +12,9 @@
  *
  * Properties: the server takes every input without a crash or a hang, and
  * whatever the peers sent, its frames bring a replica to its exact state at
- * every frame and keyframe (the hashes), and its inputs reproduce its
- * frames. A small lattice (5x5x5) keeps a run to milliseconds.
+ * every frame and keyframe (the hashes), its inputs reproduce its frames,
+ * and the session report (--report) of the run and of the replay are the
+ * same bytes. A small lattice (5x5x5) keeps a run to milliseconds.
  *
  * Input: a byte choosing the push limit (0xff: none; else bit 0: 5 mm or
  * the scene's 4 cm), then
@@ -31,9 +32,29 @@
 #include "ftm/wire.h"
 
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+static bool same_file(const char *a, const char *b)
+{
+    FILE *fa = fopen(a, "rb"), *fb = fopen(b, "rb");
+    bool same = fa && fb;
+    if (same) {
+        int ca, cb;
+        do {
+            ca = getc(fa);
+            cb = getc(fb);
+        } while (ca == cb && ca != EOF);
+        same = ca == cb;
+    }
+    if (fa)
+        fclose(fa);
+    if (fb)
+        fclose(fb);
+    return same;
+}
 
 static const char scene_text[] =
     "[scene]\nname = fuzz-session\n"
@@ -203,11 +224,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     fuzz_check(ftm_record_write(w, &last, &err) == FTM_OK);
     fuzz_check(ftm_record_close(w, &err) == FTM_OK);
 
-    char a0[] = "ftm-server", a1[] = "--inputs", a3[] = "--record", a5[] = "--scene";
-    char *run[] = {a0, a1, in_path, a3, out_path, a5, (char *)scene_path, NULL};
-    fuzz_check(ftm_server_main(7, run) == 0);
+    char rep_run[512], rep_check[512];
+    snprintf(rep_run, sizeof rep_run, "%s", fuzz_write_file("run.json", "", 0));
+    snprintf(rep_check, sizeof rep_check, "%s", fuzz_write_file("check.json", "", 0));
+    char a0[] = "ftm-server", a1[] = "--inputs", a3[] = "--record", a5[] = "--scene",
+         a7[] = "--report";
+    char *run[] = {a0, a1, in_path, a3, out_path, a5, (char *)scene_path, a7, rep_run, NULL};
+    fuzz_check(ftm_server_main(9, run) == 0);
     char r1[] = "--replay";
-    char *check[] = {a0, r1, out_path, a5, (char *)scene_path, NULL};
-    fuzz_check(ftm_server_main(5, check) == 0);
+    char *check[] = {a0, r1, out_path, a5, (char *)scene_path, a7, rep_check, NULL};
+    fuzz_check(ftm_server_main(7, check) == 0);
+    /* the session report of the run and of its replay: the same bytes */
+    fuzz_check(same_file(rep_run, rep_check));
     return 0;
 }

@@ -1,11 +1,12 @@
 /* The session report (ftm-server --report FILE, docs/server.md): what each
- * participant did, for the instructor's debriefing. Trainees' probes count
+ * participant did, for the instructor's debriefing. ftm-client keeps the
+ * same figures live from the frames it receives, for an instructor's HUD. Trainees' probes count
  * touches, time in contact, the reaction force (peak with its tick, mean,
  * impulse) and how deep they pushed. Everything is counted in ticks from
  * the tick logic alone, never from the clock, so a --replay or --inputs run
  * of a recording reports exactly what the live session did. */
-#ifndef FTM_SERVER_REPORT_H
-#define FTM_SERVER_REPORT_H
+#ifndef FTM_CLIENT_REPORT_H
+#define FTM_CLIENT_REPORT_H
 
 #include "ftm/base.h"
 
