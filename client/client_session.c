@@ -243,18 +243,6 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         s->server_start = a->server_start_ns;
 }
 
-static const char *role_word(ftm_wire_role r)
-{
-    switch (r) {
-    case FTM_WIRE_ROLE_SERVER: return "server";
-    case FTM_WIRE_ROLE_TRAINEE: return "trainee";
-    case FTM_WIRE_ROLE_INSTRUCTOR: return "instructor";
-    case FTM_WIRE_ROLE_OBSERVER: return "observer";
-    case FTM_WIRE_ROLE_BOT: return "bot";
-    }
-    return "unknown";
-}
-
 /* Each new frame's reaction forces into the live report: the figures the
  * server's --report will give, seen from here (frames before joining are
  * not seen). */
@@ -320,7 +308,7 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         p->tick = st->last_applied_tick;
         snprintf(p->name, sizeof p->name, "%s", st->name);
     }
-    ftm_report_seen(&s->live, rx->sender, role_word(st->role), st->name, st->last_applied_tick);
+    ftm_report_seen(&s->live, rx->sender, ftm_wire_role_name(st->role), st->name, st->last_applied_tick);
 }
 
 static void on_probe_input(ftm_client_session *s, const ftm_wire_received *rx)
@@ -604,6 +592,9 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
     }
     v->nparts = s->nparts;
     memcpy(v->parts, s->parts, (size_t)s->nparts * sizeof s->parts[0]);
+    int32_t own = ftm_report_index(&s->live, s->cfg.id);
+    v->own_contact_ticks = own >= 0 ? s->live.parts[own].probes[0].contact_ticks : 0;
+    v->own_peak_force = own >= 0 ? s->live.parts[own].probes[0].peak_force : 0.0;
     for (int32_t i = 0; i < v->nparts; i++) {
         int32_t k = ftm_report_index(&s->live, v->parts[i].id);
         if (k >= 0) {

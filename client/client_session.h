@@ -100,6 +100,8 @@ typedef struct ftm_client_view {
 
     bool force_valid;     /* false: force dropped to zero (bad input) */
     ftm_vec3 own_force;
+    uint64_t own_contact_ticks; /* a trainee's own probe 0, as ftm_client_part's figures */
+    double own_peak_force;
     char banner[256];     /* empty: all well */
     bool banner_error;
 

@@ -7,29 +7,6 @@
 #include <math.h>
 #include <stdio.h>
 
-const char *ftm_hud_role_name(ftm_wire_role role)
-{
-    switch (role) {
-    case FTM_WIRE_ROLE_SERVER: return "server";
-    case FTM_WIRE_ROLE_TRAINEE: return "trainee";
-    case FTM_WIRE_ROLE_INSTRUCTOR: return "instructor";
-    case FTM_WIRE_ROLE_OBSERVER: return "observer";
-    case FTM_WIRE_ROLE_BOT: return "bot";
-    }
-    return "?";
-}
-
-const char *ftm_hud_state_name(ftm_wire_state state)
-{
-    switch (state) {
-    case FTM_WIRE_STATE_JOINING: return "joining";
-    case FTM_WIRE_STATE_SYNCED: return "synced";
-    case FTM_WIRE_STATE_RESYNCING: return "resyncing";
-    case FTM_WIRE_STATE_LEAVING: return "leaving";
-    }
-    return "?";
-}
-
 static double norm(ftm_vec3 f) { return sqrt(f.x * f.x + f.y * f.y + f.z * f.z); }
 
 int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
@@ -37,8 +14,8 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
 {
     int n = 0;
 #define LINE(...) snprintf(lines[n++], FTM_HUD_WIDTH, __VA_ARGS__)
-    LINE("%s %u  %s  scene %s", ftm_hud_role_name(in->role), in->id,
-         ftm_hud_state_name(v->state), v->scene_name[0] ? v->scene_name : "-");
+    LINE("%s %u  %s  scene %s", ftm_wire_role_name(in->role), in->id,
+         ftm_wire_state_name(v->state), v->scene_name[0] ? v->scene_name : "-");
     LINE("tick %" PRIu64 "%s  depth %d [%d..%d]  lag %" PRId64 " ticks (%.1f ms)", v->tick,
          v->paused ? " paused" : "", (int)v->depth, (int)v->depth_min, (int)v->depth_max,
          v->lag_ticks, v->latency_ms);
@@ -54,6 +31,9 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         LINE("force %.3f N (%.2f %.2f %.2f)  %s%s", norm(in->force), in->force.x, in->force.y,
              in->force.z, in->renderer ? in->renderer : "", why);
     }
+    if (in->role == FTM_WIRE_ROLE_TRAINEE && v->own_contact_ticks > 0)
+        LINE("you: %.1f s in contact, peak %.2f N", (double)v->own_contact_ticks /
+             (v->rate_hz ? v->rate_hz : 1), v->own_peak_force);
     /* reaction forces of every probe in contact (what the server computed) */
     for (int32_t i = 0; i < v->nprobes && n < FTM_HUD_LINES - 12; i++) {
         const ftm_client_probe *p = &v->probes[i];
@@ -73,11 +53,11 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
             const ftm_client_part *p = &v->parts[i];
             if (p->contact_ticks > 0) /* a trainee that has touched: the figures to debrief */
                 LINE("  %u %s %s tick %" PRIu64 " %s  %.1f s in contact, peak %.2f N", p->id,
-                     ftm_hud_role_name(p->role), ftm_hud_state_name(p->state), p->tick, p->name,
+                     ftm_wire_role_name(p->role), ftm_wire_state_name(p->state), p->tick, p->name,
                      (double)p->contact_ticks / (v->rate_hz ? v->rate_hz : 1), p->peak_force);
             else
-                LINE("  %u %s %s tick %" PRIu64 " %s", p->id, ftm_hud_role_name(p->role),
-                     ftm_hud_state_name(p->state), p->tick, p->name);
+                LINE("  %u %s %s tick %" PRIu64 " %s", p->id, ftm_wire_role_name(p->role),
+                     ftm_wire_state_name(p->state), p->tick, p->name);
         }
         LINE("keys: space pause/resume  backspace reset  +/- depth max  k/j stiffness");
         if (in->last_command)

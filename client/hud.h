@@ -25,7 +25,4 @@ typedef struct ftm_hud_info {
 int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *info,
                   char lines[FTM_HUD_LINES][FTM_HUD_WIDTH]);
 
-const char *ftm_hud_role_name(ftm_wire_role role);
-const char *ftm_hud_state_name(ftm_wire_state state);
-
 #endif

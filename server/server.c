@@ -240,29 +240,6 @@ static void log_hook(void *user, ftm_log_level level, const char *message)
     slog(s, names[level < 4 ? level : 3], "%s", message);
 }
 
-static const char *role_name(ftm_wire_role r)
-{
-    switch (r) {
-    case FTM_WIRE_ROLE_SERVER: return "server";
-    case FTM_WIRE_ROLE_TRAINEE: return "trainee";
-    case FTM_WIRE_ROLE_INSTRUCTOR: return "instructor";
-    case FTM_WIRE_ROLE_OBSERVER: return "observer";
-    case FTM_WIRE_ROLE_BOT: return "bot";
-    }
-    return "unknown";
-}
-
-static const char *state_name(ftm_wire_state st)
-{
-    switch (st) {
-    case FTM_WIRE_STATE_JOINING: return "joining";
-    case FTM_WIRE_STATE_SYNCED: return "synced";
-    case FTM_WIRE_STATE_RESYNCING: return "resyncing";
-    case FTM_WIRE_STATE_LEAVING: return "leaving";
-    }
-    return "unknown";
-}
-
 /* ---- recording (record.h) ------------------------------------------------------------ */
 
 static void record_entry(server *s, bool incoming, int kind, uint32_t sender, const uint8_t *buf,
@@ -460,8 +437,8 @@ static void on_status(server *s, ftm_wire_received *rx)
             return;
         }
         if (!p->gone)
-            slog(s, "info", "participant %u (%s '%s') gone: %s", p->id, role_name(p->role),
-                 p->name,
+            slog(s, "info", "participant %u (%s '%s') gone: %s", p->id,
+                 ftm_wire_role_name(p->role), p->name,
                  p->state == FTM_WIRE_STATE_LEAVING ? "left"
                                                    : "lost without leaving (lease expired)");
         release_probes(p);
@@ -482,12 +459,14 @@ static void on_status(server *s, ftm_wire_received *rx)
     bool fresh = p->role == 0;
     if (fresh || p->state != st->state || p->role != st->role)
         slog(s, "info", "participant %u (%s '%s'): %s at tick %" PRIu64, rx->sender,
-             role_name(st->role), st->name, state_name(st->state), st->last_applied_tick);
+             ftm_wire_role_name(st->role), st->name, ftm_wire_state_name(st->state),
+             st->last_applied_tick);
     if (!fresh && p->role != st->role) {
         release_probes(p);
     }
     if (p->silent)
-        slog(s, "info", "participant %u (%s '%s') is back", p->id, role_name(st->role), st->name);
+        slog(s, "info", "participant %u (%s '%s') is back", p->id, ftm_wire_role_name(st->role),
+             st->name);
     p->silent = false;
     p->last_status_ns = mono_ns();
     p->role = st->role;
@@ -498,7 +477,7 @@ static void on_status(server *s, ftm_wire_received *rx)
     p->lag = lag_of(s, st->last_applied_tick);
     p->replay_ns = st->replay_ns_per_tick;
     snprintf(p->name, sizeof p->name, "%s", st->name);
-    ftm_report_seen(&s->report, p->id, role_name(p->role), p->name, s->tick);
+    ftm_report_seen(&s->report, p->id, ftm_wire_role_name(p->role), p->name, s->tick);
     p->report = ftm_report_index(&s->report, p->id);
     if (st->state == FTM_WIRE_STATE_JOINING || st->state == FTM_WIRE_STATE_RESYNCING)
         s->keyframe_due = true;
@@ -980,14 +959,14 @@ static void control_period(server *s)
         if (m->nparts < FTM_METRICS_PARTS) {
             ftm_metrics_part *mp = &m->parts[m->nparts++];
             mp->id = p->id;
-            snprintf(mp->role, sizeof mp->role, "%s", role_name(p->role));
-            snprintf(mp->state, sizeof mp->state, "%s", state_name(p->state));
+            snprintf(mp->role, sizeof mp->role, "%s", ftm_wire_role_name(p->role));
+            snprintf(mp->state, sizeof mp->state, "%s", ftm_wire_state_name(p->state));
             mp->lag = lag;
             mp->replay_ns = p->replay_ns;
         }
         /* a joiner has applied nothing yet, a leaver stops: neither is lag */
         if (p->state == FTM_WIRE_STATE_SYNCED || p->state == FTM_WIRE_STATE_RESYNCING)
-            parts[np++] = (ftm_depth_ctl_part){p->id, role_name(p->role), lag, p->replay_ns};
+            parts[np++] = (ftm_depth_ctl_part){p->id, ftm_wire_role_name(p->role), lag, p->replay_ns};
     }
     in.nparts = np;
     in.parts = parts;
@@ -1097,7 +1076,7 @@ static void on_status_timer(uv_timer_t *h)
         slog(s, "warn",
              "participant %u (%s '%s') lost: no status for %.1f s (deadline 2 s); its probes "
              "are released",
-             p->id, role_name(p->role), p->name, (double)(now - p->last_status_ns) * 1e-9);
+             p->id, ftm_wire_role_name(p->role), p->name, (double)(now - p->last_status_ns) * 1e-9);
         release_probes(p);
         /* a decision by the clock: recorded, so that a replay makes it too */
         record_entry(s, true, FTM_WIRE_STATUS, p->id, NULL, 0, false, true);

@@ -40,3 +40,26 @@ const char *ftm_wire_kind_name(int kind)
     default: return "unknown kind";
     }
 }
+
+const char *ftm_wire_role_name(ftm_wire_role role)
+{
+    switch (role) {
+    case FTM_WIRE_ROLE_SERVER: return "server";
+    case FTM_WIRE_ROLE_TRAINEE: return "trainee";
+    case FTM_WIRE_ROLE_INSTRUCTOR: return "instructor";
+    case FTM_WIRE_ROLE_OBSERVER: return "observer";
+    case FTM_WIRE_ROLE_BOT: return "bot";
+    }
+    return "unknown";
+}
+
+const char *ftm_wire_state_name(ftm_wire_state state)
+{
+    switch (state) {
+    case FTM_WIRE_STATE_JOINING: return "joining";
+    case FTM_WIRE_STATE_SYNCED: return "synced";
+    case FTM_WIRE_STATE_RESYNCING: return "resyncing";
+    case FTM_WIRE_STATE_LEAVING: return "leaving";
+    }
+    return "unknown";
+}

@@ -366,6 +366,11 @@ int ftm_wire_get_stats(ftm_wire_transport *t, int kind, ftm_wire_stats *stats, f
 /* The DDS topic name of a kind, e.g. "ftm_v1_tick_frame"; NULL if unknown. */
 const char *ftm_wire_topic_name(int kind);
 
+/* Lower-case names of a role and a participant state, for logs and
+ * displays ("trainee", "synced"); "unknown" for a value outside the enum. */
+const char *ftm_wire_role_name(ftm_wire_role role);
+const char *ftm_wire_state_name(ftm_wire_state state);
+
 struct ftm_scene;
 /* Opens the scene a SceneAnnounce's scene_id (or a --scene option) names, as
  * every FTM program resolves it: a built-in name; a file as given; else the

@@ -1,0 +1,79 @@
+/* The HUD's text (client/hud.c): what trainees and instructors read,
+ * including the debriefing figures (time in contact, peak force). */
+#include "hud.h"
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+static char lines[FTM_HUD_LINES][FTM_HUD_WIDTH];
+
+/* The index of the first line containing `text`, or -1. */
+static int find(int n, const char *text)
+{
+    for (int i = 0; i < n; i++)
+        if (strstr(lines[i], text))
+            return i;
+    return -1;
+}
+
+static ftm_client_view sample_view(void)
+{
+    ftm_client_view v;
+    memset(&v, 0, sizeof v);
+    v.state = FTM_WIRE_STATE_SYNCED;
+    snprintf(v.scene_name, sizeof v.scene_name, "default");
+    v.tick = 3345;
+    v.rate_hz = 500;
+    v.nparts = 2;
+    v.parts[0] = (ftm_client_part){.id = 11, .role = FTM_WIRE_ROLE_TRAINEE,
+                                   .state = FTM_WIRE_STATE_SYNCED, .tick = 3249, .name = "anna",
+                                   .contact_ticks = 1575, .peak_force = 1.17298, .peak_tick = 2000};
+    v.parts[1] = (ftm_client_part){.id = 13, .role = FTM_WIRE_ROLE_OBSERVER,
+                                   .state = FTM_WIRE_STATE_RESYNCING, .tick = 3000, .name = "obs"};
+    return v;
+}
+
+static void test_instructor_sees_debriefing(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_INSTRUCTOR, .id = 21};
+    int n = ftm_hud_lines(&v, &in, lines);
+    assert_true(n > 0 && n <= FTM_HUD_LINES);
+    assert_true(find(n, "instructor 21  synced  scene default") == 0);
+    int t = find(n, "  11 trainee synced tick 3249 anna  3.1 s in contact, peak 1.17 N");
+    if (t < 0)
+        fail_msg("no debriefing line for the trainee; line 6: '%s'", lines[6]);
+    assert_true(find(n, "  13 observer resyncing tick 3000 obs") > t);
+    assert_int_equal(find(n, "13 observer resyncing tick 3000 obs  "), -1); /* no figures */
+    assert_int_equal(find(n, "you:"), -1);
+}
+
+static void test_trainee_sees_own_figures(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_TRAINEE, .id = 11};
+    int n = ftm_hud_lines(&v, &in, lines);
+    assert_int_equal(find(n, "you:"), -1); /* not touched yet: nothing to show */
+    v.own_contact_ticks = 250;
+    v.own_peak_force = 0.5;
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "you: 0.5 s in contact, peak 0.50 N") > 0);
+    assert_int_equal(find(n, "participants:"), -1); /* the list is the instructor's */
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_instructor_sees_debriefing),
+        cmocka_unit_test(test_trainee_sees_own_figures),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
