@@ -39,6 +39,7 @@
 
 #define MAX_PARTICIPANTS 64
 #define MAX_PROBES 4 /* per trainee; group = slot * MAX_PROBES + probe */
+_Static_assert(MAX_PROBES <= FTM_REPORT_PROBES, "the session report counts every probe");
 #define MAX_CATCHUP 50 /* ticks run in one timer callback before we call them missed */
 
 typedef struct options {
