@@ -221,15 +221,13 @@ static void on_announce(bot *b, const ftm_wire_announce *a)
     if (b->rep && a->server_start_ns && b->server_start && a->server_start_ns != b->server_start) {
         blog("server %u restarted (a new process, announcing tick %" PRIu64 "; we were at tick %"
              PRIu64 "): rejoining", b->server_id, a->tick, ftm_replay_tick(b->rep));
+        bool same = ftm_replay_check_announce(b->rep, a, NULL) == FTM_OK;
         ftm_replay_destroy(b->rep);
         b->rep = NULL;
         b->restarts++;
         b->server_left = b->server_gone = false;
         b->last_frame_ns = mono_ns();
-        uint8_t d[FTM_REPLAY_DIGEST_SIZE];
-        ftm_replay_scene_digest(b->scene, d);
-        if (!b->o.scene &&
-            !(a->digest_len == FTM_REPLAY_DIGEST_SIZE && memcmp(d, a->digest, sizeof d) == 0)) {
+        if (!same && !b->o.scene) {
             /* it serves another scene: load that one below, as on joining */
             blog("the restarted server has another scene: '%s'", a->scene_id);
             ftm_scene_destroy(b->scene);

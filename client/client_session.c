@@ -171,6 +171,7 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
              "server %u restarted (a new process, announcing tick %" PRIu64 "; we were at tick %"
              PRIu64 "): rejoining", s->server_id, a->tick, ftm_replay_tick(s->rep));
         force_off(s, "server restarted");
+        bool same = ftm_replay_check_announce(s->rep, a, NULL) == FTM_OK;
         ftm_replay_destroy(s->rep);
         s->rep = NULL;
         s->server_left = s->silent_reported = false;
@@ -178,9 +179,6 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         s->newest_rx_tick = 0;
         ftm_report_free(&s->live); /* a new session: its ticks start again */
         s->live_tick = 0;
-        uint8_t d[FTM_REPLAY_DIGEST_SIZE];
-        ftm_replay_scene_digest(s->scene, d);
-        bool same = a->digest_len == FTM_REPLAY_DIGEST_SIZE && memcmp(d, a->digest, sizeof d) == 0;
         if (!same && !s->cfg.scene && s->nretired < (int32_t)(sizeof s->retired / sizeof *s->retired)) {
             /* it serves another scene: load that one below, as on joining */
             slog(s, FTM_LOG_INFO, "the restarted server has another scene: '%s'", a->scene_id);
@@ -256,9 +254,8 @@ static void count_reactions(ftm_client_session *s, const ftm_wire_tick *t)
         if (re->probe < 0 || re->probe >= FTM_REPORT_PROBES)
             continue;
         int32_t k = ftm_report_index(&s->live, re->participant);
-        if (k < 0 && !ftm_report_seen(&s->live, re->participant, "trainee", "", t->tick))
+        if (k < 0 && (k = ftm_report_seen(&s->live, re->participant, "trainee", "", t->tick)) < 0)
             continue;
-        k = ftm_report_index(&s->live, re->participant);
         ftm_report_contact(&s->live.parts[k].probes[re->probe], t->tick, re->force, 0.0,
                            re->push_limited);
     }

@@ -12,20 +12,20 @@ int32_t ftm_report_index(const ftm_report *r, uint32_t id)
     return -1;
 }
 
-ftm_report_part *ftm_report_seen(ftm_report *r, uint32_t id, const char *role, const char *name,
-                                 uint64_t tick)
+int32_t ftm_report_seen(ftm_report *r, uint32_t id, const char *role, const char *name,
+                        uint64_t tick)
 {
     int32_t i = ftm_report_index(r, id);
     if (i < 0) {
         if (r->count == FTM_REPORT_MAX_PARTICIPANTS) {
             r->dropped++;
-            return NULL;
+            return -1;
         }
         if (r->count == r->cap) {
             int32_t cap = r->cap ? 2 * r->cap : 16;
             ftm_report_part *p = realloc(r->parts, (size_t)cap * sizeof *p);
             if (!p)
-                return NULL;
+                return -1;
             r->parts = p;
             r->cap = cap;
         }
@@ -38,7 +38,7 @@ ftm_report_part *ftm_report_seen(ftm_report *r, uint32_t id, const char *role, c
     snprintf(p->role, sizeof p->role, "%s", role);
     snprintf(p->name, sizeof p->name, "%s", name);
     p->last_tick = tick;
-    return p;
+    return i;
 }
 
 void ftm_report_contact(ftm_report_probe *p, uint64_t tick, ftm_vec3 force, double push,

@@ -52,12 +52,13 @@ typedef struct ftm_report_session {
     uint64_t unstable_ticks, tissue_changes;
 } ftm_report_session;
 
-/* The entry of participant `id`, made at its first status (tick); NULL when
- * FTM_REPORT_MAX_PARTICIPANTS are kept already (counted in dropped) or out
- * of memory. Pointers stay valid until the next call that adds an entry:
- * keep the index (ftm_report_index) instead. */
-ftm_report_part *ftm_report_seen(ftm_report *r, uint32_t id, const char *role, const char *name,
-                                 uint64_t tick);
+/* Participant `id` seen at `tick` with this role and name: its entry (made
+ * at the first sighting) updated. Returns the entry's index in r->parts
+ * (entries move when the array grows: keep indices, not pointers), or -1
+ * when FTM_REPORT_MAX_PARTICIPANTS are kept already (counted in dropped)
+ * or out of memory. */
+int32_t ftm_report_seen(ftm_report *r, uint32_t id, const char *role, const char *name,
+                        uint64_t tick);
 /* Index of participant id's entry, or -1. */
 int32_t ftm_report_index(const ftm_report *r, uint32_t id);
 /* A tick of contact on a probe: its reaction force, the length of its push. */

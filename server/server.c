@@ -478,8 +478,7 @@ static void on_status(server *s, ftm_wire_received *rx)
     p->lag = lag_of(s, st->last_applied_tick);
     p->replay_ns = st->replay_ns_per_tick;
     snprintf(p->name, sizeof p->name, "%s", st->name);
-    ftm_report_seen(&s->report, p->id, ftm_wire_role_name(p->role), p->name, s->tick);
-    p->report = ftm_report_index(&s->report, p->id);
+    p->report = ftm_report_seen(&s->report, p->id, ftm_wire_role_name(p->role), p->name, s->tick);
     if (st->state == FTM_WIRE_STATE_JOINING || st->state == FTM_WIRE_STATE_RESYNCING)
         s->keyframe_due = true;
     if (st->state == FTM_WIRE_STATE_LEAVING)
@@ -1477,8 +1476,7 @@ static int run_offline(server *s)
         t0[i] = off;
         who[i] = find_part(s, (uint32_t)id, true);
         who[i]->role = FTM_WIRE_ROLE_TRAINEE;
-        ftm_report_seen(&s->report, (uint32_t)id, "trainee", "offline", 0);
-        who[i]->report = ftm_report_index(&s->report, (uint32_t)id);
+        who[i]->report = ftm_report_seen(&s->report, (uint32_t)id, "trainee", "offline", 0);
         who[i]->state = FTM_WIRE_STATE_SYNCED;
         snprintf(who[i]->name, sizeof who[i]->name, "offline");
     }
@@ -1634,6 +1632,14 @@ static int finish_report(server *s)
     return 0;
 }
 
+/* The metrics' address as a URL: http://127.0.0.1:N/metrics, IPv6 in brackets. */
+static void metrics_url(const options *o, char *buf, size_t cap)
+{
+    bool v6 = strchr(o->metrics_addr, ':') != NULL;
+    snprintf(buf, cap, "http://%s%s%s:%d/metrics", v6 ? "[" : "", o->metrics_addr, v6 ? "]" : "",
+             (int)o->metrics_port);
+}
+
 /* Whether a file may be created in the directory of `path` (dir: path is the
  * directory itself); a reason in `why` if not. */
 static bool can_create_in(const char *path, bool dir, char *why, size_t cap)
@@ -1716,9 +1722,9 @@ static int check_setup(server *s)
             printf("metrics     FAILS: %s\n", err.message);
             bad++;
         } else {
-            printf("metrics     http://%s%s%s:%d/metrics (listened, then closed)\n",
-                   strchr(s->o.metrics_addr, ':') ? "[" : "", s->o.metrics_addr,
-                   strchr(s->o.metrics_addr, ':') ? "]" : "", (int)s->o.metrics_port);
+            char url[128];
+            metrics_url(&s->o, url, sizeof url);
+            printf("metrics     %s (listened, then closed)\n", url);
             ftm_metrics_stop(s->metrics);
             s->metrics = NULL;
         }
@@ -1738,14 +1744,23 @@ static int check_setup(server *s)
     }
     printf("ftm-server --check: %s\n", bad ? "the session would NOT start" : "ok");
     fflush(stdout);
+    return bad ? 3 : 0;
+}
+
+/* Everything ftm_server_main set up, whichever way it ends (what was never
+ * made is NULL). */
+static void teardown(server *s)
+{
     ftm_wire_transport_destroy(s->wire);
     ftm_collide_destroy(s->collide);
     ftm_sim_destroy(s->sim);
     ftm_replay_material_free(&s->mat);
     ftm_scene_destroy(s->scene);
+    ftm_report_free(&s->report);
+    free(s->contacts);
+    free(s->reactions);
     if (s->logf)
         fclose(s->logf);
-    return bad ? 3 : 0;
 }
 
 int ftm_server_main(int argc, char **argv)
@@ -1862,20 +1877,12 @@ int ftm_server_main(int argc, char **argv)
             rc = s->o.offline_ticks > 0 ? run_offline(s) : replay_inputs(s);
         if (rc == 0)
             rc = finish_report(s);
-        ftm_report_free(&s->report);
         if (s->rec && ftm_record_close(s->rec, &err)) {
             fprintf(stderr, "ftm-server: %s\n", err.message);
             rc = 3;
         }
         s->rec = NULL;
-        ftm_collide_destroy(s->collide);
-        ftm_sim_destroy(s->sim);
-        ftm_replay_material_free(&s->mat);
-        ftm_scene_destroy(s->scene);
-        free(s->contacts);
-        free(s->reactions);
-        if (s->logf)
-            fclose(s->logf);
+        teardown(s);
         return rc;
     }
 
@@ -1899,8 +1906,11 @@ int ftm_server_main(int argc, char **argv)
         slog(s, "error", "%s", err.message);
         return 3;
     }
-    if (s->o.check)
-        return check_setup(s);
+    if (s->o.check) {
+        int rc = check_setup(s);
+        teardown(s);
+        return rc;
+    }
     if ((s->o.record || s->o.record_dir) && open_recording(s, &err)) {
         slog(s, "error", "%s", err.message);
         return 3;
@@ -1918,8 +1928,9 @@ int ftm_server_main(int argc, char **argv)
             slog(s, "error", "%s", err.message);
             return 3;
         }
-        slog(s, "info", "metrics on http://%s%s%s:%d/metrics", strchr(s->o.metrics_addr, ':') ? "[" : "",
-             s->o.metrics_addr, strchr(s->o.metrics_addr, ':') ? "]" : "", (int)s->o.metrics_port);
+        char url[128];
+        metrics_url(&s->o, url, sizeof url);
+        slog(s, "info", "metrics on %s", url);
     }
     s->period_ns = 1e9 / s->o.rate;
     publish_announce(s);
@@ -2010,7 +2021,6 @@ int ftm_server_main(int argc, char **argv)
          s->ctl.decreases, s->ctl.increases);
     log_limits(s);
     int rc = finish_report(s);
-    ftm_report_free(&s->report);
     if (s->rec) {
         uint64_t bytes = ftm_record_bytes(s->rec);
         if (ftm_record_close(s->rec, &err)) {
@@ -2024,15 +2034,7 @@ int ftm_server_main(int argc, char **argv)
     ftm_metrics_stop(s->metrics);
     if (s->control_csv && fclose(s->control_csv) != 0)
         rc = 3;
-    ftm_wire_transport_destroy(s->wire);
+    teardown(s);
     uv_loop_close(s->loop);
-    ftm_collide_destroy(s->collide);
-    ftm_sim_destroy(s->sim);
-    ftm_replay_material_free(&s->mat);
-    ftm_scene_destroy(s->scene);
-    free(s->contacts);
-    free(s->reactions);
-    if (s->logf)
-        fclose(s->logf);
     return rc;
 }

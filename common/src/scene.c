@@ -1458,11 +1458,12 @@ int ftm_scene_open_search(const char *name_or_path, const char *search, ftm_scen
         path[0] = '\0';
     FILE *f = NULL;
     if (builtin_index(name_or_path) >= 0 || (f = fopen(name_or_path, "rb"))) {
-        if (f)
-            fclose(f);
         if (path_cap)
             snprintf(path, path_cap, "%s", name_or_path);
-        return ftm_scene_open(name_or_path, out, err);
+        if (!f)
+            return ftm_scene_builtin(name_or_path, out, err);
+        fclose(f);
+        return ftm_scene_load_file(name_or_path, out, err);
     }
     const char *base = strrchr(name_or_path, '/');
     base = base ? base + 1 : name_or_path;

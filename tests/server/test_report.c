@@ -16,9 +16,8 @@ static void test_contact_stats(void **state)
 {
     (void)state;
     ftm_report r = {0};
-    ftm_report_part *p = ftm_report_seen(&r, 11, "trainee", "anna", 5);
-    assert_non_null(p);
-    ftm_report_probe *q = &p->probes[1];
+    assert_int_equal(ftm_report_seen(&r, 11, "trainee", "anna", 5), 0);
+    ftm_report_probe *q = &r.parts[0].probes[1];
     q->touches++;
     ftm_report_contact(q, 10, (ftm_vec3){3, 4, 0}, 0.002, false);  /* 5 N */
     ftm_report_contact(q, 11, (ftm_vec3){0, 0, -6}, 0.004, true);  /* 6 N */
@@ -30,7 +29,8 @@ static void test_contact_stats(void **state)
     assert_true(q->force_sum == 17.0);
     assert_true(q->max_push == 0.004);
     /* seen again: same entry, role and name updated, first tick kept */
-    p = ftm_report_seen(&r, 11, "observer", "anna b", 40);
+    assert_int_equal(ftm_report_seen(&r, 11, "observer", "anna b", 40), 0);
+    const ftm_report_part *p = &r.parts[0];
     assert_int_equal(r.count, 1);
     assert_string_equal(p->role, "observer");
     assert_int_equal(p->first_tick, 5);
@@ -48,8 +48,8 @@ static void test_cap(void **state)
         ftm_report_seen(&r, id, "bot", "x", id);
     assert_int_equal(r.count, FTM_REPORT_MAX_PARTICIPANTS);
     assert_int_equal(r.dropped, 10);
-    assert_null(ftm_report_seen(&r, 99999, "bot", "x", 1));
-    assert_non_null(ftm_report_seen(&r, 1, "bot", "x", 2)); /* a kept one still updates */
+    assert_int_equal(ftm_report_seen(&r, 99999, "bot", "x", 1), -1);
+    assert_int_equal(ftm_report_seen(&r, 1, "bot", "x", 2), 0); /* a kept one still updates */
     ftm_report_free(&r);
 }
 
@@ -57,7 +57,9 @@ static void test_json_escapes_names(void **state)
 {
     (void)state;
     ftm_report r = {0};
-    ftm_report_part *p = ftm_report_seen(&r, 7, "trainee", "a\"b\\c\x01\n\xc3\xa9", 0);
+    int32_t k = ftm_report_seen(&r, 7, "trainee", "a\"b\\c\x01\n\xc3\xa9", 0);
+    assert_int_equal(k, 0);
+    ftm_report_part *p = &r.parts[k];
     p->probes[0].touches = 1;
     ftm_report_contact(&p->probes[0], 3, (ftm_vec3){0, 0, 2}, 0.001, false);
     uint8_t digest[2] = {0xab, 0x01};
