@@ -109,10 +109,105 @@ static void test_rollback_every_kernel(void **state)
     }
 }
 
+/* The same contact node turned from a force into a displacement and back:
+ * only the schedule is rebuilt (same nodes), and it must hold the node at
+ * its imposed displacement, then let it move again. In the plain orders the
+ * schedule takes the layers whole when the search found no held node; that
+ * count must not outlive the kinds it counted. */
+static void kind_change(ftm_order order, bool cache)
+{
+    ftm_mesh *m = lattice();
+    ftm_sim_def d = ftm_default_sim_def();
+    d.order = order;
+    d.time_step = 0.1;
+    d.depth = 6;
+    d.cache_layers = cache;
+    ftm_sim *s = NULL;
+    assert_int_equal(ftm_sim_create(m, &d, &s, NULL), FTM_OK);
+    const int32_t n = ftm_mesh_node_of_input(m, 25 + 50 * 25);
+    ftm_contact c = {.node = n, .kind = FTM_CONTACT_FORCE, .value = {0.0, -0.3, 0.0}};
+    assert_int_equal(ftm_sim_set_contacts(s, &c, 1, NULL), FTM_OK);
+    assert_int_equal(ftm_sim_run(s, 30), FTM_OK);
+    c.kind = FTM_CONTACT_DISPLACEMENT;
+    c.value = (ftm_vec3){0.05, 0.1, 0.0};
+    assert_int_equal(ftm_sim_set_contacts(s, &c, 1, NULL), FTM_OK);
+    const ftm_vec3 x0 = ftm_mesh_rest_position(m, n);
+    for (int i = 0; i < 10; i++) {
+        assert_int_equal(ftm_sim_run(s, 1), FTM_OK);
+        const double *x = ftm_sim_positions(s) + 3 * (size_t)n;
+        assert_true(x[0] == x0.x + 0.05 && x[1] == x0.y + 0.1 && x[2] == x0.z);
+    }
+    c.kind = FTM_CONTACT_FORCE;
+    c.value = (ftm_vec3){0.0, -0.3, 0.0};
+    assert_int_equal(ftm_sim_set_contacts(s, &c, 1, NULL), FTM_OK);
+    assert_int_equal(ftm_sim_run(s, 5), FTM_OK);
+    const double *x = ftm_sim_positions(s) + 3 * (size_t)n;
+    assert_true(x[0] != x0.x + 0.05 || x[1] != x0.y + 0.1); /* free to move again */
+    ftm_sim_destroy(s);
+    ftm_mesh_destroy(m);
+}
+
+static void test_kind_change_every_order(void **state)
+{
+    (void)state;
+    const ftm_order orders[] = {FTM_ORDER_BFS, FTM_ORDER_LAYER_JACOBI, FTM_ORDER_LAYER_COLORED};
+    for (int o = 0; o < 3; o++)
+        for (int cache = 0; cache < 2; cache++)
+            kind_change(orders[o], cache);
+}
+
+/* A force near the lattice's fixed border: regions that reach fixed nodes
+ * (depth 6 from a node 3 links in) and regions that do not (depth 2), whose
+ * schedules skip the held nodes by filtering and by copying whole layers.
+ * Fixed nodes never move; every free node of the region does. */
+static void fixed_border(ftm_order order, int32_t depth)
+{
+    ftm_mesh *m = lattice();
+    ftm_sim_def d = ftm_default_sim_def();
+    d.order = order;
+    d.time_step = 0.1;
+    d.depth = depth;
+    d.cache_layers = false;
+    ftm_sim *s = NULL;
+    assert_int_equal(ftm_sim_create(m, &d, &s, NULL), FTM_OK);
+    const int32_t n = ftm_mesh_node_of_input(m, 25 + 50 * 3);
+    ftm_contact c = {.node = n, .kind = FTM_CONTACT_FORCE, .value = {0.0, -0.3, 0.0}};
+    assert_int_equal(ftm_sim_set_contacts(s, &c, 1, NULL), FTM_OK);
+    assert_int_equal(ftm_sim_run(s, 50), FTM_OK);
+    const double *x = ftm_sim_positions(s);
+    int32_t moved = 0;
+    for (int32_t i = 0; i < ftm_mesh_node_count(m); i++) {
+        const ftm_vec3 r = ftm_mesh_rest_position(m, i);
+        const bool still = x[3 * i] == r.x && x[3 * i + 1] == r.y && x[3 * i + 2] == r.z;
+        if (ftm_mesh_fixed(m, i))
+            assert_true(still);
+        moved += !still;
+    }
+    /* the region: 3 d (d + 1) + 1 nodes, less the fixed ones when it reaches them */
+    if (depth == 2)
+        assert_int_equal(moved, 19);
+    else
+        assert_true(moved > 19 && moved < 3 * depth * (depth + 1) + 1);
+    ftm_sim_destroy(s);
+    ftm_mesh_destroy(m);
+}
+
+static void test_fixed_border_every_order(void **state)
+{
+    (void)state;
+    const ftm_order orders[] = {FTM_ORDER_BFS, FTM_ORDER_LAYER_JACOBI, FTM_ORDER_LAYER_COLORED};
+    for (int o = 0; o < 3; o++) {
+        fixed_border(orders[o], 2);
+        fixed_border(orders[o], 6);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_portable_kernel_matches),
                                        cmocka_unit_test(test_portable_jacobi_kernel_matches),
-                                       cmocka_unit_test(test_rollback_every_kernel)};
+                                       cmocka_unit_test(test_rollback_every_kernel),
+                                       cmocka_unit_test(test_kind_change_every_order),
+                                       cmocka_unit_test(test_fixed_border_every_order)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -416,6 +416,7 @@ void ftm_mesh_destroy(ftm_mesh *m)
     free(m->damping);
     free(m->fixed);
     free(m->min_link);
+    free(m->fixed_hops);
     free(m->adj_start);
     free(m->adj_node);
     free(m->adj_k);
@@ -457,6 +458,7 @@ ftm_mesh *ftm_mesh_clone(const ftm_mesh *m)
     c->damping = dup(m->damping, n * sizeof(double));
     c->fixed = dup(m->fixed, n);
     c->min_link = dup(m->min_link, n * sizeof(double));
+    c->fixed_hops = dup(m->fixed_hops, n * sizeof(int32_t));
     c->adj_start = dup(m->adj_start, (n + 1) * sizeof(int32_t));
     c->adj_node = dup(m->adj_node, e * sizeof(int32_t));
     c->adj_k = dup(m->adj_k, e * sizeof(double));
@@ -473,7 +475,8 @@ ftm_mesh *ftm_mesh_clone(const ftm_mesh *m)
     c->hexes = dup(m->hexes, (size_t)m->hex_count * 8 * sizeof(int32_t));
     c->node_of_input = dup(m->node_of_input, n * sizeof(int32_t));
     c->input_of_node = dup(m->input_of_node, n * sizeof(int32_t));
-    if (!c->rest || !c->mass || !c->damping || !c->fixed || !c->min_link || !c->adj_start ||
+    if (!c->rest || !c->mass || !c->damping || !c->fixed || !c->min_link || !c->fixed_hops ||
+        !c->adj_start ||
         !c->adj_node || !c->adj_k || !c->adj_len || !c->pad_node || !c->color || !c->pad_kl ||
         !c->link_a || !c->link_b || !c->link_k || !c->link_len || !c->tris || !c->tets ||
         !c->hexes || !c->node_of_input || !c->input_of_node) {
@@ -631,6 +634,32 @@ int ftm_mesh_build(const ftm_mesh_builder *b, const ftm_mesh_build_def *def, ftm
             m->pad_node[base + k] = k < deg ? m->adj_node[s + k] : i;
             m->pad_kl[2 * (base + k)] = k < deg ? m->adj_k[s + k] : -0.0;
             m->pad_kl[2 * (base + k) + 1] = k < deg ? m->adj_len[s + k] : 0.0;
+        }
+    }
+
+    /* Hops to the nearest fixed node, by a breadth-first search from all of
+     * them: a contact region of depth d holds no fixed node when each source
+     * is more than d hops away, and its schedule then skips no node beyond
+     * the sources (ftm_sim_rebuild_schedule). */
+    m->fixed_hops = malloc(((size_t)n + 1) * sizeof *m->fixed_hops);
+    if (!m->fixed_hops)
+        goto fail;
+    {
+        int32_t head = 0, tail = 0; /* order[] is free now: the queue */
+        for (int32_t i = 0; i < n; i++) {
+            m->fixed_hops[i] = m->fixed[i] ? 0 : INT32_MAX;
+            if (m->fixed[i])
+                order[tail++] = i;
+        }
+        while (head < tail) {
+            const int32_t u = order[head++];
+            for (int32_t e = m->adj_start[u]; e < m->adj_start[u + 1]; e++) {
+                const int32_t v = m->adj_node[e];
+                if (m->fixed_hops[v] == INT32_MAX) {
+                    m->fixed_hops[v] = m->fixed_hops[u] + 1;
+                    order[tail++] = v;
+                }
+            }
         }
     }
 

@@ -19,6 +19,7 @@ struct ftm_mesh {
     double *damping;
     uint8_t *fixed;
     double *min_link;  /* shortest rest length of a link at each node (INFINITY if none) */
+    int32_t *fixed_hops; /* links from each node to the nearest fixed one (INT32_MAX: none) */
 
     int32_t *adj_start; /* node_count + 1 */
     int32_t *adj_node;

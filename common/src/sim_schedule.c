@@ -188,8 +188,23 @@ void ftm_sim_schedule_links(ftm_sim *sim)
     s->linked = true;
 }
 
+/* True if no fixed node lies within the layers' depth of a source, so the
+ * region holds none: beyond the sources (layer 0, where displaced nodes are)
+ * every node of it is free. */
+static bool region_free_beyond_sources(const ftm_sim *sim)
+{
+    const int32_t *hops = sim->m->fixed_hops;
+    for (int32_t c = 0; c < sim->ncontacts; c++)
+        if (hops[sim->sources[c]] <= sim->built_depth)
+            return false;
+    return true;
+}
+
 /* Plain orders: the scheduled nodes layer by layer, one group per layer.
- * Branch-free: each node is written, and kept by advancing. */
+ * Held nodes (displaced, fixed) are filtered out branch-free: each node is
+ * written, and kept by advancing. When no fixed node is in the region (the
+ * usual case: a probe away from where the tissue is held), only layer 0 can
+ * hold any, and the other layers are copied whole. */
 static void schedule_layers(ftm_sim *sim)
 {
     const ftm_layering *ly = &sim->ly;
@@ -197,13 +212,19 @@ static void schedule_layers(ftm_sim *sim)
     const uint8_t *restrict kind = sim->kind;
     const int32_t *restrict order = ly->order, *restrict start = ly->start;
     int32_t *restrict out = s->node, *restrict group = s->group;
+    const bool copy = region_free_beyond_sources(sim);
     int32_t kk = 0, g = 0;
     for (int32_t l = 0; l < ly->layers; l++) {
         const int32_t first = kk;
-        for (int32_t k = start[l]; k < start[l + 1]; k++) {
-            const int32_t i = order[k];
-            out[kk] = i;
-            kk += kind[i] < NODE_DISP;
+        if (l > 0 && copy) {
+            memcpy(out + kk, order + start[l], (size_t)(start[l + 1] - start[l]) * sizeof *out);
+            kk += start[l + 1] - start[l];
+        } else {
+            for (int32_t k = start[l]; k < start[l + 1]; k++) {
+                const int32_t i = order[k];
+                out[kk] = i;
+                kk += kind[i] < NODE_DISP;
+            }
         }
         group[g] = first;
         g += kk > first;
