@@ -109,25 +109,31 @@ static void test_rollback_every_kernel(void **state)
     }
 }
 
-/* The same contact node turned from a force into a displacement and back:
- * only the schedule is rebuilt (same nodes), and it must hold the node at
- * its imposed displacement, then let it move again. In the plain orders the
- * schedule takes the layers whole when the search found no held node; that
- * count must not outlive the kinds it counted. */
-static void kind_change(ftm_order order, bool cache)
+/* A sim of the lattice m with one force contact on node n. */
+static ftm_sim *pushed(const ftm_mesh *m, ftm_order order, int32_t depth, bool cache, int32_t n)
 {
-    ftm_mesh *m = lattice();
     ftm_sim_def d = ftm_default_sim_def();
     d.order = order;
     d.time_step = 0.1;
-    d.depth = 6;
+    d.depth = depth;
     d.cache_layers = cache;
     ftm_sim *s = NULL;
     assert_int_equal(ftm_sim_create(m, &d, &s, NULL), FTM_OK);
-    const int32_t n = ftm_mesh_node_of_input(m, 25 + 50 * 25);
     ftm_contact c = {.node = n, .kind = FTM_CONTACT_FORCE, .value = {0.0, -0.3, 0.0}};
     assert_int_equal(ftm_sim_set_contacts(s, &c, 1, NULL), FTM_OK);
+    return s;
+}
+
+/* The same contact node turned from a force into a displacement and back:
+ * only the schedule is rebuilt (same nodes), and it must hold the node at
+ * its imposed displacement, then let it move again. */
+static void kind_change(ftm_order order, bool cache)
+{
+    ftm_mesh *m = lattice();
+    const int32_t n = ftm_mesh_node_of_input(m, 25 + 50 * 25);
+    ftm_sim *s = pushed(m, order, 6, cache, n);
     assert_int_equal(ftm_sim_run(s, 30), FTM_OK);
+    ftm_contact c = {.node = n};
     c.kind = FTM_CONTACT_DISPLACEMENT;
     c.value = (ftm_vec3){0.05, 0.1, 0.0};
     assert_int_equal(ftm_sim_set_contacts(s, &c, 1, NULL), FTM_OK);
@@ -163,16 +169,7 @@ static void test_kind_change_every_order(void **state)
 static void fixed_border(ftm_order order, int32_t depth)
 {
     ftm_mesh *m = lattice();
-    ftm_sim_def d = ftm_default_sim_def();
-    d.order = order;
-    d.time_step = 0.1;
-    d.depth = depth;
-    d.cache_layers = false;
-    ftm_sim *s = NULL;
-    assert_int_equal(ftm_sim_create(m, &d, &s, NULL), FTM_OK);
-    const int32_t n = ftm_mesh_node_of_input(m, 25 + 50 * 3);
-    ftm_contact c = {.node = n, .kind = FTM_CONTACT_FORCE, .value = {0.0, -0.3, 0.0}};
-    assert_int_equal(ftm_sim_set_contacts(s, &c, 1, NULL), FTM_OK);
+    ftm_sim *s = pushed(m, order, depth, false, ftm_mesh_node_of_input(m, 25 + 50 * 3));
     assert_int_equal(ftm_sim_run(s, 50), FTM_OK);
     const double *x = ftm_sim_positions(s);
     int32_t moved = 0;
