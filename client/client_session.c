@@ -1,5 +1,6 @@
 /* The client's session thread; see client_session.h and docs/client.md. */
 #include "client_session.h"
+#include "parts.h"
 #include "report.h"
 
 #include "replay.h"
@@ -261,18 +262,6 @@ static void count_reactions(ftm_client_session *s, const ftm_wire_tick *t)
     }
 }
 
-static ftm_client_part *find_part(ftm_client_session *s, uint32_t id, bool add)
-{
-    for (int32_t i = 0; i < s->nparts; i++)
-        if (s->parts[i].id == id)
-            return &s->parts[i];
-    if (!add || s->nparts == FTM_CLIENT_MAX_PARTS)
-        return NULL;
-    ftm_client_part *p = &s->parts[s->nparts++];
-    memset(p, 0, sizeof *p);
-    p->id = id;
-    return p;
-}
 
 static void server_gone(ftm_client_session *s, const char *why)
 {
@@ -287,9 +276,10 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
 {
     s->dirty = true;
     if (rx->gone) {
-        ftm_client_part *p = find_part(s, rx->sender, false);
-        if (p)
-            *p = s->parts[--s->nparts];
+        /* one that touched the tissue stays listed, for the debriefing */
+        int32_t k = ftm_report_index(&s->live, rx->sender);
+        ftm_parts_gone(s->parts, &s->nparts, rx->sender,
+                       k >= 0 && s->live.parts[k].probes[0].contact_ticks > 0);
         if (s->server_id != 0 && rx->sender == s->server_id)
             server_gone(s, "gone (lease expired or left)");
         return;
@@ -298,8 +288,9 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
     if (st->role == FTM_WIRE_ROLE_SERVER && from_server(s, rx) &&
         st->state == FTM_WIRE_STATE_LEAVING)
         server_gone(s, "leaving");
-    ftm_client_part *p = find_part(s, rx->sender, true);
+    ftm_client_part *p = ftm_parts_find(s->parts, &s->nparts, rx->sender, true);
     if (p) {
+        p->left = false;
         p->role = st->role;
         p->state = st->state;
         p->tick = st->last_applied_tick;

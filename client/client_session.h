@@ -66,6 +66,7 @@ typedef struct ftm_client_part {
      * time in contact and the peak reaction force */
     uint64_t contact_ticks, peak_tick;
     double peak_force;
+    bool left; /* gone, its row kept for those figures (parts.h) */
 } ftm_client_part;
 
 /* What the render thread draws. Arrays are owned by the view. */

@@ -53,7 +53,8 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
             const ftm_client_part *p = &v->parts[i];
             if (p->contact_ticks > 0) /* a trainee that has touched: the figures to debrief */
                 LINE("  %u %s %s tick %" PRIu64 " %s  %.1f s in contact, peak %.2f N", p->id,
-                     ftm_wire_role_name(p->role), ftm_wire_state_name(p->state), p->tick, p->name,
+                     ftm_wire_role_name(p->role),
+                     p->left ? "left" : ftm_wire_state_name(p->state), p->tick, p->name,
                      (double)p->contact_ticks / (v->rate_hz ? v->rate_hz : 1), p->peak_force);
             else
                 LINE("  %u %s %s tick %" PRIu64 " %s", p->id, ftm_wire_role_name(p->role),

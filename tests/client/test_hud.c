@@ -1,6 +1,7 @@
 /* The HUD's text (client/hud.c): what trainees and instructors read,
  * including the debriefing figures (time in contact, peak force). */
 #include "hud.h"
+#include "parts.h"
 
 #include <setjmp.h>
 #include <stdarg.h>
@@ -69,11 +70,41 @@ static void test_trainee_sees_own_figures(void **state)
     assert_int_equal(find(n, "participants:"), -1); /* the list is the instructor's */
 }
 
+/* A trainee that leaves after touching keeps its row, marked left, with
+ * its figures; one that never touched is dropped; a returning one is
+ * present again. A full list makes room by reusing a departed row. */
+static void test_departed_trainee_kept(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_INSTRUCTOR, .id = 21};
+    ftm_parts_gone(v.parts, &v.nparts, 11, true);
+    ftm_parts_gone(v.parts, &v.nparts, 13, false);
+    assert_int_equal(v.nparts, 1);
+    int n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "  11 trainee left tick 3249 anna  3.1 s in contact, peak 1.17 N") > 0);
+    assert_int_equal(find(n, "  13 observer"), -1);
+    ftm_client_part *p = ftm_parts_find(v.parts, &v.nparts, 11, true);
+    assert_true(p == &v.parts[0] && p->contact_ticks == 1575); /* the row it left */
+    p->left = false; /* as a status from it does */
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "  11 trainee synced tick 3249 anna  3.1 s") > 0);
+
+    ftm_parts_gone(v.parts, &v.nparts, 11, true);
+    for (uint32_t id = 100; v.nparts < FTM_CLIENT_MAX_PARTS; id++)
+        assert_non_null(ftm_parts_find(v.parts, &v.nparts, id, true));
+    p = ftm_parts_find(v.parts, &v.nparts, 500, true); /* full: 11's row is reused */
+    assert_true(p == &v.parts[0] && p->id == 500 && p->contact_ticks == 0 && !p->left);
+    assert_null(ftm_parts_find(v.parts, &v.nparts, 501, true)); /* full, none departed */
+    assert_null(ftm_parts_find(v.parts, &v.nparts, 11, false));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_instructor_sees_debriefing),
         cmocka_unit_test(test_trainee_sees_own_figures),
+        cmocka_unit_test(test_departed_trainee_kept),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
