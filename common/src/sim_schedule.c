@@ -111,9 +111,22 @@ static int update_relaxing(ftm_sim *sim, int32_t *old, int32_t cand)
     return FTM_OK;
 }
 
-/* Colored order: the scheduled nodes of each independent set, cut into
- * blocks of up to four (one node per block in the shared-colour set, whose
- * nodes may be adjacent). Their link data is copied slot-major only on the
+/* True if no fixed node lies within the layers' depth of a source, so the
+ * region holds none: beyond the sources (layer 0, where displaced nodes are)
+ * every node of it is free. */
+static bool region_free_beyond_sources(const ftm_sim *sim)
+{
+    const int32_t *hops = sim->m->fixed_hops;
+    for (int32_t c = 0; c < sim->ncontacts; c++)
+        if (hops[sim->sources[c]] <= sim->built_depth)
+            return false;
+    return true;
+}
+
+/* Colored order: the scheduled nodes of each independent set (filtered
+ * as the plain orders' layers are, below), cut into blocks of up to four
+ * (one node per block in the shared-colour set, whose nodes may be
+ * adjacent). Their link data is copied slot-major only on the
  * schedule's second use (schedule_links): a schedule used once, as with
  * cache_layers = false, is cheaper read from the mesh's padded rows. */
 static void schedule_blocks(ftm_sim *sim)
@@ -121,13 +134,23 @@ static void schedule_blocks(ftm_sim *sim)
     const ftm_layering *ly = &sim->ly;
     schedule *s = &sim->s;
     const int32_t *adj_start = sim->m->adj_start;
+    /* sets from `copied` on lie beyond layer 0 in a region without fixed nodes */
+    const int32_t copied = !region_free_beyond_sources(sim) ? INT32_MAX
+                           : ly->layers > 1                 ? ly->start[1]
+                                                            : ly->count;
     int32_t kk = 0, nb = 0, link = 0;
     for (int32_t set = 0; set < ly->sets; set++) {
         int32_t first = kk;
-        for (int32_t k = ly->set_start[set]; k < ly->set_start[set + 1]; k++) {
-            int32_t i = ly->order[k];
-            s->node[kk] = i;
-            kk += sim->kind[i] < NODE_DISP;
+        const int32_t k0 = ly->set_start[set], k1 = ly->set_start[set + 1];
+        if (k0 >= copied) {
+            memcpy(s->node + kk, ly->order + k0, (size_t)(k1 - k0) * sizeof *s->node);
+            kk += k1 - k0;
+        } else {
+            for (int32_t k = k0; k < k1; k++) {
+                int32_t i = ly->order[k];
+                s->node[kk] = i;
+                kk += sim->kind[i] < NODE_DISP;
+            }
         }
         int32_t width = ly->set_color[set] == FTM_SHARED_COLOR ? 1 : 4;
         for (int32_t p = first; p < kk; p += width) {
@@ -186,18 +209,6 @@ void ftm_sim_schedule_links(ftm_sim *sim)
         ftm_block_copy_consts(sim, n, 4, s->node_c + FTM_NODE_C * 4 * (size_t)b);
     }
     s->linked = true;
-}
-
-/* True if no fixed node lies within the layers' depth of a source, so the
- * region holds none: beyond the sources (layer 0, where displaced nodes are)
- * every node of it is free. */
-static bool region_free_beyond_sources(const ftm_sim *sim)
-{
-    const int32_t *hops = sim->m->fixed_hops;
-    for (int32_t c = 0; c < sim->ncontacts; c++)
-        if (hops[sim->sources[c]] <= sim->built_depth)
-            return false;
-    return true;
 }
 
 /* Plain orders: the scheduled nodes layer by layer, one group per layer.
