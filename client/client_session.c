@@ -262,6 +262,13 @@ static void count_reactions(ftm_client_session *s, const ftm_wire_tick *t)
     }
 }
 
+/* Probe 0 of participant id in the live report (the figures the HUD shows),
+ * or NULL before any frame or status from it. */
+static const ftm_report_probe *live_probe0(const ftm_client_session *s, uint32_t id)
+{
+    int32_t k = ftm_report_index(&s->live, id);
+    return k >= 0 ? &s->live.parts[k].probes[0] : NULL;
+}
 
 static void server_gone(ftm_client_session *s, const char *why)
 {
@@ -277,9 +284,8 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
     s->dirty = true;
     if (rx->gone) {
         /* one that touched the tissue stays listed, for the debriefing */
-        int32_t k = ftm_report_index(&s->live, rx->sender);
-        ftm_parts_gone(s->parts, &s->nparts, rx->sender,
-                       k >= 0 && s->live.parts[k].probes[0].contact_ticks > 0);
+        const ftm_report_probe *q = live_probe0(s, rx->sender);
+        ftm_parts_gone(s->parts, &s->nparts, rx->sender, q && q->contact_ticks > 0);
         if (s->server_id != 0 && rx->sender == s->server_id)
             server_gone(s, "gone (lease expired or left)");
         return;
@@ -296,7 +302,8 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         p->tick = st->last_applied_tick;
         snprintf(p->name, sizeof p->name, "%s", st->name);
     }
-    ftm_report_seen(&s->live, rx->sender, ftm_wire_role_name(st->role), st->name, st->last_applied_tick);
+    ftm_report_seen(&s->live, rx->sender, ftm_wire_role_name(st->role), st->name,
+                    st->last_applied_tick);
 }
 
 static void on_probe_input(ftm_client_session *s, const ftm_wire_received *rx)
@@ -580,13 +587,12 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
     }
     v->nparts = s->nparts;
     memcpy(v->parts, s->parts, (size_t)s->nparts * sizeof s->parts[0]);
-    int32_t own = ftm_report_index(&s->live, s->cfg.id);
-    v->own_contact_ticks = own >= 0 ? s->live.parts[own].probes[0].contact_ticks : 0;
-    v->own_peak_force = own >= 0 ? s->live.parts[own].probes[0].peak_force : 0.0;
+    const ftm_report_probe *own = live_probe0(s, s->cfg.id);
+    v->own_contact_ticks = own ? own->contact_ticks : 0;
+    v->own_peak_force = own ? own->peak_force : 0.0;
     for (int32_t i = 0; i < v->nparts; i++) {
-        int32_t k = ftm_report_index(&s->live, v->parts[i].id);
-        if (k >= 0) {
-            const ftm_report_probe *q = &s->live.parts[k].probes[0];
+        const ftm_report_probe *q = live_probe0(s, v->parts[i].id);
+        if (q) {
             v->parts[i].contact_ticks = q->contact_ticks;
             v->parts[i].peak_force = q->peak_force;
             v->parts[i].peak_tick = q->peak_tick;

@@ -476,10 +476,9 @@ ftm_mesh *ftm_mesh_clone(const ftm_mesh *m)
     c->node_of_input = dup(m->node_of_input, n * sizeof(int32_t));
     c->input_of_node = dup(m->input_of_node, n * sizeof(int32_t));
     if (!c->rest || !c->mass || !c->damping || !c->fixed || !c->min_link || !c->fixed_hops ||
-        !c->adj_start ||
-        !c->adj_node || !c->adj_k || !c->adj_len || !c->pad_node || !c->color || !c->pad_kl ||
-        !c->link_a || !c->link_b || !c->link_k || !c->link_len || !c->tris || !c->tets ||
-        !c->hexes || !c->node_of_input || !c->input_of_node) {
+        !c->adj_start || !c->adj_node || !c->adj_k || !c->adj_len || !c->pad_node || !c->color ||
+        !c->pad_kl || !c->link_a || !c->link_b || !c->link_k || !c->link_len || !c->tris ||
+        !c->tets || !c->hexes || !c->node_of_input || !c->input_of_node) {
         ftm_mesh_destroy(c);
         return NULL;
     }

@@ -111,47 +111,56 @@ static int update_relaxing(ftm_sim *sim, int32_t *old, int32_t cand)
     return FTM_OK;
 }
 
-/* True if no fixed node lies within the layers' depth of a source, so the
- * region holds none: beyond the sources (layer 0, where displaced nodes are)
- * every node of it is free. */
-static bool region_free_beyond_sources(const ftm_sim *sim)
+/* The position in the layering's order from which no node is held: where
+ * no fixed node lies within the layers' depth of a source, the region holds
+ * none, and beyond layer 0 (the sources, where displaced nodes are) every
+ * node is free; else none (INT32_MAX). */
+static int32_t free_from(const ftm_sim *sim)
 {
+    const ftm_layering *ly = &sim->ly;
     const int32_t *hops = sim->m->fixed_hops;
     for (int32_t c = 0; c < sim->ncontacts; c++)
         if (hops[sim->sources[c]] <= sim->built_depth)
-            return false;
-    return true;
+            return INT32_MAX;
+    return ly->layers > 1 ? ly->start[1] : ly->count;
 }
 
-/* Colored order: the scheduled nodes of each independent set (filtered
- * as the plain orders' layers are, below), cut into blocks of up to four
- * (one node per block in the shared-colour set, whose nodes may be
- * adjacent). Their link data is copied slot-major only on the
- * schedule's second use (schedule_links): a schedule used once, as with
+/* The scheduled nodes of order[k0 .. k1 - 1] to out; returns how many.
+ * Copied whole from free_from on; else held nodes (displaced, fixed) are
+ * filtered out branch-free: each node is written, and kept by advancing. */
+static int32_t take_nodes(const ftm_sim *sim, int32_t k0, int32_t k1, int32_t from,
+                          int32_t *restrict out)
+{
+    const int32_t *restrict order = sim->ly.order;
+    if (k0 >= from) {
+        memcpy(out, order + k0, (size_t)(k1 - k0) * sizeof *out);
+        return k1 - k0;
+    }
+    const uint8_t *restrict kind = sim->kind;
+    int32_t n = 0;
+    for (int32_t k = k0; k < k1; k++) {
+        const int32_t i = order[k];
+        out[n] = i;
+        n += kind[i] < NODE_DISP;
+    }
+    return n;
+}
+
+/* Colored order: the scheduled nodes of each independent set (take_nodes),
+ * cut into blocks of up to four (one node per block in the shared-colour
+ * set, whose nodes may be adjacent). Their link data is copied slot-major
+ * only on the schedule's second use (schedule_links): a schedule used once, as with
  * cache_layers = false, is cheaper read from the mesh's padded rows. */
 static void schedule_blocks(ftm_sim *sim)
 {
     const ftm_layering *ly = &sim->ly;
     schedule *s = &sim->s;
     const int32_t *adj_start = sim->m->adj_start;
-    /* sets from `copied` on lie beyond layer 0 in a region without fixed nodes */
-    const int32_t copied = !region_free_beyond_sources(sim) ? INT32_MAX
-                           : ly->layers > 1                 ? ly->start[1]
-                                                            : ly->count;
+    const int32_t from = free_from(sim);
     int32_t kk = 0, nb = 0, link = 0;
     for (int32_t set = 0; set < ly->sets; set++) {
         int32_t first = kk;
-        const int32_t k0 = ly->set_start[set], k1 = ly->set_start[set + 1];
-        if (k0 >= copied) {
-            memcpy(s->node + kk, ly->order + k0, (size_t)(k1 - k0) * sizeof *s->node);
-            kk += k1 - k0;
-        } else {
-            for (int32_t k = k0; k < k1; k++) {
-                int32_t i = ly->order[k];
-                s->node[kk] = i;
-                kk += sim->kind[i] < NODE_DISP;
-            }
-        }
+        kk += take_nodes(sim, ly->set_start[set], ly->set_start[set + 1], from, s->node + kk);
         int32_t width = ly->set_color[set] == FTM_SHARED_COLOR ? 1 : 4;
         for (int32_t p = first; p < kk; p += width) {
             int32_t lanes = kk - p < width ? kk - p : width, slots = 0;
@@ -211,32 +220,18 @@ void ftm_sim_schedule_links(ftm_sim *sim)
     s->linked = true;
 }
 
-/* Plain orders: the scheduled nodes layer by layer, one group per layer.
- * Held nodes (displaced, fixed) are filtered out branch-free: each node is
- * written, and kept by advancing. When no fixed node is in the region (the
- * usual case: a probe away from where the tissue is held), only layer 0 can
- * hold any, and the other layers are copied whole. */
+/* Plain orders: the scheduled nodes layer by layer, one group per layer;
+ * in a region without fixed nodes, layers past the first copied whole. */
 static void schedule_layers(ftm_sim *sim)
 {
     const ftm_layering *ly = &sim->ly;
     schedule *s = &sim->s;
-    const uint8_t *restrict kind = sim->kind;
-    const int32_t *restrict order = ly->order, *restrict start = ly->start;
-    int32_t *restrict out = s->node, *restrict group = s->group;
-    const bool copy = region_free_beyond_sources(sim);
+    const int32_t from = free_from(sim);
+    int32_t *restrict group = s->group;
     int32_t kk = 0, g = 0;
     for (int32_t l = 0; l < ly->layers; l++) {
         const int32_t first = kk;
-        if (l > 0 && copy) {
-            memcpy(out + kk, order + start[l], (size_t)(start[l + 1] - start[l]) * sizeof *out);
-            kk += start[l + 1] - start[l];
-        } else {
-            for (int32_t k = start[l]; k < start[l + 1]; k++) {
-                const int32_t i = order[k];
-                out[kk] = i;
-                kk += kind[i] < NODE_DISP;
-            }
-        }
+        kk += take_nodes(sim, ly->start[l], ly->start[l + 1], from, s->node + kk);
         group[g] = first;
         g += kk > first;
     }
