@@ -474,18 +474,12 @@ static void restore_state(ftm_sim *sim, double *full, bool region_ran)
             int32_t i = s->node[k];
             memcpy(sim->x + 3 * i, sim->xp + 3 * i, 3 * sizeof(double));
         }
-        if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
-            for (int32_t b = 0; b < s->blocks; b++)
-                for (int32_t l = 0; l < s->block[b].lanes; l++)
-                    for (int d = 0; d < 3; d++)
-                        sim->xp[3 * s->node[s->block[b].first + l] + d] =
-                            s->save[12 * b + 4 * d + l];
-        } else if (sim->def.order == FTM_ORDER_LAYER_JACOBI) {
-            const int32_t w = sim->jacobi_lanes;
+        if (sim->def.order != FTM_ORDER_BFS) { /* groups: Jacobi, colored */
+            const int32_t w = sim->group_lanes;
             for (int32_t g = 0, b0 = 0; g < s->groups; g++) {
                 const int32_t k0 = s->group[g], k1 = s->group[g + 1];
                 for (int32_t k = k0; k < k1; k++) {
-                    const double *js = ftm_jacobi_save(sim, b0, k0, k);
+                    const double *js = ftm_group_save(sim, b0, k0, k);
                     for (int d = 0; d < 3; d++)
                         sim->xp[3 * s->node[k] + d] = js[d * w];
                 }
@@ -609,14 +603,10 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
             impose_displacements(sim);
             if (sim->elem) {
                 ok &= ftm_elem_sweep(sim, region_m2);
-            } else if (sim->def.order == FTM_ORDER_LAYER_JACOBI) {
+            } else if (sim->def.order != FTM_ORDER_BFS) { /* groups: Jacobi, colored */
                 if (!s->linked && s->uses++ > 0)
-                    sim->jacobi_links(sim);
-                ok &= sim->sweep_jacobi(sim, region_m2);
-            } else if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
-                if (!s->linked && s->uses++ > 0)
-                    ftm_sim_schedule_links(sim);
-                ok &= sim->sweep_blocks(sim, region_m2);
+                    sim->group_links(sim);
+                ok &= sim->sweep_groups(sim, region_m2);
             } else {
                 ok &= ftm_sweep_gs(sim, 0, s->count, region_m2);
             }

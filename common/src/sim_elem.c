@@ -249,16 +249,19 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
     bool ok = true;
     double mm = *max_m2;
     if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
-        /* one node at a time in schedule order; save in the blocks' layout */
-        for (int32_t b = 0; b < s->blocks; b++)
-            for (int32_t l = 0; l < s->block[b].lanes; l++)
-                ok &= update_node(sim, s->node[s->block[b].first + l],
-                                  s->save + 12 * (size_t)b + l, 4, &mm);
+        /* one node at a time in schedule order; save as the kernels do */
+        const int32_t w = sim->group_lanes;
+        for (int32_t g = 0, b0 = 0; g < s->groups; g++) {
+            const int32_t k0 = s->group[g], k1 = s->group[g + 1];
+            for (int32_t k = k0; k < k1; k++)
+                ok &= update_node(sim, s->node[k], ftm_group_save(sim, b0, k0, k), w, &mm);
+            b0 += (k1 - k0 + w - 1) / w;
+        }
     } else if (sim->def.order == FTM_ORDER_BFS) {
         for (int32_t k = 0; k < s->count; k++)
             ok &= update_node(sim, s->node[k], s->save + 3 * (size_t)k, 1, &mm);
     } else { /* Jacobi: each layer from the state before it; save as the kernels do */
-        const int32_t w = sim->jacobi_lanes;
+        const int32_t w = sim->group_lanes;
         for (int32_t g = 0, b0 = 0; g < s->groups; g++) {
             for (int32_t k = s->group[g]; k < s->group[g + 1]; k++) {
                 int32_t i = s->node[k];
@@ -272,7 +275,7 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
             for (int32_t k = k0; k < k1; k++) {
                 int32_t i = s->node[k];
                 double *xi = sim->x + 3 * i, *pi = sim->xp + 3 * i,
-                       *sv = ftm_jacobi_save(sim, b0, k0, k), *t = s->tmp + 3 * k;
+                       *sv = ftm_group_save(sim, b0, k0, k), *t = s->tmp + 3 * k;
                 for (int d = 0; d < 3; d++) {
                     sv[d * w] = pi[d];
                     pi[d] = xi[d];

@@ -24,7 +24,7 @@
 /* Scheduled nodes are the free and force-loaded ones (kind < NODE_DISP). */
 enum { NODE_FREE = 0, NODE_FORCE = 1, NODE_DISP = 2, NODE_FIXED = 3 };
 
-/* GCC vector extensions, for the colored and Jacobi kernels' lanes: the same
+/* GCC vector extensions, for the group kernel's lanes: the same
  * source compiles to AVX-512, AVX or SSE2 with the same IEEE results. */
 typedef double v4d __attribute__((vector_size(32)));
 typedef int64_t v4l __attribute__((vector_size(32)));
@@ -52,15 +52,13 @@ static inline __attribute__((always_inline)) void ftm_load_xyz4(const double *p,
     *z = GATHER4(p + 2, i0, i1, i2, i3);
 }
 
-/* FTM_ORDER_LAYER_COLORED updates up to four nodes of one independent set
- * together: schedule positions first .. first+lanes-1, over `slots` padded
- * neighbour slots (the largest degree among them), once linked stored
- * slot-major from slot index `link` of the schedule's link arrays, so that
- * the kernel loads each slot's four lanes with one vector load. `forced`: a
- * lane has an external force (else all are +0.0 and the block skips them). */
+/* The group orders (Jacobi, colored) update up to sim->group_lanes nodes
+ * of one group together: schedule positions first .. first+lanes-1, over
+ * `slots` padded neighbour slots (the largest degree among them), once
+ * linked stored slot-major from slot index `link` of the schedule's link
+ * arrays, so that the kernel loads each slot's lanes with one vector load. */
 typedef struct block {
     int32_t first, lanes, slots, link;
-    bool forced;
 } block;
 
 /* The update order of the contact region, rebuilt when the region changes:
@@ -68,25 +66,29 @@ typedef struct block {
 typedef struct schedule {
     int32_t count;  /* scheduled nodes */
     int32_t *node;  /* mesh index */
-    int32_t groups; /* Jacobi: one per layer */
+    /* updated together from the state before them: Jacobi one per layer,
+     * colored one per independent set (one per node in the shared-colour set) */
+    int32_t groups;
     int32_t *group; /* group g: schedule positions group[g] .. group[g+1]-1 */
-    int32_t blocks; /* colored order */
+    int32_t forced_groups; /* groups 0 .. forced_groups-1 hold layer 0 (the force contacts) */
+    int32_t blocks; /* group orders, once linked */
     block *block;
-    /* colored order, 4 lanes per slot: 3 * neighbour (spare lanes repeat the
-     * block's last node), stiffness and rest length, as in pad_node / pad_kl */
+    /* group orders, per slot of a block: 3 * neighbour of each lane (spare
+     * lanes repeat the block's last node), stiffness and rest length, as in
+     * pad_node / pad_kl */
     int32_t *link_j;
-    double *link_kl; /* per slot: k of the 4 lanes, then len */
+    double *link_kl; /* per slot: k of the lanes, then len */
     /* per block, with the links: the lanes' Eq. 8 coefficients a, b and c,
      * guard limit lim2 and energy weight ke_w (FTM_NODE_C vectors of the lane
      * count), so the kernels load them instead of gathering them per node */
     double *node_c;
     /* rollback: previous positions overwritten in the last step; 3 per
-     * schedule position, or in the colored and Jacobi orders x, y and z
-     * vectors of the lane count per block */
+     * schedule position, or in the group orders x, y and z vectors of the
+     * lane count per block (ftm_group_save) */
     double *save;
-    double *tmp;    /* Jacobi: new positions of a group, x, y and z vectors of 4 or 8 per block */
-    int32_t uses;   /* colored or Jacobi sweeps since the schedule was built */
-    bool linked;    /* link_j / link_kl hold the blocks' links (Jacobi: also block) */
+    double *tmp;    /* new positions of a group, x, y and z vectors of 4 or 8 per block */
+    int32_t uses;   /* group sweeps since the schedule was built */
+    bool linked;    /* block, link_j, link_kl and node_c hold the blocks' copies */
     int32_t cap, gcap;
     size_t link_cap;
 } schedule;
@@ -136,10 +138,9 @@ struct ftm_sim {
     int32_t reaction_groups;
 
     double tol; /* sleep tolerance in metres */
-    sweep_fn sweep_blocks; /* the block kernels for this CPU (see select_kernel) */
-    sweep_fn sweep_jacobi;
-    void (*jacobi_links)(struct ftm_sim *sim); /* slot-major links for sweep_jacobi's lanes */
-    int jacobi_lanes; /* of sweep_jacobi: its blocks' width */
+    sweep_fn sweep_groups;
+    void (*group_links)(struct ftm_sim *sim); /* slot-major links for sweep_groups's lanes */
+    int group_lanes; /* of sweep_groups: its blocks' width */
     /* Energy guard (sim.c): the sweeps add each updated node's kinetic energy
      * m |x_new - x|^2 / 2 h^2 and a quarter of its links' k (|r| - l)^2 */
     double energy;       /* of the current substep */
@@ -167,24 +168,13 @@ static inline bool ftm_sim_at_rest(const ftm_sim *sim, int32_t i)
            xp[2] == X[2];
 }
 
-/* The four lanes of a block: its nodes, spare lanes repeating the last. */
-static inline __attribute__((always_inline)) void ftm_block_lanes(const schedule *s, block bl,
-                                                                  int32_t n[4])
-{
-    const int32_t *sn = s->node + bl.first;
-    n[0] = sn[0];
-    n[1] = sn[bl.lanes > 1 ? 1 : 0];
-    n[2] = sn[bl.lanes > 2 ? 2 : bl.lanes - 1];
-    n[3] = sn[bl.lanes - 1];
-}
-
-/* Where the Jacobi order saves the x_prev of schedule position k for
- * rollback: in its block's x, y and z vectors of sim->jacobi_lanes each
+/* Where the group orders save the x_prev of schedule position k for
+ * rollback: in its block's x, y and z vectors of sim->group_lanes each
  * (coordinate d at [d * lanes]); b0 is the first block of k's group, k0 the
  * group's first position. */
-static inline double *ftm_jacobi_save(const ftm_sim *sim, int32_t b0, int32_t k0, int32_t k)
+static inline double *ftm_group_save(const ftm_sim *sim, int32_t b0, int32_t k0, int32_t k)
 {
-    const int32_t w = sim->jacobi_lanes, off = k - k0;
+    const int32_t w = sim->group_lanes, off = k - k0;
     return sim->s.save + 3 * (size_t)w * (size_t)(b0 + off / w) + off % w;
 }
 
@@ -205,8 +195,6 @@ void ftm_block_copy_links(const ftm_mesh *m, const int32_t *n, int width, int32_
 /* The per-node constants of the lanes' nodes n[0 .. width-1], as node_c
  * holds them (a, b, c, lim2, ke_w: `width` of each). */
 void ftm_block_copy_consts(const struct ftm_sim *sim, const int32_t *n, int width, double *out);
-/* Made on a schedule's second use (the colored order's blocks). */
-void ftm_sim_schedule_links(ftm_sim *sim);
 
 /* sim_kernel.c: each sweep returns false if a node moved more than its
  * guard limit or to a non-finite position. */
@@ -214,7 +202,7 @@ bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2);
 bool ftm_sweep_relax(ftm_sim *sim);
 void ftm_sim_compute_reactions(ftm_sim *sim);
 void ftm_sim_spring_force(const ftm_sim *sim, int32_t i, double f[3]);
-/* Chooses the kernels of the colored and Jacobi sweeps: the widest this CPU supports
+/* Chooses the group orders' kernel: the widest this CPU supports
  * (the default), or with portable the baseline one. Both give bit-identical
  * results; tests compare them. */
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable);

@@ -107,153 +107,18 @@ static inline __attribute__((always_inline)) void load_coef4(const double *p, co
     *lim2 = __builtin_shufflevector(bl01, bl23, 2, 3, 6, 7);
 }
 
-/* The colored sweep, four nodes of an independent set per vector. Lane l
- * does exactly the operations spring_force and integrate do for its node,
- * in the same order (padding slots add -0.0, see mesh_internal.h), and the
- * nodes of a block are not adjacent, so the result is bit-identical to
- * updating them one by one in schedule order. GCC vector extensions: the
- * same source compiles to AVX or SSE2 with the same IEEE results (no
- * contraction, sqrt and division correctly rounded). */
-static inline __attribute__((always_inline)) bool sweep_blocks_body(ftm_sim *sim, double *max_m2,
-                                                                  bool linked)
-{
-    const schedule *s = &sim->s;
-    const size_t deg = (size_t)sim->m->max_degree;
-    const int32_t *restrict pad_node = sim->m->pad_node;
-    const double *restrict pad_kl = sim->m->pad_kl;
-    const double *restrict coef = sim->coef, *restrict force = sim->force;
-    double *restrict x = sim->x, *restrict xp = sim->xp;
-    const double *restrict ke_w = sim->ke_w;
-    v4d mm = {*max_m2, *max_m2, *max_m2, *max_m2}, en = {0, 0, 0, 0};
-    v4l bad = {0, 0, 0, 0};
-    /* energy weight of each lane: spare lanes repeat a node, they count 0 */
-    static const v4d lane_w[5] = {{0, 0, 0, 0}, {1, 0, 0, 0}, {1, 1, 0, 0}, {1, 1, 1, 0},
-                                  {1, 1, 1, 1}};
-    for (int32_t b = 0; b < s->blocks; b++) {
-        const block bl = s->block[b];
-        int32_t n[4];
-        ftm_block_lanes(s, bl, n);
-        const size_t i0 = 3 * (size_t)n[0], i1 = 3 * (size_t)n[1], i2 = 3 * (size_t)n[2],
-                     i3 = 3 * (size_t)n[3];
-        const v4d cx = GATHER4(x, i0, i1, i2, i3), cy = GATHER4(x + 1, i0, i1, i2, i3),
-                  cz = GATHER4(x + 2, i0, i1, i2, i3);
-        v4d ax = {0, 0, 0, 0}, ay = ax, az = ax, pe = ax;
-        const int32_t *restrict lj = s->link_j + 4 * (size_t)bl.link;
-        const double *restrict lkl = s->link_kl + 8 * (size_t)bl.link;
-        const int32_t *nb0 = pad_node + n[0] * deg, *nb1 = pad_node + n[1] * deg,
-                      *nb2 = pad_node + n[2] * deg, *nb3 = pad_node + n[3] * deg;
-        const double *kl0 = pad_kl + 2 * n[0] * deg, *kl1 = pad_kl + 2 * n[1] * deg,
-                     *kl2 = pad_kl + 2 * n[2] * deg, *kl3 = pad_kl + 2 * n[3] * deg;
-        for (int32_t sl = 0; sl < bl.slots; sl++) {
-            size_t j0, j1, j2, j3;
-            v4d k, rest;
-            if (linked) {
-                j0 = (size_t)lj[4 * sl];
-                j1 = (size_t)lj[4 * sl + 1];
-                j2 = (size_t)lj[4 * sl + 2];
-                j3 = (size_t)lj[4 * sl + 3];
-                k = LOAD4(lkl + 8 * sl);
-                rest = LOAD4(lkl + 8 * sl + 4);
-            } else { /* the same from the padded rows: (k, len) pairs of lanes 0|2 and 1|3 */
-                j0 = 3 * (size_t)nb0[sl];
-                j1 = 3 * (size_t)nb1[sl];
-                j2 = 3 * (size_t)nb2[sl];
-                j3 = 3 * (size_t)nb3[sl];
-                v4d p02 = __builtin_shufflevector(LOAD2(kl0 + 2 * sl), LOAD2(kl2 + 2 * sl), 0, 1, 2, 3),
-                    p13 = __builtin_shufflevector(LOAD2(kl1 + 2 * sl), LOAD2(kl3 + 2 * sl), 0, 1, 2, 3);
-                k = __builtin_shufflevector(p02, p13, 0, 4, 2, 6);
-                rest = __builtin_shufflevector(p02, p13, 1, 5, 3, 7);
-            }
-            const v4d rx = cx - GATHER4(x, j0, j1, j2, j3),
-                      ry = cy - GATHER4(x + 1, j0, j1, j2, j3),
-                      rz = cz - GATHER4(x + 2, j0, j1, j2, j3);
-            v4d q = rx * rx + ry * ry + rz * rz, len;
-            for (int l = 0; l < 4; l++)
-                len[l] = sqrt(q[l]);
-            len += FTM_LEN_EPS;
-            const v4d ext = len - rest, kd = k * ext;
-            v4d t = kd / len; /* = k (len - rest) / len, as spring_force rounds it */
-            pe += kd * ext;
-            ax += t * rx;
-            ay += t * ry;
-            az += t * rz;
-        }
-        v4d ca, cb, cc, lim, kw;
-        if (linked) {
-            const double *nc = s->node_c + FTM_NODE_C * 4 * (size_t)b;
-            ca = LOAD4(nc);
-            cb = LOAD4(nc + 4);
-            cc = LOAD4(nc + 8);
-            lim = LOAD4(nc + 12);
-            kw = LOAD4(nc + 16);
-        } else {
-            const size_t on[4] = {(size_t)n[0], (size_t)n[1], (size_t)n[2], (size_t)n[3]};
-            load_coef4(coef, on, &ca, &cb, &cc, &lim);
-            kw = GATHER4(ke_w, n[0], n[1], n[2], n[3]);
-        }
-        v4d fx = {0, 0, 0, 0}, fy = fx, fz = fx;
-        if (bl.forced) {
-            fx = GATHER4(force, i0, i1, i2, i3);
-            fy = GATHER4(force + 1, i0, i1, i2, i3);
-            fz = GATHER4(force + 2, i0, i1, i2, i3);
-        }
-        const v4d px = GATHER4(xp, i0, i1, i2, i3), py = GATHER4(xp + 1, i0, i1, i2, i3),
-                  pz = GATHER4(xp + 2, i0, i1, i2, i3);
-        v4d nx = ca * (fx - ax) + cb * cx - cc * px;
-        v4d ny = ca * (fy - ay) + cb * cy - cc * py;
-        v4d nz = ca * (fz - az) + cb * cz - cc * pz;
-        v4d dx = nx - cx, dy = ny - cy, dz = nz - cz;
-        v4d m2 = dx * dx + dy * dy + dz * dz;
-        bad |= ~(m2 <= lim); /* NaN fails too */
-        en += (kw * m2 + 0.25 * pe) * lane_w[bl.lanes];
-        v4l up = m2 > mm;
-        mm = (v4d)((up & (v4l)m2) | (~up & (v4l)mm));
-        double *sv = s->save + 12 * (size_t)b;
-        *(v4du *)sv = px;
-        *(v4du *)(sv + 4) = py;
-        *(v4du *)(sv + 8) = pz;
-        /* all four lanes: a spare lane stores what the lane it repeats stores */
-        for (int l = 0; l < 4; l++) {
-            double *xi = x + 3 * (size_t)n[l], *pi = xp + 3 * (size_t)n[l];
-            pi[0] = cx[l];
-            pi[1] = cy[l];
-            pi[2] = cz[l];
-            xi[0] = nx[l];
-            xi[1] = ny[l];
-            xi[2] = nz[l];
-        }
-    }
-    double out = *max_m2;
-    for (int l = 0; l < 4; l++)
-        out = mm[l] > out ? mm[l] : out;
-    *max_m2 = out;
-    sim->energy += (en[0] + en[1]) + (en[2] + en[3]);
-    return !(bad[0] | bad[1] | bad[2] | bad[3]);
-}
-
-#if defined(__x86_64__) || defined(__i386__)
-__attribute__((target("avx"))) static bool sweep_blocks_avx(ftm_sim *sim, double *max_m2)
-{
-    return sim->s.linked ? sweep_blocks_body(sim, max_m2, true)
-                         : sweep_blocks_body(sim, max_m2, false);
-}
-#endif
-
-static bool sweep_blocks_portable(ftm_sim *sim, double *max_m2)
-{
-    return sim->s.linked ? sweep_blocks_body(sim, max_m2, true)
-                         : sweep_blocks_body(sim, max_m2, false);
-}
-
-
-/* The Jacobi sweep: the nodes of a layer read only the state before the
- * layer, so they are independent by construction and are updated JW per
- * vector straight from the schedule (no colouring, no schedule copies),
- * without waiting on each other. sim_jacobi.inc holds the kernel, built with
+/* The group sweep, for the Jacobi and the colored orders: the nodes of a
+ * group (a layer in the Jacobi order, an independent set in the colored one)
+ * read only the state before the group, so they are independent and are
+ * updated JW per vector straight from the schedule, without waiting on each
+ * other. In the colored order no two nodes of a group are adjacent, so this
+ * is also exactly updating them one after another (the shared-colour set,
+ * whose nodes may be adjacent, is one group per node). sim_groups.inc holds
+ * the kernel, built with
  * 4 lanes for AVX and SSE2 and with 8 for AVX-512 (whose 32 registers hold
  * two blocks' chains of square roots and divisions at once). Lane l does
  * exactly what spring_force and integrate do for its node (padding slots
- * add -0.0), so the state is bit-identical to updating the layer's nodes one
+ * add -0.0), so the state is bit-identical to updating the group's nodes one
  * by one from a copy of the state before it; the energy is summed in the same
  * order by every variant (an 8-lane block as its two 4-lane halves). */
 
@@ -271,14 +136,14 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #define JV v4d
 #define JTARGET
 #define JL v4l
-#define JNAME sweep_jacobi_body4
-#define JLINKNAME jacobi_links4
+#define JNAME sweep_groups_body4
+#define JLINKNAME group_links4
 #define JLOAD(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
 #define JGATHER GATHER4A
 #define GATHER4A(p, i) GATHER4(p, i[0], i[1], i[2], i[3])
 #define JLOAD_KL load_kl4
 #define JLOAD_COEF load_coef4
-#include "sim_jacobi.inc"
+#include "sim_groups.inc"
 #undef JW
 #undef JV
 #undef JTARGET
@@ -366,52 +231,50 @@ static inline AVX512 void load_coef8(const double *p, const size_t on[8], v8d *a
 #define JV v8d
 #define JTARGET __attribute__((target("avx512f")))
 #define JL v8l
-#define JNAME sweep_jacobi_body8
-#define JLINKNAME jacobi_links8
+#define JNAME sweep_groups_body8
+#define JLINKNAME group_links8
 #define JLOAD load_xyz8
 #define JGATHER GATHER8
 #define JLOAD_KL load_kl8
 #define JLOAD_COEF load_coef8
-#include "sim_jacobi.inc"
+#include "sim_groups.inc"
 
-__attribute__((target("avx512f"))) static bool sweep_jacobi_avx512(ftm_sim *sim, double *max_m2)
+__attribute__((target("avx512f"))) static bool sweep_groups_avx512(ftm_sim *sim, double *max_m2)
 {
-    return sim->s.linked ? sweep_jacobi_body8(sim, max_m2, true)
-                         : sweep_jacobi_body8(sim, max_m2, false);
+    return sim->s.linked ? sweep_groups_body8(sim, max_m2, true)
+                         : sweep_groups_body8(sim, max_m2, false);
 }
 
-__attribute__((target("avx"))) static bool sweep_jacobi_avx(ftm_sim *sim, double *max_m2)
+__attribute__((target("avx"))) static bool sweep_groups_avx(ftm_sim *sim, double *max_m2)
 {
-    return sim->s.linked ? sweep_jacobi_body4(sim, max_m2, true)
-                         : sweep_jacobi_body4(sim, max_m2, false);
+    return sim->s.linked ? sweep_groups_body4(sim, max_m2, true)
+                         : sweep_groups_body4(sim, max_m2, false);
 }
 #endif
 
-static bool sweep_jacobi_portable(ftm_sim *sim, double *max_m2)
+static bool sweep_groups_portable(ftm_sim *sim, double *max_m2)
 {
-    return sim->s.linked ? sweep_jacobi_body4(sim, max_m2, true)
-                         : sweep_jacobi_body4(sim, max_m2, false);
+    return sim->s.linked ? sweep_groups_body4(sim, max_m2, true)
+                         : sweep_groups_body4(sim, max_m2, false);
 }
 
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
 {
-    sim->sweep_blocks = sweep_blocks_portable;
-    sim->sweep_jacobi = sweep_jacobi_portable;
-    sim->jacobi_links = jacobi_links4;
-    sim->jacobi_lanes = 4;
+    sim->sweep_groups = sweep_groups_portable;
+    sim->group_links = group_links4;
+    sim->group_lanes = 4;
 #if defined(__x86_64__) || defined(__i386__)
     if (!portable && __builtin_cpu_supports("avx")) {
-        sim->sweep_blocks = sweep_blocks_avx;
-        sim->sweep_jacobi = sweep_jacobi_avx;
+        sim->sweep_groups = sweep_groups_avx;
     }
     if (!portable && __builtin_cpu_supports("avx512f")) {
-        sim->sweep_jacobi = sweep_jacobi_avx512;
-        sim->jacobi_links = jacobi_links8;
-        sim->jacobi_lanes = 8;
+        sim->sweep_groups = sweep_groups_avx512;
+        sim->group_links = group_links8;
+        sim->group_lanes = 8;
     }
 #endif
-    /* Jacobi links are laid out for the kernel's lane count */
-    if (sim->def.order == FTM_ORDER_LAYER_JACOBI)
+    /* the group orders' links are laid out for the kernel's lane count */
+    if (sim->def.order != FTM_ORDER_BFS)
         sim->s.linked = false;
 }
 

@@ -1,6 +1,6 @@
 /* From layers to an update schedule: the order in which the region's nodes
- * are updated, the colored order's four-lane blocks and their slot-major
- * copies, and the relaxing set kept when the region changes. */
+ * are updated and its groups (a layer, or an independent set), the blocks'
+ * slot-major copies, and the relaxing set kept when the region changes. */
 #include "sim_internal.h"
 
 #include <stdlib.h>
@@ -45,7 +45,7 @@ static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t 
         GROW(s->node_c, cap, FTM_NODE_C * 8); /* per block, blocks <= count */
         s->cap = cap;
     }
-    /* slots of all blocks: colored 4 lanes, Jacobi up to 8 (blocks <= count) */
+    /* slots of all blocks, up to 8 lanes each (blocks <= count) */
     size_t links = (size_t)count * (size_t)max_degree * 8;
     if (links > s->link_cap) {
         GROW(s->link_j, links, 1);
@@ -146,36 +146,34 @@ static int32_t take_nodes(const ftm_sim *sim, int32_t k0, int32_t k1, int32_t fr
     return n;
 }
 
-/* Colored order: the scheduled nodes of each independent set (take_nodes),
- * cut into blocks of up to four (one node per block in the shared-colour
- * set, whose nodes may be adjacent). Their link data is copied slot-major
- * only on the schedule's second use (schedule_links): a schedule used once, as with
- * cache_layers = false, is cheaper read from the mesh's padded rows. */
-static void schedule_blocks(ftm_sim *sim)
+/* Colored order: one group per independent set of scheduled nodes
+ * (take_nodes), so that the group kernel, which reads the state before a
+ * group, updates it exactly as one node after another would: no two nodes of
+ * a set are adjacent. The shared-colour set, whose nodes may be adjacent,
+ * becomes one group per node. Groups of layer 0 are the forced ones. */
+static void schedule_sets(ftm_sim *sim)
 {
     const ftm_layering *ly = &sim->ly;
     schedule *s = &sim->s;
-    const int32_t *adj_start = sim->m->adj_start;
     const int32_t from = free_from(sim);
-    int32_t kk = 0, nb = 0, link = 0;
+    const int32_t layer1 = ly->layers > 1 ? ly->start[1] : ly->count;
+    int32_t *restrict group = s->group;
+    int32_t kk = 0, g = 0, forced = 0;
     for (int32_t set = 0; set < ly->sets; set++) {
-        int32_t first = kk;
+        const int32_t first = kk;
         kk += take_nodes(sim, ly->set_start[set], ly->set_start[set + 1], from, s->node + kk);
-        int32_t width = ly->set_color[set] == FTM_SHARED_COLOR ? 1 : 4;
-        for (int32_t p = first; p < kk; p += width) {
-            int32_t lanes = kk - p < width ? kk - p : width, slots = 0;
-            bool forced = false;
-            for (int32_t l = 0; l < lanes; l++) {
-                int32_t i = s->node[p + l], d = adj_start[i + 1] - adj_start[i];
-                slots = d > slots ? d : slots;
-                forced |= sim->kind[i] == NODE_FORCE;
-            }
-            s->block[nb++] = (block){p, lanes, slots, link, forced};
-            link += slots;
-        }
+        if (ly->set_color[set] == FTM_SHARED_COLOR)
+            for (int32_t k = first; k < kk; k++)
+                group[g++] = k;
+        else if (kk > first)
+            group[g++] = first;
+        if (ly->set_start[set] < layer1)
+            forced = g;
     }
+    group[g] = kk;
+    s->groups = g;
+    s->forced_groups = forced;
     s->count = kk;
-    s->blocks = nb;
     s->uses = 0;
     s->linked = false;
 }
@@ -205,21 +203,6 @@ void ftm_block_copy_consts(const ftm_sim *sim, const int32_t *n, int width, doub
     }
 }
 
-/* The colored order's blocks, four lanes each. */
-void ftm_sim_schedule_links(ftm_sim *sim)
-{
-    schedule *s = &sim->s;
-    for (int32_t b = 0; b < s->blocks; b++) {
-        const block bl = s->block[b];
-        int32_t n[4];
-        ftm_block_lanes(s, bl, n);
-        ftm_block_copy_links(sim->m, n, 4, bl.slots, s->link_j + 4 * (size_t)bl.link,
-                             s->link_kl + 8 * (size_t)bl.link);
-        ftm_block_copy_consts(sim, n, 4, s->node_c + FTM_NODE_C * 4 * (size_t)b);
-    }
-    s->linked = true;
-}
-
 /* Plain orders: the scheduled nodes layer by layer, one group per layer;
  * in a region without fixed nodes, layers past the first copied whole. */
 static void schedule_layers(ftm_sim *sim)
@@ -229,11 +212,14 @@ static void schedule_layers(ftm_sim *sim)
     const int32_t from = free_from(sim);
     int32_t *restrict group = s->group;
     int32_t kk = 0, g = 0;
+    s->forced_groups = 0;
     for (int32_t l = 0; l < ly->layers; l++) {
         const int32_t first = kk;
         kk += take_nodes(sim, ly->start[l], ly->start[l + 1], from, s->node + kk);
         group[g] = first;
         g += kk > first;
+        if (l == 0)
+            s->forced_groups = g;
     }
     group[g] = kk;
     s->groups = g;
@@ -245,11 +231,15 @@ static void schedule_layers(ftm_sim *sim)
 /* The update schedule from the current layers and contact kinds. */
 int ftm_sim_rebuild_schedule(ftm_sim *sim)
 {
-    int rc = schedule_reserve(&sim->s, sim->ly.count, sim->ly.layers, sim->m->max_degree);
+    const bool colored = sim->def.order == FTM_ORDER_LAYER_COLORED;
+    /* colored: a group per set, at most one per node in the shared-colour set */
+    int rc = schedule_reserve(&sim->s, sim->ly.count, colored ? sim->ly.sets + sim->ly.count
+                                                             : sim->ly.layers,
+                              sim->m->max_degree);
     if (rc)
         return rc;
-    if (sim->def.order == FTM_ORDER_LAYER_COLORED)
-        schedule_blocks(sim);
+    if (colored)
+        schedule_sets(sim);
     else
         schedule_layers(sim);
     sim->schedule_dirty = false;
