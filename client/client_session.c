@@ -180,6 +180,7 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         s->newest_rx_tick = 0;
         ftm_report_free(&s->live); /* a new session: its ticks start again */
         s->live_tick = 0;
+        ftm_parts_forget_departed(s->parts, &s->nparts); /* their figures went with it */
         if (!same && !s->cfg.scene && s->nretired < (int32_t)(sizeof s->retired / sizeof *s->retired)) {
             /* it serves another scene: load that one below, as on joining */
             slog(s, FTM_LOG_INFO, "the restarted server has another scene: '%s'", a->scene_id);

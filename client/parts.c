@@ -36,3 +36,12 @@ void ftm_parts_gone(ftm_client_part *parts, int32_t *n, uint32_t id, bool keep)
     else
         *p = parts[--*n];
 }
+
+void ftm_parts_forget_departed(ftm_client_part *parts, int32_t *n)
+{
+    int32_t w = 0;
+    for (int32_t i = 0; i < *n; i++)
+        if (!parts[i].left)
+            parts[w++] = parts[i];
+    *n = w;
+}

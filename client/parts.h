@@ -16,4 +16,8 @@ ftm_client_part *ftm_parts_find(ftm_client_part *parts, int32_t *n, uint32_t id,
  * is removed (the last row takes its place). */
 void ftm_parts_gone(ftm_client_part *parts, int32_t *n, uint32_t id, bool keep);
 
+/* Removes the departed rows, keeping the others in order: on a server
+ * restart, whose new session has no figures for them. */
+void ftm_parts_forget_departed(ftm_client_part *parts, int32_t *n);
+
 #endif

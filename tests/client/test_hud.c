@@ -99,12 +99,33 @@ static void test_departed_trainee_kept(void **state)
     assert_null(ftm_parts_find(v.parts, &v.nparts, 11, false));
 }
 
+/* A server restart starts a session without the departed trainees'
+ * figures: their rows go, the present ones stay in order. */
+static void test_restart_forgets_departed(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_INSTRUCTOR, .id = 21};
+    ftm_parts_gone(v.parts, &v.nparts, 11, true);
+    assert_non_null(ftm_parts_find(v.parts, &v.nparts, 14, true));
+    ftm_parts_gone(v.parts, &v.nparts, 14, true);
+    assert_non_null(ftm_parts_find(v.parts, &v.nparts, 15, true));
+    assert_int_equal(v.nparts, 4);
+    ftm_parts_forget_departed(v.parts, &v.nparts);
+    assert_int_equal(v.nparts, 2);
+    assert_true(v.parts[0].id == 13 && v.parts[1].id == 15);
+    int n = ftm_hud_lines(&v, &in, lines);
+    assert_int_equal(find(n, "  11 trainee"), -1);
+    assert_true(find(n, "  13 observer") > 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_instructor_sees_debriefing),
         cmocka_unit_test(test_trainee_sees_own_figures),
         cmocka_unit_test(test_departed_trainee_kept),
+        cmocka_unit_test(test_restart_forgets_departed),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
