@@ -132,17 +132,42 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
     *len = __builtin_shufflevector(p02, p13, 1, 5, 3, 7);
 }
 
+#define GATHER4A(p, i) GATHER4(p, i[0], i[1], i[2], i[3])
+#define LOAD_XYZ4(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
+#define BW 4
+#define BV v4d
+#define BL v4l
+#define BTARGET
+#define BLOAD LOAD_XYZ4
+#define BGATHER GATHER4A
+#define BLOAD_KL load_kl4
+#define BLOAD_COEF load_coef4
+#define BS 4
+#define BNAME block4_in4
+#include "sim_block.inc"
+#undef BS
+#undef BNAME
+#define BS 8 /* the tails of the 8-lane layout */
+#define BNAME block4_in8
+#include "sim_block.inc"
+#undef BS
+#undef BNAME
+#undef BW
+#undef BV
+#undef BL
+#undef BTARGET
+#undef BLOAD
+#undef BGATHER
+#undef BLOAD_KL
+#undef BLOAD_COEF
+
 #define JW 4
 #define JV v4d
 #define JTARGET
 #define JL v4l
 #define JNAME sweep_groups_body4
 #define JLINKNAME group_links4
-#define JLOAD(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
-#define JGATHER GATHER4A
-#define GATHER4A(p, i) GATHER4(p, i[0], i[1], i[2], i[3])
-#define JLOAD_KL load_kl4
-#define JLOAD_COEF load_coef4
+#define JBLOCK block4_in4
 #include "sim_groups.inc"
 #undef JW
 #undef JV
@@ -150,10 +175,7 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #undef JL
 #undef JNAME
 #undef JLINKNAME
-#undef JLOAD
-#undef JGATHER
-#undef JLOAD_KL
-#undef JLOAD_COEF
+#undef JBLOCK
 #if defined(__x86_64__) || defined(__i386__) /* the 8-lane build is for AVX-512 */
 #include <immintrin.h>
 
@@ -227,16 +249,26 @@ static inline AVX512 void load_coef8(const double *p, const size_t on[8], v8d *a
     *lim2 = (v8d)_mm512_permutex2var_pd(bl01, second, bl23);
 }
 
+#define BW 8
+#define BV v8d
+#define BL v8l
+#define BTARGET __attribute__((target("avx512f")))
+#define BLOAD load_xyz8
+#define BGATHER GATHER8
+#define BLOAD_KL load_kl8
+#define BLOAD_COEF load_coef8
+#define BS 8
+#define BNAME block8_in8
+#include "sim_block.inc"
+
 #define JW 8
 #define JV v8d
 #define JTARGET __attribute__((target("avx512f")))
 #define JL v8l
 #define JNAME sweep_groups_body8
 #define JLINKNAME group_links8
-#define JLOAD load_xyz8
-#define JGATHER GATHER8
-#define JLOAD_KL load_kl8
-#define JLOAD_COEF load_coef8
+#define JBLOCK block8_in8
+#define JBLOCK4 block4_in8
 #include "sim_groups.inc"
 
 __attribute__((target("avx512f"))) static bool sweep_groups_avx512(ftm_sim *sim, double *max_m2)
