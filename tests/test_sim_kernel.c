@@ -199,12 +199,81 @@ static void test_fixed_border_every_order(void **state)
     }
 }
 
+/* A sequential sweep over the colored schedule: each node, in schedule
+ * order, reads the positions updated before it (ftm_sweep_gs). */
+static bool sweep_sequential(ftm_sim *sim, double *max_m2)
+{
+    return ftm_sweep_gs(sim, 0, sim->s.count, max_m2);
+}
+
+/* 70 nodes, each linked to every other: greedy colouring gives the first 63
+ * colours 0..62 and the other seven the shared colour, pairwise adjacent. */
+static ftm_mesh *clique(void)
+{
+    ftm_mesh_builder *mb = ftm_mesh_builder_create();
+    ftm_node_def nd = ftm_default_node_def();
+    nd.mass = 100.0;
+    for (int i = 0; i < 70; i++) {
+        nd.position = (ftm_vec3){i % 5, (i / 5) % 5, i / 25};
+        assert_true(ftm_mesh_builder_add_node(mb, &nd) == i);
+    }
+    for (int a = 0; a < 70; a++)
+        for (int b = a + 1; b < 70; b++) {
+            ftm_link_def ld = {.a = a, .b = b, .stiffness = 1.0, .rest_length = -1.0};
+            assert_int_equal(ftm_mesh_builder_add_link(mb, &ld), FTM_OK);
+        }
+    ftm_mesh *m = NULL;
+    assert_int_equal(ftm_mesh_build(mb, NULL, &m, NULL), FTM_OK);
+    ftm_mesh_builder_destroy(mb);
+    return m;
+}
+
+/* The colored order's vector kernel updates an independent set from the
+ * state before it, and the shared-colour set one node at a time: both must
+ * give exactly what updating the schedule's nodes one after another gives,
+ * with and without cached layers. */
+static void colored_matches_sequential(const ftm_mesh *m, int32_t node, int32_t depth)
+{
+    for (int cache = 0; cache < 2; cache++) {
+        ftm_sim *s[2] = {pushed(m, FTM_ORDER_LAYER_COLORED, depth, cache, node),
+                         pushed(m, FTM_ORDER_LAYER_COLORED, depth, cache, node)};
+        s[1]->sweep_groups = sweep_sequential;
+        for (int i = 0; i < 8; i++) {
+            for (int k = 0; k < 2; k++)
+                assert_int_equal(ftm_sim_run(s[k], 25), FTM_OK);
+            assert_true(ftm_sim_hash(s[0]) == ftm_sim_hash(s[1]));
+        }
+        ftm_sim_stats st;
+        ftm_sim_get_stats(s[0], &st);
+        assert_true(st.guard_events == 0); /* the sums of the energy guard differ */
+        assert_false(ftm_sim_at_rest(s[0], node));
+        ftm_sim_destroy(s[0]);
+        ftm_sim_destroy(s[1]);
+    }
+}
+
+static void test_colored_matches_sequential(void **state)
+{
+    (void)state;
+    ftm_mesh *m = lattice();
+    colored_matches_sequential(m, ftm_mesh_node_of_input(m, 20 + 50 * 25), 12);
+    ftm_mesh_destroy(m);
+    m = clique();
+    int shared = 0;
+    for (int32_t i = 0; i < m->node_count; i++)
+        shared += m->color[i] == FTM_SHARED_COLOR;
+    assert_int_equal(shared, 7);
+    colored_matches_sequential(m, ftm_mesh_node_of_input(m, 0), 1);
+    ftm_mesh_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_portable_kernel_matches),
                                        cmocka_unit_test(test_portable_jacobi_kernel_matches),
                                        cmocka_unit_test(test_rollback_every_kernel),
                                        cmocka_unit_test(test_kind_change_every_order),
-                                       cmocka_unit_test(test_fixed_border_every_order)};
+                                       cmocka_unit_test(test_fixed_border_every_order),
+                                       cmocka_unit_test(test_colored_matches_sequential)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
