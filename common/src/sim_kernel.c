@@ -114,9 +114,10 @@ static inline __attribute__((always_inline)) void load_coef4(const double *p, co
  * other. In the colored order no two nodes of a group are adjacent, so this
  * is also exactly updating them one after another (the shared-colour set,
  * whose nodes may be adjacent, is one group per node). sim_groups.inc holds
- * the kernel, built with
- * 4 lanes for AVX and SSE2 and with 8 for AVX-512 (whose 32 registers hold
- * two blocks' chains of square roots and divisions at once). Lane l does
+ * the sweep, sim_block.inc one block of it: 4 lanes for AVX and SSE2, 8 for
+ * AVX-512 (whose 32 registers hold two blocks' chains of square roots and
+ * divisions at once), where a group's last block of four nodes or fewer
+ * runs 4 lanes wide at half the cost. Lane l does
  * exactly what spring_force and integrate do for its node (padding slots
  * add -0.0), so the state is bit-identical to updating the group's nodes one
  * by one from a copy of the state before it; the energy is summed in the same
