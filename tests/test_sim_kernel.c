@@ -267,6 +267,62 @@ static void test_colored_matches_sequential(void **state)
     ftm_mesh_destroy(m);
 }
 
+/* The colour split of the search's layers: the AVX-512 one (where the CPU
+ * has it) and the portable one must give the same layering, on meshes with
+ * few colours and with the shared colour, from one and several sources. */
+static void splits_match(const ftm_mesh *m, const int32_t *src, int32_t ns, int32_t depth)
+{
+    ftm_layering a, b;
+    assert_int_equal(ftm_layering_init(&a, m->node_count), FTM_OK);
+    assert_int_equal(ftm_layering_init(&b, m->node_count), FTM_OK);
+    b.scalar_split = true;
+    for (int rep = 0; rep < 2; rep++) { /* the second over the first's stamps */
+        assert_int_equal(ftm_layering_build(&a, m, src, ns, depth, true), FTM_OK);
+        assert_int_equal(ftm_layering_build(&b, m, src, ns, depth, true), FTM_OK);
+        assert_int_equal(a.count, b.count);
+        assert_int_equal(a.layers, b.layers);
+        assert_int_equal(a.sets, b.sets);
+        assert_memory_equal(a.order, b.order, (size_t)a.count * sizeof *a.order);
+        assert_memory_equal(a.start, b.start, ((size_t)a.layers + 1) * sizeof *a.start);
+        assert_memory_equal(a.set_start, b.set_start, ((size_t)a.sets + 1) * sizeof *a.set_start);
+        assert_memory_equal(a.set_color, b.set_color, (size_t)a.sets);
+    }
+    ftm_layering_free(&a);
+    ftm_layering_free(&b);
+}
+
+static void test_colour_splits_match(void **state)
+{
+    (void)state;
+    ftm_mesh *m = lattice();
+    int32_t src[3] = {ftm_mesh_node_of_input(m, 25 + 50 * 25), ftm_mesh_node_of_input(m, 27 + 50 * 25),
+                      ftm_mesh_node_of_input(m, 3 + 50 * 40)};
+    for (int32_t depth = 0; depth <= 30; depth += 3) {
+        splits_match(m, src, 1, depth);
+        splits_match(m, src, 3, depth);
+    }
+    ftm_mesh_destroy(m);
+
+    ftm_mesh_builder *mb = ftm_mesh_builder_create();
+    ftm_lattice3d_def ld = ftm_default_lattice3d_def();
+    ld.stencil = FTM_STENCIL_26;
+    assert_int_equal(ftm_generate_lattice3d(mb, &ld, NULL), FTM_OK);
+    assert_int_equal(ftm_mesh_build(mb, NULL, &m, NULL), FTM_OK);
+    ftm_mesh_builder_destroy(mb);
+    src[1] = m->node_count / 3;
+    src[0] = m->node_count / 2;
+    for (int32_t depth = 0; depth <= 8; depth++)
+        splits_match(m, src, 2, depth);
+    ftm_mesh_destroy(m);
+
+    m = clique();
+    src[0] = 5;
+    src[1] = 69;
+    splits_match(m, src, 2, 1);
+    splits_match(m, src, 1, 2);
+    ftm_mesh_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_portable_kernel_matches),
@@ -274,6 +330,7 @@ int main(void)
                                        cmocka_unit_test(test_rollback_every_kernel),
                                        cmocka_unit_test(test_kind_change_every_order),
                                        cmocka_unit_test(test_fixed_border_every_order),
-                                       cmocka_unit_test(test_colored_matches_sequential)};
+                                       cmocka_unit_test(test_colored_matches_sequential),
+                                       cmocka_unit_test(test_colour_splits_match)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -17,7 +17,8 @@ typedef struct ftm_layering {
     uint32_t gen;
 
     int32_t *queue;    /* region nodes in BFS order (count + 1 entries) */
-    int32_t *order;    /* region nodes, layer by layer, in update order */
+    int32_t *order;    /* region nodes, layer by layer, in update order (+16 spare) */
+    uint8_t *qcol;     /* with AVX-512: the colour of each queue entry (+16 spare) */
     int32_t *start;    /* layer l: order[start[l] .. start[l+1]-1]; layers + 1 entries */
     int32_t start_cap;
     int32_t count;     /* nodes in the region */
@@ -28,6 +29,9 @@ typedef struct ftm_layering {
     int32_t *set_start;
     uint8_t *set_color;
     int32_t sets;
+    /* Split the sets the portable way even where AVX-512 could: the two
+     * give the same layering (tests compare them). */
+    bool scalar_split;
 } ftm_layering;
 
 int ftm_layering_init(ftm_layering *ly, int32_t node_count);
