@@ -295,7 +295,8 @@ static void test_colour_splits_match(void **state)
 {
     (void)state;
     ftm_mesh *m = lattice();
-    int32_t src[3] = {ftm_mesh_node_of_input(m, 25 + 50 * 25), ftm_mesh_node_of_input(m, 27 + 50 * 25),
+    int32_t src[3] = {ftm_mesh_node_of_input(m, 25 + 50 * 25),
+                      ftm_mesh_node_of_input(m, 27 + 50 * 25),
                       ftm_mesh_node_of_input(m, 3 + 50 * 40)};
     for (int32_t depth = 0; depth <= 30; depth += 3) {
         splits_match(m, src, 1, depth);

@@ -52,13 +52,13 @@ static inline __attribute__((always_inline)) void ftm_load_xyz4(const double *p,
     *z = GATHER4(p + 2, i0, i1, i2, i3);
 }
 
-/* The group orders (Jacobi, colored) update up to sim->group_lanes nodes
- * of one group together: schedule positions first .. first+lanes-1, over
- * `slots` padded neighbour slots (the largest degree among them), once
- * linked stored slot-major from slot index `link` of the schedule's link
- * arrays, so that the kernel loads each slot's lanes with one vector load. */
+/* A linked schedule's block: up to sim->group_lanes nodes of one group,
+ * cut as the group sweep cuts them, updated together over `slots` padded
+ * neighbour slots (the largest degree among them), stored slot-major from
+ * slot index `link` of the schedule's link arrays, so that the kernel loads
+ * each slot's lanes with one vector load. */
 typedef struct block {
-    int32_t first, lanes, slots, link;
+    int32_t slots, link;
 } block;
 
 /* The update order of the contact region, rebuilt when the region changes:

@@ -146,12 +146,16 @@ static int32_t take_nodes(const ftm_sim *sim, int32_t k0, int32_t k1, int32_t fr
     return n;
 }
 
-/* Colored order: one group per independent set of scheduled nodes
- * (take_nodes), so that the group kernel, which reads the state before a
- * group, updates it exactly as one node after another would: no two nodes of
- * a set are adjacent. The shared-colour set, whose nodes may be adjacent,
+/* The schedule: the scheduled nodes (take_nodes) of the ranges
+ * bounds[r] .. bounds[r+1]-1 of the layering's order, r = 0 .. ranges-1,
+ * one group per range that keeps a node. The plain orders' ranges are the
+ * layers; the colored order's are the independent sets (color: each set's
+ * colour), so that the group kernel, which reads the state before a group,
+ * updates a set exactly as one node after another would: no two nodes of a
+ * set are adjacent. The shared-colour set, whose nodes may be adjacent,
  * becomes one group per node. Groups of layer 0 are the forced ones. */
-static void schedule_sets(ftm_sim *sim)
+static void schedule_groups(ftm_sim *sim, const int32_t *bounds, int32_t ranges,
+                            const uint8_t *color)
 {
     const ftm_layering *ly = &sim->ly;
     schedule *s = &sim->s;
@@ -159,15 +163,15 @@ static void schedule_sets(ftm_sim *sim)
     const int32_t layer1 = ly->layers > 1 ? ly->start[1] : ly->count;
     int32_t *restrict group = s->group;
     int32_t kk = 0, g = 0, forced = 0;
-    for (int32_t set = 0; set < ly->sets; set++) {
+    for (int32_t r = 0; r < ranges; r++) {
         const int32_t first = kk;
-        kk += take_nodes(sim, ly->set_start[set], ly->set_start[set + 1], from, s->node + kk);
-        if (ly->set_color[set] == FTM_SHARED_COLOR)
+        kk += take_nodes(sim, bounds[r], bounds[r + 1], from, s->node + kk);
+        if (color && color[r] == FTM_SHARED_COLOR)
             for (int32_t k = first; k < kk; k++)
                 group[g++] = k;
         else if (kk > first)
             group[g++] = first;
-        if (ly->set_start[set] < layer1)
+        if (bounds[r] < layer1)
             forced = g;
     }
     group[g] = kk;
@@ -203,31 +207,6 @@ void ftm_block_copy_consts(const ftm_sim *sim, const int32_t *n, int width, doub
     }
 }
 
-/* Plain orders: the scheduled nodes layer by layer, one group per layer;
- * in a region without fixed nodes, layers past the first copied whole. */
-static void schedule_layers(ftm_sim *sim)
-{
-    const ftm_layering *ly = &sim->ly;
-    schedule *s = &sim->s;
-    const int32_t from = free_from(sim);
-    int32_t *restrict group = s->group;
-    int32_t kk = 0, g = 0;
-    s->forced_groups = 0;
-    for (int32_t l = 0; l < ly->layers; l++) {
-        const int32_t first = kk;
-        kk += take_nodes(sim, ly->start[l], ly->start[l + 1], from, s->node + kk);
-        group[g] = first;
-        g += kk > first;
-        if (l == 0)
-            s->forced_groups = g;
-    }
-    group[g] = kk;
-    s->groups = g;
-    s->count = kk;
-    s->uses = 0;
-    s->linked = false;
-}
-
 /* The update schedule from the current layers and contact kinds. */
 int ftm_sim_rebuild_schedule(ftm_sim *sim)
 {
@@ -239,9 +218,9 @@ int ftm_sim_rebuild_schedule(ftm_sim *sim)
     if (rc)
         return rc;
     if (colored)
-        schedule_sets(sim);
+        schedule_groups(sim, sim->ly.set_start, sim->ly.sets, sim->ly.set_color);
     else
-        schedule_layers(sim);
+        schedule_groups(sim, sim->ly.start, sim->ly.layers, NULL);
     sim->schedule_dirty = false;
     return FTM_OK;
 }
