@@ -483,7 +483,7 @@ static void restore_state(ftm_sim *sim, double *full, bool region_ran)
                     for (int d = 0; d < 3; d++)
                         sim->xp[3 * s->node[k] + d] = js[d * w];
                 }
-                b0 += (k1 - k0 + w - 1) / w;
+                b0 += ftm_group_blocks(sim, k0, k1);
             }
         } else {
             for (int32_t k = 0; k < s->count; k++)

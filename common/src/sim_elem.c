@@ -255,7 +255,7 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
             const int32_t k0 = s->group[g], k1 = s->group[g + 1];
             for (int32_t k = k0; k < k1; k++)
                 ok &= update_node(sim, s->node[k], ftm_group_save(sim, b0, k0, k), w, &mm);
-            b0 += (k1 - k0 + w - 1) / w;
+            b0 += ftm_group_blocks(sim, k0, k1);
         }
     } else if (sim->def.order == FTM_ORDER_BFS) {
         for (int32_t k = 0; k < s->count; k++)
@@ -282,7 +282,7 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
                     xi[d] = t[d];
                 }
             }
-            b0 += (k1 - k0 + w - 1) / w;
+            b0 += ftm_group_blocks(sim, k0, k1);
         }
     }
     *max_m2 = mm;

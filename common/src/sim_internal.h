@@ -178,6 +178,15 @@ static inline double *ftm_group_save(const ftm_sim *sim, int32_t b0, int32_t k0,
     return sim->s.save + 3 * (size_t)w * (size_t)(b0 + off / w) + off % w;
 }
 
+/* How many blocks the group sweep cuts from the group of schedule positions
+ * k0 .. k1-1: sim->group_lanes positions each, the last one possibly fewer.
+ * The group after it starts at block b0 + this (see ftm_group_save). */
+static inline int32_t ftm_group_blocks(const ftm_sim *sim, int32_t k0, int32_t k1)
+{
+    const int32_t w = sim->group_lanes;
+    return (k1 - k0 + w - 1) / w;
+}
+
 /* sim.c */
 int ftm_sim_relax_reserve(ftm_sim *sim, int32_t need);
 
