@@ -7,6 +7,8 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include <cmocka.h>
 
@@ -14,9 +16,11 @@
 #include "rollback_check.h"
 #include "sim_internal.h"
 
-static ftm_sim *make(const ftm_mesh *m, ftm_order order, bool portable, bool cache)
+static ftm_sim *make(const ftm_mesh *m, ftm_order order, bool portable, bool cache,
+                     bool planar)
 {
     ftm_sim_def d = ftm_default_sim_def();
+    d.planar_kernel = planar;
     d.order = order;
     d.time_step = 0.1;
     d.depth = 12;
@@ -45,23 +49,30 @@ static ftm_mesh *lattice(void)
     return m;
 }
 
+/* Native and baseline kernel, cached and fresh schedules, each with the
+ * planar sweep (the lattice lies in z = 0) and the full one. */
 static void kernels_match(ftm_order order)
 {
     ftm_mesh *m = lattice();
-    ftm_sim *s[4] = {make(m, order, false, true), make(m, order, true, true),
-                     make(m, order, false, false), make(m, order, true, false)};
+    ftm_sim *s[8];
+    for (int k = 0; k < 8; k++)
+        s[k] = make(m, order, k & 1, !(k & 2), !(k & 4));
     for (int i = 0; i < 20; i++) {
-        for (int k = 0; k < 4; k++)
+        for (int k = 0; k < 8; k++)
             assert_int_equal(ftm_sim_run(s[k], 50), FTM_OK);
         ftm_vec3 r0 = ftm_sim_reaction(s[0], 1);
-        for (int k = 1; k < 4; k++) {
+        for (int k = 1; k < 8; k++) {
             assert_true(ftm_sim_hash(s[k]) == ftm_sim_hash(s[0]));
             ftm_vec3 r = ftm_sim_reaction(s[k], 1);
             assert_memory_equal(&r, &r0, sizeof r);
         }
     }
-    for (int k = 0; k < 4; k++)
+    for (int k = 0; k < 8; k++) {
+        ftm_sim_stats st;
+        ftm_sim_get_stats(s[k], &st);
+        assert_int_equal(st.planar_sweeps, k & 4 ? 0 : 1000);
         ftm_sim_destroy(s[k]);
+    }
     ftm_mesh_destroy(m);
 }
 
@@ -81,10 +92,11 @@ static void test_portable_jacobi_kernel_matches(void **state)
  * state exactly as it was, with the native and the baseline kernel alike:
  * each saves the previous positions it overwrites in its own block layout.
  * The step is retried, so the schedule is used unlinked, then linked. */
-static void rollback_restores(ftm_order order, bool portable)
+static void rollback_restores(ftm_order order, bool portable, bool planar)
 {
     ftm_mesh *m = lattice();
     ftm_sim_def d = ftm_default_sim_def();
+    d.planar_kernel = planar;
     d.order = order;
     d.time_step = 50.0 * ftm_mesh_critical_time_step(m);
     d.max_substeps = 1;
@@ -103,9 +115,9 @@ static void rollback_restores(ftm_order order, bool portable)
 static void test_rollback_every_kernel(void **state)
 {
     (void)state;
-    for (int p = 0; p < 2; p++) {
-        rollback_restores(FTM_ORDER_LAYER_COLORED, p);
-        rollback_restores(FTM_ORDER_LAYER_JACOBI, p);
+    for (int p = 0; p < 4; p++) {
+        rollback_restores(FTM_ORDER_LAYER_COLORED, p & 1, p & 2);
+        rollback_restores(FTM_ORDER_LAYER_JACOBI, p & 1, p & 2);
     }
 }
 
@@ -324,6 +336,163 @@ static void test_colour_splits_match(void **state)
     ftm_mesh_destroy(m);
 }
 
+/* The state of src loaded into dst: every node not at rest, the contacts,
+ * the depth, the step and the mode (what a keyframe carries). */
+static void copy_state(ftm_sim *dst, const ftm_sim *src)
+{
+    const ftm_mesh *m = ftm_sim_mesh(src);
+    const int32_t n = ftm_mesh_node_count(m);
+    const double *x = ftm_sim_positions(src), *xp = ftm_sim_previous_positions(src);
+    int32_t *nodes = malloc((size_t)n * sizeof *nodes);
+    double *sx = malloc((size_t)n * 3 * sizeof *sx), *sxp = malloc((size_t)n * 3 * sizeof *sxp);
+    assert_true(nodes && sx && sxp);
+    int32_t count = 0;
+    for (int32_t i = 0; i < n; i++) {
+        const ftm_vec3 r = ftm_mesh_rest_position(m, i);
+        const double rr[3] = {r.x, r.y, r.z};
+        if (memcmp(x + 3 * i, rr, sizeof rr) == 0 && memcmp(xp + 3 * i, rr, sizeof rr) == 0)
+            continue;
+        memcpy(sx + 3 * count, x + 3 * i, 3 * sizeof *sx);
+        memcpy(sxp + 3 * count, xp + 3 * i, 3 * sizeof *sxp);
+        nodes[count++] = i;
+    }
+    const ftm_contact *c;
+    const int32_t nc = ftm_sim_contacts(src, &c);
+    ftm_sim_stats st;
+    ftm_sim_get_stats(src, &st);
+    ftm_sim_mode mode;
+    ftm_sim_get_mode(src, &mode);
+    assert_int_equal(ftm_sim_load_state(dst, st.step, st.depth, nodes, sx, sxp, count, c, nc,
+                                        &mode, NULL),
+                     FTM_OK);
+    free(nodes);
+    free(sx);
+    free(sxp);
+}
+
+static uint64_t planar_sweeps(const ftm_sim *s)
+{
+    ftm_sim_stats st;
+    ftm_sim_get_stats(s, &st);
+    return st.planar_sweeps;
+}
+
+/* Steps a (planar sweep allowed) and b (full sweep) together: the same state
+ * after every step. Returns how many of a's sweeps were planar. */
+static uint64_t step_together(ftm_sim *a, ftm_sim *b, int steps)
+{
+    const uint64_t p0 = planar_sweeps(a);
+    for (int i = 0; i < steps; i++) {
+        const int ra = ftm_sim_step(a), rb = ftm_sim_step(b);
+        assert_int_equal(ra, rb);
+        assert_true(ftm_sim_hash(a) == ftm_sim_hash(b));
+    }
+    assert_int_equal(planar_sweeps(b), 0);
+    return planar_sweeps(a) - p0;
+}
+
+/* The planar sweep (a mesh in z = 0, loads in the plane) leaves z out and
+ * must give the full sweep's bits: with a force whose z is -0.0, with the
+ * guard substepping (time step 3x critical), with both kernels and fresh or
+ * cached schedules. A load off the plane switches to the full sweep for
+ * good; so does a loaded state off the plane, until a reset or a planar
+ * loaded state. */
+static void planar_matches(ftm_order order, bool portable, bool cache, double dt_crit)
+{
+    ftm_mesh *m = lattice();
+    ftm_sim *s[2];
+    for (int k = 0; k < 2; k++) {
+        s[k] = make(m, order, portable, cache, k == 0);
+        if (dt_crit > 0) {
+            ftm_sim_def d = ftm_default_sim_def();
+            d.planar_kernel = k == 0;
+            d.order = order;
+            d.depth = 12;
+            d.cache_layers = cache;
+            d.time_step = dt_crit * ftm_mesh_critical_time_step(m);
+            ftm_sim_destroy(s[k]);
+            assert_int_equal(ftm_sim_create(m, &d, &s[k], NULL), FTM_OK);
+            ftm_sim_select_kernel(s[k], portable);
+        }
+    }
+    const int32_t a = ftm_mesh_node_of_input(m, 20 + 50 * 25),
+                  b = ftm_mesh_node_of_input(m, 31 + 50 * 22);
+    ftm_contact in_plane[2] = {
+        {.node = a, .kind = FTM_CONTACT_FORCE, .value = {0.02, -0.3, -0.0}},
+        {.node = b, .group = 1, .kind = FTM_CONTACT_DISPLACEMENT, .value = {0.1, 0.2, -0.0}}};
+    ftm_contact off_plane = {.node = a, .kind = FTM_CONTACT_FORCE, .value = {0.0, -0.3, 0.05}};
+    for (int k = 0; k < 2; k++)
+        assert_int_equal(ftm_sim_set_contacts(s[k], in_plane, 2, NULL), FTM_OK);
+    assert_true(step_together(s[0], s[1], 60) >= 60);
+    if (dt_crit > 0) {
+        ftm_sim_stats st;
+        ftm_sim_get_stats(s[0], &st);
+        assert_true(st.substeps > 1 || st.guard_events > 0);
+    }
+    /* off the plane: the full sweep from then on, even after the load is
+     * back in the plane (z is no longer +0.0) */
+    for (int k = 0; k < 2; k++)
+        assert_int_equal(ftm_sim_set_contacts(s[k], &off_plane, 1, NULL), FTM_OK);
+    assert_int_equal(step_together(s[0], s[1], 30), 0);
+    for (int k = 0; k < 2; k++)
+        assert_int_equal(ftm_sim_set_contacts(s[k], in_plane, 2, NULL), FTM_OK);
+    assert_int_equal(step_together(s[0], s[1], 10), 0);
+    /* a reset is back in the plane */
+    for (int k = 0; k < 2; k++) {
+        ftm_sim_reset(s[k]);
+        assert_int_equal(ftm_sim_set_contacts(s[k], in_plane, 2, NULL), FTM_OK);
+    }
+    assert_true(step_together(s[0], s[1], 20) >= 20);
+    /* loaded states: off the plane, then in it */
+    ftm_sim *off = make(m, order, portable, cache, false);
+    assert_int_equal(ftm_sim_set_contacts(off, &off_plane, 1, NULL), FTM_OK);
+    assert_int_equal(ftm_sim_run(off, 10), FTM_OK);
+    copy_state(s[0], off);
+    copy_state(s[1], off);
+    assert_int_equal(step_together(s[0], s[1], 10), 0);
+    ftm_sim_reset(off);
+    assert_int_equal(ftm_sim_set_contacts(off, in_plane, 2, NULL), FTM_OK);
+    assert_int_equal(ftm_sim_run(off, 10), FTM_OK);
+    copy_state(s[0], off);
+    copy_state(s[1], off);
+    assert_true(step_together(s[0], s[1], 10) >= 10);
+    ftm_sim_destroy(off);
+    ftm_sim_destroy(s[0]);
+    ftm_sim_destroy(s[1]);
+    ftm_mesh_destroy(m);
+}
+
+static void test_planar_matches_full(void **state)
+{
+    (void)state;
+    const ftm_order orders[] = {FTM_ORDER_LAYER_JACOBI, FTM_ORDER_LAYER_COLORED};
+    for (int o = 0; o < 2; o++)
+        for (int v = 0; v < 4; v++)
+            planar_matches(orders[o], v & 1, v & 2, 0.0);
+    planar_matches(FTM_ORDER_LAYER_COLORED, false, true, 3.0);
+    planar_matches(FTM_ORDER_LAYER_JACOBI, true, false, 3.0);
+}
+
+/* No planar sweep for a mesh off the plane z = 0 (a cubic lattice). */
+static void test_planar_needs_plane(void **state)
+{
+    (void)state;
+    ftm_mesh_builder *mb = ftm_mesh_builder_create();
+    ftm_lattice3d_def ld = ftm_default_lattice3d_def();
+    ftm_mesh *m = NULL;
+    assert_int_equal(ftm_generate_lattice3d(mb, &ld, NULL), FTM_OK);
+    assert_int_equal(ftm_mesh_build(mb, NULL, &m, NULL), FTM_OK);
+    ftm_mesh_builder_destroy(mb);
+    int32_t n = ftm_mesh_node_count(m) / 2;
+    while (ftm_mesh_fixed(m, n))
+        n++;
+    ftm_sim *s = pushed(m, FTM_ORDER_LAYER_COLORED, 4, true, n);
+    assert_int_equal(ftm_sim_run(s, 10), FTM_OK);
+    assert_int_equal(planar_sweeps(s), 0);
+    ftm_sim_destroy(s);
+    ftm_mesh_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_portable_kernel_matches),
@@ -332,6 +501,8 @@ int main(void)
                                        cmocka_unit_test(test_kind_change_every_order),
                                        cmocka_unit_test(test_fixed_border_every_order),
                                        cmocka_unit_test(test_colored_matches_sequential),
-                                       cmocka_unit_test(test_colour_splits_match)};
+                                       cmocka_unit_test(test_colour_splits_match),
+                                       cmocka_unit_test(test_planar_matches_full),
+                                       cmocka_unit_test(test_planar_needs_plane)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -322,8 +322,9 @@ static void print_json(FILE *out, const summary *s, const ftm_sim *sim, const in
             s->node_updates, (int)s->peak_updates, (int)s->rest_since);
     fprintf(out,
             ", \"guard_events\": %" PRIu64 ", \"substeps\": %d, \"unstable_steps\": %" PRIu64
-            ", \"hash\": \"%016" PRIx64 "\"}\n",
-            s->stats.guard_events, (int)s->stats.substeps, s->stats.unstable_steps, s->hash);
+            ", \"planar_sweeps\": %" PRIu64 ", \"hash\": \"%016" PRIx64 "\"}\n",
+            s->stats.guard_events, (int)s->stats.substeps, s->stats.unstable_steps,
+            s->stats.planar_sweeps, s->hash);
 }
 
 static void print_human(FILE *out, const summary *s, const ftm_sim *sim, const int32_t *groups,
@@ -359,6 +360,9 @@ static void print_human(FILE *out, const summary *s, const ftm_sim *sim, const i
     fprintf(out, "work             %" PRId64 " node updates (%.1f per step, peak %d)\n",
             s->node_updates, s->steps ? (double)s->node_updates / s->steps : 0.0,
             (int)s->peak_updates);
+    if (s->stats.planar_sweeps)
+        fprintf(out, "planar sweeps    %" PRIu64 " (z left out: the scene keeps to z = 0)\n",
+                s->stats.planar_sweeps);
     if (s->rest_since >= 0)
         fprintf(out, "at rest          from t = %.6g s (step %d): idle steps update no node\n",
                 s->rest_since * s->h, (int)s->rest_since);

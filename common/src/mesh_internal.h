@@ -45,6 +45,10 @@ struct ftm_mesh {
     int32_t *input_of_node; /* mesh index -> input index */
 
     double mean_link_length;
+    /* Every rest position has z = +0.0 (exactly those bits): a mesh in the
+     * plane z = 0, such as the 2D lattice. The group sweep then leaves z out
+     * while the loads keep to the plane (ftm_sim_def.planar_kernel). */
+    bool planar;
 };
 
 /* A deep copy of m (NULL: out of memory), e.g. to change its material. */

@@ -24,6 +24,7 @@ ftm_sim_def ftm_default_sim_def(void)
                          .guard_motion = 0.5,
                          .max_substeps = 64,
                          .cache_layers = true,
+                         .planar_kernel = true,
                          .log = NULL,
                          .log_user = NULL};
 }
@@ -186,6 +187,7 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
     sim->energy_floor = energy_floor(m);
     sim->tol = d.sleep_tolerance * m->mean_link_length;
     sim->layers_dirty = true;
+    sim->planar_state = true; /* at rest (ftm_sim_planar also asks the mesh) */
     sim->st.depth = d.depth;
     sim->st.substeps = 1;
     if (!sim->elem)
@@ -370,6 +372,9 @@ int ftm_sim_set_contacts(ftm_sim *sim, const ftm_contact *c, int32_t count, ftm_
     sim->disp = ndisp;
     sim->ncontacts = count;
     sim->ndisp = nd;
+    for (int32_t i = 0; i < count; i++) /* a load off the plane: z leaves +0.0 */
+        if (nc[i].value.z != 0.0)
+            sim->planar_state = false;
     if (!same_nodes)
         sim->layers_dirty = true;
     else if (!same_kinds)
@@ -606,6 +611,7 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
             } else if (sim->def.order != FTM_ORDER_BFS) { /* groups: Jacobi, colored */
                 if (!s->linked && s->uses++ > 0)
                     sim->group_links(sim);
+                sim->st.planar_sweeps += ftm_sim_planar(sim);
                 ok &= sim->sweep_groups(sim, region_m2);
             } else {
                 ok &= ftm_sweep_gs(sim, 0, s->count, region_m2);
@@ -917,6 +923,7 @@ void ftm_sim_reset(ftm_sim *sim)
     if (sim->substeps != 1)
         change_substeps(sim, 1);
     sim->budget = sim->energy_prev = 0.0; /* all at rest: no energy */
+    sim->planar_state = true;
     uint64_t searches = sim->st.searches;
     memset(&sim->st, 0, sizeof sim->st);
     sim->st.searches = searches;
@@ -1023,6 +1030,13 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
         memset(sim->reaction, 0, (size_t)sim->reaction_groups * 3 * sizeof *sim->reaction);
     sim->st.step = step;
     sim->st.updated_nodes = 0;
+    /* planar again if every loaded z is +0.0 (the contacts were checked) */
+    bool planar = true;
+    for (int32_t c = 0; c < ncontacts; c++)
+        planar = planar && contacts[c].value.z == 0.0;
+    for (size_t e = 2; e < 3 * (size_t)count && planar; e += 3)
+        planar = x[e] == 0.0 && !signbit(x[e]) && xp[e] == 0.0 && !signbit(xp[e]);
+    sim->planar_state = planar;
     sim->budget = md.energy_budget < 0.0 ? -1.0 : md.energy_budget;
     sim->energy_prev = md.energy_prev;
     ftm_error_clear(err);

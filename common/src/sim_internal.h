@@ -132,6 +132,10 @@ struct ftm_sim {
 
     int32_t quiet_steps; /* consecutive steps with the region below the sleep tolerance */
     bool region_sleeping;
+    /* Every node's z and z_prev is +0.0 and every load has z = 0 (kept
+     * since the last reset or load_state; a load with z != 0 clears it):
+     * then z stays +0.0, and the group sweep may leave it out. */
+    bool planar_state;
     bool warned_dt;
 
     double *reaction; /* 3 per group */
@@ -185,6 +189,13 @@ static inline int32_t ftm_group_blocks(const ftm_sim *sim, int32_t k0, int32_t k
 {
     const int32_t w = sim->group_lanes;
     return (k1 - k0 + w - 1) / w;
+}
+
+/* The group sweep may leave z out: it would compute z = +0.0 for every node
+ * and add only exact zeros to the other coordinates' sums (docs/core.md). */
+static inline bool ftm_sim_planar(const ftm_sim *sim)
+{
+    return sim->planar_state && sim->m->planar && sim->def.planar_kernel && !sim->elem;
 }
 
 /* sim.c */

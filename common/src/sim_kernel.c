@@ -135,11 +135,22 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 
 #define GATHER4A(p, i) GATHER4(p, i[0], i[1], i[2], i[3])
 #define LOAD_XYZ4(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
+
+/* x and y of the four points p + o[0..3] (a planar sweep's loads) */
+static inline __attribute__((always_inline)) void load_xy4(const double *p, const size_t o[4],
+                                                           v4d *x, v4d *y)
+{
+    v4d p02 = __builtin_shufflevector(LOAD2(p + o[0]), LOAD2(p + o[2]), 0, 1, 2, 3),
+        p13 = __builtin_shufflevector(LOAD2(p + o[1]), LOAD2(p + o[3]), 0, 1, 2, 3);
+    *x = __builtin_shufflevector(p02, p13, 0, 4, 2, 6);
+    *y = __builtin_shufflevector(p02, p13, 1, 5, 3, 7);
+}
 #define BW 4
 #define BV v4d
 #define BL v4l
 #define BTARGET
 #define BLOAD LOAD_XYZ4
+#define BLOADXY load_xy4
 #define BGATHER GATHER4A
 #define BLOAD_KL load_kl4
 #define BLOAD_COEF load_coef4
@@ -158,6 +169,7 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #undef BL
 #undef BTARGET
 #undef BLOAD
+#undef BLOADXY
 #undef BGATHER
 #undef BLOAD_KL
 #undef BLOAD_COEF
@@ -177,6 +189,12 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #undef JNAME
 #undef JLINKNAME
 #undef JBLOCK
+/* one instance of the sweep per (linked, planar): constants in the body */
+#define SWEEP_VARIANTS(body, sim, max_m2)                                                      \
+    (ftm_sim_planar(sim)                                                                       \
+         ? ((sim)->s.linked ? body(sim, max_m2, true, true) : body(sim, max_m2, false, true))  \
+         : ((sim)->s.linked ? body(sim, max_m2, true, false) : body(sim, max_m2, false, false)))
+
 #if defined(__x86_64__) || defined(__i386__) /* the 8-lane build is for AVX-512 */
 #include <immintrin.h>
 
@@ -219,6 +237,15 @@ static inline AVX512 void load_xyz8(const double *p, const size_t o[8], v8d *x, 
     *z = (v8d)_mm512_unpackhi_pd(yz0, yz1);
 }
 
+/* x and y of the eight points p + o[0..7] (a planar sweep's loads) */
+static inline AVX512 void load_xy8(const double *p, const size_t o[8], v8d *x, v8d *y)
+{
+    const __m512d xy0 = pairs4(p + o[0], p + o[2], p + o[4], p + o[6]),
+                  xy1 = pairs4(p + o[1], p + o[3], p + o[5], p + o[7]);
+    *x = (v8d)_mm512_unpacklo_pd(xy0, xy1);
+    *y = (v8d)_mm512_unpackhi_pd(xy0, xy1);
+}
+
 /* the (k, len) pairs of eight padded rows at slot sl, as k and len vectors */
 static inline AVX512 void load_kl8(const double *const kl[8], int32_t sl, v8d *k, v8d *len)
 {
@@ -255,6 +282,7 @@ static inline AVX512 void load_coef8(const double *p, const size_t on[8], v8d *a
 #define BL v8l
 #define BTARGET __attribute__((target("avx512f")))
 #define BLOAD load_xyz8
+#define BLOADXY load_xy8
 #define BGATHER GATHER8
 #define BLOAD_KL load_kl8
 #define BLOAD_COEF load_coef8
@@ -274,21 +302,18 @@ static inline AVX512 void load_coef8(const double *p, const size_t on[8], v8d *a
 
 __attribute__((target("avx512f"))) static bool sweep_groups_avx512(ftm_sim *sim, double *max_m2)
 {
-    return sim->s.linked ? sweep_groups_body8(sim, max_m2, true)
-                         : sweep_groups_body8(sim, max_m2, false);
+    return SWEEP_VARIANTS(sweep_groups_body8, sim, max_m2);
 }
 
 __attribute__((target("avx"))) static bool sweep_groups_avx(ftm_sim *sim, double *max_m2)
 {
-    return sim->s.linked ? sweep_groups_body4(sim, max_m2, true)
-                         : sweep_groups_body4(sim, max_m2, false);
+    return SWEEP_VARIANTS(sweep_groups_body4, sim, max_m2);
 }
 #endif
 
 static bool sweep_groups_portable(ftm_sim *sim, double *max_m2)
 {
-    return sim->s.linked ? sweep_groups_body4(sim, max_m2, true)
-                         : sweep_groups_body4(sim, max_m2, false);
+    return SWEEP_VARIANTS(sweep_groups_body4, sim, max_m2);
 }
 
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable)

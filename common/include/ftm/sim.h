@@ -76,6 +76,14 @@ typedef struct ftm_sim_def {
      * unchanged (default true); false searches again every step, as the
      * paper's timing did (used by `ftm bench table3`). */
     bool cache_layers;
+    /* For a mesh in the plane z = 0 (every rest z is +0.0, like the 2D
+     * lattice) under loads with z = 0: the colored and jacobi orders' sweep
+     * leaves z out, which gives the same bits, since z then stays exactly
+     * +0.0 (default true). A load or a loaded state with z != 0 switches to
+     * the full sweep until ftm_sim_reset or a planar ftm_sim_load_state;
+     * false always runs the full sweep (tests and `ftm bench table3`
+     * compare the two). */
+    bool planar_kernel;
     ftm_log_fn log; /* warnings (time step above critical) and guard events */
     void *log_user;
     /* Internal forces (default FTM_FORCES_SPRINGS). With element forces a
@@ -113,6 +121,7 @@ typedef struct ftm_sim_stats {
     uint64_t searches;        /* breadth-first searches run (cache misses) */
     uint64_t guard_events;    /* steps rolled back by the guard */
     uint64_t unstable_steps;  /* steps that failed even at max_substeps */
+    uint64_t planar_sweeps;   /* group sweeps that left z out (planar_kernel) */
 } ftm_sim_stats;
 
 int ftm_sim_create(const ftm_mesh *mesh, const ftm_sim_def *def, ftm_sim **out, ftm_error *err);
