@@ -37,16 +37,22 @@ static ftm_sim *make(const ftm_mesh *m, ftm_order order, bool portable, bool cac
     return s;
 }
 
+/* The mesh in mb, built; mb destroyed. */
+static ftm_mesh *built(ftm_mesh_builder *mb)
+{
+    ftm_mesh *m = NULL;
+    assert_int_equal(ftm_mesh_build(mb, NULL, &m, NULL), FTM_OK);
+    ftm_mesh_builder_destroy(mb);
+    return m;
+}
+
 /* The default 2D lattice: 50 x 50 nodes. */
 static ftm_mesh *lattice(void)
 {
     ftm_mesh_builder *mb = ftm_mesh_builder_create();
     ftm_lattice2d_def ld = ftm_default_lattice2d_def();
-    ftm_mesh *m = NULL;
     assert_int_equal(ftm_generate_lattice2d(mb, &ld, NULL), FTM_OK);
-    assert_int_equal(ftm_mesh_build(mb, NULL, &m, NULL), FTM_OK);
-    ftm_mesh_builder_destroy(mb);
-    return m;
+    return built(mb);
 }
 
 /* Native and baseline kernel, cached and fresh schedules, each with the
@@ -234,10 +240,7 @@ static ftm_mesh *clique(void)
             ftm_link_def ld = {.a = a, .b = b, .stiffness = 1.0, .rest_length = -1.0};
             assert_int_equal(ftm_mesh_builder_add_link(mb, &ld), FTM_OK);
         }
-    ftm_mesh *m = NULL;
-    assert_int_equal(ftm_mesh_build(mb, NULL, &m, NULL), FTM_OK);
-    ftm_mesh_builder_destroy(mb);
-    return m;
+    return built(mb);
 }
 
 /* The colored order's vector kernel updates an independent set from the
@@ -320,8 +323,7 @@ static void test_colour_splits_match(void **state)
     ftm_lattice3d_def ld = ftm_default_lattice3d_def();
     ld.stencil = FTM_STENCIL_26;
     assert_int_equal(ftm_generate_lattice3d(mb, &ld, NULL), FTM_OK);
-    assert_int_equal(ftm_mesh_build(mb, NULL, &m, NULL), FTM_OK);
-    ftm_mesh_builder_destroy(mb);
+    m = built(mb);
     src[1] = m->node_count / 3;
     src[0] = m->node_count / 2;
     for (int32_t depth = 0; depth <= 8; depth++)
@@ -479,10 +481,8 @@ static void test_planar_needs_plane(void **state)
     (void)state;
     ftm_mesh_builder *mb = ftm_mesh_builder_create();
     ftm_lattice3d_def ld = ftm_default_lattice3d_def();
-    ftm_mesh *m = NULL;
     assert_int_equal(ftm_generate_lattice3d(mb, &ld, NULL), FTM_OK);
-    assert_int_equal(ftm_mesh_build(mb, NULL, &m, NULL), FTM_OK);
-    ftm_mesh_builder_destroy(mb);
+    ftm_mesh *m = built(mb);
     int32_t n = ftm_mesh_node_count(m) / 2;
     while (ftm_mesh_fixed(m, n))
         n++;
