@@ -41,14 +41,21 @@ typedef double v2du __attribute__((vector_size(16), aligned(8)));
 /* The three coordinates of four points stored 3 doubles apiece at p + i0 ..
  * p + i3 as x, y and z vectors: x and y from one 16-byte load per point
  * (fewer instructions than four scalar loads each), z gathered. */
-static inline __attribute__((always_inline)) void ftm_load_xyz4(const double *p, size_t i0,
-                                                                size_t i1, size_t i2, size_t i3,
-                                                                v4d *x, v4d *y, v4d *z)
+static inline __attribute__((always_inline)) void ftm_load_xy4(const double *p, size_t i0,
+                                                               size_t i1, size_t i2, size_t i3,
+                                                               v4d *x, v4d *y)
 {
     v4d p02 = __builtin_shufflevector(LOAD2(p + i0), LOAD2(p + i2), 0, 1, 2, 3),
         p13 = __builtin_shufflevector(LOAD2(p + i1), LOAD2(p + i3), 0, 1, 2, 3);
     *x = __builtin_shufflevector(p02, p13, 0, 4, 2, 6);
     *y = __builtin_shufflevector(p02, p13, 1, 5, 3, 7);
+}
+
+static inline __attribute__((always_inline)) void ftm_load_xyz4(const double *p, size_t i0,
+                                                                size_t i1, size_t i2, size_t i3,
+                                                                v4d *x, v4d *y, v4d *z)
+{
+    ftm_load_xy4(p, i0, i1, i2, i3, x, y);
     *z = GATHER4(p + 2, i0, i1, i2, i3);
 }
 

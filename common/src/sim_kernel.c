@@ -135,22 +135,13 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 
 #define GATHER4A(p, i) GATHER4(p, i[0], i[1], i[2], i[3])
 #define LOAD_XYZ4(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
-
-/* x and y of the four points p + o[0..3] (a planar sweep's loads) */
-static inline __attribute__((always_inline)) void load_xy4(const double *p, const size_t o[4],
-                                                           v4d *x, v4d *y)
-{
-    v4d p02 = __builtin_shufflevector(LOAD2(p + o[0]), LOAD2(p + o[2]), 0, 1, 2, 3),
-        p13 = __builtin_shufflevector(LOAD2(p + o[1]), LOAD2(p + o[3]), 0, 1, 2, 3);
-    *x = __builtin_shufflevector(p02, p13, 0, 4, 2, 6);
-    *y = __builtin_shufflevector(p02, p13, 1, 5, 3, 7);
-}
+#define LOAD_XY4(p, o, x, y) ftm_load_xy4(p, o[0], o[1], o[2], o[3], x, y)
 #define BW 4
 #define BV v4d
 #define BL v4l
 #define BTARGET
 #define BLOAD LOAD_XYZ4
-#define BLOADXY load_xy4
+#define BLOADXY LOAD_XY4
 #define BGATHER GATHER4A
 #define BLOAD_KL load_kl4
 #define BLOAD_COEF load_coef4
