@@ -1030,10 +1030,11 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
         memset(sim->reaction, 0, (size_t)sim->reaction_groups * 3 * sizeof *sim->reaction);
     sim->st.step = step;
     sim->st.updated_nodes = 0;
-    /* planar again if every loaded z is +0.0 (the contacts were checked) */
+    /* planar again if every loaded z is +0.0 (the contacts as now set:
+     * the caller's array may have been this simulation's own, freed since) */
     bool planar = true;
-    for (int32_t c = 0; c < ncontacts; c++)
-        planar = planar && contacts[c].value.z == 0.0;
+    for (int32_t c = 0; c < sim->ncontacts; c++)
+        planar = planar && sim->contacts[c].value.z == 0.0;
     for (size_t e = 2; e < 3 * (size_t)count && planar; e += 3)
         planar = x[e] == 0.0 && !signbit(x[e]) && xp[e] == 0.0 && !signbit(xp[e]);
     sim->planar_state = planar;
