@@ -480,6 +480,47 @@ static void test_planar_matches_full(void **state)
     planar_matches(FTM_ORDER_LAYER_JACOBI, true, false, 3.0);
 }
 
+/* With cached layers a schedule's block-major copy is recorded by its first
+ * sweep, unless the schedule before was swept only once (then its second
+ * sweep copies it first); without, it is never made. Either way the state
+ * is the same bits. Contacts moved every step, then every second step,
+ * then held; compared with fresh schedules step by step. */
+static void links_made(ftm_order order, bool portable)
+{
+    ftm_mesh *m = lattice();
+    ftm_sim *a = make(m, order, portable, true, true), *b = make(m, order, portable, false, true);
+    const int32_t n0 = ftm_mesh_node_of_input(m, 20 + 50 * 25);
+    for (int i = 0; i < 40; i++) {
+        const int every = i < 10 ? 1 : i < 30 ? 2 : 1000;
+        if (i % every == 0) {
+            ftm_contact c = {.node = n0 + (i / every) % 3, .kind = FTM_CONTACT_FORCE,
+                             .value = {0.05, -0.3, 0.0}};
+            assert_int_equal(ftm_sim_set_contacts(a, &c, 1, NULL), FTM_OK);
+            assert_int_equal(ftm_sim_set_contacts(b, &c, 1, NULL), FTM_OK);
+        }
+        assert_int_equal(ftm_sim_step(a), FTM_OK);
+        assert_int_equal(ftm_sim_step(b), FTM_OK);
+        assert_true(ftm_sim_hash(a) == ftm_sim_hash(b));
+        assert_false(b->s.linked);
+        if (i >= 2 && i < 10) /* the schedule before was swept once: not recorded */
+            assert_false(a->s.linked);
+        else if (i >= 12) /* recorded by the first sweep, or copied before the second */
+            assert_true(a->s.linked);
+    }
+    ftm_sim_destroy(a);
+    ftm_sim_destroy(b);
+    ftm_mesh_destroy(m);
+}
+
+static void test_links_recorded_or_copied(void **state)
+{
+    (void)state;
+    for (int p = 0; p < 2; p++) {
+        links_made(FTM_ORDER_LAYER_JACOBI, p);
+        links_made(FTM_ORDER_LAYER_COLORED, p);
+    }
+}
+
 /* No planar sweep for a mesh off the plane z = 0 (a cubic lattice). */
 static void test_planar_needs_plane(void **state)
 {
@@ -508,6 +549,7 @@ int main(void)
                                        cmocka_unit_test(test_colored_matches_sequential),
                                        cmocka_unit_test(test_colour_splits_match),
                                        cmocka_unit_test(test_planar_matches_full),
-                                       cmocka_unit_test(test_planar_needs_plane)};
+                                       cmocka_unit_test(test_planar_needs_plane),
+                                       cmocka_unit_test(test_links_recorded_or_copied)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

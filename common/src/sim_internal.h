@@ -95,6 +95,7 @@ typedef struct schedule {
     double *save;
     double *tmp;    /* new positions of a group, x, y and z vectors of 4 or 8 per block */
     int32_t uses;   /* group sweeps since the schedule was built */
+    int32_t last_uses; /* the previous schedule's, when this one was built */
     bool linked;    /* block, link_j, link_kl and node_c hold the blocks' copies */
     int32_t cap, gcap;
     size_t link_cap;
@@ -203,6 +204,16 @@ static inline int32_t ftm_group_blocks(const ftm_sim *sim, int32_t k0, int32_t k
 static inline bool ftm_sim_planar(const ftm_sim *sim)
 {
     return sim->planar_state && sim->m->planar && sim->def.planar_kernel && !sim->elem;
+}
+
+/* The group sweep records the schedule's block-major copy as it goes: the
+ * schedule is not linked yet and, with cached layers, may well be swept
+ * again — unless the previous schedule was swept just once (contacts that
+ * change every step: recording costs more than it saves). Otherwise the
+ * schedule's second sweep links it first (sim->group_links). */
+static inline bool ftm_sim_record_links(const ftm_sim *sim)
+{
+    return !sim->s.linked && sim->def.cache_layers && sim->s.last_uses != 1;
 }
 
 /* sim.c */

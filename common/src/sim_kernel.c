@@ -180,11 +180,15 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #undef JNAME
 #undef JLINKNAME
 #undef JBLOCK
-/* one instance of the sweep per (linked, planar): constants in the body */
+/* one instance of the sweep per (links read, recorded or neither; planar):
+ * constants in the body */
+#define SWEEP_PLANAR(body, sim, max_m2, linked, record)                                        \
+    (ftm_sim_planar(sim) ? body(sim, max_m2, linked, record, true)                             \
+                         : body(sim, max_m2, linked, record, false))
 #define SWEEP_VARIANTS(body, sim, max_m2)                                                      \
-    (ftm_sim_planar(sim)                                                                       \
-         ? ((sim)->s.linked ? body(sim, max_m2, true, true) : body(sim, max_m2, false, true))  \
-         : ((sim)->s.linked ? body(sim, max_m2, true, false) : body(sim, max_m2, false, false)))
+    ((sim)->s.linked              ? SWEEP_PLANAR(body, sim, max_m2, true, false)               \
+     : ftm_sim_record_links(sim) ? SWEEP_PLANAR(body, sim, max_m2, false, true)               \
+                                  : SWEEP_PLANAR(body, sim, max_m2, false, false))
 
 #if defined(__x86_64__) || defined(__i386__) /* the 8-lane build is for AVX-512 */
 #include <immintrin.h>

@@ -178,6 +178,7 @@ static void schedule_groups(ftm_sim *sim, const int32_t *bounds, int32_t ranges,
     s->groups = g;
     s->forced_groups = forced;
     s->count = kk;
+    s->last_uses = s->uses;
     s->uses = 0;
     s->linked = false;
 }
