@@ -100,6 +100,36 @@ static double time_steps(const bench_setup *b, int depth, ftm_order order, bool 
     return ftm_bench_median(samples, steps);
 }
 
+/* Mean time of one step [us] over `steps` steps with the layers cached and
+ * the force moving every `every` steps among the centre node and two of
+ * its neighbours, as a probe sliding over the tissue moves its contacts:
+ * a mean, since the steps after a move cost more than the others. */
+static double time_moving(const bench_setup *b, int depth, ftm_order order, int every, int steps)
+{
+    ftm_sim_def d = b->def;
+    d.depth = depth;
+    d.order = order;
+    ftm_sim *sim;
+    if (ftm_sim_create(b->mesh, &d, &sim, NULL))
+        return NAN;
+    const int32_t at[3] = {b->centre, ftm_mesh_node_of_input(b->mesh, 26 + 50 * 25),
+                           ftm_mesh_node_of_input(b->mesh, 25 + 50 * 26)};
+    ftm_contact c = b->load;
+    double t0 = 0.0;
+    for (int i = -200; i < steps; i++) { /* 200 untimed steps first */
+        if (i == 0)
+            t0 = ftm_bench_now_us();
+        if ((i + 200) % every == 0) {
+            c.node = at[((i + 200) / every) % 3];
+            ftm_sim_set_contacts(sim, &c, 1, NULL);
+        }
+        ftm_sim_step(sim);
+    }
+    const double us = (ftm_bench_now_us() - t0) / steps;
+    ftm_sim_destroy(sim);
+    return us;
+}
+
 /* with_sets: the search the colored order needs (layers split into
  * independent sets); without: the plain one of the bfs and jacobi orders */
 static double time_search(const bench_setup *b, int depth, bool with_sets, int reps,
@@ -181,7 +211,8 @@ int ftm_bench_table3(int argc, char **argv)
                    "\"search_us\":..,\"step_us\":..},...],\"orders\":[...]}\n"
                    "                    (rows also hold step_cached_us and the jacobi order's\n"
                    "                    jacobi_search_us, jacobi_step_us, jacobi_step_cached_us;\n"
-                   "                    full_sweep: the deepest row's steps with the full sweep)\n"
+                   "                    full_sweep: the deepest row's steps with the full sweep;\n"
+                   "                    moving: mean step there, the force moving every N steps)\n"
                    "  --json-file FILE  print the table and write the same run's JSON to FILE\n",
                    ROUNDS);
             return 0;
@@ -214,6 +245,9 @@ int ftm_bench_table3(int argc, char **argv)
     const ftm_order orders[3] = {FTM_ORDER_BFS, FTM_ORDER_LAYER_COLORED, FTM_ORDER_LAYER_JACOBI};
     const int dmax = depths[NDEPTH - 1];
     double fig[NDEPTH][FIGS][ROUNDS], bfs[2][ROUNDS], full[4][ROUNDS];
+    enum { NMOVE = 4 };
+    static const int every[NMOVE] = {1, 2, 5, 10};
+    double moving[NMOVE][2][ROUNDS]; /* colored, jacobi */
     int32_t nodes[NDEPTH];
     for (int k = 0; k < ROUNDS; k++) {
         for (int r = 0; r < NDEPTH; r++) {
@@ -234,7 +268,15 @@ int ftm_bench_table3(int argc, char **argv)
             const ftm_order o = f < 2 ? FTM_ORDER_LAYER_COLORED : FTM_ORDER_LAYER_JACOBI;
             full[f][k] = time_steps(&b, dmax, o, f & 1, per, samples, false);
         }
+        for (int e = 0; e < NMOVE; e++) {
+            moving[e][0][k] = time_moving(&b, dmax, FTM_ORDER_LAYER_COLORED, every[e], per);
+            moving[e][1][k] = time_moving(&b, dmax, FTM_ORDER_LAYER_JACOBI, every[e], per);
+        }
     }
+    double movm[NMOVE][2];
+    for (int e = 0; e < NMOVE; e++)
+        for (int o = 0; o < 2; o++)
+            movm[e][o] = ftm_bench_median(moving[e][o], ROUNDS);
     double fullm[4];
     for (int f = 0; f < 4; f++)
         fullm[f] = ftm_bench_median(full[f], ROUNDS);
@@ -299,8 +341,13 @@ int ftm_bench_table3(int argc, char **argv)
                     ores[o]);
         fprintf(out,
                 "],\"full_sweep\":{\"depth\":%d,\"step_us\":%.3f,\"step_cached_us\":%.3f,"
-                "\"jacobi_step_us\":%.3f,\"jacobi_step_cached_us\":%.3f}}\n",
+                "\"jacobi_step_us\":%.3f,\"jacobi_step_cached_us\":%.3f},\"moving\":[",
                 dmax, fullm[0], fullm[1], fullm[2], fullm[3]);
+        for (int e = 0; e < NMOVE; e++)
+            fprintf(out,
+                    "%s{\"depth\":%d,\"every\":%d,\"step_us\":%.3f,\"jacobi_step_us\":%.3f}",
+                    e ? "," : "", dmax, every[e], movm[e][0], movm[e][1]);
+        fprintf(out, "]}\n");
     }
     if (jf && fclose(jf) != 0) {
         fprintf(stderr, "ftm bench table3: cannot write '%s'\n", json_file);
@@ -343,6 +390,12 @@ int ftm_bench_table3(int argc, char **argv)
         printf("%8s | %10s %10s\n", "order", "step us", "cached us");
         printf("%8s | %10.3f %10.3f\n%8s | %10.3f %10.3f\n", "colored", fullm[0], fullm[1],
                "jacobi", fullm[2], fullm[3]);
+        printf("\nA moving contact at depth %d: the force moves among three neighbouring nodes\n"
+               "every N steps, layers cached (mean us per step, as a sliding probe pays):\n\n",
+               dmax);
+        printf("%8s | %10s %10s\n", "every N", "colored", "jacobi");
+        for (int e = 0; e < NMOVE; e++)
+            printf("%8d | %10.3f %10.3f\n", every[e], movm[e][0], movm[e][1]);
     }
     ftm_mesh_destroy(b.mesh);
     return 0;
