@@ -609,11 +609,9 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
             if (sim->elem) {
                 ok &= ftm_elem_sweep(sim, region_m2);
             } else if (sim->def.order != FTM_ORDER_BFS) { /* groups: Jacobi, colored */
-                if (!s->linked && !ftm_sim_record_links(sim) && s->uses > 0)
-                    sim->group_links(sim);
-                s->uses++;
                 sim->st.planar_sweeps += ftm_sim_planar(sim);
                 ok &= sim->sweep_groups(sim, region_m2);
+                s->uses++;
             } else {
                 ok &= ftm_sweep_gs(sim, 0, s->count, region_m2);
             }

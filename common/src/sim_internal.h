@@ -151,7 +151,6 @@ struct ftm_sim {
 
     double tol; /* sleep tolerance in metres */
     sweep_fn sweep_groups;
-    void (*group_links)(struct ftm_sim *sim); /* slot-major links for sweep_groups's lanes */
     int group_lanes; /* of sweep_groups: its blocks' width */
     /* Energy guard (sim.c): the sweeps add each updated node's kinetic energy
      * m |x_new - x|^2 / 2 h^2 and a quarter of its links' k (|r| - l)^2 */
@@ -206,14 +205,15 @@ static inline bool ftm_sim_planar(const ftm_sim *sim)
     return sim->planar_state && sim->m->planar && sim->def.planar_kernel && !sim->elem;
 }
 
-/* The group sweep records the schedule's block-major copy as it goes: the
- * schedule is not linked yet and, with cached layers, may well be swept
- * again — unless the previous schedule was swept just once (contacts that
- * change every step: recording costs more than it saves). Otherwise the
- * schedule's second sweep links it first (sim->group_links). */
+/* The group sweep records the schedule's block-major copy as it goes, for
+ * the sweeps after it to load whole: when the schedule is not linked yet
+ * and is swept a second time, or with cached layers on its first sweep
+ * already — unless the previous schedule was swept just once (contacts
+ * that change every step: the stores would be wasted). */
 static inline bool ftm_sim_record_links(const ftm_sim *sim)
 {
-    return !sim->s.linked && sim->def.cache_layers && sim->s.last_uses != 1;
+    const schedule *s = &sim->s;
+    return !s->linked && (s->uses > 0 || (sim->def.cache_layers && s->last_uses != 1));
 }
 
 /* sim.c */
@@ -225,14 +225,6 @@ void ftm_schedule_free(schedule *s);
 int ftm_sim_refresh_region(ftm_sim *sim);
 int ftm_sim_rebuild_region(ftm_sim *sim);
 int ftm_sim_rebuild_schedule(ftm_sim *sim);
-/* A block's padded link rows copied slot-major, as the vector kernels read
- * them with linked: per slot `width` times 3 * neighbour of the lanes' nodes
- * n[0 .. width-1], then their `width` stiffnesses and `width` rest lengths. */
-void ftm_block_copy_links(const ftm_mesh *m, const int32_t *n, int width, int32_t slots,
-                          int32_t *lj, double *lkl);
-/* The per-node constants of the lanes' nodes n[0 .. width-1], as node_c
- * holds them (a, b, c, lim2, ke_w: `width` of each). */
-void ftm_block_copy_consts(const struct ftm_sim *sim, const int32_t *n, int width, double *out);
 
 /* sim_kernel.c: each sweep returns false if a node moved more than its
  * guard limit or to a non-finite position. */

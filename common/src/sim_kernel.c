@@ -170,7 +170,6 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #define JTARGET
 #define JL v4l
 #define JNAME sweep_groups_body4
-#define JLINKNAME group_links4
 #define JBLOCK block4_in4
 #include "sim_groups.inc"
 #undef JW
@@ -178,7 +177,6 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #undef JTARGET
 #undef JL
 #undef JNAME
-#undef JLINKNAME
 #undef JBLOCK
 /* one instance of the sweep per (links read, recorded or neither; planar):
  * constants in the body */
@@ -290,7 +288,6 @@ static inline AVX512 void load_coef8(const double *p, const size_t on[8], v8d *a
 #define JTARGET __attribute__((target("avx512f")))
 #define JL v8l
 #define JNAME sweep_groups_body8
-#define JLINKNAME group_links8
 #define JBLOCK block8_in8
 #define JBLOCK4 block4_in8
 #include "sim_groups.inc"
@@ -314,7 +311,6 @@ static bool sweep_groups_portable(ftm_sim *sim, double *max_m2)
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
 {
     sim->sweep_groups = sweep_groups_portable;
-    sim->group_links = group_links4;
     sim->group_lanes = 4;
 #if defined(__x86_64__) || defined(__i386__)
     if (!portable && __builtin_cpu_supports("avx")) {
@@ -322,7 +318,6 @@ void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
     }
     if (!portable && __builtin_cpu_supports("avx512f")) {
         sim->sweep_groups = sweep_groups_avx512;
-        sim->group_links = group_links8;
         sim->group_lanes = 8;
     }
 #endif

@@ -183,31 +183,6 @@ static void schedule_groups(ftm_sim *sim, const int32_t *bounds, int32_t ranges,
     s->linked = false;
 }
 
-void ftm_block_copy_links(const ftm_mesh *m, const int32_t *n, int width, int32_t slots,
-                          int32_t *lj, double *lkl)
-{
-    const size_t deg = (size_t)m->max_degree;
-    for (int32_t sl = 0; sl < slots; sl++)
-        for (int l = 0; l < width; l++) {
-            const size_t e = (size_t)n[l] * deg + (size_t)sl;
-            lj[width * sl + l] = 3 * m->pad_node[e];
-            lkl[2 * width * sl + l] = m->pad_kl[2 * e];
-            lkl[2 * width * sl + width + l] = m->pad_kl[2 * e + 1];
-        }
-}
-
-void ftm_block_copy_consts(const ftm_sim *sim, const int32_t *n, int width, double *out)
-{
-    for (int l = 0; l < width; l++) {
-        const double *c = sim->coef + FTM_COEF * (size_t)n[l];
-        out[l] = c[0];
-        out[width + l] = c[1];
-        out[2 * width + l] = c[2];
-        out[3 * width + l] = c[FTM_LIM2];
-        out[4 * width + l] = sim->ke_w[n[l]];
-    }
-}
-
 /* The update schedule from the current layers and contact kinds. */
 int ftm_sim_rebuild_schedule(ftm_sim *sim)
 {
