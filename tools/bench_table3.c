@@ -76,20 +76,31 @@ static int setup(bench_setup *b)
     return 0;
 }
 
+/* A simulation of the setup with depth, order, layer caching and the
+ * planar sweep as given, the force on the centre node; NULL if it fails. */
+static ftm_sim *loaded_sim(const bench_setup *b, int depth, ftm_order order, bool cache,
+                           bool planar)
+{
+    ftm_sim_def d = b->def;
+    d.depth = depth;
+    d.order = order;
+    d.cache_layers = cache;
+    d.planar_kernel = planar;
+    ftm_sim *sim;
+    if (ftm_sim_create(b->mesh, &d, &sim, NULL))
+        return NULL;
+    ftm_sim_set_contacts(sim, &b->load, 1, NULL);
+    return sim;
+}
+
 /* Median time of one step [us] over `steps` steps after a warm-up of as
  * many steps, at most 200 (the load deforms the region first). */
 static double time_steps(const bench_setup *b, int depth, ftm_order order, bool cache, int steps,
                          double *samples, bool planar)
 {
-    ftm_sim_def d = b->def;
-    d.planar_kernel = planar;
-    d.depth = depth;
-    d.order = order;
-    d.cache_layers = cache;
-    ftm_sim *sim;
-    if (ftm_sim_create(b->mesh, &d, &sim, NULL))
+    ftm_sim *sim = loaded_sim(b, depth, order, cache, planar);
+    if (!sim)
         return NAN;
-    ftm_sim_set_contacts(sim, &b->load, 1, NULL);
     ftm_sim_run(sim, steps < 200 ? steps : 200);
     for (int i = 0; i < steps; i++) {
         double t0 = ftm_bench_now_us();
@@ -106,11 +117,8 @@ static double time_steps(const bench_setup *b, int depth, ftm_order order, bool 
  * a mean, since the steps after a move cost more than the others. */
 static double time_moving(const bench_setup *b, int depth, ftm_order order, int every, int steps)
 {
-    ftm_sim_def d = b->def;
-    d.depth = depth;
-    d.order = order;
-    ftm_sim *sim;
-    if (ftm_sim_create(b->mesh, &d, &sim, NULL))
+    ftm_sim *sim = loaded_sim(b, depth, order, true, true);
+    if (!sim)
         return NAN;
     const int32_t at[3] = {b->centre, ftm_mesh_node_of_input(b->mesh, 26 + 50 * 25),
                            ftm_mesh_node_of_input(b->mesh, 25 + 50 * 26)};
@@ -152,13 +160,9 @@ static double time_search(const bench_setup *b, int depth, bool with_sets, int r
 static double *equilibrium(const bench_setup *b, int depth, ftm_order order, int steps,
                            double *residual)
 {
-    ftm_sim_def d = b->def;
-    d.depth = depth;
-    d.order = order;
-    ftm_sim *sim;
-    if (ftm_sim_create(b->mesh, &d, &sim, NULL))
+    ftm_sim *sim = loaded_sim(b, depth, order, true, true);
+    if (!sim)
         return NULL;
-    ftm_sim_set_contacts(sim, &b->load, 1, NULL);
     ftm_sim_run(sim, steps);
     int32_t n = ftm_mesh_node_count(b->mesh);
     double *x = malloc((size_t)n * 3 * sizeof *x);
