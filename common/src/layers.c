@@ -91,17 +91,6 @@ split_layer16(ftm_layering *ly, const uint8_t *qcol, uint64_t present, int32_t s
 }
 #endif
 
-/* The mesh's padded adjacency rows give every node the same trip count,
- * cheaper to run than the CSR rows (depth 20 of Table 3: 5.2 -> 4.6 us), but
- * their padding slots (the node itself, already visited) are checked too:
- * used unless they would add more than a quarter to the links checked. */
-static bool use_padded_rows(const ftm_mesh *m)
-{
-    size_t slots = (size_t)m->node_count * (size_t)m->max_degree;
-    size_t links = (size_t)m->adj_start[m->node_count];
-    return slots <= links + links / 4;
-}
-
 /* Visits u's neighbours in adjacency order; each one not yet in the region
  * joins it: ON_NEW(v) runs after it is marked. */
 #define FOR_NEW_NEIGHBOURS(u, ON_NEW)                                                          \
@@ -154,7 +143,7 @@ static inline __attribute__((always_inline)) int search(ftm_layering *ly, const 
     int32_t *restrict queue = want_sets ? ly->queue : ly->order;
     const int32_t *restrict adj_start = m->adj_start, *restrict adj_node = m->adj_node;
     const size_t deg = (size_t)m->max_degree;
-    const bool padded = use_padded_rows(m);
+    const bool padded = ftm_mesh_pad_cheap(m); /* 5.2 -> 4.6 us at depth 20 of Table 3 */
     const uint8_t *color = m->color;
     /* colour counts of the layer being sorted and of the one being found */
     int32_t counts[2][FTM_SHARED_COLOR + 1] = {{0}};

@@ -51,6 +51,17 @@ struct ftm_mesh {
     bool planar;
 };
 
+/* The padded rows give every node the same trip count, cheaper to run than
+ * each node's own degree, but their padding slots cost a link each: worth
+ * it unless they add more than a quarter to the links (the search, layers.c,
+ * and a fresh schedule's sweep, sim_block.inc, take them then). */
+static inline bool ftm_mesh_pad_cheap(const ftm_mesh *m)
+{
+    size_t slots = (size_t)m->node_count * (size_t)m->max_degree;
+    size_t links = (size_t)m->adj_start[m->node_count];
+    return slots <= links + links / 4;
+}
+
 /* A deep copy of m (NULL: out of memory), e.g. to change its material. */
 ftm_mesh *ftm_mesh_clone(const ftm_mesh *m);
 
