@@ -38,9 +38,13 @@ fail() { echo "FAIL: $*"; for f in "$dir"/*.out "$dir"/*.err "$dir"/*.log; do [ 
 # leak-checked by its unit tests (test_haptic*, test_replay); the server and
 # bots here still run with leak detection.
 client_asan=${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0
+# The X authority file lives in $dir: left to make its own temporary
+# directory, xvfb-run once failed to remove it (under the ASan suite's load)
+# and exited 5 in place of the client's status.
 client() { # name, then client options
     n=$1; shift
-    ASAN_OPTIONS=$client_asan timeout 90 xvfb-run -a -s "-screen 0 1280x800x24" \
+    : >"$dir/$n.xauth"
+    ASAN_OPTIONS=$client_asan timeout 90 xvfb-run -a -f "$dir/$n.xauth" -s "-screen 0 1280x800x24" \
         "$FTM_CLIENT" $common --size 960x600 --log "$dir/$n.log" "$@" >"$dir/$n.out" 2>"$dir/$n.err"
 }
 start_server() { # extra server options...
