@@ -37,6 +37,13 @@ static ftm_sim *make(const ftm_mesh *m, ftm_order order, bool portable, bool cac
     return s;
 }
 
+static uint64_t planar_sweeps(const ftm_sim *s)
+{
+    ftm_sim_stats st;
+    ftm_sim_get_stats(s, &st);
+    return st.planar_sweeps;
+}
+
 /* The mesh in mb, built; mb destroyed. */
 static ftm_mesh *built(ftm_mesh_builder *mb)
 {
@@ -87,9 +94,7 @@ static void kernels_match_on(ftm_mesh *m, ftm_order order)
         }
     }
     for (int k = 0; k < 8; k++) {
-        ftm_sim_stats st;
-        ftm_sim_get_stats(s[k], &st);
-        assert_int_equal(st.planar_sweeps, k & 4 ? 0 : 1000);
+        assert_int_equal(planar_sweeps(s[k]), k & 4 ? 0 : 1000);
         ftm_sim_destroy(s[k]);
     }
     ftm_mesh_destroy(m);
@@ -391,13 +396,6 @@ static void copy_state(ftm_sim *dst, const ftm_sim *src)
     free(nodes);
     free(sx);
     free(sxp);
-}
-
-static uint64_t planar_sweeps(const ftm_sim *s)
-{
-    ftm_sim_stats st;
-    ftm_sim_get_stats(s, &st);
-    return st.planar_sweeps;
 }
 
 /* Steps a (planar sweep allowed) and b (full sweep) together: the same state

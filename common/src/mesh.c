@@ -569,10 +569,8 @@ int ftm_mesh_build(const ftm_mesh_builder *b, const ftm_mesh_build_def *def, ftm
     }
     m->mean_link_length = nl ? len_sum / nl : 1.0;
     m->planar = true;
-    for (int32_t i = 0; i < n && m->planar; i++) {
-        const double z = m->rest[3 * i + 2];
-        m->planar = z == 0.0 && !signbit(z);
-    }
+    for (int32_t i = 0; i < n && m->planar; i++)
+        m->planar = ftm_is_plus_zero(m->rest[3 * i + 2]);
     for (int32_t i = 0; i < n; i++)
         m->adj_start[i + 1] += m->adj_start[i];
     memcpy(fill, m->adj_start, (size_t)n * sizeof *fill);

@@ -51,6 +51,13 @@ struct ftm_mesh {
     bool planar;
 };
 
+/* z is +0.0, exactly those bits (not -0.0): what a planar mesh and a
+ * planar state hold (ftm_mesh.planar, ftm_sim_planar). */
+static inline bool ftm_is_plus_zero(double z)
+{
+    return z == 0.0 && !__builtin_signbit(z);
+}
+
 /* The padded rows give every node the same trip count, cheaper to run than
  * each node's own degree, but their padding slots cost a link each: worth
  * it unless they add more than a quarter to the links (the search, layers.c,

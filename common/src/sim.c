@@ -273,6 +273,16 @@ static int cmp_contact(const void *a, const void *b)
 
 static bool finite3(ftm_vec3 v) { return isfinite(v.x) && isfinite(v.y) && isfinite(v.z); }
 
+/* Every load has z = 0 (a force's or a displacement's), as the planar
+ * sweep needs (ftm_sim_planar). */
+static bool contacts_in_plane(const ftm_sim *sim)
+{
+    for (int32_t c = 0; c < sim->ncontacts; c++)
+        if (sim->contacts[c].value.z != 0.0)
+            return false;
+    return true;
+}
+
 int ftm_sim_set_contacts(ftm_sim *sim, const ftm_contact *c, int32_t count, ftm_error *err)
 {
     if (!sim || count < 0 || (count > 0 && !c))
@@ -373,9 +383,8 @@ int ftm_sim_set_contacts(ftm_sim *sim, const ftm_contact *c, int32_t count, ftm_
     sim->disp = ndisp;
     sim->ncontacts = count;
     sim->ndisp = nd;
-    for (int32_t i = 0; i < count; i++) /* a load off the plane: z leaves +0.0 */
-        if (nc[i].value.z != 0.0)
-            sim->planar_state = false;
+    if (!contacts_in_plane(sim)) /* a load off the plane: z leaves +0.0 */
+        sim->planar_state = false;
     if (!same_nodes)
         sim->layers_dirty = true;
     else if (!same_kinds)
@@ -1032,11 +1041,9 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
     sim->st.updated_nodes = 0;
     /* planar again if every loaded z is +0.0 (the contacts as now set:
      * the caller's array may have been this simulation's own, freed since) */
-    bool planar = true;
-    for (int32_t c = 0; c < sim->ncontacts; c++)
-        planar = planar && sim->contacts[c].value.z == 0.0;
+    bool planar = contacts_in_plane(sim);
     for (size_t e = 2; e < 3 * (size_t)count && planar; e += 3)
-        planar = x[e] == 0.0 && !signbit(x[e]) && xp[e] == 0.0 && !signbit(xp[e]);
+        planar = ftm_is_plus_zero(x[e]) && ftm_is_plus_zero(xp[e]);
     sim->planar_state = planar;
     sim->budget = md.energy_budget < 0.0 ? -1.0 : md.energy_budget;
     sim->energy_prev = md.energy_prev;
