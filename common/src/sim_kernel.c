@@ -12,25 +12,59 @@
  * and every machine rounds the same way). Written this way t is exactly 0 at
  * the rest length (rest lengths are the rest positions' distances computed
  * the same way), so an unloaded mesh at rest is an exact equilibrium.
+ * The division is shared by each pair of consecutive links (row slots 2p,
+ * 2p+1): w = 1 / (|r_a| |r_b|), t_a = k_a (|r_a| - l_a) (|r_b| w) and t_b
+ * likewise, one division for two links where the vector kernel is bound by
+ * the divider. A row of odd length pairs its last link with what a padding
+ * slot of the vector kernel's padded rows measures, |r| = FTM_LEN_EPS. The
+ * products stay normal: every |r| is >= FTM_LEN_EPS = 1e-150, and one above
+ * 1.3e154 has already overflowed |r|^2.
  * pe (if not NULL): sum of k (|r| - l)^2 over the links, for the energy
  * guard; a link is seen from both ends, so a node owns a quarter of it. */
+/* One link of row slot s: r = xi - x_j, its length |r| + FTM_LEN_EPS and
+ * kd = k (|r| - l); adds kd (|r| - l) to *e. */
+static inline __attribute__((always_inline)) double link_eval(const ftm_mesh *restrict m,
+                                                              const double *restrict x, int32_t s,
+                                                              const double xi[3], double r[3],
+                                                              double *kd, double *e)
+{
+    const double *xj = x + 3 * m->adj_node[s];
+    r[0] = xi[0] - xj[0];
+    r[1] = xi[1] - xj[1];
+    r[2] = xi[2] - xj[2];
+    double len = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) + FTM_LEN_EPS;
+    double ext = len - m->adj_len[s];
+    *kd = m->adj_k[s] * ext;
+    *e += *kd * ext;
+    return len;
+}
+
 static inline __attribute__((always_inline)) void
 spring_force_pe(const ftm_mesh *restrict m, const double *restrict x, int32_t i, const double xi[3],
                 double f[3], double *pe)
 {
-    const int32_t *restrict nb = m->adj_node;
-    const double *restrict kk = m->adj_k, *restrict len = m->adj_len;
     double fx = 0.0, fy = 0.0, fz = 0.0, e = 0.0;
-    for (int32_t s = m->adj_start[i]; s < m->adj_start[i + 1]; s++) {
-        const double *xj = x + 3 * nb[s];
-        double rx = xi[0] - xj[0], ry = xi[1] - xj[1], rz = xi[2] - xj[2];
-        double r = sqrt(rx * rx + ry * ry + rz * rz) + FTM_LEN_EPS;
-        double ext = r - len[s], kd = kk[s] * ext;
-        double t = kd / r;
-        e += kd * ext;
-        fx += t * rx;
-        fy += t * ry;
-        fz += t * rz;
+    const int32_t end = m->adj_start[i + 1];
+    int32_t s = m->adj_start[i];
+    for (; s + 1 < end; s += 2) {
+        double ra[3], rb[3], kda, kdb;
+        const double la = link_eval(m, x, s, xi, ra, &kda, &e);
+        const double lb = link_eval(m, x, s + 1, xi, rb, &kdb, &e);
+        const double w = 1.0 / (la * lb), ta = kda * (lb * w), tb = kdb * (la * w);
+        fx += ta * ra[0];
+        fy += ta * ra[1];
+        fz += ta * ra[2];
+        fx += tb * rb[0];
+        fy += tb * rb[1];
+        fz += tb * rb[2];
+    }
+    if (s < end) { /* the unpaired last link, with a padding slot's length */
+        double ra[3], kda;
+        const double la = link_eval(m, x, s, xi, ra, &kda, &e);
+        const double w = 1.0 / (la * FTM_LEN_EPS), ta = kda * (FTM_LEN_EPS * w);
+        fx += ta * ra[0];
+        fy += ta * ra[1];
+        fz += ta * ra[2];
     }
     f[0] = fx;
     f[1] = fy;
