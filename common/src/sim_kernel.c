@@ -6,21 +6,6 @@
 #include <math.h>
 #include <string.h>
 
-/* Sum of the spring forces f_ij (Eq. 6) on node i placed at xi:
- *     f_ij = t r,   t = k (|r| - l) / |r|,   r = xi - x_j,
- * over its neighbours in adjacency order (one fixed order, so every caller
- * and every machine rounds the same way). Written this way t is exactly 0 at
- * the rest length (rest lengths are the rest positions' distances computed
- * the same way), so an unloaded mesh at rest is an exact equilibrium.
- * The division is shared by each pair of consecutive links (row slots 2p,
- * 2p+1): w = 1 / (|r_a| |r_b|), t_a = k_a (|r_a| - l_a) (|r_b| w) and t_b
- * likewise, one division for two links where the vector kernel is bound by
- * the divider. A row of odd length pairs its last link with what a padding
- * slot of the vector kernel's padded rows measures, |r| = FTM_LEN_EPS. The
- * products stay normal: every |r| is >= FTM_LEN_EPS = 1e-150, and one above
- * 1.3e154 has already overflowed |r|^2.
- * pe (if not NULL): sum of k (|r| - l)^2 over the links, for the energy
- * guard; a link is seen from both ends, so a node owns a quarter of it. */
 /* One link of row slot s: r = xi - x_j, its length |r| + FTM_LEN_EPS and
  * kd = k (|r| - l); adds kd (|r| - l) to *e. */
 static inline __attribute__((always_inline)) double link_eval(const ftm_mesh *restrict m,
@@ -39,6 +24,21 @@ static inline __attribute__((always_inline)) double link_eval(const ftm_mesh *re
     return len;
 }
 
+/* Sum of the spring forces f_ij (Eq. 6) on node i placed at xi:
+ *     f_ij = t r,   t = k (|r| - l) / |r|,   r = xi - x_j,
+ * over its neighbours in adjacency order (one fixed order, so every caller
+ * and every machine rounds the same way). Written this way t is exactly 0 at
+ * the rest length (rest lengths are the rest positions' distances computed
+ * the same way), so an unloaded mesh at rest is an exact equilibrium.
+ * The division is shared by each pair of consecutive links (row slots 2p,
+ * 2p+1): w = 1 / (|r_a| |r_b|), t_a = k_a (|r_a| - l_a) (|r_b| w) and t_b
+ * likewise, one division for two links where the vector kernel is bound by
+ * the divider. A row of odd length pairs its last link with what a padding
+ * slot of the vector kernel's padded rows measures, |r| = FTM_LEN_EPS. The
+ * products stay normal: every |r| is >= FTM_LEN_EPS = 1e-150, and one above
+ * 1.3e154 has already overflowed |r|^2.
+ * pe (if not NULL): sum of k (|r| - l)^2 over the links, for the energy
+ * guard; a link is seen from both ends, so a node owns a quarter of it. */
 static inline __attribute__((always_inline)) void
 spring_force_pe(const ftm_mesh *restrict m, const double *restrict x, int32_t i, const double xi[3],
                 double f[3], double *pe)
