@@ -232,7 +232,8 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
     if (ftm_replay_check_announce(s->rep, a, &err)) {
         slog(s, FTM_LOG_ERROR, "%s", err.message);
         pthread_mutex_lock(&s->lock);
-        snprintf(s->shared.banner, sizeof s->shared.banner, "SCENE MISMATCH: %.230s", err.message);
+        snprintf(s->shared.banner, sizeof s->shared.banner, "%s: %.230s",
+                 err.code == FTM_EVERSION ? "VERSION MISMATCH" : "SCENE MISMATCH", err.message);
         s->shared.banner_error = true;
         s->shared.version++;
         pthread_mutex_unlock(&s->lock);

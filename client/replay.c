@@ -479,6 +479,19 @@ void ftm_replay_destroy(ftm_replay *r)
 
 int ftm_replay_check_announce(const ftm_replay *r, const ftm_wire_announce *a, ftm_error *err)
 {
+    /* servers from before the field computed with revision 1 */
+    const uint32_t theirs = a->arithmetic ? a->arithmetic : 1, ours = ftm_arithmetic_revision();
+    if (theirs != ours) {
+        if (err) {
+            err->code = FTM_EVERSION;
+            snprintf(err->message, sizeof err->message,
+                     "the server's physics core is of arithmetic revision %" PRIu32
+                     ", this build's of revision %" PRIu32
+                     ": its replay would not match the server's; use builds of one FTM version",
+                     theirs, ours);
+        }
+        return FTM_EVERSION;
+    }
     const char *why = NULL;
     if (a->digest_len != FTM_REPLAY_DIGEST_SIZE || memcmp(a->digest, r->digest, sizeof r->digest))
         why = "content digest differs";

@@ -104,8 +104,10 @@ int ftm_replay_create(const ftm_scene *scene, ftm_log_fn log, void *log_user, ft
                       ftm_error *err);
 void ftm_replay_destroy(ftm_replay *r);
 
-/* Checks an announcement against the local scene (digest, node count,
- * time step). FTM_EINVAL with a message on a mismatch. */
+/* Checks an announcement against this build and the local scene: the
+ * server core's arithmetic revision (FTM_EVERSION if it is not this
+ * build's: hashes could never match), then the scene's digest, node count
+ * and time step (FTM_EINVAL). A message names the mismatch. */
 int ftm_replay_check_announce(const ftm_replay *r, const ftm_wire_announce *a, ftm_error *err);
 
 /* A received tick frame (r->msg.kind == FTM_WIRE_TICK). Synced: applies it

@@ -1,6 +1,7 @@
 /* Session recording file: writer and bounded reader (record.h). */
 #include "record.h"
 
+#include "ftm/sim.h"
 #include "ftm/v1/ftm.pb-c.h"
 
 #include <errno.h>
@@ -125,6 +126,8 @@ int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_w
     hd.has_max_penetration = h->max_penetration > 0;
     hd.max_penetration = h->max_penetration;
     hd.session = h->session[0] ? (char *)h->session : NULL;
+    hd.has_arithmetic = true;
+    hd.arithmetic = ftm_arithmetic_revision();
     Ftm__V1__RecordEntry m = FTM__V1__RECORD_ENTRY__INIT;
     m.header = &hd;
     int rc = put_entry(w, &m, err);
@@ -307,6 +310,7 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
             h->start_unix_ns = hd->start_unix_ns;
             h->max_penetration = hd->has_max_penetration ? hd->max_penetration : 0.0;
             snprintf(h->session, sizeof h->session, "%s", hd->session ? hd->session : "");
+            h->arithmetic = hd->has_arithmetic && hd->arithmetic ? hd->arithmetic : 1;
             r->index = 1;
         }
     }

@@ -28,6 +28,8 @@ typedef struct ftm_record_header {
     uint64_t start_unix_ns;
     double max_penetration; /* probe push limit [m]; 0: none (recordings made before it) */
     char session[128];      /* the session's name; "" in recordings made before it */
+    uint32_t arithmetic;    /* read: the recording core's ftm_arithmetic_revision() (1 in
+                               recordings made before it); written: always this build's */
 } ftm_record_header;
 
 typedef struct ftm_record_entry {

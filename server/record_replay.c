@@ -180,6 +180,15 @@ int ftm_server_replay(const char *path, const char *scene_name)
     rstate s;
     memset(&s, 0, sizeof s);
     s.path = path;
+    if (h.arithmetic != ftm_arithmetic_revision()) {
+        rc = fail(path, NULL,
+                  "recorded by a physics core of arithmetic revision %" PRIu32
+                  ", this build's is revision %" PRIu32
+                  ": its state hashes cannot be reproduced here; replay it with the FTM version "
+                  "that recorded it",
+                  h.arithmetic, ftm_arithmetic_revision());
+        goto done;
+    }
     const char *name = scene_name ? scene_name : h.scene_id;
     if (ftm_wire_open_scene(name, &scene, NULL, 0, &err)) {
         rc = fail(path, NULL, "scene '%s': %s", name, err.message);

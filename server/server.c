@@ -308,6 +308,7 @@ static void publish_announce(server *s)
     a->tick = s->tick;
     a->paused = s->paused;
     a->server_start_ns = s->start_unix_ns;
+    a->arithmetic = ftm_arithmetic_revision();
     publish(s, &m, NULL);
 }
 

@@ -2,7 +2,10 @@
  * here. The same inputs must give the same bits on every machine, compiler
  * version and build type; a change of numerics (even one ulp anywhere) shows
  * up as a failure. If a change of the integrator is intended, update the
- * constants in the same commit and say why. */
+ * constants in the same commit and say why, and raise
+ * FTM_ARITHMETIC_REVISION (ftm/sim.h) with them: peers of the old revision
+ * can no longer replay the new one's sessions, and the revision is how they
+ * are told. */
 #include "ftm/ftm.h"
 
 #include <inttypes.h>

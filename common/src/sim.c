@@ -920,6 +920,11 @@ double ftm_sim_potential_energy(const ftm_sim *sim)
     return e;
 }
 
+uint32_t ftm_arithmetic_revision(void)
+{
+    return FTM_ARITHMETIC_REVISION;
+}
+
 void ftm_sim_reset(ftm_sim *sim)
 {
     memcpy(sim->x, sim->m->rest, (size_t)sim->n * 3 * sizeof(double));

@@ -605,6 +605,7 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         a->tick = m->tick;
         a->paused = m->paused != 0;
         a->server_start_ns = m->has_server_start_ns ? m->server_start_ns : 0;
+        a->arithmetic = m->has_arithmetic ? m->arithmetic : 0;
         return FTM_OK;
     }
     case FTM_WIRE_PROBE_INPUT: {
@@ -946,6 +947,8 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         m->paused = a->paused;
         m->has_server_start_ns = a->server_start_ns != 0;
         m->server_start_ns = a->server_start_ns;
+        m->has_arithmetic = a->arithmetic != 0;
+        m->arithmetic = a->arithmetic;
         *out = &m->base;
         return FTM_OK;
     }

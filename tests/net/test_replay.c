@@ -745,10 +745,50 @@ static void test_sha256(void **state)
     ftm_scene_destroy(b);
 }
 
+/* An announcement is checked against this build's arithmetic first: a
+ * server of another revision (or of none: revision 1, from before the
+ * field) is refused with FTM_EVERSION, whatever its scene. */
+static void test_announce_arithmetic(void **state)
+{
+    (void)state;
+    ftm_scene *sc = open_scene();
+    ftm_replay *r = NULL;
+    assert_int_equal(ftm_replay_create(sc, NULL, NULL, &r, NULL), FTM_OK);
+    ftm_wire_announce a;
+    memset(&a, 0, sizeof a);
+    snprintf(a.scene_id, sizeof a.scene_id, "default");
+    ftm_replay_scene_digest(sc, a.digest);
+    a.digest_len = FTM_REPLAY_DIGEST_SIZE;
+    a.node_count = ftm_mesh_node_count(ftm_scene_mesh(sc));
+    a.time_step = ftm_replay_sim_def(sc).time_step;
+    a.arithmetic = ftm_arithmetic_revision();
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_replay_check_announce(r, &a, &err), FTM_OK);
+    static const uint32_t other[3] = {0, 1, FTM_ARITHMETIC_REVISION + 1};
+    for (int i = 0; i < 3; i++) {
+        a.arithmetic = other[i];
+        err.message[0] = '\0';
+        assert_int_equal(ftm_replay_check_announce(r, &a, &err), FTM_EVERSION);
+        assert_int_equal(err.code, FTM_EVERSION);
+        char want[96];
+        snprintf(want, sizeof want, "arithmetic revision %u, this build's of revision %u",
+                 other[i] ? other[i] : 1u, FTM_ARITHMETIC_REVISION);
+        assert_non_null(strstr(err.message, want));
+    }
+    /* the same revision, another scene: the scene's mismatch */
+    a.arithmetic = ftm_arithmetic_revision();
+    a.node_count++;
+    assert_int_equal(ftm_replay_check_announce(r, &a, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "node count differs"));
+    ftm_replay_destroy(r);
+    ftm_scene_destroy(sc);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sha256),
+        cmocka_unit_test(test_announce_arithmetic),
         cmocka_unit_test(test_continue_in_contact),
         cmocka_unit_test(test_continue_relaxing),
         cmocka_unit_test(test_continue_substepped),

@@ -139,6 +139,7 @@ static void test_round_trip_announce(void **state)
     a->tick = UINT64_MAX - 1;
     a->paused = true;
     a->server_start_ns = 1795000000123456789ull;
+    a->arithmetic = 4000000000u;
     round_trip(&m, &b);
     const ftm_wire_announce *r = &b.u.announce;
     assert_string_equal(r->scene_id, "liver-probe");
@@ -156,11 +157,14 @@ static void test_round_trip_announce(void **state)
     assert_true(r->tick == UINT64_MAX - 1);
     assert_true(r->paused);
     assert_true(r->server_start_ns == 1795000000123456789ull);
+    assert_true(r->arithmetic == 4000000000u);
     ftm_wire_msg_free(&b);
-    /* optional: a server that does not send it announces 0 */
+    /* optional: a server that does not send them announces 0 */
     a->server_start_ns = 0;
+    a->arithmetic = 0;
     round_trip(&m, &b);
     assert_true(b.u.announce.server_start_ns == 0);
+    assert_true(b.u.announce.arithmetic == 0);
     ftm_wire_msg_free(&b);
 }
 

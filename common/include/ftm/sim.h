@@ -158,6 +158,13 @@ ftm_vec3 ftm_sim_reaction(const ftm_sim *sim, int32_t group);
  * bit-identical. Cost: proportional to the number of nodes not at rest. */
 uint64_t ftm_sim_hash(const ftm_sim *sim);
 
+/* Revision of the core's arithmetic: raised whenever a change makes the same
+ * scene and inputs give other bits (2: one division per pair of links,
+ * 2026-11-25). Hashes and replays agree only between cores of one revision,
+ * so a session announces its server's (ftm_wire_announce.arithmetic). */
+#define FTM_ARITHMETIC_REVISION 2u
+uint32_t ftm_arithmetic_revision(void);
+
 void ftm_sim_get_stats(const ftm_sim *sim, ftm_sim_stats *stats);
 
 /* The layers of the current contact region (after a step or set_contacts):

@@ -89,6 +89,7 @@ typedef struct ftm_wire_announce {
     uint64_t tick;
     bool paused;
     uint64_t server_start_ns; /* the server process's start (its incarnation); 0: not sent */
+    uint32_t arithmetic; /* the server core's ftm_arithmetic_revision(); 0: not sent (revision 1) */
 } ftm_wire_announce;
 
 typedef struct ftm_wire_probe_sample {
