@@ -1300,6 +1300,57 @@ static void test_guard_energy_quiet_when_stable(void **state)
     ftm_mesh_destroy(m);
 }
 
+/* No false alarm when a displaced node's links are seen by no free node: a
+ * probe pressing the centre of a small lattice whose every other node is
+ * fixed, and a probe at depth 0, where the region is the probe's node alone;
+ * each pushed in, held, drawn back (negative work) and released. Their
+ * links' energy was once outside the account, so the release looked like
+ * energy from nothing and the step "diverged" at every substep count. */
+static void test_guard_energy_held_node_released(void **state)
+{
+    (void)state;
+    ftm_mesh *walled = lattice3d(3, FTM_STENCIL_6, 0.001, 0.3, 50.0, (ftm_vec3){1, 1, 1}, 0x3F);
+    ftm_mesh *open = lattice3d(4, FTM_STENCIL_6, 0.001, 0.3, 50.0, (ftm_vec3){1, 1, 1},
+                               FTM_FACE_ZMIN);
+    const struct {
+        const ftm_mesh *m;
+        int32_t node, depth;
+    } cases[] = {{walled, in3d(walled, 3, 1, 1, 1), 20}, {open, in3d(open, 4, 1, 2, 3), 0}};
+    assert_true(ftm_mesh_fixed(walled, in3d(walled, 3, 0, 1, 1)));
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        for (int o = 0; o < 3; o++) {
+            const ftm_order order[] = {FTM_ORDER_LAYER_COLORED, FTM_ORDER_BFS,
+                                       FTM_ORDER_LAYER_JACOBI};
+            log_count lc = {0, 0};
+            ftm_sim_def def = ftm_default_sim_def();
+            def.time_step = 0.5 * ftm_mesh_critical_time_step(cases[c].m);
+            def.depth = cases[c].depth;
+            def.order = order[o];
+            def.log = count_log;
+            def.log_user = &lc;
+            ftm_sim *s = NULL;
+            assert_int_equal(ftm_sim_create(cases[c].m, &def, &s, NULL), FTM_OK);
+            for (int i = 0; i < 600; i++) {
+                /* in over 100 steps, held 100, out over 100, released */
+                double a = i < 100 ? i / 100.0 : i < 200 ? 1.0 : i < 300 ? (300 - i) / 100.0 : 0;
+                if (i < 300)
+                    set1(s, cases[c].node, FTM_CONTACT_DISPLACEMENT, (ftm_vec3){0, 0, -0.1 * a});
+                else if (i == 300)
+                    assert_int_equal(ftm_sim_set_contacts(s, NULL, 0, NULL), FTM_OK);
+                assert_int_equal(ftm_sim_step(s), FTM_OK);
+                assert_true(all_finite(s));
+            }
+            ftm_sim_stats st;
+            ftm_sim_get_stats(s, &st);
+            assert_true(st.guard_events == 0);
+            assert_int_equal(lc.warn, 0);
+            ftm_sim_destroy(s);
+        }
+    }
+    ftm_mesh_destroy(walled);
+    ftm_mesh_destroy(open);
+}
+
 /* ------------------------------------------------ contact validation */
 
 static void test_set_contacts_validation(void **state)
@@ -1404,6 +1455,7 @@ int main(void)
         cmocka_unit_test(test_guard_off_blows_up),
         cmocka_unit_test(test_guard_energy_slow_growth),
         cmocka_unit_test(test_guard_energy_quiet_when_stable),
+        cmocka_unit_test(test_guard_energy_held_node_released),
         cmocka_unit_test(test_unstable_step_leaves_state),
         cmocka_unit_test(test_set_contacts_validation),
     };

@@ -625,6 +625,12 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
             } else {
                 ok &= ftm_sweep_gs(sim, 0, s->count, region_m2);
             }
+            /* the held nodes' share of their links, which no sweep sums: on
+             * release it becomes a free node's, and with no free neighbour
+             * (depth 0, every neighbour fixed) nothing else accounts for it */
+            if (sim->energy_guard)
+                for (int32_t d = 0; d < sim->ndisp; d++)
+                    sim->energy += 0.25 * ftm_sim_link_pe(sim, sim->disp[d]);
         }
         ok &= sim->elem ? ftm_elem_sweep_relax(sim) : ftm_sweep_relax(sim);
         if (!sim->def.guard)
@@ -724,8 +730,10 @@ int ftm_sim_step(ftm_sim *sim)
         double work = 0.0;
         if (ok && echeck && sim->budget >= 0.0) {
             work = work_end(sim);
-            energy_fail = !(sim->energy <= FTM_ENERGY_SLACK * (sim->budget + work) +
-                                               sim->energy_floor); /* NaN fails */
+            /* a probe drawing back does negative work; no energy at all
+             * never fails (NaN does) */
+            energy_fail = !(sim->energy <= FTM_ENERGY_SLACK * fmax(0.0, sim->budget + work) +
+                                               sim->energy_floor);
             ok = !energy_fail;
         }
         if (ok) {

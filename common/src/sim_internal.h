@@ -233,6 +233,7 @@ bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2);
 bool ftm_sweep_relax(ftm_sim *sim);
 void ftm_sim_compute_reactions(ftm_sim *sim);
 void ftm_sim_spring_force(const ftm_sim *sim, int32_t i, double f[3]);
+double ftm_sim_link_pe(const ftm_sim *sim, int32_t i);
 /* Chooses the group orders' kernel: the widest this CPU supports
  * (the default), or with portable the baseline one. Both give bit-identical
  * results; tests compare them. */

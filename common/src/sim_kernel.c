@@ -399,6 +399,15 @@ void ftm_sim_compute_reactions(ftm_sim *sim)
     }
 }
 
+/* k (|r| - l)^2 summed over node i's links at the current positions: the
+ * energy guard's account of what a held (displaced) node's links store. */
+double ftm_sim_link_pe(const ftm_sim *sim, int32_t i)
+{
+    double f[3], pe;
+    spring_force_pe(sim->m, sim->x, i, sim->x + 3 * i, f, &pe);
+    return pe;
+}
+
 /* Spring force sum on node i at the current positions (for the energy
  * guard's account of the work a displacement contact does). */
 void ftm_sim_spring_force(const ftm_sim *sim, int32_t i, double f[3])
