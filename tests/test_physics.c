@@ -239,7 +239,7 @@ static void test_sim_create_validation(void **state)
 {
     (void)state;
     ftm_mesh *m = chain(3, 1.0, 1.0, 1.0, 10.0, true);
-    static const double bad_h[] = {0.0, -1e-3, NAN, INFINITY};
+    static const double bad_h[] = {0.0, -1e-3, NAN, INFINITY, 1e-160, 1e4};
     for (size_t i = 0; i < sizeof bad_h / sizeof bad_h[0]; i++) {
         ftm_sim_def d = ftm_default_sim_def();
         d.time_step = bad_h[i];
@@ -262,6 +262,15 @@ static void test_sim_create_validation(void **state)
     d = ftm_default_sim_def();
     d.sleep_tolerance = NAN;
     assert_true(ftm_sim_create(m, &d, &s, NULL) < 0);
+    assert_null(s);
+    ftm_mesh_destroy(m);
+    /* a mass so large that m / h^2 overflows: refused, naming the node */
+    m = chain(3, 1.0, 1e306, 1.0, 10.0, true);
+    d = ftm_default_sim_def();
+    ftm_error err;
+    memset(&err, 0, sizeof err);
+    assert_true(ftm_sim_create(m, &d, &s, &err) < 0);
+    assert_non_null(strstr(err.message, "non-finite update coefficients"));
     assert_null(s);
     ftm_mesh_destroy(m);
 }

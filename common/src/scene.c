@@ -554,7 +554,12 @@ static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
         return FTM_OK;
     }
     case K_TIME_STEP:
-        return scalar(p, kn, v, vlen, true, &s->sim.time_step);
+        if ((rc = scalar(p, kn, v, vlen, true, &s->sim.time_step)) != FTM_OK)
+            return rc;
+        if (s->sim.time_step < FTM_MIN_TIME_STEP || s->sim.time_step > FTM_MAX_TIME_STEP)
+            return fail_at(p, p->line, FTM_EINVAL, "%s must be in %g..%g s, got %g", kn,
+                           FTM_MIN_TIME_STEP, FTM_MAX_TIME_STEP, s->sim.time_step);
+        return FTM_OK;
     case K_DEPTH:
         if ((rc = one_integer(p, kn, v, vlen, 0, SCENE_MAX_DEPTH, &iv)) != FTM_OK)
             return rc;
@@ -671,7 +676,7 @@ static int set_load_key(parser *p, load_spec *ls, key k, const char *kn, const c
         return FTM_OK;
     }
     case K_GROUP:
-        if ((rc = one_integer(p, kn, v, vlen, 0, INT32_MAX, &iv)) != FTM_OK)
+        if ((rc = one_integer(p, kn, v, vlen, 0, FTM_MAX_CONTACT_GROUP, &iv)) != FTM_OK)
             return rc;
         l->contact.group = (int32_t)iv;
         return FTM_OK;

@@ -33,8 +33,9 @@ ftm_sim_def ftm_default_sim_def(void)
 
 static int check_def(const ftm_sim_def *d, ftm_error *err)
 {
-    if (!(d->time_step > 0.0) || !isfinite(d->time_step))
-        return ftm_error_set(err, FTM_EINVAL, "sim: time_step must be > 0 (got %g)", d->time_step);
+    if (!(d->time_step >= FTM_MIN_TIME_STEP && d->time_step <= FTM_MAX_TIME_STEP))
+        return ftm_error_set(err, FTM_EINVAL, "sim: time_step must be in %g..%g s (got %g)",
+                             FTM_MIN_TIME_STEP, FTM_MAX_TIME_STEP, d->time_step);
     if (d->depth < 0 || d->depth > FTM_MAX_DEPTH)
         return ftm_error_set(err, FTM_EINVAL, "sim: depth must be in 0..%d (got %d)",
                              FTM_MAX_DEPTH, (int)d->depth);
@@ -184,6 +185,17 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
     }
     sim->substeps = 1;
     set_substep_length(sim, d.time_step);
+    for (size_t i = 0; i < n; i++) { /* extreme masses against the step: refuse, not NaN later */
+        const double *c = sim->coef + FTM_COEF * i;
+        if (!m->fixed[i] && !(c[0] > 0.0 && isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2]))) {
+            ftm_error_set(err, FTM_EINVAL,
+                          "sim: node %zu (mass %g kg, damping %g N s/m) gives non-finite update "
+                          "coefficients with time step %g s",
+                          i, ftm_sim_masses(sim)[i], m->damping[i], d.time_step);
+            ftm_sim_destroy(sim);
+            return FTM_EINVAL;
+        }
+    }
     sim->energy_guard = !sim->elem; /* the element sweeps do not sum spring energy */
     sim->energy_floor = energy_floor(m);
     sim->tol = d.sleep_tolerance * m->mean_link_length;
@@ -302,9 +314,9 @@ int ftm_sim_set_contacts(ftm_sim *sim, const ftm_contact *c, int32_t count, ftm_
                                  (int)c[i].kind);
         if (!finite3(c[i].value))
             return ftm_error_set(err, FTM_EINVAL, "contact %d: value is not finite", (int)i);
-        if (c[i].group < 0 || c[i].group > 1 << 20)
+        if (c[i].group < 0 || c[i].group > FTM_MAX_CONTACT_GROUP)
             return ftm_error_set(err, FTM_EINVAL, "contact %d: group %d out of range 0..%d",
-                                 (int)i, (int)c[i].group, 1 << 20);
+                                 (int)i, (int)c[i].group, FTM_MAX_CONTACT_GROUP);
     }
     /* sorted copy, then duplicates */
     ftm_contact *nc = malloc(((size_t)count + 1) * sizeof *nc);

@@ -54,8 +54,14 @@ typedef enum ftm_forces {
     FTM_FORCES_COROT_FEM = 2,  /* co-rotational f_e = R K_e (R^T x_e - X_e): large rotations */
 } ftm_forces;
 
+/* The range of ftm_sim_def.time_step [s]: below it the Eq. 8 coefficients
+ * m / h^2 leave double's range for ordinary masses, above it nothing in
+ * soft tissue is resolved. */
+#define FTM_MIN_TIME_STEP 1e-12
+#define FTM_MAX_TIME_STEP 1e3
+
 typedef struct ftm_sim_def {
-    double time_step;       /* h [s], > 0 (default 1e-3) */
+    double time_step;       /* h [s], FTM_MIN_TIME_STEP..FTM_MAX_TIME_STEP (default 1e-3) */
     int32_t depth;          /* penetration depth n >= 0 (default 10) */
     ftm_order order;
     /* Relaxing nodes sleep when |x - X| and |x - x_prev| are both below
@@ -102,9 +108,12 @@ typedef enum ftm_contact_kind {
     FTM_CONTACT_DISPLACEMENT = 1, /* value: imposed displacement x_i - X_i [m] */
 } ftm_contact_kind;
 
+/* The largest contact group: reactions are kept per group up to the largest in use. */
+#define FTM_MAX_CONTACT_GROUP (1 << 20)
+
 typedef struct ftm_contact {
     int32_t node;  /* mesh index, not fixed */
-    int32_t group; /* probe/contact id >= 0, for reaction forces (Eq. 19) */
+    int32_t group; /* probe/contact id 0..FTM_MAX_CONTACT_GROUP, for reaction forces (Eq. 19) */
     ftm_contact_kind kind;
     ftm_vec3 value;
 } ftm_contact;
