@@ -3,6 +3,7 @@
  * on a schedule's first use, from the schedule's slot-major copy after) must
  * give bit-identical states: compare ftm_sim_hash. Each must also roll a
  * rejected step back exactly. */
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -308,6 +309,155 @@ static void test_colored_matches_sequential(void **state)
     ftm_mesh_destroy(m);
 }
 
+/* m without its padded rows, as a mesh whose padding would not fit
+ * (ftm_mesh_pad_rows_fit) has none: the vector sweep reads the adjacency. */
+static ftm_mesh *without_pad_rows(const ftm_mesh *m)
+{
+    ftm_mesh *c = ftm_mesh_clone(m);
+    assert_non_null(c);
+    free(c->pad_node);
+    free(c->pad_kl);
+    c->pad_node = NULL;
+    c->pad_kl = NULL;
+    return c;
+}
+
+/* m with padded rows, as mesh.c lays them out, for a mesh that has none:
+ * padding slots link a node to itself with k = -0.0 and len = 0. */
+static ftm_mesh *with_pad_rows(const ftm_mesh *m)
+{
+    ftm_mesh *c = ftm_mesh_clone(m);
+    assert_non_null(c);
+    const size_t deg = (size_t)c->max_degree, slots = (size_t)c->node_count * deg;
+    free(c->pad_node);
+    free(c->pad_kl);
+    c->pad_node = malloc(slots * sizeof *c->pad_node);
+    c->pad_kl = malloc(2 * slots * sizeof *c->pad_kl);
+    assert_true(c->pad_node && c->pad_kl);
+    for (int32_t i = 0; i < c->node_count; i++)
+        for (size_t k = 0; k < deg; k++) {
+            const int32_t e = c->adj_start[i] + (int32_t)k;
+            const bool in = e < c->adj_start[i + 1];
+            c->pad_node[(size_t)i * deg + k] = in ? c->adj_node[e] : i;
+            c->pad_kl[2 * ((size_t)i * deg + k)] = in ? c->adj_k[e] : -0.0;
+            c->pad_kl[2 * ((size_t)i * deg + k) + 1] = in ? c->adj_len[e] : 0.0;
+        }
+    return c;
+}
+
+/* A hub: node 0 linked to every node of a ring of `ring` (as an OBJ
+ * polygon fanned from one corner); every 10th ring node fixed. Ring nodes
+ * have 3 links, an odd row whose last link pairs with padding. The ring's
+ * node 56 (input 57, where the tests push) sits at the origin: near it the
+ * positions are small enough that a force differing in its last place
+ * shows in the positions. */
+static ftm_mesh *hub(int ring)
+{
+    const double pi = 3.14159265358979323846, r = 0.2 * ring, a56 = 2.0 * pi * 56 / ring;
+    const ftm_vec3 o = {r * cos(a56), r * sin(a56), 0.0};
+    ftm_mesh_builder *mb = ftm_mesh_builder_create();
+    ftm_node_def nd = ftm_default_node_def();
+    nd.damping = 1.0; /* the layer-by-layer update needs some (docs/stability.md) */
+    nd.position = (ftm_vec3){-o.x, -o.y, 0};
+    assert_true(ftm_mesh_builder_add_node(mb, &nd) == 0);
+    for (int i = 0; i < ring; i++) {
+        double a = 2.0 * pi * i / ring;
+        nd.position = (ftm_vec3){r * cos(a) - o.x, r * sin(a) - o.y, 0.0};
+        nd.fixed = i % 10 == 0;
+        assert_true(ftm_mesh_builder_add_node(mb, &nd) == i + 1);
+    }
+    for (int i = 0; i < ring; i++) {
+        ftm_link_def spoke = {.a = 0, .b = i + 1, .stiffness = 10.0 / ring, .rest_length = -1.0};
+        ftm_link_def rim = {.a = i + 1, .b = (i + 1) % ring + 1, .stiffness = 1.0,
+                            .rest_length = -1.0};
+        assert_int_equal(ftm_mesh_builder_add_link(mb, &spoke), FTM_OK);
+        assert_int_equal(ftm_mesh_builder_add_link(mb, &rim), FTM_OK);
+    }
+    return built(mb);
+}
+
+/* The same sims on a mesh with padded rows (a) and without (b): every
+ * kernel, group order, schedule and sweep must give the same bits. */
+static void rows_match(const ftm_mesh *a, const ftm_mesh *b, int32_t node, int32_t depth)
+{
+    assert_true(a->pad_node && !b->pad_node);
+    for (int v = 0; v < 16; v++) {
+        ftm_sim_def d = ftm_default_sim_def();
+        d.order = v & 1 ? FTM_ORDER_LAYER_JACOBI : FTM_ORDER_LAYER_COLORED;
+        d.cache_layers = v & 2;
+        d.planar_kernel = v & 4;
+        d.time_step = 0.1;
+        d.depth = depth;
+        ftm_sim *s[2];
+        const ftm_mesh *m[2] = {a, b};
+        ftm_contact c = {.node = node, .kind = FTM_CONTACT_FORCE, .value = {0.02, -0.3, 0.0}};
+        for (int k = 0; k < 2; k++) {
+            assert_int_equal(ftm_sim_create(m[k], &d, &s[k], NULL), FTM_OK);
+            ftm_sim_select_kernel(s[k], v & 8);
+            assert_int_equal(ftm_sim_set_contacts(s[k], &c, 1, NULL), FTM_OK);
+        }
+        assert_true(s[0]->pad_rows && !s[1]->pad_rows);
+        for (int i = 0; i < 6; i++) {
+            for (int k = 0; k < 2; k++)
+                assert_int_equal(ftm_sim_run(s[k], 40), FTM_OK);
+            assert_true(ftm_sim_hash(s[0]) == ftm_sim_hash(s[1]));
+        }
+        assert_false(ftm_sim_at_rest(s[1], node));
+        ftm_sim_destroy(s[0]);
+        ftm_sim_destroy(s[1]);
+    }
+}
+
+/* Read from the adjacency (a mesh without padded rows), the vector sweep
+ * gives the bits of the padded rows: a lane past its degree gets a padding
+ * slot's values. On the lattices (all lanes of a block alike) and on a hub,
+ * whose blocks mix its thousand slots with ring lanes of three. */
+static void test_compact_rows_match(void **state)
+{
+    (void)state;
+    ftm_mesh *m = lattice(), *c = without_pad_rows(m);
+    rows_match(m, c, ftm_mesh_node_of_input(m, 20 + 50 * 25), 12);
+    ftm_mesh_destroy(m);
+    ftm_mesh_destroy(c);
+    m = free_edged();
+    c = without_pad_rows(m);
+    rows_match(m, c, ftm_mesh_node_of_input(m, 20 + 50 * 25), 12);
+    ftm_mesh_destroy(m);
+    ftm_mesh_destroy(c);
+    c = hub(1000);
+    assert_null(c->pad_node); /* 1001 x 1000 slots against 4000 links: not kept */
+    m = with_pad_rows(c);
+    rows_match(m, c, ftm_mesh_node_of_input(c, 57), 3);
+    ftm_mesh_destroy(m);
+    ftm_mesh_destroy(c);
+}
+
+/* A large hub: padded rows would take 3001 x 3000 slots; the mesh keeps
+ * none, and the colored order still updates exactly as one node after
+ * another, the jacobi order as the portable kernel does. */
+static void test_hub_mesh_without_pad_rows(void **state)
+{
+    (void)state;
+    ftm_mesh *m = hub(3000);
+    assert_int_equal(ftm_mesh_max_degree(m), 3000);
+    assert_null(m->pad_node);
+    assert_null(m->pad_kl);
+    const int32_t node = ftm_mesh_node_of_input(m, 57);
+    colored_matches_sequential(m, node, 3);
+    for (int cache = 0; cache < 2; cache++) {
+        ftm_sim *a = pushed(m, FTM_ORDER_LAYER_JACOBI, 3, cache, node),
+                *b = pushed(m, FTM_ORDER_LAYER_JACOBI, 3, cache, node);
+        ftm_sim_select_kernel(b, true);
+        assert_int_equal(ftm_sim_run(a, 200), FTM_OK);
+        assert_int_equal(ftm_sim_run(b, 200), FTM_OK);
+        assert_true(ftm_sim_hash(a) == ftm_sim_hash(b));
+        assert_false(ftm_sim_at_rest(a, node));
+        ftm_sim_destroy(a);
+        ftm_sim_destroy(b);
+    }
+    ftm_mesh_destroy(m);
+}
+
 /* The colour split of the search's layers: the AVX-512 one (where the CPU
  * has it) and the portable one must give the same layering, on meshes with
  * few colours and with the shared colour, from one and several sources. */
@@ -569,6 +719,8 @@ int main(void)
                                        cmocka_unit_test(test_colour_splits_match),
                                        cmocka_unit_test(test_planar_matches_full),
                                        cmocka_unit_test(test_planar_needs_plane),
-                                       cmocka_unit_test(test_links_recorded)};
+                                       cmocka_unit_test(test_links_recorded),
+                                       cmocka_unit_test(test_compact_rows_match),
+                                       cmocka_unit_test(test_hub_mesh_without_pad_rows)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -97,7 +97,8 @@ int ftm_mesh_with_material(const ftm_mesh *base, const ftm_material_def *from,
                            X[3 * j + 2] - X[3 * i + 2]};
             double kk = base->adj_k[s0 + k] * link_factor(from, to, d);
             m->adj_k[s0 + k] = kk;
-            m->pad_kl[2 * ((size_t)i * (size_t)deg_max + (size_t)k)] = kk;
+            if (m->pad_kl)
+                m->pad_kl[2 * ((size_t)i * (size_t)deg_max + (size_t)k)] = kk;
         }
     }
     *out = m;

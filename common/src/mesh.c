@@ -463,9 +463,10 @@ ftm_mesh *ftm_mesh_clone(const ftm_mesh *m)
     c->adj_node = dup(m->adj_node, e * sizeof(int32_t));
     c->adj_k = dup(m->adj_k, e * sizeof(double));
     c->adj_len = dup(m->adj_len, e * sizeof(double));
-    c->pad_node = dup(m->pad_node, slots * sizeof(int32_t));
+    const bool pad = m->pad_node != NULL;
+    c->pad_node = pad ? dup(m->pad_node, slots * sizeof(int32_t)) : NULL;
     c->color = dup(m->color, n);
-    c->pad_kl = dup(m->pad_kl, slots * 2 * sizeof(double));
+    c->pad_kl = pad ? dup(m->pad_kl, slots * 2 * sizeof(double)) : NULL;
     c->link_a = dup(m->link_a, nl * sizeof(int32_t));
     c->link_b = dup(m->link_b, nl * sizeof(int32_t));
     c->link_k = dup(m->link_k, nl * sizeof(double));
@@ -476,8 +477,8 @@ ftm_mesh *ftm_mesh_clone(const ftm_mesh *m)
     c->node_of_input = dup(m->node_of_input, n * sizeof(int32_t));
     c->input_of_node = dup(m->input_of_node, n * sizeof(int32_t));
     if (!c->rest || !c->mass || !c->damping || !c->fixed || !c->min_link || !c->fixed_hops ||
-        !c->adj_start || !c->adj_node || !c->adj_k || !c->adj_len || !c->pad_node || !c->color ||
-        !c->pad_kl || !c->link_a || !c->link_b || !c->link_k || !c->link_len || !c->tris ||
+        !c->adj_start || !c->adj_node || !c->adj_k || !c->adj_len || (pad && !c->pad_node) || !c->color ||
+        (pad && !c->pad_kl) || !c->link_a || !c->link_b || !c->link_k || !c->link_len || !c->tris ||
         !c->tets || !c->hexes || !c->node_of_input || !c->input_of_node) {
         ftm_mesh_destroy(c);
         return NULL;
@@ -625,11 +626,12 @@ int ftm_mesh_build(const ftm_mesh_builder *b, const ftm_mesh_build_def *def, ftm
      * whose force term (-0 - 0/eps) * (x - x) is exactly -0.0, the additive
      * identity, so padded and unpadded sums round the same. */
     size_t slots = (size_t)n * (size_t)m->max_degree + 1;
-    m->pad_node = malloc(slots * sizeof *m->pad_node);
-    m->pad_kl = malloc(slots * 2 * sizeof *m->pad_kl);
-    if (!m->pad_node || !m->pad_kl)
+    const bool pad = ftm_mesh_pad_rows_fit((size_t)n, m->max_degree, (size_t)m->adj_start[n]);
+    m->pad_node = pad ? malloc(slots * sizeof *m->pad_node) : NULL;
+    m->pad_kl = pad ? malloc(slots * 2 * sizeof *m->pad_kl) : NULL;
+    if (pad && (!m->pad_node || !m->pad_kl))
         goto fail;
-    for (int32_t i = 0; i < n; i++) {
+    for (int32_t i = 0; pad && i < n; i++) {
         int32_t s = m->adj_start[i], deg = m->adj_start[i + 1] - s;
         size_t base = (size_t)i * (size_t)m->max_degree;
         for (int32_t k = 0; k < m->max_degree; k++) {

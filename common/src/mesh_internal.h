@@ -27,7 +27,9 @@ struct ftm_mesh {
     double *adj_len;
     /* The same adjacency padded to max_degree slots per node: node i's slot s
      * is pad_node[i * max_degree + s] with (k, len) in pad_kl[2 * that];
-     * padding slots link i to itself with k = -0.0 and len = 0, adding exactly -0.0. */
+     * padding slots link i to itself with k = -0.0 and len = 0, adding exactly -0.0.
+     * NULL both where the padding would cost too much (ftm_mesh_pad_rows_fit):
+     * the vector sweep then reads the adjacency itself. */
     int32_t *pad_node;
     double *pad_kl;
     /* Greedy colouring of the whole graph, 0..63: adjacent nodes differ in
@@ -67,6 +69,16 @@ static inline bool ftm_mesh_pad_cheap(const ftm_mesh *m)
     size_t slots = (size_t)m->node_count * (size_t)m->max_degree;
     size_t links = (size_t)m->adj_start[m->node_count];
     return slots <= links + links / 4;
+}
+
+/* Whether padded rows are kept: while they cost at most four times the
+ * adjacency. One node of high degree (an OBJ polygon fanned from a corner,
+ * a hub) would otherwise make them node_count x its degree: gigabytes for a
+ * mesh of a few thousand nodes. Padding that is cheap (ftm_mesh_pad_cheap)
+ * always fits. */
+static inline bool ftm_mesh_pad_rows_fit(size_t nodes, int32_t max_degree, size_t adjacency)
+{
+    return nodes * (size_t)max_degree <= 4 * adjacency + 64;
 }
 
 /* A deep copy of m (NULL: out of memory), e.g. to change its material. */

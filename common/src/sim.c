@@ -175,6 +175,7 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
         sim->kind[i] = m->fixed[i] ? NODE_FIXED : NODE_FREE;
     ftm_sim_select_kernel(sim, false);
     sim->pad_cheap = ftm_mesh_pad_cheap(m);
+    sim->pad_rows = m->pad_node != NULL;
     for (size_t i = 0; i < n; i++) {
         double lim = d.guard_motion * m->min_link[i];
         sim->coef[FTM_COEF * i + FTM_LIM2] = isfinite(lim) ? lim * lim : INFINITY;

@@ -153,6 +153,7 @@ struct ftm_sim {
     sweep_fn sweep_groups;
     int group_lanes; /* of sweep_groups: its blocks' width */
     bool pad_cheap;  /* ftm_mesh_pad_cheap: a fresh block runs every padded slot */
+    bool pad_rows;   /* the mesh has padded rows; else fresh blocks read the adjacency */
     /* Energy guard (sim.c): the sweeps add each updated node's kinetic energy
      * m |x_new - x|^2 / 2 h^2 and a quarter of its links' k (|r| - l)^2 */
     double energy;       /* of the current substep */

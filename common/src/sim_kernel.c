@@ -212,15 +212,18 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #undef JL
 #undef JNAME
 #undef JBLOCK
-/* one instance of the sweep per (links read, recorded or neither; planar):
- * constants in the body */
-#define SWEEP_PLANAR(body, sim, max_m2, linked, record)                                        \
-    (ftm_sim_planar(sim) ? body(sim, max_m2, linked, record, true)                             \
-                         : body(sim, max_m2, linked, record, false))
+/* one instance of the sweep per (links read, recorded or neither; planar;
+ * rows padded or compact): constants in the body */
+#define SWEEP_PLANAR(body, sim, max_m2, linked, record, compact)                               \
+    (ftm_sim_planar(sim) ? body(sim, max_m2, linked, record, true, compact)                    \
+                         : body(sim, max_m2, linked, record, false, compact))
+#define SWEEP_ROWS(body, sim, max_m2, linked, record)                                          \
+    ((sim)->pad_rows ? SWEEP_PLANAR(body, sim, max_m2, linked, record, false)                  \
+                     : SWEEP_PLANAR(body, sim, max_m2, linked, record, true))
 #define SWEEP_VARIANTS(body, sim, max_m2)                                                      \
-    ((sim)->s.linked              ? SWEEP_PLANAR(body, sim, max_m2, true, false)               \
-     : ftm_sim_record_links(sim) ? SWEEP_PLANAR(body, sim, max_m2, false, true)               \
-                                  : SWEEP_PLANAR(body, sim, max_m2, false, false))
+    ((sim)->s.linked              ? SWEEP_PLANAR(body, sim, max_m2, true, false, false)        \
+     : ftm_sim_record_links(sim) ? SWEEP_ROWS(body, sim, max_m2, false, true)                 \
+                                  : SWEEP_ROWS(body, sim, max_m2, false, false))
 
 #if defined(__x86_64__) || defined(__i386__) /* the 8-lane build is for AVX-512 */
 #include <immintrin.h>

@@ -25,7 +25,8 @@ void ftm_schedule_free(schedule *s)
     memset(s, 0, sizeof *s);
 }
 
-static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t max_degree)
+static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t max_degree,
+                            int32_t adjacency)
 {
 #define GROW(p, n, per)                                                                       \
     do {                                                                                      \
@@ -45,8 +46,13 @@ static int schedule_reserve(schedule *s, int32_t count, int32_t groups, int32_t 
         GROW(s->node_c, cap, FTM_NODE_C * 8); /* per block, blocks <= count */
         s->cap = cap;
     }
-    /* slots of all blocks, up to 8 lanes each (blocks <= count) */
-    size_t links = (size_t)count * (size_t)max_degree * 8;
+    /* slots of all blocks, up to 8 lanes each: a block runs as many slots as
+     * its largest degree, so all of them together no more than the region's
+     * degrees, which the adjacency bounds (a hub must not multiply) */
+    size_t slots = (size_t)count * (size_t)max_degree;
+    if (slots > (size_t)adjacency)
+        slots = (size_t)adjacency;
+    size_t links = slots * 8;
     if (links > s->link_cap) {
         GROW(s->link_j, links, 1);
         GROW(s->link_kl, links, 2);
@@ -190,7 +196,7 @@ int ftm_sim_rebuild_schedule(ftm_sim *sim)
     /* colored: a group per set, at most one per node in the shared-colour set */
     int rc = schedule_reserve(&sim->s, sim->ly.count, colored ? sim->ly.sets + sim->ly.count
                                                              : sim->ly.layers,
-                              sim->m->max_degree);
+                              sim->m->max_degree, sim->m->adj_start[sim->m->node_count]);
     if (rc)
         return rc;
     if (colored)
