@@ -41,6 +41,18 @@ static int add_nodes_failed(int32_t r, const char *who, ftm_error *err)
     return ftm_error_set(err, r, "%s: cannot add node: %s", who, ftm_strerror(r));
 }
 
+/* A link the builder refused: with an extreme spacing (squares that
+ * underflow or overflow) its length is zero or not finite, so name that. */
+static int link_failed(int32_t r, const char *who, double smin, double smax, ftm_error *err)
+{
+    if (r != FTM_EINVAL)
+        return ftm_error_set(err, r, "%s: cannot add link: %s", who, ftm_strerror(r));
+    return ftm_error_set(err, r,
+                         "%s: cannot add link: with spacing %g..%g m a link's length is zero or "
+                         "not finite in double precision",
+                         who, smin, smax);
+}
+
 int ftm_generate_lattice2d(ftm_mesh_builder *b, const ftm_lattice2d_def *def, ftm_error *err)
 {
     const char *who = "lattice2d";
@@ -87,7 +99,7 @@ int ftm_generate_lattice2d(ftm_mesh_builder *b, const ftm_lattice2d_def *def, ft
                                    .rest_length = -1.0}; /* = the rest positions' distance */
                 rc = ftm_mesh_builder_add_link(b, &ld);
                 if (rc)
-                    return ftm_error_set(err, rc, "%s: cannot add link: %s", who, ftm_strerror(rc));
+                    return link_failed(rc, who, def->spacing, def->spacing, err);
             }
         }
     /* surface triangles, counter-clockwise seen from +z: two per cell between rows */
@@ -176,9 +188,11 @@ int ftm_generate_lattice3d(ftm_mesh_builder *b, const ftm_lattice3d_def *def, ft
                         .stiffness = def->class_scale[cls] * axis_stiffness(&def->material, dx, dy, dz),
                         .rest_length = -1.0}; /* = the rest positions' distance */
                     rc = ftm_mesh_builder_add_link(b, &ld);
-                    if (rc)
-                        return ftm_error_set(err, rc, "%s: cannot add link: %s", who,
-                                             ftm_strerror(rc));
+                    if (rc) {
+                        const ftm_vec3 s = def->spacing;
+                        return link_failed(rc, who, fmin(s.x, fmin(s.y, s.z)),
+                                           fmax(s.x, fmax(s.y, s.z)), err);
+                    }
                 }
     /* hexahedral cells, for the FEM reference: bottom face counter-clockwise
      * seen from +z, then the top face */

@@ -522,6 +522,27 @@ static int set_mesh_key(parser *p, key k, const char *kn, const char *v, size_t 
     }
 }
 
+/* Length of the well-formed UTF-8 sequence at s (n bytes left), 0 if none:
+ * no overlong forms, no surrogates, nothing above U+10FFFF. A name is
+ * printed in JSON summaries, which must be valid UTF-8. */
+static size_t utf8_char(const unsigned char *s, size_t n)
+{
+    if (s[0] < 0x80)
+        return 1;
+    size_t len = s[0] >= 0xC2 && s[0] <= 0xDF ? 2 : s[0] >= 0xE0 && s[0] <= 0xEF ? 3
+                 : s[0] >= 0xF0 && s[0] <= 0xF4                           ? 4
+                                                                          : 0;
+    if (len == 0 || len > n)
+        return 0;
+    for (size_t i = 1; i < len; i++)
+        if ((s[i] & 0xC0) != 0x80)
+            return 0;
+    if ((s[0] == 0xE0 && s[1] < 0xA0) || (s[0] == 0xED && s[1] > 0x9F) ||
+        (s[0] == 0xF0 && s[1] < 0x90) || (s[0] == 0xF4 && s[1] > 0x8F))
+        return 0;
+    return len;
+}
+
 static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
 {
     spec *s = &p->s;
@@ -530,11 +551,15 @@ static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
     switch (k) {
     case K_NAME:
         if (vlen >= SCENE_NAME_MAX)
-            return fail_at(p, p->line, FTM_EINVAL, "name longer than %d characters",
+            return fail_at(p, p->line, FTM_EINVAL, "name longer than %d bytes",
                            SCENE_NAME_MAX - 1);
-        for (size_t i = 0; i < vlen; i++)
+        for (size_t i = 0, c; i < vlen; i += c) {
             if ((unsigned char)v[i] < 0x20 || v[i] == 0x7f)
                 return fail_at(p, p->line, FTM_EINVAL, "name contains a control character");
+            if ((c = utf8_char((const unsigned char *)v + i, vlen - i)) == 0)
+                return fail_at(p, p->line, FTM_EINVAL, "name is not valid UTF-8 (byte %zu)",
+                               i + 1);
+        }
         memcpy(s->name, v, vlen);
         s->name[vlen] = '\0';
         return FTM_OK;

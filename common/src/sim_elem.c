@@ -397,6 +397,8 @@ static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d,
         bool hex = e < m->hex_count;
         int nn = hex ? 8 : 4;
         const int32_t *src = hex ? m->hexes + 8 * (size_t)e : m->tets + 4 * (size_t)(e - m->hex_count);
+/* the node numbers the user's file or builder gave */
+#define IN(a) ((int)m->input_of_node[src[a]])
         ftm_vec3 x[8];
         el->start[e] = (int32_t)p;
         el->koff[e] = ko;
@@ -413,23 +415,23 @@ static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d,
                 rc = ftm_hex8_centre_gradients(x, el->grad + 3 * p);
             if (rc)
                 return ftm_error_set(err, FTM_EINVAL,
-                                     "sim: hexahedron %d (mesh nodes %d %d %d %d %d %d %d %d) is "
+                                     "sim: hexahedron %d (input nodes %d %d %d %d %d %d %d %d) is "
                                      "inverted or degenerate: Jacobian determinant %g",
-                                     (int)e, (int)src[0], (int)src[1], (int)src[2], (int)src[3],
-                                     (int)src[4], (int)src[5], (int)src[6], (int)src[7], min_det);
+                                     (int)e, IN(0), IN(1), IN(2), IN(3), IN(4), IN(5), IN(6),
+                                     IN(7), min_det);
         } else {
             rc = ftm_tet4_stiffness(x, d->young, d->poisson, el->k + ko, NULL);
             if (!rc)
                 rc = ftm_tet4_gradients(x, el->grad + 3 * p);
             if (rc)
                 return ftm_error_set(err, FTM_EINVAL,
-                                     "sim: tetrahedron %d (mesh nodes %d %d %d %d) is degenerate",
-                                     (int)(e - m->hex_count), (int)src[0], (int)src[1],
-                                     (int)src[2], (int)src[3]);
+                                     "sim: tetrahedron %d (input nodes %d %d %d %d) is degenerate",
+                                     (int)(e - m->hex_count), IN(0), IN(1), IN(2), IN(3));
         }
         p += (size_t)nn;
         ko += (size_t)(9 * nn * nn);
     }
+#undef IN
     el->start[ne] = (int32_t)p;
     el->koff[ne] = ko;
     return FTM_OK;
