@@ -25,6 +25,16 @@
 #include <unistd.h>
 
 #define SEC 1000000000LL
+/* The longest time an option may give [s], about 31.7 years: in nanoseconds
+ * (1e18) it still fits int64_t with the clock's value added; a larger double
+ * would wrap when cast (--duration 1e300: stop at once). */
+#define MAX_SECONDS 1e9
+/* The shortest --input-period: 10 kHz, ten times a 1 kHz haptic device.
+ * Shorter ones only fill the publishing queue ("publishing queue full"). */
+#define MIN_INPUT_PERIOD 1e-4
+/* DDS domain ids: UINT32_MAX is Cyclone's "the configuration's default",
+ * which --domain must not pick by accident (-1 parsed as unsigned). */
+#define MAX_DOMAIN 4294967294LL
 
 typedef struct options {
     const char *role, *script, *scene, *session, *config, *log_path, *name;
@@ -52,6 +62,14 @@ static int64_t real_ns(void)
 
 static int64_t g_t0;
 static uint32_t g_id;
+
+/* A script's time [s] as a deadline on the monotonic clock. Scripts bound
+ * times only to be finite: one beyond MAX_SECONDS comes after any
+ * --duration, so it is never (cast, it would wrap). */
+static int64_t script_deadline(double t)
+{
+    return t < MAX_SECONDS ? g_t0 + (int64_t)(t * 1e9) : INT64_MAX;
+}
 
 static void blog(const char *fmt, ...)
 {
@@ -83,12 +101,31 @@ static void usage(FILE *f)
             "  --config FILE          Cyclone DDS configuration\n"
             "  --id N                 participant id (default: from pid and time)\n"
             "  --name TEXT            display name\n"
-            "  --duration S           stop after S seconds (default 10; also when the server leaves)\n"
+            "  --duration S           stop after S seconds, <= 1e9 (default 10; also when the server\n"
+            "                         leaves)\n"
             "  --resync-timeout S     fail if not synced for S seconds (default 5)\n"
-            "  --input-period S       probe input batch period (default 0.001)\n"
+            "  --input-period S       probe input batch period, >= 0.0001 (default 0.001)\n"
             "  --rejoin S             when the server leaves, wait S seconds for it to restart\n"
             "                         and rejoin it (default 0: stop)\n"
             "  --log FILE             CSV: one line per applied frame\n");
+}
+
+/* An integer option's value: base 10, all of v, in lo..hi. What strtoul
+ * and a cast let through is refused, not wrapped: a sign ("-1" as
+ * 4294967295), a value beyond 32 bits cast down, trailing text. */
+static int int_opt(const char *opt, const char *v, long long lo, long long hi, long long *out)
+{
+    const char *digits = *v == '-' || *v == '+' ? v + 1 : v;
+    char *end = NULL;
+    errno = 0;
+    long long x = isdigit((unsigned char)*digits) ? strtoll(v, &end, 10) : 0;
+    if (!end || *end || errno == ERANGE || x < lo || x > hi) {
+        fprintf(stderr, "ftm-bot: %s must be an integer in %lld..%lld (got '%s')\n", opt, lo, hi,
+                v);
+        return -1;
+    }
+    *out = x;
+    return 0;
 }
 
 static int parse(int argc, char **argv, options *o)
@@ -106,6 +143,8 @@ static int parse(int argc, char **argv, options *o)
         }
         const char *v = argv[++i];
         char *end = NULL;
+        long long n = 0;
+        int bad = 0; /* an integer option out of range, already said */
         errno = 0;
         if (strcmp(a, "--role") == 0)
             o->role = v;
@@ -121,11 +160,13 @@ static int parse(int argc, char **argv, options *o)
             o->log_path = v;
         else if (strcmp(a, "--name") == 0)
             o->name = v;
-        else if (strcmp(a, "--domain") == 0)
-            o->domain = (uint32_t)strtoul(v, &end, 10);
-        else if (strcmp(a, "--id") == 0)
-            o->id = (uint32_t)strtoul(v, &end, 10);
-        else if (strcmp(a, "--duration") == 0)
+        else if (strcmp(a, "--domain") == 0) {
+            bad = int_opt(a, v, 0, MAX_DOMAIN, &n);
+            o->domain = (uint32_t)n;
+        } else if (strcmp(a, "--id") == 0) {
+            bad = int_opt(a, v, 0, UINT32_MAX, &n); /* 0: from pid and time */
+            o->id = (uint32_t)n;
+        } else if (strcmp(a, "--duration") == 0)
             o->duration = strtod(v, &end);
         else if (strcmp(a, "--resync-timeout") == 0)
             o->resync_timeout = strtod(v, &end);
@@ -137,6 +178,8 @@ static int parse(int argc, char **argv, options *o)
             fprintf(stderr, "ftm-bot: unknown option %s\n", a);
             return -1;
         }
+        if (bad)
+            return -1;
         if (end && (*end || errno)) {
             fprintf(stderr, "ftm-bot: %s: bad number '%s'\n", a, v);
             return -1;
@@ -146,8 +189,15 @@ static int parse(int argc, char **argv, options *o)
         fprintf(stderr, "ftm-bot: --role is required\n");
         return -1;
     }
-    if (!(o->duration > 0) || !(o->resync_timeout > 0) || !(o->input_period > 0)) {
-        fprintf(stderr, "ftm-bot: --duration, --resync-timeout, --input-period must be > 0\n");
+    if (!(o->duration > 0 && o->duration <= MAX_SECONDS) ||
+        !(o->resync_timeout > 0 && o->resync_timeout <= MAX_SECONDS)) {
+        fprintf(stderr, "ftm-bot: --duration and --resync-timeout must be in (0, %g] seconds "
+                        "(got %g and %g)\n", MAX_SECONDS, o->duration, o->resync_timeout);
+        return -1;
+    }
+    if (!(o->input_period >= MIN_INPUT_PERIOD && o->input_period <= MAX_SECONDS)) {
+        fprintf(stderr, "ftm-bot: --input-period must be in [%g, %g] seconds (got %g)\n",
+                MIN_INPUT_PERIOD, MAX_SECONDS, o->input_period);
         return -1;
     }
     if (!(o->rejoin >= 0 && o->rejoin <= 3600)) {
@@ -493,7 +543,7 @@ int main(int argc, char **argv)
     int64_t end_ns = g_t0 + (int64_t)(b->o.duration * 1e9);
 
     /* wait for the join time */
-    int64_t join_ns = g_t0 + (int64_t)(b->sc.join * 1e9);
+    int64_t join_ns = script_deadline(b->sc.join);
     while (!g_stop && mono_ns() < join_ns && mono_ns() < end_ns) {
         struct timespec ts = {0, 5000000};
         nanosleep(&ts, NULL);
@@ -520,7 +570,7 @@ int main(int argc, char **argv)
     blog("%s joining session '%s' on domain %u", b->o.role, b->o.session, b->o.domain);
     publish_status(b, FTM_WIRE_STATE_JOINING);
     int64_t next_status = mono_ns() + SEC / 2, next_input = mono_ns();
-    int64_t leave_ns = b->sc.leave >= 0 ? g_t0 + (int64_t)(b->sc.leave * 1e9) : INT64_MAX;
+    int64_t leave_ns = b->sc.leave >= 0 ? script_deadline(b->sc.leave) : INT64_MAX;
     b->unsynced_since = mono_ns();
     int rc_exit = 0;
     const char *why = "duration reached";

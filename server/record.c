@@ -1,5 +1,6 @@
 /* Session recording file: writer and bounded reader (record.h). */
 #include "record.h"
+#include "depth_ctl.h" /* FTM_DEPTH_CTL_MAX */
 
 #include "ftm/sim.h"
 #include "ftm/v1/ftm.pb-c.h"
@@ -19,7 +20,12 @@ struct ftm_record_writer {
     char message[FTM_ERROR_MESSAGE_MAX];
     uint8_t *buf;
     size_t cap;
+    char *iobuf; /* the stream's buffer: freed after fclose */
 };
+
+/* One write(2) per MiB, not per tick. The buffer must be ours: with NULL,
+ * glibc ignores the size and writes every 4 KiB (st_blksize). */
+#define RECORD_IOBUF (1u << 20)
 
 struct ftm_record_reader {
     FILE *f;
@@ -96,14 +102,20 @@ int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_w
         free(w);
         return rec_err(err, FTM_ENOMEM, "recording: out of memory");
     }
+    if (!(w->iobuf = malloc(RECORD_IOBUF))) {
+        free(w->path);
+        free(w);
+        return rec_err(err, FTM_ENOMEM, "recording: out of memory");
+    }
     w->f = fopen(path, "wb");
     if (!w->f) {
         int e = errno;
+        free(w->iobuf);
         free(w->path);
         free(w);
         return rec_err(err, FTM_EIO, "recording %s: cannot create: %s", path, strerror(e));
     }
-    setvbuf(w->f, NULL, _IOFBF, 1u << 20); /* one write(2) per MiB, not per tick */
+    setvbuf(w->f, w->iobuf, _IOFBF, RECORD_IOBUF);
     fwrite(FTM_RECORD_MAGIC, 1, 8, w->f);
     w->bytes = 8;
     Ftm__V1__RecordHeader hd = FTM__V1__RECORD_HEADER__INIT;
@@ -182,6 +194,7 @@ int ftm_record_close(ftm_record_writer *w, ftm_error *err)
     }
     if (rc)
         rec_err(err, rc, "%s", w->message);
+    free(w->iobuf); /* only now: fclose flushed from it */
     free(w->buf);
     free(w->path);
     free(w);
@@ -287,6 +300,10 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
         else if (!hd->has_content_digest || hd->content_digest.len == 0 ||
                  hd->content_digest.len > sizeof h->digest)
             rc = rec_err(err, FTM_EPARSE, "%s: header: content_digest missing or over 64 bytes", path);
+        else if (hd->has_depth_max && hd->depth_max > FTM_DEPTH_CTL_MAX)
+            /* no server runs deeper (depth_ctl.h); --inputs would fail later, naming neither */
+            rc = rec_err(err, FTM_EPARSE, "%s: header: depth_max %u is above %d, the deepest a "
+                         "server runs", path, hd->depth_max, FTM_DEPTH_CTL_MAX);
         else if (!hd->has_tick_rate_hz || hd->tick_rate_hz == 0 || !hd->has_node_count ||
                  hd->node_count == 0 || hd->node_count > INT32_MAX || !hd->has_depth_max ||
                  hd->depth_max > INT32_MAX || hd->depth_min > hd->depth_max)

@@ -22,6 +22,7 @@
 #include "ftm/wire.h"
 
 #include <arpa/inet.h>
+#include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -41,6 +42,14 @@
 #define MAX_PROBES 4 /* per trainee; group = slot * MAX_PROBES + probe */
 _Static_assert(MAX_PROBES <= FTM_REPORT_PROBES, "the session report counts every probe");
 #define MAX_CATCHUP 50 /* ticks run in one timer callback before we call them missed */
+/* The longest time an option may give [s], about 31.7 years: in nanoseconds
+ * (1e18) it still fits the 64-bit timer and deadline arithmetic with the
+ * clock's value added; a larger double would wrap when cast (to 0: a
+ * keyframe every tick, a session that stops at once). */
+#define MAX_SECONDS 1e9
+/* DDS domain ids: UINT32_MAX is Cyclone's "the configuration's default",
+ * which --domain must not pick by accident (-1 parsed as unsigned). */
+#define MAX_DOMAIN 4294967294LL
 
 typedef struct options {
     const char *scene;
@@ -1161,6 +1170,51 @@ static void usage(FILE *f)
             "                         thread one above, where permitted (default 10; 0: off)\n");
 }
 
+/* The base-10 integer at v, ending at `stop` ('\0': the end of v), in
+ * lo..hi. What strtoul and a cast let through is refused, not wrapped: a
+ * sign on an unsigned option ("-1" as 4294967295), a value beyond 32 bits
+ * cast down (4294967376 as 80), trailing text. Returns where it ended (at
+ * `stop`), NULL if v is no such integer; *out is set only then. */
+static const char *int_in(const char *v, char stop, long long lo, long long hi, long long *out)
+{
+    const char *digits = *v == '-' || *v == '+' ? v + 1 : v;
+    if (!isdigit((unsigned char)*digits)) /* strtoll would skip blanks, take "" as 0 */
+        return NULL;
+    char *end = NULL;
+    errno = 0;
+    long long x = strtoll(v, &end, 10);
+    if (errno == ERANGE || *end != stop || x < lo || x > hi)
+        return NULL;
+    *out = x;
+    return end;
+}
+
+/* An integer option's value in lo..hi; an error naming the option and the
+ * range if it is not one. */
+static int int_opt(const char *opt, const char *v, long long lo, long long hi, long long *out)
+{
+    if (int_in(v, '\0', lo, hi, out))
+        return 0;
+    fprintf(stderr, "ftm-server: %s must be an integer in %lld..%lld (got '%s')\n", opt, lo, hi, v);
+    return -1;
+}
+
+/* Whether an address (inet_pton's bytes) is one no client can connect to:
+ * multicast (IPv4 224.0.0.0/4, IPv6 ff00::/8) or the IPv4 broadcast
+ * address, also IPv4-mapped. Binding to them succeeds, so the metrics would
+ * say where they listen and never answer. */
+static bool unreachable_addr(const unsigned char *a, bool v6)
+{
+    static const unsigned char mapped[12] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xff, 0xff};
+    if (v6 && a[0] == 0xff)
+        return true;
+    if (v6 && memcmp(a, mapped, sizeof mapped) != 0)
+        return false;
+    const unsigned char *v4 = v6 ? a + 12 : a;
+    return (v4[0] >= 224 && v4[0] <= 239) ||
+           (v4[0] == 255 && v4[1] == 255 && v4[2] == 255 && v4[3] == 255);
+}
+
 static int parse(int argc, char **argv, options *o)
 {
     *o = (options){.scene = "default", .session = "ftm", .id = 1, .rate = 1000.0,
@@ -1182,6 +1236,8 @@ static int parse(int argc, char **argv, options *o)
         }
         const char *v = argv[++i];
         char *end = NULL;
+        long long n = 0;
+        int bad = 0; /* an integer option out of range, already said */
         errno = 0;
         if (strcmp(a, "--scene") == 0) {
             o->scene = v;
@@ -1194,11 +1250,13 @@ static int parse(int argc, char **argv, options *o)
             o->config = v;
         else if (strcmp(a, "--log") == 0)
             o->log_path = v;
-        else if (strcmp(a, "--domain") == 0)
-            o->domain = (uint32_t)strtoul(v, &end, 10);
-        else if (strcmp(a, "--id") == 0)
-            o->id = (uint32_t)strtoul(v, &end, 10);
-        else if (strcmp(a, "--rate") == 0)
+        else if (strcmp(a, "--domain") == 0) {
+            bad = int_opt(a, v, 0, MAX_DOMAIN, &n);
+            o->domain = (uint32_t)n;
+        } else if (strcmp(a, "--id") == 0) {
+            bad = int_opt(a, v, 1, UINT32_MAX, &n);
+            o->id = (uint32_t)n;
+        } else if (strcmp(a, "--rate") == 0)
             o->rate = strtod(v, &end);
         else if (strcmp(a, "--keyframe-every") == 0)
             o->keyframe_every = strtod(v, &end);
@@ -1206,15 +1264,18 @@ static int parse(int argc, char **argv, options *o)
             o->heartbeat = strtod(v, &end);
         else if (strcmp(a, "--duration") == 0)
             o->duration = strtod(v, &end);
-        else if (strcmp(a, "--depth") == 0)
-            o->depth = (int32_t)strtol(v, &end, 10);
-        else if (strcmp(a, "--depth-floor") == 0)
-            o->depth_floor = (int32_t)strtol(v, &end, 10);
-        else if (strcmp(a, "--depth-hold-up") == 0)
+        else if (strcmp(a, "--depth") == 0) {
+            bad = int_opt(a, v, 0, FTM_DEPTH_CTL_MAX, &n);
+            o->depth = (int32_t)n;
+        } else if (strcmp(a, "--depth-floor") == 0) {
+            bad = int_opt(a, v, 0, FTM_DEPTH_CTL_MAX, &n);
+            o->depth_floor = (int32_t)n;
+        } else if (strcmp(a, "--depth-hold-up") == 0)
             o->depth_hold_up = strtod(v, &end);
-        else if (strcmp(a, "--adaptive") == 0)
-            o->adaptive = (int32_t)strtol(v, &end, 10);
-        else if (strcmp(a, "--record") == 0)
+        else if (strcmp(a, "--adaptive") == 0) {
+            bad = int_opt(a, v, 0, 1, &n);
+            o->adaptive = (int32_t)n;
+        } else if (strcmp(a, "--record") == 0)
             o->record = v;
         else if (strcmp(a, "--replay") == 0)
             o->replay = v;
@@ -1222,15 +1283,24 @@ static int parse(int argc, char **argv, options *o)
             o->inputs = v;
         else if (strcmp(a, "--control-log") == 0)
             o->control_log = v;
-        else if (strcmp(a, "--metrics-port") == 0)
-            o->metrics_port = (int32_t)strtol(v, &end, 10);
-        else if (strcmp(a, "--offline") == 0)
-            o->offline_ticks = strtoll(v, &end, 10);
-        else if (strcmp(a, "--metrics-addr") == 0) {
+        else if (strcmp(a, "--metrics-port") == 0) {
+            bad = int_opt(a, v, 0, 65535, &n);
+            o->metrics_port = (int32_t)n;
+        } else if (strcmp(a, "--offline") == 0) {
+            bad = int_opt(a, v, 1, INT64_MAX, &n);
+            o->offline_ticks = n;
+        } else if (strcmp(a, "--metrics-addr") == 0) {
             unsigned char addr[16];
-            if (inet_pton(AF_INET, v, addr) != 1 && inet_pton(AF_INET6, v, addr) != 1) {
+            bool v4 = inet_pton(AF_INET, v, addr) == 1;
+            if (!v4 && inet_pton(AF_INET6, v, addr) != 1) {
                 fprintf(stderr, "ftm-server: --metrics-addr needs an IPv4 or IPv6 address "
                                 "(got '%s')\n", v);
+                return -1;
+            }
+            if (unreachable_addr(addr, !v4)) {
+                fprintf(stderr, "ftm-server: --metrics-addr %s is a multicast or broadcast "
+                                "address, which no client can connect to: give one of this "
+                                "host's addresses (0.0.0.0 or :: for all)\n", v);
                 return -1;
             }
             o->metrics_addr = v;
@@ -1247,9 +1317,10 @@ static int parse(int argc, char **argv, options *o)
         }
         else if (strcmp(a, "--reactions") == 0)
             o->reactions_csv = v;
-        else if (strcmp(a, "--rt-priority") == 0)
-            o->rt_priority = (int32_t)strtol(v, &end, 10);
-        else if (strcmp(a, "--max-penetration") == 0) {
+        else if (strcmp(a, "--rt-priority") == 0) {
+            bad = int_opt(a, v, 0, 98, &n);
+            o->rt_priority = (int32_t)n;
+        } else if (strcmp(a, "--max-penetration") == 0) {
             o->max_penetration = strtod(v, &end);
             if (!*end && !(isfinite(o->max_penetration) && o->max_penetration > 0)) {
                 fprintf(stderr, "ftm-server: --max-penetration must be a length > 0 in metres "
@@ -1261,6 +1332,8 @@ static int parse(int argc, char **argv, options *o)
             fprintf(stderr, "ftm-server: unknown option %s\n", a);
             return -1;
         }
+        if (bad)
+            return -1;
         if (end && (*end || errno)) {
             fprintf(stderr, "ftm-server: %s: bad number '%s'\n", a, v);
             return -1;
@@ -1268,20 +1341,24 @@ static int parse(int argc, char **argv, options *o)
     }
     /* the heartbeat bounds the ticks a frame may skip, which replicas check
      * (FTM_WIRE_MAX_TICK_GAP: 10 s at 100 kHz, twice over) */
-    if (!(o->rate > 0 && o->rate <= 100000) || !(o->keyframe_every > 0) ||
-        !(o->heartbeat > 0 && o->heartbeat <= 10) || o->duration < 0 || o->id == 0) {
-        fprintf(stderr, "ftm-server: --rate must be in (0, 100000], --keyframe-every > 0, "
-                        "--heartbeat in (0, 10] seconds, --id non-zero\n");
+    if (!(o->rate > 0 && o->rate <= 100000) || !(o->heartbeat > 0 && o->heartbeat <= 10)) {
+        fprintf(stderr, "ftm-server: --rate must be in (0, 100000], --heartbeat in (0, 10] "
+                        "seconds\n");
         return -1;
     }
-    if (o->depth_floor < -1 || (o->depth >= 0 && o->depth_floor > o->depth) ||
-        (o->adaptive != 0 && o->adaptive != 1) || !(o->depth_hold_up >= 0 && o->depth_hold_up <= 3600) || o->metrics_port < 0 || o->metrics_port > 65535) {
-        fprintf(stderr, "ftm-server: --depth-floor must be 0..depth, --adaptive 0 or 1, --depth-hold-up 0..3600, "
-                        "--metrics-port 0..65535\n");
+    if (!(o->keyframe_every > 0 && o->keyframe_every <= MAX_SECONDS)) {
+        fprintf(stderr, "ftm-server: --keyframe-every must be in (0, %g] seconds (got %g)\n",
+                MAX_SECONDS, o->keyframe_every);
         return -1;
     }
-    if (o->rt_priority < 0 || o->rt_priority > 98) {
-        fprintf(stderr, "ftm-server: --rt-priority must be 0..98 (got %d)\n", (int)o->rt_priority);
+    if (!(o->duration >= 0 && o->duration <= MAX_SECONDS)) {
+        fprintf(stderr, "ftm-server: --duration must be in [0, %g] seconds, 0: until a signal "
+                        "(got %g)\n", MAX_SECONDS, o->duration);
+        return -1;
+    }
+    if ((o->depth >= 0 && o->depth_floor > o->depth) ||
+        !(o->depth_hold_up >= 0 && o->depth_hold_up <= 3600)) {
+        fprintf(stderr, "ftm-server: --depth-floor must be 0..depth, --depth-hold-up 0..3600\n");
         return -1;
     }
     if ((o->replay != NULL) + (o->inputs != NULL) + (o->offline_ticks != 0) > 1 ||
@@ -1299,12 +1376,63 @@ static int parse(int argc, char **argv, options *o)
                         "--inputs or --offline\n");
         return -1;
     }
-    if (o->offline_ticks < 0 || ((o->ntrainees || o->reactions_csv) && !o->offline_ticks)) {
-        fprintf(stderr, "ftm-server: --offline needs a tick count > 0; --trainee and "
-                        "--reactions go with --offline\n");
+    /* (--offline itself is at least 1: int_opt) */
+    if ((o->ntrainees || o->reactions_csv) && !o->offline_ticks) {
+        fprintf(stderr, "ftm-server: --trainee and --reactions go with --offline\n");
         return -1;
     }
     return 0;
+}
+
+/* The files a run writes, by option (--record-dir's are new files). */
+typedef struct output {
+    const char *opt, *path;
+} output;
+
+static int outputs_of(const options *o, output out[5])
+{
+    const output all[5] = {{"--record", o->record},           {"--log", o->log_path},
+                           {"--report", o->report},           {"--control-log", o->control_log},
+                           {"--reactions", o->reactions_csv}};
+    int n = 0;
+    for (int i = 0; i < 5; i++)
+        if (all[i].path)
+            out[n++] = all[i];
+    return n;
+}
+
+/* Before anything is opened for writing: an output that is the recording
+ * --replay or --inputs reads (the same file, by device and inode: another
+ * name, a link) would be truncated before it is read. Returns 0, or 2 (a
+ * bad argument) after saying which. */
+static int outputs_apart_from_input(const options *o)
+{
+    const char *in = o->replay ? o->replay : o->inputs;
+    const char *in_opt = o->replay ? "--replay" : "--inputs";
+    struct stat si, so;
+    if (!in || stat(in, &si) != 0)
+        return 0; /* nothing to destroy; reading it fails with its own error */
+    output out[5];
+    int n = outputs_of(o, out);
+    for (int i = 0; i < n; i++)
+        if (stat(out[i].path, &so) == 0 && so.st_dev == si.st_dev && so.st_ino == si.st_ino) {
+            fprintf(stderr, "ftm-server: %s %s is the recording %s %s reads: it would be "
+                            "overwritten; write to another file\n",
+                    out[i].opt, out[i].path, in_opt, in);
+            return 2;
+        }
+    return 0;
+}
+
+/* An output that is an existing directory; NULL if none. fopen fails on it
+ * only when the file is written: --report's at the end of the session. */
+static const output *output_dir(const output *out, int n)
+{
+    struct stat st;
+    for (int i = 0; i < n; i++)
+        if (stat(out[i].path, &st) == 0 && S_ISDIR(st.st_mode))
+            return &out[i];
+    return NULL;
 }
 
 /* --offline: the session's tick logic without DDS or the clock. Each
@@ -1457,19 +1585,27 @@ static int run_offline(server *s)
     int n = s->o.ntrainees, rc = 0;
     for (int i = 0; i < n; i++) {
         const char *arg = s->o.trainees[i];
+        long long id = 0;
+        const char *at = int_in(arg, ':', 1, UINT32_MAX, &id);
         char *end = NULL;
-        unsigned long id = strtoul(arg, &end, 10);
-        double off = *end == ':' ? strtod(end + 1, &end) : NAN;
-        if (id == 0 || id == s->o.id || *end != ':' || !isfinite(off) || find_part(s, (uint32_t)id, false)) {
-            fprintf(stderr, "ftm-server: --trainee '%s': expected ID:T0:FILE with a new non-zero ID\n",
+        double off = at ? strtod(at + 1, &end) : NAN;
+        if (!at || *end != ':' || !isfinite(off) || id == s->o.id ||
+            find_part(s, (uint32_t)id, false)) {
+            fprintf(stderr, "ftm-server: --trainee '%s': expected ID:T0:FILE, ID in "
+                            "1..4294967295, not the server's (--id) nor an earlier trainee's\n",
                     arg);
             for (int j = 0; j < i; j++)
                 ftm_script_free(&sc[j]);
             return 2;
         }
-        if (ftm_script_load(end + 1, &sc[i]) || sc[i].npts == 0) {
-            if (sc[i].pts)
-                fprintf(stderr, "ftm-server: %s: no HIP positions\n", end + 1);
+        /* (a script that cannot be read says why itself) */
+        int bad = ftm_script_load(end + 1, &sc[i]);
+        if (!bad && sc[i].npts == 0) {
+            fprintf(stderr, "ftm-server: --trainee '%s': %s has no HIP positions for a trainee "
+                            "to play\n", arg, end + 1);
+            bad = 1;
+        }
+        if (bad) {
             for (int j = 0; j <= i; j++)
                 ftm_script_free(&sc[j]);
             return 2;
@@ -1709,7 +1845,11 @@ static int check_setup(server *s)
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         if (!files[i].path)
             continue;
-        if (can_create_in(files[i].path, files[i].dir, why, sizeof why)) {
+        struct stat st;
+        if (!files[i].dir && stat(files[i].path, &st) == 0 && S_ISDIR(st.st_mode)) {
+            printf("%-11s FAILS: %s is a directory, not a file\n", files[i].what, files[i].path);
+            bad++;
+        } else if (can_create_in(files[i].path, files[i].dir, why, sizeof why)) {
             printf("%-11s %s%s\n", files[i].what, files[i].path,
                    files[i].dir ? "/ (a new file per run)" : "");
         } else {
@@ -1771,6 +1911,16 @@ int ftm_server_main(int argc, char **argv)
     memset(s, 0, sizeof *s); /* called again by the fuzz target (tests/fuzz) */
     if (parse(argc, argv, &s->o))
         return 2;
+    int apart = outputs_apart_from_input(&s->o);
+    if (apart)
+        return apart;
+    output out[5];
+    const output *dir = output_dir(out, outputs_of(&s->o, out));
+    if (dir && !s->o.check) { /* (--check says so with the rest) */
+        fprintf(stderr, "ftm-server: %s %s is a directory: give a file name\n", dir->opt,
+                dir->path);
+        return 3;
+    }
     if (s->o.replay) { /* first the frames alone, then the inputs (replay_inputs) */
         int rc = ftm_server_replay(s->o.replay, s->o.scene_given ? s->o.scene : NULL);
         if (rc)

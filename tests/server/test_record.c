@@ -1,5 +1,7 @@
-/* Session recording file (server/record.h): round trip, and the reader's
- * clear errors on truncated, oversized and corrupted files. */
+/* Session recording file (server/record.h): round trip, the reader's
+ * clear errors on truncated, oversized and corrupted files and headers, and
+ * the writer's 1 MiB buffer. */
+#include "depth_ctl.h" /* FTM_DEPTH_CTL_MAX */
 #include "record.h"
 
 #include <setjmp.h>
@@ -15,18 +17,23 @@
 
 static char path[256], bad[256];
 
+static void sample_header(ftm_record_header *h)
+{
+    memset(h, 0, sizeof *h);
+    snprintf(h->scene_id, sizeof h->scene_id, "default");
+    for (int i = 0; i < 32; i++)
+        h->digest[i] = (uint8_t)i;
+    h->digest_len = 32;
+    h->tick_rate_hz = 1000;
+    h->depth_max = 8;
+    h->depth_min = 2;
+    h->node_count = 1728;
+}
+
 static void write_sample(void)
 {
     ftm_record_header h;
-    memset(&h, 0, sizeof h);
-    snprintf(h.scene_id, sizeof h.scene_id, "default");
-    for (int i = 0; i < 32; i++)
-        h.digest[i] = (uint8_t)i;
-    h.digest_len = 32;
-    h.tick_rate_hz = 1000;
-    h.depth_max = 8;
-    h.depth_min = 2;
-    h.node_count = 1728;
+    sample_header(&h);
     h.max_penetration = 0.0125;
     snprintf(h.session, sizeof h.session, "ward-3");
     ftm_record_writer *w = NULL;
@@ -192,6 +199,58 @@ static void corrupted(void **state)
     assert_non_null(strstr(err.message, "cannot open"));
 }
 
+/* A header deeper than any server runs (depth_ctl.h) is refused at the
+ * header, by file and field, not later by the depth controller. */
+static void depth_beyond_the_controller(void **state)
+{
+    (void)state;
+    ftm_record_header h;
+    ftm_record_reader *r = NULL;
+    ftm_error err = {0, ""};
+    for (int32_t depth = FTM_DEPTH_CTL_MAX; depth <= FTM_DEPTH_CTL_MAX + 1; depth++) {
+        sample_header(&h);
+        h.depth_max = depth;
+        ftm_record_writer *w = NULL;
+        assert_int_equal(ftm_record_create(path, &h, &w, &err), FTM_OK);
+        assert_int_equal(ftm_record_close(w, &err), FTM_OK);
+        int rc = ftm_record_open(path, &h, &r, &err);
+        ftm_record_close_reader(r);
+        r = NULL;
+        if (depth == FTM_DEPTH_CTL_MAX) {
+            assert_int_equal(rc, FTM_OK);
+            assert_int_equal(h.depth_max, FTM_DEPTH_CTL_MAX);
+            continue;
+        }
+        assert_int_equal(rc, FTM_EPARSE);
+        assert_non_null(strstr(err.message, path));
+        assert_non_null(strstr(err.message, "header: depth_max 1000001 is above 1000000"));
+    }
+}
+
+/* Entries stay in the 1 MiB buffer: nothing reaches the file before a MiB
+ * is written (glibc ignores the size of a buffer it allocates itself and
+ * writes every 4 KiB), all of it after closing. */
+static void one_write_per_mib(void **state)
+{
+    (void)state;
+    ftm_record_header h;
+    sample_header(&h);
+    ftm_record_writer *w = NULL;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_record_create(path, &h, &w, &err), FTM_OK);
+    static uint8_t payload[1000];
+    for (int i = 0; i < 500; i++) { /* about 0.5 MiB */
+        ftm_record_entry e = {.tick = (uint64_t)i, .kind = 3, .sender = 1, .payload = payload,
+                              .size = sizeof payload};
+        assert_int_equal(ftm_record_write(w, &e, &err), FTM_OK);
+    }
+    uint64_t bytes = ftm_record_bytes(w);
+    assert_true(bytes > 500000 && bytes < (1u << 20));
+    assert_int_equal(file_size(path), 0);
+    assert_int_equal(ftm_record_close(w, &err), FTM_OK);
+    assert_int_equal(file_size(path), (long)bytes);
+}
+
 int main(void)
 {
     snprintf(path, sizeof path, "/tmp/ftm-test-record-%d.rec", (int)getpid());
@@ -200,6 +259,8 @@ int main(void)
         cmocka_unit_test(round_trip),
         cmocka_unit_test(truncated_everywhere),
         cmocka_unit_test(corrupted),
+        cmocka_unit_test(depth_beyond_the_controller),
+        cmocka_unit_test(one_write_per_mib),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     unlink(path);

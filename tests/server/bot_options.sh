@@ -1,0 +1,34 @@
+#!/bin/sh
+# ftm-bot refuses out-of-range options with a message naming them, before
+# it joins anything: every run names a Cyclone configuration that does not
+# exist, so that a build without a check stops before DDS instead.
+set -u
+fail() { echo "FAIL: $*"; exit 1; }
+nodds=/nonexistent/ftm-test-cyclonedds.xml
+refused() { # expected-text options...
+    want=$1
+    shift
+    out=$(timeout 20 "$FTM_BOT" --role observer --config $nodds "$@" 2>&1)
+    [ $? -eq 2 ] || fail "$*: exit status not 2 (usage): $out"
+    case $out in *"$want"*) ;; *) fail "$*: no '$want' in: $out" ;; esac
+}
+# times that would wrap when cast to nanoseconds (1e300: stop at once)
+for v in 1e300 1e10 inf nan 0 -1; do
+    refused "--duration and --resync-timeout must be in (0, 1e+09] seconds" --duration $v
+    refused "--duration and --resync-timeout must be in (0, 1e+09] seconds" --resync-timeout $v
+done
+# a period that floods the publishing queue
+for v in 1e-12 0.00009 0 inf; do
+    refused "--input-period must be in [0.0001, 1e+09] seconds" --input-period $v
+done
+# integers: range-checked, never cast to 32 bits nor read unsigned from a sign
+refused "--id must be an integer in 0..4294967295 (got '-1')" --id -1
+refused "--id must be an integer in 0..4294967295 (got '4294967297')" --id 4294967297
+refused "--domain must be an integer in 0..4294967294 (got '-1')" --domain -1
+refused "--domain must be an integer in 0..4294967294 (got '4294967296')" --domain 4294967296
+refused "--domain must be an integer in 0..4294967294 (got '1x')" --domain 1x
+# the limits themselves pass the options and fail only at the configuration
+out=$(timeout 20 "$FTM_BOT" --role observer --config $nodds --duration 1e9 --resync-timeout 1e9 \
+    --input-period 0.0001 --id 4294967295 --domain 4294967294 2>&1)
+case $out in *"Cyclone DDS configuration $nodds"*) ;; *) fail "the limits refused: $out" ;; esac
+echo "PASS bot options"
