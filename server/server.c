@@ -112,6 +112,10 @@ typedef struct participant {
     int64_t lag;      /* ticks behind the last published frame, at its last status */
     double replay_ns; /* its replay time per tick, as reported */
     int32_t report;   /* its entry in the session report, -1: none */
+    /* the DDS participant of its first status: the id is that process's
+     * until it is gone; another process giving the same id is not heard */
+    uint64_t origin;
+    uint64_t impostor_msgs; /* messages dropped from such a process */
     probe probes[MAX_PROBES];
 } participant;
 
@@ -133,6 +137,9 @@ typedef struct server {
     uint64_t push_limited; /* probe-ticks whose push was shortened to max_push */
     uint64_t start_unix_ns;    /* wall clock at start: announced, so replicas tell a restart */
     uint64_t rejected_unknown; /* messages from senders with no status yet (log rate) */
+    uint64_t own_id_msgs;      /* messages from another process using the server's id */
+    bool displaced;            /* stopped: another server was serving this session first */
+    bool other_server_told;    /* a later server on this session was logged */
     char record_path[1024];    /* --record-dir: this run's recording */
     char scene_path[1024];     /* the file the scene came from (its name for a built-in) */
     ftm_report report;         /* what each participant did (--report, the closing log) */
@@ -644,6 +651,65 @@ static void on_control(server *s, ftm_wire_received *rx)
     }
 }
 
+static void shutdown_server(server *s, const char *why);
+
+/* Another ftm-server's status on this session: every participant would
+ * follow two streams of frames. The one that started later stops (exit 3):
+ * at the same rate it has run fewer ticks than the other's status, which is
+ * at most a status period old, so the older one never finds itself behind. */
+static void other_server(server *s, const ftm_wire_status *st)
+{
+    if (s->stopping)
+        return;
+    if (s->tick < st->last_applied_tick) {
+        slog(s, "error",
+             "session '%s' on domain %u is already served by another ftm-server ('%s', at "
+             "tick %" PRIu64 "; this one at %" PRIu64 "): stopping this one",
+             s->o.session, s->o.domain, st->name, st->last_applied_tick, s->tick);
+        s->displaced = true;
+        shutdown_server(s, "another server serves the session");
+    } else if (!s->other_server_told) {
+        slog(s, "error",
+             "another ftm-server ('%s', at tick %" PRIu64 ") joined session '%s' on domain %u; "
+             "it should stop, as it started later: its messages are ignored here",
+             st->name, st->last_applied_tick, s->o.session, s->o.domain);
+        s->other_server_told = true;
+    }
+}
+
+/* Whether a message is listened to. An id belongs to the process (DDS
+ * participant) of the first status that claimed it until it is gone: a second process with the
+ * same id (a copied --id) would otherwise be merged with the first, its
+ * probe jumping between them. The server's own id is no participant's, and
+ * another server's status stops one of the two (other_server). What is not
+ * listened to is not recorded either, so a replay sees what the session did. */
+static bool admit(server *s, int kind, const ftm_wire_received *rx)
+{
+    if (kind == FTM_WIRE_STATUS && !rx->gone &&
+        rx->msg.u.status.role == FTM_WIRE_ROLE_SERVER) {
+        other_server(s, &rx->msg.u.status);
+        return false;
+    }
+    if (rx->sender == s->o.id) {
+        if (rx->gone) /* a server that stopped (other_server) */
+            return false;
+        if (s->own_id_msgs++ % 1000 == 0)
+            slog(s, "error", "%s from participant %u, the server's own id (%" PRIu64 " so far): "
+                 "ignored; give each participant its own --id", ftm_wire_kind_name(kind),
+                 rx->sender, s->own_id_msgs);
+        return false;
+    }
+    participant *p = find_part(s, rx->sender, false);
+    if (!p || !p->origin || !rx->origin || rx->origin == p->origin)
+        return true;
+    if (p->impostor_msgs++ % 1000 == 0)
+        slog(s, "error", "participant %u (%s '%s'): a second process uses this id (%s, %" PRIu64
+             " messages so far): ignored; give each participant its own --id",
+             p->id, ftm_wire_role_name(p->role), p->name, ftm_wire_kind_name(kind),
+             p->impostor_msgs);
+    return false;
+}
+
 static void drain(server *s)
 {
     static const int kinds[3] = {FTM_WIRE_STATUS, FTM_WIRE_CONTROL, FTM_WIRE_PROBE_INPUT};
@@ -652,6 +718,10 @@ static void drain(server *s)
             ftm_wire_received rx;
             if (ftm_wire_receive(s->wire, kinds[k], &rx, 0, NULL) != FTM_OK)
                 break;
+            if (!admit(s, kinds[k], &rx)) {
+                ftm_wire_received_free(&rx);
+                continue;
+            }
             if (s->rec) { /* re-encoded from the decoded message */
                 uint8_t *buf = NULL;
                 size_t size = 0;
@@ -659,9 +729,12 @@ static void drain(server *s)
                     record(s, true, kinds[k], rx.sender, buf, size, rx.gone);
                 free(buf);
             }
-            if (kinds[k] == FTM_WIRE_STATUS)
+            if (kinds[k] == FTM_WIRE_STATUS) {
                 on_status(s, &rx);
-            else if (kinds[k] == FTM_WIRE_CONTROL)
+                participant *p = rx.gone ? NULL : find_part(s, rx.sender, false);
+                if (p && !p->origin)
+                    p->origin = rx.origin; /* its id is now this process's */
+            } else if (kinds[k] == FTM_WIRE_CONTROL)
                 on_control(s, &rx);
             else
                 on_probe_input(s, &rx);
@@ -1828,6 +1901,22 @@ static int check_setup(server *s)
            s->o.session, s->o.domain, s->o.id,
            s->o.config ? s->o.config : getenv("CYCLONEDDS_URI") ? getenv("CYCLONEDDS_URI")
                                                                 : "Cyclone's default");
+    /* another server on this session says so within a status period */
+    const uint64_t until = mono_ns() + 700000000u;
+    for (uint64_t now = mono_ns(); now < until; now = mono_ns()) {
+        ftm_wire_received rx;
+        if (ftm_wire_receive(s->wire, FTM_WIRE_STATUS, &rx, (int64_t)(until - now), NULL))
+            break;
+        const bool server_role = !rx.gone && rx.msg.u.status.role == FTM_WIRE_ROLE_SERVER;
+        if (server_role) {
+            printf("session     FAILS: already served by another ftm-server ('%s', at tick "
+                   "%" PRIu64 ")\n", rx.msg.u.status.name, rx.msg.u.status.last_applied_tick);
+            bad++;
+        }
+        ftm_wire_received_free(&rx);
+        if (server_role)
+            break;
+    }
     printf("ticks       %.0f Hz, depth %d, adaptive %s (range %d..%d), keyframe every %g s\n",
            s->o.rate, (int)s->depth, s->o.adaptive ? "on" : "off", (int)s->ctl.def.floor,
            (int)s->ctl.def.max, s->o.keyframe_every);
@@ -2172,6 +2261,8 @@ int ftm_server_main(int argc, char **argv)
          s->ctl.decreases, s->ctl.increases);
     log_limits(s);
     int rc = finish_report(s);
+    if (s->displaced)
+        rc = 3;
     if (s->rec) {
         uint64_t bytes = ftm_record_bytes(s->rec);
         if (ftm_record_close(s->rec, &err)) {

@@ -55,6 +55,7 @@ typedef struct rx_item {
     bool valid;             /* valid_data; else an instance-state change */
     bool alive;             /* instance_state == ALIVE */
     uint32_t sender;
+    uint64_t origin; /* the writer's DDS participant (origin_of) */
     uint8_t kind;
     uint64_t seq;
     size_t size;
@@ -69,10 +70,13 @@ typedef struct rx_item {
 
 typedef struct sender_seq {
     uint32_t sender;
+    uint64_t origin; /* two processes that give one sender id count apart */
     uint64_t last;
 } sender_seq;
 
 struct ftm_wire_transport;
+
+#define ORIGIN_CACHE 64 /* writers remembered per reader: far more than a session has */
 
 typedef struct kind_io {
     dds_entity_t topic, writer, reader;
@@ -92,6 +96,11 @@ typedef struct kind_io {
     sender_seq *senders;
     int nsenders, capsenders;
     ftm_wire_stats stats; /* counters under t->lock */
+    /* the listener's cache of writer -> DDS participant (origin_of) */
+    struct {
+        dds_instance_handle_t writer, origin;
+    } origins[ORIGIN_CACHE];
+    int next_origin;
 } kind_io;
 
 struct ftm_wire_transport {
@@ -412,6 +421,26 @@ static int64_t real_now_ns(void)
     return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
 }
 
+/* The DDS participant (in this process's handles) of the writer of a
+ * sample: one process has a writer per kind, so this is what tells two
+ * processes that give one sender id apart. 0 if the writer is no longer
+ * matched (a sample that reports it gone). Cached: asked once per writer. */
+static uint64_t origin_of(kind_io *io, dds_entity_t reader, dds_instance_handle_t writer)
+{
+    for (int i = 0; i < ORIGIN_CACHE; i++)
+        if (io->origins[i].writer == writer && writer != 0)
+            return io->origins[i].origin;
+    dds_builtintopic_endpoint_t *ep = dds_get_matched_publication_data(reader, writer);
+    if (!ep)
+        return 0;
+    const uint64_t origin = ep->participant_instance_handle;
+    dds_builtintopic_free_endpoint(ep);
+    io->origins[io->next_origin].writer = writer;
+    io->origins[io->next_origin].origin = origin;
+    io->next_origin = (io->next_origin + 1) % ORIGIN_CACHE;
+    return origin;
+}
+
 /* Cyclone's receive thread: take what arrived, queue it with its arrival
  * time. Only copies; no decoding and no logging here. */
 static void on_data_available(dds_entity_t reader, void *arg)
@@ -447,6 +476,7 @@ static void on_data_available(dds_entity_t reader, void *arg)
                             .valid = info[i].valid_data,
                             .alive = info[i].instance_state == DDS_IST_ALIVE,
                             .sender = env->sender,
+                            .origin = origin_of(io, reader, info[i].publication_handle),
                             .kind = env->kind,
                             .seq = env->seq,
                             .size = size,
@@ -696,10 +726,10 @@ int ftm_wire_pin_publisher(ftm_wire_transport *t, int cpu, ftm_error *err)
 /* ---- receive ----------------------------------------------------------------- */
 
 /* The gap before seq from sender; updates the baseline. */
-static uint64_t track(kind_io *io, uint32_t sender, uint64_t seq)
+static uint64_t track(kind_io *io, uint32_t sender, uint64_t origin, uint64_t seq)
 {
     for (int i = 0; i < io->nsenders; i++) {
-        if (io->senders[i].sender == sender) {
+        if (io->senders[i].sender == sender && io->senders[i].origin == origin) {
             uint64_t last = io->senders[i].last;
             io->senders[i].last = seq;
             return seq > last ? seq - last - 1 : 0; /* seq <= last: sender restarted */
@@ -717,7 +747,7 @@ static uint64_t track(kind_io *io, uint32_t sender, uint64_t seq)
             io->capsenders = cap;
         }
     }
-    io->senders[io->nsenders++] = (sender_seq){sender, seq};
+    io->senders[io->nsenders++] = (sender_seq){sender, origin, seq};
     return 0;
 }
 
@@ -746,6 +776,7 @@ static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm
             memset(out, 0, sizeof *out);
             out->msg.kind = FTM_WIRE_STATUS;
             out->sender = it->sender;
+            out->origin = it->origin;
             out->gone = true;
             out->source_time_ns = it->source_time_ns;
             out->arrival_ns = it->arrival_ns;
@@ -778,11 +809,12 @@ static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm
     memset(out, 0, sizeof *out);
     out->msg = msg;
     out->sender = it->sender;
+    out->origin = it->origin;
     out->seq = it->seq;
     out->source_time_ns = it->source_time_ns;
     out->arrival_ns = it->arrival_ns;
     out->payload_size = it->size;
-    out->gap = track(io, it->sender, it->seq);
+    out->gap = track(io, it->sender, it->origin, it->seq);
     pthread_mutex_lock(&t->lock);
     io->stats.received++;
     io->stats.missing += out->gap;

@@ -322,10 +322,14 @@ int ftm_wire_wait_matched(ftm_wire_transport *t, int kind, int32_t count, int64_
 typedef struct ftm_wire_received {
     ftm_wire_msg msg;      /* decoded; release with ftm_wire_received_free */
     uint32_t sender;       /* Envelope.sender */
+    /* The DDS participant it came from (a handle local to this process; 0:
+     * no longer known): two processes that give one sender id differ here. */
+    uint64_t origin;
     uint64_t seq;          /* Envelope.seq */
-    /* Messages of this kind from this sender that never arrived between
-     * the previous one received and this one (0: none missing). The first
-     * message seen from a sender sets the baseline and has gap 0. */
+    /* Messages of this kind from this sender (and origin) that never
+     * arrived between the previous one received and this one (0: none
+     * missing). The first message seen from a sender sets the baseline and
+     * has gap 0. */
     uint64_t gap;
     int64_t source_time_ns; /* writer's clock at dds_write */
     /* CLOCK_REALTIME when the message reached this process (taken in
