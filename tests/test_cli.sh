@@ -209,8 +209,121 @@ run bench table3 --steps 5
 check "bench table3 rejects too few steps" [ "$rc" -eq 2 ]
 check "bench table3 names the bad option" grep -q -- '--steps' "$tmp/err"
 run bench table3 --json-file "$tmp/no/such/dir/t3.json"
-check "bench table3 unwritable JSON file fails" [ "$rc" -eq 1 ]
-check "bench table3 names the file" grep -q 'no/such/dir/t3.json' "$tmp/err"
+check "bench table3 unwritable JSON file exits 2" [ "$rc" -eq 2 ]
+check "bench table3 names the file and the reason" \
+    grep -q 'no/such/dir/t3.json: cannot write: .' "$tmp/err"
+
+# --- scene text: byte order mark, numbers ------------------------------------
+
+# A UTF-8 byte order mark starting a scene file (as Windows editors write)
+# is skipped: the same run as without it.
+scene="$FTM_TEST_DATA/scenes/cube_press.scene"
+printf '\357\273\277' >"$tmp/bom.scene"
+cat "$scene" >>"$tmp/bom.scene"
+run sim "$scene" --steps 50 --quiet
+plain=$(hash_of "$tmp/out")
+run sim "$tmp/bom.scene" --steps 50 --quiet
+check "a scene starting with a byte order mark runs" [ "$rc" -eq 0 ]
+check "the byte order mark changes nothing" same "$plain" "$(hash_of "$tmp/out")"
+
+# Numbers are decimal: hexadecimal is refused, however strtod would read it;
+# a long but valid number is read whole.
+lattice_scene() { # SPACING FILE
+    printf '[mesh]\ngenerator = lattice2d\nnx = 6\nny = 6\nspacing = %s\n' "$1" >"$2"
+    printf '[material]\nmass = 0.001\nstiffness = 10\n' >>"$2"
+}
+lattice_scene 0x1p-7 "$tmp/hex.scene"
+run sim "$tmp/hex.scene"
+check "a hexadecimal number in a scene exits 2" [ "$rc" -eq 2 ]
+check "the hexadecimal number is named with its line" grep -q 'hex.scene:5:.*0x1p-7' "$tmp/err"
+zeros=0000000000000000000000000000000000000000000000000000000000000000000000000000
+lattice_scene 0.01 "$tmp/short.scene"
+lattice_scene "${zeros}${zeros}0.01" "$tmp/long.scene"
+run sim "$tmp/short.scene" --steps 10 --quiet
+short=$(hash_of "$tmp/out")
+run sim "$tmp/long.scene" --steps 10 --quiet
+check "a 156-character number in a scene is read" [ "$rc" -eq 0 ]
+check "it is read as the short number" same "$short" "$(hash_of "$tmp/out")"
+
+# --- outputs that cannot be written ------------------------------------------
+
+# /dev/full takes the open and fails every write (ENOSPC): each output must
+# be checked, named with the reason, and end in exit status 2.
+run sim --csv /dev/full
+check "sim --csv /dev/full exits 2" [ "$rc" -eq 2 ]
+check "sim names the file and the reason" grep -q '^ftm sim: /dev/full: cannot write: .' "$tmp/err"
+check "sim still prints the summary" grep -Eq '^hash [0-9a-f]{16}$' "$tmp/out"
+
+rc=0
+"$FTM" sim --quiet >/dev/full 2>"$tmp/err" || rc=$?
+check "sim with standard output on /dev/full exits 2" [ "$rc" -eq 2 ]
+check "the failed standard output is reported" grep -q 'standard output: cannot write: .' "$tmp/err"
+
+run stability --quick --csv /dev/full
+check "stability --csv /dev/full exits 2" [ "$rc" -eq 2 ]
+check "stability names the file and the reason" \
+    grep -q '^ftm stability: /dev/full: cannot write: .' "$tmp/err"
+
+run experiment depth --quick --csv-dir "$tmp/no/such/dir"
+check "experiment with a missing --csv-dir exits 2" [ "$rc" -eq 2 ]
+check "experiment names the file and the reason" \
+    grep -q 'no/such/dir/depth_change.csv: cannot write: .' "$tmp/err"
+mkdir "$tmp/csv"
+ln -s /dev/full "$tmp/csv/depth_profiles.csv"
+run experiment depth --quick --csv-dir "$tmp/csv"
+check "experiment with a CSV file on /dev/full exits 2" [ "$rc" -eq 2 ]
+check "experiment names the failed CSV file" \
+    grep -q 'csv/depth_profiles.csv: cannot write: .' "$tmp/err"
+check "experiment writes the other CSV file" [ -s "$tmp/csv/depth_change.csv" ]
+
+run bench table3 --steps 55 --eq-steps 100 --json-file /dev/full
+check "bench table3 --json-file /dev/full exits 2" [ "$rc" -eq 2 ]
+check "bench table3 names the file and the reason" \
+    grep -q '^ftm bench table3: /dev/full: cannot write: .' "$tmp/err"
+
+# --- option values -----------------------------------------------------------
+
+run stability --csv
+check "stability --csv without a file exits 2" [ "$rc" -eq 2 ]
+check "stability says --csv needs a value" grep -q -- '--csv needs a value' "$tmp/err"
+run bench table3 --json-file
+check "bench table3 --json-file without a file exits 2" [ "$rc" -eq 2 ]
+check "bench table3 says --json-file needs a value" grep -q -- '--json-file needs a value' "$tmp/err"
+run bench table3 --steps 100x
+check "bench table3 refuses --steps with junk" [ "$rc" -eq 2 ]
+
+if "$FTM" bench --help | grep -q '^  net '; then
+    run bench net --rate 0
+    check "bench net --rate 0 exits 2" [ "$rc" -eq 2 ]
+    check "bench net states the accepted --rate range" \
+        grep -q -- '--rate must be above 0 and at most 10000' "$tmp/err"
+fi
+
+# ftm fem and ftm fit (built with the FEM library only)
+if "$FTM" help | grep -q '^  fit '; then
+    printf '%s\n' '[mesh]' 'generator = lattice3d' 'nx = 3' 'ny = 3' 'nz = 3' 'spacing = 0.05' \
+        'fixed_faces = zmin' '[material]' 'mass = 0.001' 'damping = 0.5' 'stiffness = 5000' \
+        '[fem]' 'young = 0.6e6' 'poisson = 0.45' '[load]' 'node = 22' 'value = 0 0 -1' \
+        >"$tmp/fem.scene"
+    run fem "$tmp/fem.scene" --csv /dev/full
+    check "fem --csv /dev/full exits 2" [ "$rc" -eq 2 ]
+    check "fem names the file and the reason" grep -q '^ftm fem: /dev/full: cannot write: .' "$tmp/err"
+
+    quick="--iterations 4 --prerun 2 --nm-evals 0 --tolerance 1e-5 --model uniform --forces 1"
+    run fit "$tmp/fem.scene" $quick --quiet --trace /dev/full
+    check "fit --trace /dev/full exits 2" [ "$rc" -eq 2 ]
+    check "fit names the trace file and the reason" \
+        grep -q '^ftm fit: /dev/full: cannot write: .' "$tmp/err"
+
+    for seed in -1 99999999999999999999999 ' 7' 7x; do
+        run fit "$tmp/fem.scene" $quick --quiet --seed "$seed"
+        check "fit --seed '$seed' exits 2" [ "$rc" -eq 2 ]
+        check "fit --seed '$seed' states the range" \
+            grep -q -- '--seed must be an integer in 0..18446744073709551615' "$tmp/err"
+    done
+    run fit "$tmp/fem.scene" $quick --quiet --seed 18446744073709551615
+    check "fit takes the largest seed" [ "$rc" -eq 0 ]
+fi
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

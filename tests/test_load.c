@@ -22,6 +22,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 #define DATA(name) FTM_TEST_DATA "/" name
@@ -517,6 +518,19 @@ static void test_bad_gmsh(void **state)
              MSH_ELEMS("1 1 2 3 4"),
          FTM_EPARSE, 19, "coincide"},
         {"elemshort.msh", MSH_FORMAT MSH_NODES4 MSH_ELEMS("1 1 2 3"), FTM_EPARSE, 19, "needs"},
+        /* The same tetrahedron twice, corners in another order. */
+        {"reptet.msh",
+         MSH_FORMAT MSH_NODES4 "$Elements\n1 2 1 8\n3 1 4 2\n5 1 2 3 4\n8 4 2 1 3\n"
+                               "$EndElements\n",
+         FTM_EPARSE, 20, "element 8 has the same four nodes as element 5 (line 19)"},
+        /* In another block, after triangles; the first repeat is reported. */
+        {"reptet3.msh",
+         MSH_FORMAT "$Nodes\n1 5 1 5\n3 1 0 5\n1\n2\n3\n4\n5\n"
+                    "0 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 -1\n$EndNodes\n"
+                    "$Elements\n3 6 1 6\n3 1 4 2\n1 1 2 3 5\n2 1 2 3 4\n"
+                    "2 1 2 1\n3 1 2 3\n3 2 4 3\n4 3 2 1 4\n5 5 3 2 1\n6 1 2 3 4\n"
+                    "$EndElements\n",
+         FTM_EPARSE, 26, "element 4 has the same four nodes as element 2 (line 22)"},
         {"elemjunk.msh", MSH_FORMAT MSH_NODES4 MSH_ELEMS("1 1 2 x 4"), FTM_EPARSE, 19, "'x'"},
         {"type99.msh",
          MSH_FORMAT MSH_NODES4 "$Elements\n1 1 1 1\n3 1 99 1\n1 1 2 3 4\n$EndElements\n",
@@ -612,6 +626,10 @@ static void test_bad_tetgen(void **state)
         {"ebase", NODE4, "# 0-based by mistake\n1 4 0\n1 0 1 2 3\n", FTM_ERANGE, true, 3,
          "node index 0 out of range"},
         {"edegenerate", NODE4, "1 4 0\n1 1 2 3 3\n", FTM_EPARSE, true, 2, "node 3 repeated"},
+        {"erepeat", NODE4, "2 4 0\n1 1 2 3 4\n# again\n2 4 3 1 2\n", FTM_EPARSE, true, 4,
+         "tetrahedron 2 has the same four nodes as tetrahedron 1 (line 2)"},
+        {"erepeat10", NODE4, "2 10 0\n7 1 2 3 4 1 2 3 4 1 2\n9 2 1 3 4 4 3 2 1 1 1\n",
+         FTM_EPARSE, true, 3, "tetrahedron 9 has the same four nodes as tetrahedron 7 (line 2)"},
         {"ecoincide", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 1 0 0\n", "1 4 0\n1 1 2 3 4\n",
          FTM_EPARSE, true, 2, "nodes 2 and 4 coincide"},
         {"etrunc", NODE4, "2 4 0\n1 1 2 3 4\n", FTM_EPARSE, true, 2, "after 1 of 2"},
@@ -632,6 +650,148 @@ static void test_bad_tetgen(void **state)
         const char *ele = tmp_write(name, c->ele ? c->ele : "1 4 0\n1 1 2 3 4\n");
         expect_fail_in(ftm_load_tetgen, node, c->code, c->in_ele ? ele : node, c->line, c->word);
     }
+}
+
+/* ---- text forms: byte order mark, long polygons, numbers, repeated tetrahedra ---- */
+
+/* A UTF-8 byte order mark (as Windows editors write) starts the file: it is
+ * skipped, not taken for part of the first keyword, which lost the first
+ * vertex and shifted every face. */
+#define BOM "\xEF\xBB\xBF"
+
+static void test_bom_at_start(void **state)
+{
+    (void)state;
+    ftm_mesh *m = load_ok(ftm_load_obj, tmp_write("bom.obj", BOM "v 0 0 0\nv 1 0 0\nv 1 1 0\n"
+                                                             "v 0 1 0\nf 1 2 3\nf 1 3 4\n"));
+    check_counts(m, 4, 5, 2, 0);
+    static const double xyz[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    check_positions(m, 0, xyz, 4);
+    /* The faces are 1 2 3 and 1 3 4 (input 0 1 2 and 0 2 3), not shifted. */
+    const int32_t *tri = ftm_mesh_triangles(m);
+    int sums = 0;
+    for (int t = 0; t < 2; t++) {
+        int sum = 0;
+        for (int c = 0; c < 3; c++)
+            sum += ftm_mesh_input_of_node(m, tri[3 * t + c]);
+        sums |= 1 << sum;
+    }
+    assert_int_equal(sums, 1 << 3 | 1 << 5);
+    ftm_mesh_destroy(m);
+
+    m = load_ok(ftm_load_gmsh, tmp_write("bom.msh", BOM MSH_FORMAT MSH_NODES4
+                                                        MSH_ELEMS("1 1 2 3 4")));
+    check_counts(m, 4, 6, 4, 1);
+    ftm_mesh_destroy(m);
+
+    tmp_write("bom.ele", BOM "1 4 0\n1 1 2 3 4\n");
+    m = load_ok(ftm_load_tetgen,
+                tmp_write("bom.node", BOM "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n"));
+    check_counts(m, 4, 6, 4, 1);
+    ftm_mesh_destroy(m);
+}
+
+/* Anywhere but the very start the mark is an error, never skipped text. */
+static void test_bom_elsewhere(void **state)
+{
+    (void)state;
+    expect_fail(ftm_load_obj,
+                tmp_write("bom2.obj", "v 0 0 0\nv 1 0 0\n" BOM "v 0 1 0\nf 1 2 3\n"),
+                FTM_EPARSE, 3, "byte order mark");
+    expect_fail(ftm_load_obj, tmp_write("bom3.obj", " " BOM "v 0 0 0\n"), FTM_EPARSE, 1,
+                "byte order mark");
+    expect_fail(ftm_load_obj, tmp_write("bom4.obj", BOM BOM "v 0 0 0\n"), FTM_EPARSE, 1,
+                "byte order mark");
+    expect_fail(ftm_load_gmsh, tmp_write("bom2.msh", MSH_FORMAT BOM MSH_NODES4), FTM_EPARSE, 4,
+                NULL);
+    expect_fail(ftm_load_tetgen, tmp_write("bom2.node", "4 3 0 0\n" BOM "1 0 0 0\n"),
+                FTM_EPARSE, 2, "point index");
+}
+
+/* The repeated-vertex check must not be quadratic in the polygon's size:
+ * this face took 5.8 s so. */
+static void test_obj_long_polygon(void **state)
+{
+    (void)state;
+    enum { K = 200000 };
+    size_t cap = (size_t)K * (64 + 8) + 64, len = 0; /* a "v" line and an index each */
+    char *text = malloc(cap);
+    assert_non_null(text);
+    for (int i = 0; i < K; i++) { /* distinct points on a circle */
+        double a = 6.283185307179586 * i / K;
+        len += (size_t)snprintf(text + len, cap - len, "v %.17g %.17g 0\n", cos(a), sin(a));
+    }
+    len += (size_t)snprintf(text + len, cap - len, "f");
+    for (int i = 1; i <= K; i++)
+        len += (size_t)snprintf(text + len, cap - len, " %d", i);
+    assert_true(len + 2 < cap);
+    text[len++] = '\n';
+    const char *path = tmp_write_n("polygon.obj", text, len);
+
+    ftm_mesh_builder *b = ftm_mesh_builder_create();
+    assert_non_null(b);
+    ftm_material_def mat = test_material();
+    ftm_error err = {0};
+    clock_t t0 = clock();
+    int rc = ftm_load_obj(b, path, &mat, &err);
+    double seconds = (double)(clock() - t0) / CLOCKS_PER_SEC;
+    if (rc != FTM_OK)
+        fail_msg("%s: %s", path, err.message);
+    assert_int_equal(ftm_mesh_builder_node_count(b), K);
+    if (seconds > 2.0)
+        fail_msg("a %d-vertex polygon took %.2f s to load", K, seconds);
+    ftm_mesh_builder_destroy(b);
+
+    /* A repeat at the far end is still found, with the same message. */
+    len--;
+    len += (size_t)snprintf(text + len, cap - len, " 7\n");
+    expect_fail(ftm_load_obj, tmp_write_n("polygon2.obj", text, len), FTM_EPARSE, K + 1,
+                "face repeats vertex 7");
+    free(text);
+}
+
+/* Numbers of any length parse; hexadecimal, nan and inf are refused by name. */
+static void test_number_forms(void **state)
+{
+    (void)state;
+    char one[128] = "", line[512];
+    for (int i = 0; i < 100; i++)
+        strcat(one, "0");
+    strcat(one, "1"); /* 101 characters */
+    char half[160] = "0.5";
+    for (int i = 0; i < 120; i++)
+        strcat(half, "0");
+    snprintf(line, sizeof line, "v 0 0 0\nv %s 0 0\nv 0 %s 0\nf %s 2 3\n", one, half, one);
+    ftm_mesh *m = load_ok(ftm_load_obj, tmp_write("long.obj", line));
+    static const double xyz[3][3] = {{0, 0, 0}, {1, 0, 0}, {0, 0.5, 0}};
+    check_positions(m, 0, xyz, 3);
+    ftm_mesh_destroy(m);
+
+    /* TetGen indices and counts too. */
+    snprintf(line, sizeof line, "4 3 0 0\n%s 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n", one);
+    tmp_write("long.ele", "1 4 0\n1 4 3 2 1\n");
+    m = load_ok(ftm_load_tetgen, tmp_write("long.node", line));
+    check_counts(m, 4, 6, 4, 1);
+    ftm_mesh_destroy(m);
+
+    static const bad_case cases[] = {
+        {"hex.obj", "v 0x1p-10 0 0\n", FTM_EPARSE, 1, "hexadecimal"},
+        {"hexneg.obj", "v 0 -0X1.8p1 0\n", FTM_EPARSE, 1, "hexadecimal"},
+        {"hexint.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0x1 2 3\n", FTM_EPARSE, 4,
+         "hexadecimal"},
+        {"infinity.obj", "v 0 0 Infinity\n", FTM_EPARSE, 1, "not a finite number"},
+        {"nanpayload.obj", "v 0 0 nan(1)\n", FTM_EPARSE, 1, "not a finite number"},
+        {"overflow2.obj", "v 1e400 0 0\n", FTM_EPARSE, 1, "out of range"},
+        {"noexp.obj", "v 1e 0 0\n", FTM_EPARSE, 1, "'1e': not a number"},
+        {"dot.obj", "v . 0 0\n", FTM_EPARSE, 1, "'.': not a number"},
+    };
+    run_bad_cases(ftm_load_obj, cases, sizeof cases / sizeof cases[0]);
+    expect_fail(ftm_load_gmsh,
+                tmp_write("hex.msh", MSH_FORMAT "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n"
+                                                "0 0 0\n0x1p0 0 0\n0 1 0\n0 0 1\n$EndNodes\n"),
+                FTM_EPARSE, 12, "hexadecimal");
+    expect_fail(ftm_load_tetgen, tmp_write("hex.node", "4 3 0 0\n1 0 0 0\n2 0x1 0 0\n"),
+                FTM_EPARSE, 3, "hexadecimal");
 }
 
 static void test_bad_material(void **state)
@@ -683,6 +843,10 @@ int main(void)
         cmocka_unit_test(test_bad_obj),
         cmocka_unit_test(test_bad_gmsh),
         cmocka_unit_test(test_bad_tetgen),
+        cmocka_unit_test(test_bom_at_start),
+        cmocka_unit_test(test_bom_elsewhere),
+        cmocka_unit_test(test_obj_long_polygon),
+        cmocka_unit_test(test_number_forms),
         cmocka_unit_test(test_bad_material),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);

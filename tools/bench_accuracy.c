@@ -21,10 +21,12 @@
  * the Rayleigh quotient of the FEM solution under a body force along the
  * load) and half their critical step. */
 #include "bench.h"
+#include "commands.h"
 
 #include "ftm/fem.h"
 #include "ftm/ftm.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -936,7 +938,20 @@ static void usage(FILE *f)
             "  --max-steps  step cap per run (default 2000000)\n"
             "  --json       print {\"meshes\":[...],\"rows\":[{\"mesh\",\"method\",\"depth\",\"nodes\",\"h\",\n"
             "               \"step_us\",\"steps\",\"time_s\",\"setup_s\",\"wall_s\",\"error\",\"converged\"}]}\n"
-            "  --save P     also write P.txt (table), P.json and P.dat (gnuplot blocks)\n");
+            "  --save P     also write P.txt (table), P.json and P.dat (gnuplot blocks)\n\n"
+            "exit status: 0 success, 1 a run failed, 2 bad arguments or an output that cannot\n"
+            "be written\n");
+}
+
+/* A whole number: strtod's, with nothing after it. */
+static bool parse_number(const char *s, double *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (end == s || *end != '\0')
+        return false;
+    *out = v;
+    return true;
 }
 
 static int parse_depths(const char *s, options *o)
@@ -1034,6 +1049,14 @@ int ftm_bench_accuracy(int argc, char **argv)
     options o = {.tol = 1e-3, .max_steps = 2000000, .be_step = 0.01, .cube = true, .organ = true};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
+        static const char *const valued[] = {"--mesh", "--depths", "--tol", "--be-step",
+                                             "--max-steps", "--save"};
+        for (size_t k = 0; k < sizeof valued / sizeof valued[0]; k++) {
+            if (strcmp(a, valued[k]) == 0 && i + 1 >= argc) {
+                fprintf(stderr, "ftm bench accuracy: %s needs a value\n", a);
+                return 2;
+            }
+        }
         bool more = i + 1 < argc;
         if (strcmp(a, "--json") == 0) {
             o.json = true;
@@ -1057,20 +1080,18 @@ int ftm_bench_accuracy(int argc, char **argv)
                 return 2;
             }
         } else if (strcmp(a, "--tol") == 0 && more) {
-            o.tol = atof(argv[++i]);
-            if (!(o.tol > 0 && o.tol < 1)) {
+            if (!parse_number(argv[++i], &o.tol) || !(o.tol > 0 && o.tol < 1)) {
                 fprintf(stderr, "ftm bench accuracy: --tol must be in (0, 1)\n");
                 return 2;
             }
         } else if (strcmp(a, "--be-step") == 0 && more) {
-            o.be_step = atof(argv[++i]);
-            if (!(o.be_step > 0 && o.be_step < 100)) {
+            if (!parse_number(argv[++i], &o.be_step) || !(o.be_step > 0 && o.be_step < 100)) {
                 fprintf(stderr, "ftm bench accuracy: --be-step must be in (0, 100) s\n");
                 return 2;
             }
         } else if (strcmp(a, "--max-steps") == 0 && more) {
-            long v = atol(argv[++i]);
-            if (v < 10 || v > 100000000) {
+            double v;
+            if (!parse_number(argv[++i], &v) || v != floor(v) || v < 10 || v > 100000000) {
                 fprintf(stderr, "ftm bench accuracy: --max-steps must be in 10..100000000\n");
                 return 2;
             }
@@ -1084,6 +1105,24 @@ int ftm_bench_accuracy(int argc, char **argv)
             fprintf(stderr, "ftm bench accuracy: unknown option '%s' (try --help)\n", a);
             usage(stderr);
             return 2;
+        }
+    }
+    /* The --save files are opened before the runs, so that a bad path fails
+     * at once rather than after them. */
+    FILE *outs[3] = {NULL, NULL, NULL};
+    char paths[3][4096];
+    if (o.save) {
+        static const char *const ext[3] = {".txt", ".json", ".dat"};
+        for (int k = 0; k < 3; k++) {
+            snprintf(paths[k], sizeof paths[k], "%s%s", o.save, ext[k]);
+            outs[k] = fopen(paths[k], "w");
+            if (!outs[k]) {
+                fprintf(stderr, "ftm bench accuracy: %s: cannot write: %s\n", paths[k],
+                        strerror(errno));
+                for (int j = 0; j < k; j++)
+                    fclose(outs[j]);
+                return 2;
+            }
         }
     }
     body bodies[2];
@@ -1124,24 +1163,10 @@ int ftm_bench_accuracy(int argc, char **argv)
         fprintf(stderr, "ftm bench accuracy: failed: %s\n", ftm_strerror(rc));
         for (int i = 0; i < nb; i++)
             body_free(&bodies[i]);
+        for (int k = 0; k < 3; k++)
+            if (outs[k])
+                fclose(outs[k]);
         return 1;
-    }
-    FILE *outs[3] = {NULL, NULL, NULL};
-    if (o.save) {
-        static const char *const ext[3] = {".txt", ".json", ".dat"};
-        for (int k = 0; k < 3; k++) {
-            char path[4096];
-            snprintf(path, sizeof path, "%s%s", o.save, ext[k]);
-            outs[k] = fopen(path, "w");
-            if (!outs[k]) {
-                fprintf(stderr, "ftm bench accuracy: cannot write %s\n", path);
-                for (int j = 0; j < k; j++)
-                    fclose(outs[j]);
-                for (int i = 0; i < nb; i++)
-                    body_free(&bodies[i]);
-                return 2;
-            }
-        }
     }
     /* JSON (stdout with --json, and P.json) */
     for (int k = 0; k < 2; k++) {
@@ -1216,10 +1241,11 @@ int ftm_bench_accuracy(int argc, char **argv)
             }
         }
     }
+    int status = 0;
     for (int k = 0; k < 3; k++)
-        if (outs[k])
-            fclose(outs[k]);
+        if (outs[k] && ftm_close_output(outs[k], "ftm bench accuracy", paths[k]) != 0)
+            status = 2;
     for (int i = 0; i < nb; i++)
         body_free(&bodies[i]);
-    return 0;
+    return status;
 }

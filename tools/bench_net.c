@@ -22,6 +22,7 @@
  * keyframe does) — follow from the updated-node counts the bots log. Every
  * bot must end on the server's final tick and hash (exit status 1 if not). */
 #include "bench_net.h"
+#include "commands.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -174,14 +175,38 @@ static char *slurp(const char *path)
     return s;
 }
 
+/* Files this run could not write, each reported when it happened. The run
+ * goes on (its sessions are what it measures) and then exits 2. */
+static int output_errors;
+
+static FILE *open_output(const char *path)
+{
+    FILE *f = fopen(path, "w");
+    if (!f) {
+        fprintf(stderr, "ftm bench net: %s: cannot write: %s\n", path, strerror(errno));
+        output_errors++;
+    }
+    return f;
+}
+
+/* Closes a file from open_output(); a write that failed now or earlier (the
+ * stream remembers it) is reported. 0 or -1. */
+static int close_output(FILE *f, const char *path)
+{
+    if (ftm_close_output(f, "ftm bench net", path) == 0)
+        return 0;
+    output_errors++;
+    return -1;
+}
+
 /* Copies a text file (plot data into --plot DIR); a missing source is skipped. */
 static void copy_text(const char *src, const char *dst)
 {
     char *d = slurp(src);
-    FILE *g = d ? fopen(dst, "w") : NULL;
+    FILE *g = d ? open_output(dst) : NULL;
     if (g) {
         fputs(d, g);
-        fclose(g);
+        close_output(g, dst);
     }
     free(d);
 }
@@ -204,7 +229,7 @@ static bool wait_text(const char *path, const char *text, double timeout)
 
 static int write_scene(const char *path, const char *name, int nx, int ny)
 {
-    FILE *f = fopen(path, "w");
+    FILE *f = open_output(path);
     if (!f)
         return -1;
     fprintf(f,
@@ -213,7 +238,7 @@ static int write_scene(const char *path, const char *name, int nx, int ny)
             "spacing = 0.01\nstencil = 18\nfixed_faces = zmin\n[material]\nmass = 0.001\n"
             "damping = 0.3\nstiffness = 50\n[sim]\ntime_step = 1e-3\ndepth = 8\nsteps = 2000\n",
             nx, ny, name, nx, ny);
-    return fclose(f);
+    return close_output(f, path);
 }
 
 #define TOP_Z 0.09
@@ -224,7 +249,7 @@ static int write_scene(const char *path, const char *name, int nx, int ny)
  * back up (0.4 s), 0.6 s away. */
 static int write_script(const char *path, int i, int n, double cx, double cy, double length)
 {
-    FILE *f = fopen(path, "w");
+    FILE *f = open_output(path);
     if (!f)
         return -1;
     double a = 6.283185307179586 * i / n, x = cx + 0.025 * cos(a), y = cy + 0.025 * sin(a);
@@ -238,7 +263,7 @@ static int write_script(const char *path, int i, int n, double cx, double cy, do
         fprintf(f, "%.3f %.5f %.5f %.5f\n", t + 1.4, x + tx, y + ty, up);
         fprintf(f, "%.3f %.5f %.5f %.5f\n", t + 1.45, x, y, up);
     }
-    return fclose(f);
+    return close_output(f, path);
 }
 
 /* ---- reading what the programs report --------------------------------------------------- */
@@ -440,7 +465,7 @@ static void adaptive_traces(const net_options *o, const session_plan *pl, const 
     if (end && sscanf(end, "info: depth %d at the end", &final) != 1)
         final = -1;
     snprintf(path, sizeof path, "%s/depth.dat", sub);
-    FILE *f = fopen(path, "w");
+    FILE *f = open_output(path);
     for (char *line = s ? strtok(s, "\n") : NULL; line; line = strtok(NULL, "\n")) {
         const char *d = strstr(line, "info: depth ");
         const char *tk = d ? strstr(d, "(tick ") : NULL;
@@ -469,12 +494,12 @@ static void adaptive_traces(const net_options *o, const session_plan *pl, const 
     if (r->depth_min < 0)
         r->depth_min = cur;
     if (f)
-        fclose(f);
+        close_output(f, path);
     free(s);
     snprintf(path, sizeof path, "%s/bot%d.csv", sub, pl->stop_bot);
     FILE *in = fopen(path, "r");
     snprintf(path, sizeof path, "%s/lag.dat", sub);
-    FILE *out = in ? fopen(path, "w") : NULL;
+    FILE *out = in ? open_output(path) : NULL;
     char line[512];
     while (in && out && fgets(line, sizeof line, in)) {
         double t, fx, fy, fz, lat, dds, bytes, pick = 0;
@@ -495,7 +520,7 @@ static void adaptive_traces(const net_options *o, const session_plan *pl, const 
     if (in)
         fclose(in);
     if (out)
-        fclose(out);
+        close_output(out, path);
     if (o->plot) {
         const char *names[] = {"depth.dat", "lag.dat"};
         for (int k = 0; k < 2; k++) {
@@ -552,8 +577,7 @@ static int run_session(const net_options *o, const session_plan *pl, const char 
         snprintf(id, sizeof id, "%d", 100 + i);
         snprintf(bdur, sizeof bdur, "%g", duration + 30);
         if (write_script(script, i, pl->bots, cx, cy, duration + 30)) {
-            fprintf(stderr, "ftm bench net: cannot write %s\n", script);
-            bots[i] = -1;
+            bots[i] = -1; /* reported by write_script() */
             continue;
         }
         char *bargv[] = {(char *)o->bot, "--role", "trainee", "--script", script, "--scene",
@@ -621,11 +645,11 @@ static int run_session(const net_options *o, const session_plan *pl, const char 
         adaptive_traces(o, pl, sub, slog, r);
     if (with_ddsperf) {
         snprintf(path, sizeof path, "%s/ddsperf.dat", sub);
-        FILE *series = o->plot ? fopen(path, "w") : NULL;
+        FILE *series = o->plot ? open_output(path) : NULL;
         if (parse_ddsperf(ping_out, dp50, dp99, series))
             fprintf(stderr, "ftm bench net: no ddsperf latency in %s\n", ping_out);
         if (series)
-            fclose(series);
+            close_output(series, path);
     }
     return rc == 0 ? 0 : -1;
 }
@@ -658,7 +682,8 @@ static void usage(FILE *f)
             "                      directory, removed)\n"
             "  --plot DIR          write gnuplot data (latency per second, bytes) to DIR\n"
             "  --json              print one JSON object (the table goes to standard error)\n\n"
-            "exit status: 0 every bot ended on the server's tick and hash; 1 not; 2 usage\n",
+            "exit status: 0 every bot ended on the server's tick and hash; 1 not; 2 usage, or\n"
+            "an output (--plot, --keep, standard output) that cannot be written\n",
             MAX_BOTS, FTM_SOURCE_DIR, FTM_SOURCE_DIR);
 }
 
@@ -740,12 +765,24 @@ static int parse(int argc, char **argv, net_options *o)
             return 2;
         }
     }
-    if (!(o->duration >= 3) || !(o->size_duration >= 3) || !(o->rate > 0 && o->rate <= 10000) ||
-        o->bots < 1 || o->bots > MAX_BOTS || o->domain < 0 || o->domain > 226 ||
-        !(o->adaptive_duration == 0 || o->adaptive_duration >= 12)) {
-        fprintf(stderr, "ftm bench net: --duration and --size-duration >= 3, --rate 0..10000, "
-                        "--bots 1..%d, --domain 0..226, --adaptive-duration 0 or >= 12\n",
-                MAX_BOTS);
+    /* One message per option, stating the range it really accepts. */
+    const char *bad = NULL;
+    if (!(o->duration >= 3))
+        bad = "--duration must be at least 3 s";
+    else if (!(o->size_duration >= 3))
+        bad = "--size-duration must be at least 3 s";
+    else if (!(o->rate > 0 && o->rate <= 10000))
+        bad = "--rate must be above 0 and at most 10000 Hz";
+    else if (o->domain < 0 || o->domain > 226)
+        bad = "--domain must be in 0..226";
+    else if (!(o->adaptive_duration == 0 || o->adaptive_duration >= 12))
+        bad = "--adaptive-duration must be 0 or at least 12 s";
+    if (bad) {
+        fprintf(stderr, "ftm bench net: %s\n", bad);
+        return 2;
+    }
+    if (o->bots < 1 || o->bots > MAX_BOTS) {
+        fprintf(stderr, "ftm bench net: --bots must be in 1..%d\n", MAX_BOTS);
         return 2;
     }
     if (!o->server)
@@ -796,10 +833,8 @@ int ftm_bench_net(int argc, char **argv)
     char s1k[1100], s100k[1100];
     snprintf(s1k, sizeof s1k, "%s/net-1k.scene", dir);
     snprintf(s100k, sizeof s100k, "%s/net-100k.scene", dir);
-    if (write_scene(s1k, "net-1k", 10, 10) || write_scene(s100k, "net-100k", 100, 100)) {
-        fprintf(stderr, "ftm bench net: cannot write the scenes in %s\n", dir);
-        return 2;
-    }
+    if (write_scene(s1k, "net-1k", 10, 10) || write_scene(s100k, "net-100k", 100, 100))
+        return 2; /* reported by write_scene() */
     if (!o.json)
         fprintf(stderr, "ftm bench net: %d bots at %g Hz, %g s on 1k nodes, %g s on 100k; logs in %s\n",
                 o.bots, o.rate, o.duration, o.size_duration, dir);
@@ -839,7 +874,7 @@ int ftm_bench_net(int argc, char **argv)
     if (o.plot && all) {
         char path[1200];
         snprintf(path, sizeof path, "%s/latency.dat", o.plot);
-        FILE *f = fopen(path, "w");
+        FILE *f = open_output(path);
         if (f) {
             /* per-second p50/p99 by server tick, beside ddsperf's */
             uint64_t w = (uint64_t)o.rate;
@@ -855,16 +890,16 @@ int ftm_bench_net(int argc, char **argv)
                     fprintf(f, "%" PRIu64 " %.1f %.1f\n", k, quantile(all, n, 0.5),
                             quantile(all, n, 0.99));
             }
-            fclose(f);
+            close_output(f, path);
         }
         snprintf(path, sizeof path, "%s/bytes.dat", o.plot);
-        f = fopen(path, "w");
+        f = open_output(path);
         if (f) {
             fprintf(f, "# scene frames_bytes_per_tick streaming_bytes_per_tick\n"
                        "1k %.1f %.1f\n100k %.1f %.1f\n",
                     a.frame_bytes_per_tick, a.stream_bytes_per_tick, b.frame_bytes_per_tick,
                     b.stream_bytes_per_tick);
-            fclose(f);
+            close_output(f, path);
         }
         char src[1200], dst[1200];
         snprintf(src, sizeof src, "%s/1k/ddsperf.dat", dir);
@@ -1002,5 +1037,8 @@ int ftm_bench_net(int argc, char **argv)
         free(rs[i]->pick);
         free(rs[i]->lat_tick);
     }
-    return ok ? 0 : 1;
+    if (output_errors)
+        fprintf(stderr, "ftm bench net: %d output file%s could not be written (see above)\n",
+                output_errors, output_errors == 1 ? "" : "s");
+    return !ok ? 1 : output_errors ? 2 : 0;
 }

@@ -15,6 +15,7 @@
  * machine (a shared virtual machine has them) then spoils one round of a few
  * rows instead of a whole row. */
 #include "bench.h"
+#include "commands.h"
 
 #include "ftm/ftm.h"
 #include "layers.h"
@@ -182,29 +183,46 @@ static const char *order_name(ftm_order o)
     return o == FTM_ORDER_BFS ? "bfs" : o == FTM_ORDER_LAYER_JACOBI ? "jacobi" : "colored";
 }
 
+/* A whole decimal integer in [lo, hi]. */
+static bool parse_steps(const char *s, int lo, int hi, int *out)
+{
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (end == s || *end != '\0' || errno == ERANGE || v < lo || v > hi)
+        return false;
+    *out = (int)v;
+    return true;
+}
+
 int ftm_bench_table3(int argc, char **argv)
 {
     bool json = false;
     const char *json_file = NULL;
     int steps = 20000, eq_steps = 40000;
     for (int i = 1; i < argc; i++) {
-        if (strcmp(argv[i], "--json") == 0)
+        const char *a = argv[i];
+        bool valued = strcmp(a, "--json-file") == 0 || strcmp(a, "--eq-steps") == 0 ||
+                      strcmp(a, "--steps") == 0;
+        if (valued && i + 1 >= argc) {
+            fprintf(stderr, "ftm bench table3: %s needs a value\n", a);
+            return 2;
+        }
+        if (strcmp(a, "--json") == 0)
             json = true;
-        else if (strcmp(argv[i], "--json-file") == 0 && i + 1 < argc)
+        else if (strcmp(a, "--json-file") == 0)
             json_file = argv[++i];
-        else if (strcmp(argv[i], "--eq-steps") == 0 && i + 1 < argc) {
-            eq_steps = atoi(argv[++i]);
-            if (eq_steps < 1 || eq_steps > 10000000) {
+        else if (strcmp(a, "--eq-steps") == 0) {
+            if (!parse_steps(argv[++i], 1, 10000000, &eq_steps)) {
                 fprintf(stderr, "ftm bench table3: --eq-steps must be in 1..10000000\n");
                 return 2;
             }
-        } else if (strcmp(argv[i], "--steps") == 0 && i + 1 < argc) {
-            steps = atoi(argv[++i]);
-            if (steps < 11 || steps > 10000000) {
+        } else if (strcmp(a, "--steps") == 0) {
+            if (!parse_steps(argv[++i], 11, 10000000, &steps)) {
                 fprintf(stderr, "ftm bench table3: --steps must be in 11..10000000\n");
                 return 2;
             }
-        } else if (strcmp(argv[i], "--help") == 0) {
+        } else if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             printf("usage: ftm bench table3 [--steps N] [--eq-steps N] [--json] "
                    "[--json-file FILE]\n"
                    "  --steps N         timed steps per measurement (default 20000), taken in\n"
@@ -217,18 +235,20 @@ int ftm_bench_table3(int argc, char **argv)
                    "                    jacobi_search_us, jacobi_step_us, jacobi_step_cached_us;\n"
                    "                    full_sweep: the deepest row's steps with the full sweep;\n"
                    "                    moving: mean step there, the force moving every N steps)\n"
-                   "  --json-file FILE  print the table and write the same run's JSON to FILE\n",
+                   "  --json-file FILE  print the table and write the same run's JSON to FILE\n\n"
+                   "exit status: 0 success, 1 the benchmark could not run, 2 bad arguments or\n"
+                   "an output that cannot be written\n",
                    ROUNDS);
             return 0;
         } else {
-            fprintf(stderr, "ftm bench table3: unknown option '%s' (try --help)\n", argv[i]);
+            fprintf(stderr, "ftm bench table3: unknown option '%s' (try --help)\n", a);
             return 2;
         }
     }
     FILE *jf = NULL;
     if (json_file && !(jf = fopen(json_file, "w"))) {
-        fprintf(stderr, "ftm bench table3: cannot write '%s': %s\n", json_file, strerror(errno));
-        return 1;
+        fprintf(stderr, "ftm bench table3: %s: cannot write: %s\n", json_file, strerror(errno));
+        return 2;
     }
     bench_setup b;
     if (setup(&b)) {
@@ -353,10 +373,9 @@ int ftm_bench_table3(int argc, char **argv)
                     e ? "," : "", dmax, every[e], movm[e][0], movm[e][1]);
         fprintf(out, "]}\n");
     }
-    if (jf && fclose(jf) != 0) {
-        fprintf(stderr, "ftm bench table3: cannot write '%s'\n", json_file);
+    if (jf && ftm_close_output(jf, "ftm bench table3", json_file) != 0) {
         ftm_mesh_destroy(b.mesh);
-        return 1;
+        return 2;
     }
     if (!json) {
         printf("Paper Table 3: 50x50 2D lattice, force on the centre node; medians of %d steps\n"

@@ -4,6 +4,7 @@
 #include "commands.h"
 #include "experiments.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -28,19 +29,40 @@ static void usage(FILE *f)
             "  --json           print the results as one JSON object\n"
             "  --quick          smaller lattices and shorter runs (as the tests use)\n"
             "  --observe T      depth: calibrate on the shape at time T [s] after the load\n"
-            "                   (0: at equilibrium); default: both, equilibrium and T = 8 s\n");
+            "                   (0: at equilibrium); default: both, equilibrium and T = 8 s\n\n"
+            "exit status: 0 success, 1 the experiment failed, 2 bad arguments or an output\n"
+            "that cannot be written\n");
 }
 
-static FILE *open_csv(const exp_opts *o, const char *name)
+/* Exit status for a CSV file that cannot be written. */
+enum { EXIT_OUTPUT = 2 };
+
+/* Opens DIR/name when --csv-dir is given (else *f = NULL), before the
+ * experiment runs, so that a bad directory fails at once. 0 or -1. */
+static int open_csv(const exp_opts *o, const char *name, FILE **f)
 {
+    *f = NULL;
     if (!o->csv_dir)
-        return NULL;
+        return 0;
     char path[4096];
     snprintf(path, sizeof path, "%s/%s", o->csv_dir, name);
-    FILE *f = fopen(path, "w");
+    *f = fopen(path, "w");
+    if (!*f) {
+        fprintf(stderr, "ftm experiment: %s: cannot write: %s\n", path, strerror(errno));
+        return -1;
+    }
+    return 0;
+}
+
+/* Closes a file from open_csv(); a write that failed now or earlier (the
+ * stream remembers it) is reported. 0 or -1. */
+static int close_csv(const exp_opts *o, const char *name, FILE *f)
+{
     if (!f)
-        fprintf(stderr, "ftm experiment: cannot write %s\n", path);
-    return f;
+        return 0;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", o->csv_dir, name);
+    return ftm_close_output(f, "ftm experiment", path);
 }
 
 static void jnum(double v)
@@ -65,6 +87,14 @@ static int run_depth(const exp_opts *o)
     } else {
         modes[nmodes++] = o->observe_time;
     }
+    FILE *fc, *fp;
+    if (open_csv(o, "depth_change.csv", &fc))
+        return EXIT_OUTPUT;
+    if (open_csv(o, "depth_profiles.csv", &fp)) {
+        if (fc)
+            fclose(fc);
+        return EXIT_OUTPUT;
+    }
     ftm_exp_depth_result *r[2] = {NULL, NULL};
     ftm_exp_depth_def def = ftm_exp_default_depth_def(o->quick);
     for (int m = 0; m < nmodes; m++) {
@@ -75,10 +105,14 @@ static int run_depth(const exp_opts *o)
             fprintf(stderr, "ftm experiment depth: failed (%d)\n", rc);
             free(r[0]);
             free(r[1]);
+            if (fc)
+                fclose(fc);
+            if (fp)
+                fclose(fp);
             return 1;
         }
     }
-    FILE *f = open_csv(o, "depth_change.csv");
+    FILE *f = fc;
     if (f) {
         fprintf(f, "mode,k,depth,change,max_disp\n");
         for (int m = 0; m < nmodes; m++)
@@ -86,9 +120,8 @@ static int run_depth(const exp_opts *o)
                 for (int n = 1; n <= r[m]->depth_count; n++)
                     fprintf(f, "%g,%g,%d,%.6g,%.6g\n", modes[m], r[m]->stiffness[k], n,
                             r[m]->change[k][n], r[m]->max_disp[k][n]);
-        fclose(f);
     }
-    f = open_csv(o, "depth_profiles.csv");
+    f = fp;
     if (f) {
         /* top-row vertical displacement normalised by the loaded node's at
          * the deepest depth, per mode, k and depth */
@@ -103,8 +136,10 @@ static int run_depth(const exp_opts *o)
                         fprintf(f, "%g,%g,%d,%g,%.6g\n", modes[m], r[m]->stiffness[k], n, r[m]->x[i],
                                 ref < 0 ? r[m]->profile[k][n][i] / -ref : 0.0);
             }
-        fclose(f);
     }
+    int status = 0;
+    if (close_csv(o, "depth_change.csv", fc) || close_csv(o, "depth_profiles.csv", fp))
+        status = EXIT_OUTPUT;
     if (o->json) {
         printf("{\"experiment\":\"depth\",\"threshold\":");
         jnum(def.threshold);
@@ -156,36 +191,54 @@ static int run_depth(const exp_opts *o)
     }
     free(r[0]);
     free(r[1]);
-    return 0;
+    return status;
 }
 
 /* ---- tissue ---- */
 
-static void write_curves(const exp_opts *o, const char *name, const char *cols,
-                         const ftm_exp_curve *c, const double *damping)
+/* Writes and closes f (from open_csv(), may be NULL); 0 or -1. */
+static int write_curves(const exp_opts *o, FILE *f, const char *name, const char *cols,
+                        const ftm_exp_curve *c, const double *damping)
 {
-    FILE *f = open_csv(o, name);
     if (!f)
-        return;
+        return 0;
     fprintf(f, "damping,%s\n", cols);
     for (int d = 0; d < FTM_EXP_TISSUE_DAMPINGS; d++)
         for (int i = 0; i < c[d].count; i++)
             fprintf(f, "%g,%.6g,%.6g\n", damping[d], c[d].a[i], c[d].b[i]);
-    fclose(f);
+    return close_csv(o, name, f);
 }
 
 static int run_tissue(const exp_opts *o)
 {
+    static const char *const names[3] = {"tissue_creep.csv", "tissue_hysteresis.csv",
+                                         "tissue_rate.csv"};
+    FILE *f[3] = {NULL, NULL, NULL};
+    for (int k = 0; k < 3; k++) {
+        if (open_csv(o, names[k], &f[k])) {
+            for (int j = 0; j < k; j++)
+                if (f[j])
+                    fclose(f[j]);
+            return EXIT_OUTPUT;
+        }
+    }
     ftm_exp_tissue_def def = ftm_exp_default_tissue_def(o->quick);
     ftm_exp_tissue_result r;
     int rc = ftm_exp_tissue(&def, &r);
     if (rc) {
         fprintf(stderr, "ftm experiment tissue: failed (%d)\n", rc);
+        for (int k = 0; k < 3; k++)
+            if (f[k])
+                fclose(f[k]);
         return 1;
     }
-    write_curves(o, "tissue_creep.csv", "time,strain", r.creep, def.damping);
-    write_curves(o, "tissue_hysteresis.csv", "force,strain", r.hyst, def.damping);
-    write_curves(o, "tissue_rate.csv", "force,strain", r.rate, def.damping);
+    int status = 0;
+    if (write_curves(o, f[0], names[0], "time,strain", r.creep, def.damping))
+        status = EXIT_OUTPUT;
+    if (write_curves(o, f[1], names[1], "force,strain", r.hyst, def.damping))
+        status = EXIT_OUTPUT;
+    if (write_curves(o, f[2], names[2], "force,strain", r.rate, def.damping))
+        status = EXIT_OUTPUT;
     const int D = FTM_EXP_TISSUE_DAMPINGS;
     if (o->json) {
         printf("{\"experiment\":\"tissue\",\"cases\":[");
@@ -242,22 +295,27 @@ static int run_tissue(const exp_opts *o)
                r.static_strain_full / r.static_strain_half);
     }
     ftm_exp_tissue_free(&r);
-    return 0;
+    return status;
 }
 
 /* ---- anisotropy ---- */
 
 static int run_aniso(const exp_opts *o)
 {
+    FILE *f;
+    if (open_csv(o, "anisotropy_profiles.csv", &f))
+        return EXIT_OUTPUT;
     ftm_exp_aniso_def def = ftm_exp_default_aniso_def(o->quick);
     ftm_exp_aniso_result r;
     int rc = ftm_exp_aniso(&def, &r);
     if (rc) {
         fprintf(stderr, "ftm experiment anisotropy: failed (%d)\n", rc);
+        if (f)
+            fclose(f);
         return 1;
     }
     static const char *load_name[FTM_EXP_LOADS] = {"vertical", "horizontal"};
-    FILE *f = open_csv(o, "anisotropy_profiles.csv");
+    int status = 0;
     if (f) {
         fprintf(f, "model,load,line,position,u\n");
         for (int m = 0; m < FTM_EXP_MODELS; m++)
@@ -268,7 +326,8 @@ static int run_aniso(const exp_opts *o)
                     fprintf(f, "%d,%s,into,%g,%.6g\n", m, load_name[l], i * def.spacing,
                             r.into[m][l][i]);
                 }
-        fclose(f);
+        if (close_csv(o, "anisotropy_profiles.csv", f))
+            status = EXIT_OUTPUT;
     }
     if (o->json) {
         printf("{\"experiment\":\"anisotropy\",\"models\":[");
@@ -314,7 +373,7 @@ static int run_aniso(const exp_opts *o)
                 printf("\n");
             }
     }
-    return 0;
+    return status;
 }
 
 int ftm_cmd_experiment(int argc, char **argv)

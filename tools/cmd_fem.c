@@ -4,6 +4,7 @@
 #include "ftm/fem.h"
 #include "ftm/ftm.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -36,7 +37,8 @@ static void usage(FILE *out)
             "  --factor KIND    CHOLMOD factorisation: auto (default), simplicial, supernodal\n"
             "  -h, --help       show this text\n"
             "\n"
-            "exit status: 0 success, 2 bad arguments, scene or FEM input\n");
+            "exit status: 0 success, 2 bad arguments, scene or FEM input, or an output that\n"
+            "cannot be written\n");
 }
 
 static int parse_options(int argc, char **argv, fem_options *o)
@@ -318,12 +320,20 @@ int ftm_cmd_fem(int argc, char **argv)
         if (o.csv) {
             FILE *f = csv_stdout ? stdout : fopen(o.csv, "w");
             if (!f) {
-                fprintf(stderr, "ftm fem: cannot write %s\n", o.csv);
+                fprintf(stderr, "ftm fem: %s: cannot write: %s\n", o.csv, strerror(errno));
                 status = EXIT_USAGE;
             } else {
-                int wrc = write_csv(f, mesh, u);
-                if ((!csv_stdout && fclose(f) != 0) || wrc != 0) {
-                    fprintf(stderr, "ftm fem: error writing %s\n", o.csv);
+                /* write_csv() sees any failed write (the stream remembers it);
+                 * closing or flushing the rest gives the reason. */
+                int e = 0, wrc = write_csv(f, mesh, u);
+                if (csv_stdout ? fflush(f) != 0 : fclose(f) != 0) {
+                    wrc = -1;
+                    e = errno;
+                }
+                if (wrc != 0) {
+                    fprintf(stderr, "ftm fem: %s: cannot write: %s\n",
+                            csv_stdout ? "standard output" : o.csv,
+                            e ? strerror(e) : "write error");
                     status = EXIT_USAGE;
                 }
             }

@@ -6,6 +6,7 @@
 #include "ftm/fem.h"
 #include "ftm/ftm.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -79,7 +80,8 @@ static void usage(FILE *out)
             "  --json              print the result as one JSON object\n"
             "  -h, --help          show this text\n"
             "\n"
-            "exit status: 0 success, 1 the fit failed, 2 bad arguments or input\n");
+            "exit status: 0 success, 1 the fit failed, 2 bad arguments or input, or an output\n"
+            "(--trace, standard output) that cannot be written\n");
 }
 
 static int parse_double(const char *s, double *out)
@@ -199,9 +201,16 @@ static int parse_options(int argc, char **argv, fit_options *o)
             } else if (strcmp(name, "--prerun") == 0) {
                 bad = parse_int(v, 1, 100000, &o->prerun) != 0;
             } else if (strcmp(name, "--seed") == 0) {
+                /* strtoull would take "-1" as 2^64 - 1 and clamp an overflow
+                 * there, so digits only and ERANGE checked. */
                 char *end;
+                errno = 0;
                 unsigned long long s = strtoull(v, &end, 10);
-                bad = end == v || *end != '\0';
+                if (!(v[0] >= '0' && v[0] <= '9') || *end != '\0' || errno == ERANGE) {
+                    fprintf(stderr, "ftm fit: --seed must be an integer in 0..%llu, got '%s'\n",
+                            (unsigned long long)UINT64_MAX, v);
+                    return EXIT_USAGE;
+                }
                 o->seed = s;
             } else if (strcmp(name, "--nm-evals") == 0) {
                 bad = parse_int(v, 0, 1000000, &o->nm_evals) != 0;
@@ -694,7 +703,7 @@ int ftm_cmd_fit(int argc, char **argv)
     if (o.trace) {
         trace = fopen(o.trace, "w");
         if (!trace) {
-            fprintf(stderr, "ftm fit: cannot write %s\n", o.trace);
+            fprintf(stderr, "ftm fit: %s: cannot write: %s\n", o.trace, strerror(errno));
             status = EXIT_USAGE;
             goto done;
         }
@@ -976,8 +985,12 @@ int ftm_cmd_fit(int argc, char **argv)
                    best_nm ? "nelder-mead" : "anneal");
     }
 done:
-    if (trace)
-        fclose(trace);
+    if (trace) {
+        /* trace_fn() writes unchecked; the stream remembers a failed write and
+         * closing it gives the reason. */
+        if (ftm_close_output(trace, "ftm fit", o.trace) != 0 && status == 0)
+            status = EXIT_USAGE;
+    }
     ftm_fit_problem_destroy(prob);
     for (int c = 0; c < FTM_FIT_MAX_CASES; c++) {
         free(forces[c]);

@@ -43,8 +43,9 @@ static void usage(FILE *out)
             "built-in scenes:");
     for (const char *const *n = ftm_scene_builtin_names(); *n; n++)
         fprintf(out, " %s", *n);
-    fprintf(out, "\n\nexit status: 0 success, 2 bad arguments or scene, 3 the integration "
-                 "diverged\n");
+    fprintf(out, "\n\nexit status: 0 success, 1 out of memory or an internal error, 2 bad\n"
+                 "arguments or scene, or an output that cannot be written (the summary is still\n"
+                 "printed), 3 the integration diverged\n");
 }
 
 static bool parse_count(const char *s, int64_t max, int64_t *out)
@@ -414,7 +415,7 @@ int ftm_cmd_sim(int argc, char **argv)
     if (o.csv) {
         csv = csv_stdout ? stdout : fopen(o.csv, "w");
         if (!csv) {
-            fprintf(stderr, "ftm sim: --csv %s: cannot open: %s\n", o.csv, strerror(errno));
+            fprintf(stderr, "ftm sim: %s: cannot write: %s\n", o.csv, strerror(errno));
             status = EXIT_USAGE;
             goto done;
         }
@@ -521,18 +522,20 @@ int ftm_cmd_sim(int argc, char **argv)
     s.hash = ftm_sim_hash(sim);
 
     if (csv) {
-        int wrc = write_csv(csv, sim, mesh);
-        if (!csv_stdout) {
-            if (fclose(csv) != 0)
-                wrc = -1;
-            csv = NULL;
-        } else if (fflush(csv) != 0) {
+        /* write_csv() sees any failed write (the stream remembers it);
+         * closing or flushing the rest gives the reason. */
+        int e = 0, wrc = write_csv(csv, sim, mesh);
+        if (csv_stdout ? fflush(csv) != 0 : fclose(csv) != 0) {
             wrc = -1;
+            e = errno;
         }
+        if (!csv_stdout)
+            csv = NULL;
         if (wrc != 0) {
-            fprintf(stderr, "ftm sim: --csv %s: write failed\n", o.csv);
-            status = 1;
-            goto done;
+            /* The run itself succeeded: its summary still follows. */
+            fprintf(stderr, "ftm sim: %s: cannot write: %s\n",
+                    csv_stdout ? "standard output" : o.csv, e ? strerror(e) : "write error");
+            status = EXIT_USAGE;
         }
     }
     if (o.json)

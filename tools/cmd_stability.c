@@ -4,10 +4,12 @@
  * boundary (largest stable h/h_crit with the guard off, by bisection), the
  * damping threshold of the core's warning, and what the guard does at the
  * unstable steps. Exit status 1 if a NaN was ever observable with the guard
- * on; "missed" (slow growth the guard never saw) is reported, not an error. */
+ * on; "missed" (slow growth the guard never saw) is reported, not an error;
+ * 2 for bad arguments or a CSV file that cannot be written. */
 #include "commands.h"
 #include "experiments.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -20,7 +22,9 @@ static void usage(FILE *f)
                "stability guard does beyond it.\n"
                "  --quick      a reduced sweep (small lattices, short runs; as the test uses)\n"
                "  --json       one JSON object with a row per configuration\n"
-               "  --csv FILE   the rows as CSV (for docs/bench/experiments.sh)\n");
+               "  --csv FILE   the rows as CSV (for docs/bench/experiments.sh)\n\n"
+               "exit status: 0 success, 1 a NaN was observable with the guard on (or a run\n"
+               "failed), 2 bad arguments or an output that cannot be written\n");
 }
 
 static void jnum(FILE *f, double v)
@@ -43,7 +47,11 @@ int ftm_cmd_stability(int argc, char **argv)
             quick = true;
         } else if (strcmp(argv[i], "--json") == 0) {
             json = true;
-        } else if (strcmp(argv[i], "--csv") == 0 && i + 1 < argc) {
+        } else if (strcmp(argv[i], "--csv") == 0) {
+            if (i + 1 >= argc) {
+                fprintf(stderr, "ftm stability: --csv needs a value\n");
+                return 2;
+            }
             csv = argv[++i];
         } else {
             fprintf(stderr, "ftm stability: unknown option '%s'\n", argv[i]);
@@ -59,7 +67,7 @@ int ftm_cmd_stability(int argc, char **argv)
     if (csv) {
         cf = fopen(csv, "w");
         if (!cf) {
-            fprintf(stderr, "ftm stability: cannot write %s\n", csv);
+            fprintf(stderr, "ftm stability: %s: cannot write: %s\n", csv, strerror(errno));
             return 2;
         }
         fprintf(cf, "index,name,nodes,max_degree,h_crit,h_spectral_ratio,damping_ratio,warned,"
@@ -88,6 +96,8 @@ int ftm_cmd_stability(int argc, char **argv)
         int rc = ftm_stab_run(&def, &configs[i], r);
         if (rc) {
             fprintf(stderr, "ftm stability: '%s' failed (%d)\n", configs[i].name, rc);
+            if (cf)
+                fclose(cf);
             return 1;
         }
         if (r->stable_long)
@@ -138,8 +148,7 @@ int ftm_cmd_stability(int argc, char **argv)
                     r->max_u[0] / r->spacing, r->max_u[1] / r->spacing, r->stable_ratio,
                     (unsigned long long)r->stable_events, r->stable_long);
     }
-    if (cf)
-        fclose(cf);
+    int csv_status = cf && ftm_close_output(cf, "ftm stability", csv) ? 2 : 0;
     if (!json) {
         printf("\nguarded runs at unstable steps:");
         for (int o = 0; o < 4; o++)
@@ -189,5 +198,6 @@ int ftm_cmd_stability(int argc, char **argv)
         }
         printf("]}\n");
     }
-    return bad ? 1 : 0;
+    /* Unwritten rows are the bigger loss: the sweep is run for them. */
+    return csv_status ? csv_status : bad ? 1 : 0;
 }

@@ -1,9 +1,17 @@
 /* Subcommands of the `ftm` tool. Each takes the arguments from the
  * subcommand's name on (argv[0] is "sim", "bench", ...) and returns the
- * process exit status: 0 success, 2 bad arguments or input, other codes as
+ * process exit status: 0 success, 2 bad arguments or input or an output that
+ * cannot be written, other codes as
  * documented by the command. */
 #ifndef FTM_TOOLS_COMMANDS_H
 #define FTM_TOOLS_COMMANDS_H
+
+#include <stdio.h>
+
+/* Closes f, a file a command wrote. If a write failed, now or earlier (the
+ * stream remembers it), says "WHO: PATH: cannot write: REASON" and returns
+ * -1; else 0. */
+int ftm_close_output(FILE *f, const char *who, const char *path);
 
 int ftm_cmd_sim(int argc, char **argv);
 int ftm_cmd_bench(int argc, char **argv);

@@ -3,6 +3,7 @@
 
 #include "ftm/ftm.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -36,7 +37,9 @@ static void usage(FILE *out)
     fprintf(out, "  %-11s %s\n\nbuilt-in scenes:", "help", "show this text or a command's help");
     for (const char *const *n = ftm_scene_builtin_names(); *n; n++)
         fprintf(out, " %s", *n);
-    fprintf(out, "\n\nRun 'ftm help COMMAND' for a command's options.\n");
+    fprintf(out, "\n\nRun 'ftm help COMMAND' for a command's options.\n\n"
+                 "exit status: 0 success, 2 bad arguments, input or output (a file or standard\n"
+                 "output that cannot be written), other codes as each command's help says\n");
 }
 
 static const command *find(const char *name)
@@ -47,7 +50,7 @@ static const command *find(const char *name)
     return NULL;
 }
 
-int main(int argc, char **argv)
+static int run(int argc, char **argv)
 {
     if (argc < 2) {
         usage(stderr);
@@ -79,4 +82,38 @@ int main(int argc, char **argv)
         return 2;
     }
     return c->run(argc - 1, argv + 1);
+}
+
+int ftm_close_output(FILE *f, const char *who, const char *path)
+{
+    bool failed = ferror(f) != 0;
+    int e = 0;
+    if (fclose(f) != 0) {
+        failed = true;
+        e = errno;
+    }
+    if (!failed)
+        return 0;
+    fprintf(stderr, "%s: %s: cannot write: %s\n", who, path, e ? strerror(e) : "write error");
+    return -1;
+}
+
+int main(int argc, char **argv)
+{
+    int status = run(argc, argv);
+    /* Whatever a command printed must have arrived: on a full disk the
+     * report would otherwise end short without a word. A command that failed
+     * has said why already (perhaps this very thing). */
+    bool failed = ferror(stdout) != 0;
+    int e = 0;
+    if (fflush(stdout) != 0) {
+        failed = true;
+        e = errno;
+    }
+    if (failed && status == 0) {
+        fprintf(stderr, "ftm: standard output: cannot write: %s\n",
+                e ? strerror(e) : "write error");
+        status = 2;
+    }
+    return status;
 }

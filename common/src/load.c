@@ -246,3 +246,53 @@ int ftm_load_mesh(ftm_mesh_builder *builder, const char *path, const ftm_materia
     return ftm_error_set(err, FTM_EINVAL,
                          "%s: unknown mesh format '%s' (expected .obj, .msh or .node)", path, dot);
 }
+
+/* A tetrahedron's corners in increasing order, and where it was in the input. */
+typedef struct tet_key {
+    int32_t v[4];
+    size_t at;
+} tet_key;
+
+static int compare_tet_keys(const void *pa, const void *pb)
+{
+    const tet_key *a = pa, *b = pb;
+    for (int i = 0; i < 4; i++)
+        if (a->v[i] != b->v[i])
+            return (a->v[i] > b->v[i]) - (a->v[i] < b->v[i]);
+    return (a->at > b->at) - (a->at < b->at);
+}
+
+int ftm_load_find_repeated_tet(const int32_t *tets, size_t count, size_t *first, size_t *second)
+{
+    if (count < 2)
+        return 0;
+    tet_key *keys = malloc(count * sizeof *keys);
+    if (!keys)
+        return FTM_ENOMEM;
+    for (size_t t = 0; t < count; t++) {
+        tet_key *k = &keys[t];
+        k->at = t;
+        for (int i = 0; i < 4; i++) { /* insertion sort of the corners */
+            int32_t x = tets[4 * t + (size_t)i];
+            int j = i;
+            for (; j > 0 && k->v[j - 1] > x; j--)
+                k->v[j] = k->v[j - 1];
+            k->v[j] = x;
+        }
+    }
+    qsort(keys, count, sizeof *keys, compare_tet_keys);
+    /* Equal corners form a run ordered by position: its first entry is the
+     * original, its second the repeat a one-pass reader would meet first. */
+    int found = 0;
+    for (size_t i = 1; i < count; i++) {
+        bool second_of_run = memcmp(keys[i].v, keys[i - 1].v, sizeof keys[i].v) == 0 &&
+                             (i < 2 || memcmp(keys[i].v, keys[i - 2].v, sizeof keys[i].v) != 0);
+        if (second_of_run && (!found || keys[i].at < *second)) {
+            *first = keys[i - 1].at;
+            *second = keys[i].at;
+            found = 1;
+        }
+    }
+    free(keys);
+    return found;
+}

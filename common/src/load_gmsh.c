@@ -46,6 +46,9 @@ typedef struct msh_state {
 
     int32_t *tris, *tets;
     size_t tri_count, tri_cap, tet_count, tet_cap;
+    int32_t *tet_line; /* per tetrahedron: its line and element tag, */
+    int64_t *tet_tag; /* for "repeated" messages */
+    size_t tet_line_cap, tet_tag_cap;
     size_t tet10_count; /* skipped second-order tetrahedra, for a hint */
 } msh_state;
 
@@ -128,9 +131,10 @@ static int end_line(msh_state *s, const char *section, ftm_error *err)
 static int int_token(msh_state *s, size_t i, int64_t lo, int64_t hi, const char *what,
                      int64_t *out, ftm_error *err)
 {
-    if (!ftm_text_parse_int(s->tok[i], s->toklen[i], out))
-        return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad %s '%.*s'", s->path, s->text.line, what,
-                             QUOTE(s->toklen[i]), s->tok[i]);
+    const char *why = ftm_text_read_int(s->tok[i], s->toklen[i], out);
+    if (why)
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad %s '%.*s': %s", s->path, s->text.line,
+                             what, QUOTE(s->toklen[i]), s->tok[i], why);
     if (*out < lo || *out > hi)
         return ftm_error_set(err, FTM_EPARSE, "%s:%d: %s %lld out of range", s->path,
                              s->text.line, what, (long long)*out);
@@ -256,9 +260,11 @@ static int parse_nodes(msh_state *s, ftm_error *err)
                 return rc;
             for (size_t c = 0; c < want; c++) {
                 double v;
-                if (!ftm_text_parse_double(s->tok[c], s->toklen[c], &v))
-                    return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad node coordinate '%.*s'",
-                                         s->path, s->text.line, QUOTE(s->toklen[c]), s->tok[c]);
+                const char *why = ftm_text_read_double(s->tok[c], s->toklen[c], &v);
+                if (why)
+                    return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad node coordinate '%.*s': %s",
+                                         s->path, s->text.line, QUOTE(s->toklen[c]), s->tok[c],
+                                         why);
                 if (c < 3)
                     s->pos[3 * (first + i) + c] = v;
             }
@@ -337,6 +343,23 @@ static int add_element(msh_state *s, int n, int32_t **array, size_t *count, size
     return FTM_OK;
 }
 
+/* Remembers where the tetrahedron just added came from. */
+static int note_tet(msh_state *s, int64_t tag, ftm_error *err)
+{
+    size_t t = s->tet_count - 1;
+    int32_t *l = ftm_load_grow(s->tet_line, &s->tet_line_cap, t + 1, sizeof *l);
+    if (l)
+        s->tet_line = l;
+    int64_t *g = ftm_load_grow(s->tet_tag, &s->tet_tag_cap, t + 1, sizeof *g);
+    if (g)
+        s->tet_tag = g;
+    if (!l || !g)
+        return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
+    l[t] = s->text.line;
+    g[t] = tag;
+    return FTM_OK;
+}
+
 static int parse_elements(msh_state *s, ftm_error *err)
 {
     int rc = data_line(s, "Elements", "the $Elements header", err);
@@ -379,9 +402,11 @@ static int parse_elements(msh_state *s, ftm_error *err)
             int64_t tag;
             if ((rc = int_token(s, 0, 1, INT64_MAX, "element tag", &tag, err)) < 0)
                 return rc;
-            if (type == ELEM_TETRAHEDRON)
+            if (type == ELEM_TETRAHEDRON) {
                 rc = add_element(s, 4, &s->tets, &s->tet_count, &s->tet_cap, err);
-            else if (type == ELEM_TRIANGLE)
+                if (rc >= 0)
+                    rc = note_tet(s, tag, err);
+            } else if (type == ELEM_TRIANGLE)
                 rc = add_element(s, 3, &s->tris, &s->tri_count, &s->tri_cap, err);
             else {
                 /* Skipped, but its tags must still be numbers to stay trustworthy. */
@@ -402,6 +427,16 @@ static int parse_elements(msh_state *s, ftm_error *err)
         return ftm_error_set(err, FTM_EPARSE,
                              "%s:%d: $Elements header announces %lld elements, blocks hold %lld",
                              s->path, s->text.line, (long long)nelems, (long long)seen);
+    size_t orig = 0, again = 0;
+    rc = ftm_load_find_repeated_tet(s->tets, s->tet_count, &orig, &again);
+    if (rc == FTM_ENOMEM)
+        return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
+    if (rc > 0)
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s:%d: element %lld has the same four nodes as element %lld "
+                             "(line %d), a repeated tetrahedron",
+                             s->path, s->tet_line[again], (long long)s->tet_tag[again],
+                             (long long)s->tet_tag[orig], s->tet_line[orig]);
     return FTM_OK;
 }
 
@@ -503,6 +538,8 @@ int ftm_load_gmsh(ftm_mesh_builder *builder, const char *path, const ftm_materia
     if (rc >= 0)
         rc = ftm_load_commit(builder, path, material, s->pos, s->node_count, s->tris,
                              s->tri_count, s->tet_count == 0, s->tets, s->tet_count, err);
+    free(s->tet_tag);
+    free(s->tet_line);
     free(s->tets);
     free(s->tris);
     free(s->tags);

@@ -21,4 +21,10 @@ int ftm_load_commit(ftm_mesh_builder *builder, const char *path, const ftm_mater
                     const double *pos, size_t node_count, const int32_t *tris, size_t tri_count,
                     bool tri_edges, const int32_t *tets, size_t tet_count, ftm_error *err);
 
+/* Finds a tetrahedron listed twice (the same four nodes in any order), which
+ * would double its stiffness and hide its faces from the surface. Returns 1
+ * with *second the earliest repeat in the input and *first its first copy,
+ * 0 if the tetrahedra are distinct, FTM_ENOMEM. Sorted: O(n log n). */
+int ftm_load_find_repeated_tet(const int32_t *tets, size_t count, size_t *first, size_t *second);
+
 #endif

@@ -24,6 +24,8 @@ typedef struct obj_state {
     size_t tri_count, tri_cap;
     int32_t *face; /* vertices of the face being read */
     size_t face_cap;
+    int32_t *used; /* per vertex: line of the last face that used it (0: none) */
+    size_t used_count, used_cap;
 } obj_state;
 
 static bool token_is(const char *tok, size_t len, const char *word)
@@ -42,9 +44,10 @@ static int parse_vertex(obj_state *s, const char *cur, const char *end, ftm_erro
         if (n == 7)
             return ftm_error_set(err, FTM_EPARSE, "%s:%d: vertex has too many values", s->path,
                                  s->line);
-        if (!ftm_text_parse_double(tok, len, &v[n]))
-            return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad vertex coordinate '%.*s'", s->path,
-                                 s->line, QUOTE(len), tok);
+        const char *why = ftm_text_read_double(tok, len, &v[n]);
+        if (why)
+            return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad vertex coordinate '%.*s': %s",
+                                 s->path, s->line, QUOTE(len), tok, why);
         n++;
     }
     if (n < 3)
@@ -76,11 +79,13 @@ static int parse_corner(obj_state *s, const char *tok, size_t len, int32_t *out,
     const char *end = tok + len;
     const char *s1 = memchr(tok, '/', len);
     const char *s2 = s1 ? memchr(s1 + 1, '/', (size_t)(end - s1 - 1)) : NULL;
-    bool ok = true;
     int64_t idx = 0;
-    if (!ftm_text_parse_int(tok, (size_t)((s1 ? s1 : end) - tok), &idx))
-        ok = false;
-    else if (s1 && !s2) /* a/b: b required */
+    const char *why = ftm_text_read_int(tok, (size_t)((s1 ? s1 : end) - tok), &idx);
+    if (why)
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad face vertex '%.*s': %s", s->path,
+                             s->line, QUOTE(len), tok, why);
+    bool ok = true;
+    if (s1 && !s2) /* a/b: b required */
         ok = s1 + 1 < end && optional_int(s1 + 1, (size_t)(end - s1 - 1));
     else if (s2) /* a/b/c or a//c: c required, no further slash */
         ok = optional_int(s1 + 1, (size_t)(s2 - s1 - 1)) && s2 + 1 < end &&
@@ -127,13 +132,24 @@ static int parse_face(obj_state *s, const char *cur, const char *end, ftm_error 
     if (n < 3)
         return ftm_error_set(err, FTM_EPARSE, "%s:%d: face needs at least 3 vertices (has %zu)",
                              s->path, s->line, n);
-    /* A repeated vertex would give a zero-length spring and a degenerate triangle.
-     * Quadratic, but faces are short; very long polygons are rare. */
-    for (size_t i = 0; i < n; i++)
-        for (size_t j = i + 1; j < n; j++)
-            if (s->face[i] == s->face[j])
-                return ftm_error_set(err, FTM_EPARSE, "%s:%d: face repeats vertex %d", s->path,
-                                     s->line, s->face[i] + 1);
+    /* A repeated vertex would give a zero-length spring and a degenerate
+     * triangle. Marking each vertex with the face's line keeps this linear in
+     * the face's size (polygons of 10^5 corners exist); vertices defined since
+     * the last face start unmarked. */
+    if (s->used_count < s->vertex_count) {
+        int32_t *u = ftm_load_grow(s->used, &s->used_cap, s->vertex_count, sizeof *u);
+        if (!u)
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
+        s->used = u;
+        memset(u + s->used_count, 0, (s->vertex_count - s->used_count) * sizeof *u);
+        s->used_count = s->vertex_count;
+    }
+    for (size_t i = 0; i < n; i++) {
+        if (s->used[s->face[i]] == s->line)
+            return ftm_error_set(err, FTM_EPARSE, "%s:%d: face repeats vertex %d", s->path,
+                                 s->line, s->face[i] + 1);
+        s->used[s->face[i]] = s->line;
+    }
     if (s->tri_count + (n - 2) > INT32_MAX / 3)
         return ftm_error_set(err, FTM_ERANGE, "%s:%d: too many triangles", s->path, s->line);
     int32_t *t = ftm_load_grow(s->tris, &s->tri_cap, 3 * (s->tri_count + n - 2), sizeof *t);
@@ -180,6 +196,15 @@ int ftm_load_obj(ftm_mesh_builder *builder, const char *path, const ftm_material
         size_t toklen;
         if (!ftm_text_token(&cur, end, &tok, &toklen))
             continue;
+        /* The reader skips a byte order mark that starts the file; one here
+         * would hide the line's keyword, and the line would be dropped. */
+        if (toklen >= 3 && memcmp(tok, "\xEF\xBB\xBF", 3) == 0) {
+            rc = ftm_error_set(err, FTM_EPARSE,
+                               "%s:%d: byte order mark (U+FEFF) inside the file (allowed only "
+                               "at its start)",
+                               path, s.line);
+            break;
+        }
         if (token_is(tok, toklen, "v"))
             rc = parse_vertex(&s, cur, end, err);
         else if (token_is(tok, toklen, "f"))
@@ -198,6 +223,7 @@ int ftm_load_obj(ftm_mesh_builder *builder, const char *path, const ftm_material
             rc = ftm_load_commit(builder, path, material, s.pos, s.vertex_count, s.tris,
                                  s.tri_count, true, NULL, 0, err);
     }
+    free(s.used);
     free(s.face);
     free(s.tris);
     free(s.pos);

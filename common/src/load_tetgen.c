@@ -33,6 +33,9 @@ typedef struct tg_mesh {
     int64_t base; /* index of the first point: 0 or 1 */
     int32_t *tets;
     size_t tet_count, tet_cap;
+    int32_t *tet_line; /* per tetrahedron: its line and index in the .ele file, */
+    int64_t *tet_index; /* for "repeated" messages */
+    size_t tet_line_cap, tet_index_cap;
 } tg_mesh;
 
 static int open_file(tg_file *f, const char *path, ftm_error *err)
@@ -78,21 +81,23 @@ static size_t tokens_left(const tg_file *f)
  * Callers check tokens_left() first, so a token is always there. */
 static int next_int(tg_file *f, const char *what, int64_t *out, ftm_error *err)
 {
-    const char *tok = f->cur;
+    const char *tok = f->cur, *why = "missing";
     size_t len = 0;
-    if (!ftm_text_token(&f->cur, f->end, &tok, &len) || !ftm_text_parse_int(tok, len, out))
-        return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad %s '%.*s'", f->path, f->text.line, what,
-                             QUOTE(len), tok);
+    if (!ftm_text_token(&f->cur, f->end, &tok, &len) ||
+        (why = ftm_text_read_int(tok, len, out)) != NULL)
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad %s '%.*s': %s", f->path, f->text.line,
+                             what, QUOTE(len), tok, why);
     return FTM_OK;
 }
 
 static int next_double(tg_file *f, const char *what, double *out, ftm_error *err)
 {
-    const char *tok = f->cur;
+    const char *tok = f->cur, *why = "missing";
     size_t len = 0;
-    if (!ftm_text_token(&f->cur, f->end, &tok, &len) || !ftm_text_parse_double(tok, len, out))
-        return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad %s '%.*s'", f->path, f->text.line, what,
-                             QUOTE(len), tok);
+    if (!ftm_text_token(&f->cur, f->end, &tok, &len) ||
+        (why = ftm_text_read_double(tok, len, out)) != NULL)
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad %s '%.*s': %s", f->path, f->text.line,
+                             what, QUOTE(len), tok, why);
     return FTM_OK;
 }
 
@@ -276,13 +281,34 @@ static int read_elements(tg_file *f, tg_mesh *m, ftm_error *err)
             }
         }
         int32_t *t = ftm_load_grow(m->tets, &m->tet_cap, 4 * (m->tet_count + 1), sizeof *t);
-        if (!t)
+        if (t)
+            m->tets = t;
+        int32_t *l = ftm_load_grow(m->tet_line, &m->tet_line_cap, m->tet_count + 1, sizeof *l);
+        if (l)
+            m->tet_line = l;
+        int64_t *x = ftm_load_grow(m->tet_index, &m->tet_index_cap, m->tet_count + 1, sizeof *x);
+        if (x)
+            m->tet_index = x;
+        if (!t || !l || !x)
             return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", f->path);
-        m->tets = t;
         memcpy(t + 4 * m->tet_count, v, sizeof v);
+        l[m->tet_count] = f->text.line;
+        x[m->tet_count] = index;
         m->tet_count++;
     }
-    return expect_end(f, count, "tetrahedra", err);
+    if ((rc = expect_end(f, count, "tetrahedra", err)) < 0)
+        return rc;
+    size_t orig = 0, again = 0;
+    rc = ftm_load_find_repeated_tet(m->tets, m->tet_count, &orig, &again);
+    if (rc == FTM_ENOMEM)
+        return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", f->path);
+    if (rc > 0)
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s:%d: tetrahedron %lld has the same four nodes as tetrahedron "
+                             "%lld (line %d)",
+                             f->path, m->tet_line[again], (long long)m->tet_index[again],
+                             (long long)m->tet_index[orig], m->tet_line[orig]);
+    return FTM_OK;
 }
 
 /* "mesh.node" -> "mesh.ele" ("MESH.NODE" -> "MESH.ELE"); a path without an
@@ -325,6 +351,8 @@ int ftm_load_tetgen(ftm_mesh_builder *builder, const char *node_path,
     if (rc >= 0)
         rc = ftm_load_commit(builder, node_path, material, m.pos, m.point_count, NULL, 0, false,
                              m.tets, m.tet_count, err);
+    free(m.tet_index);
+    free(m.tet_line);
     free(m.tets);
     free(m.pos);
     free(elements.data);

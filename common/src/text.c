@@ -66,7 +66,9 @@ void ftm_text_init(ftm_text *t, const char *name, const char *data, size_t lengt
     t->name = name;
     t->data = data;
     t->length = length;
-    t->pos = 0;
+    /* Only at the very start: a mark further in stays text for the reader to
+     * refuse, since it means files were pasted together. */
+    t->pos = length >= 3 && memcmp(data, "\xEF\xBB\xBF", 3) == 0 ? 3 : 0;
     t->line = 0;
 }
 
@@ -109,35 +111,121 @@ bool ftm_text_token(const char **cur, const char *end, const char **tok, size_t 
     return true;
 }
 
-bool ftm_text_parse_double(const char *tok, size_t len, double *out)
+static bool is_digit(char c)
 {
-    char buf[64];
-    if (len == 0 || len >= sizeof buf)
+    return c >= '0' && c <= '9';
+}
+
+static bool is_word(const char *tok, size_t len, const char *word)
+{
+    if (len != strlen(word))
         return false;
+    for (size_t i = 0; i < len; i++)
+        if ((tok[i] >= 'A' && tok[i] <= 'Z' ? tok[i] - 'A' + 'a' : tok[i]) != word[i])
+            return false;
+    return true;
+}
+
+/* Why a token that is not a plain decimal number was refused: strtod would
+ * take hexadecimal and the words below, so they get a message of their own. */
+static const char *why_not_number(const char *tok, size_t len, const char *otherwise)
+{
+    size_t i = len > 0 && (tok[0] == '+' || tok[0] == '-');
+    const char *t = tok + i;
+    size_t n = len - i;
+    if (n >= 2 && t[0] == '0' && (t[1] == 'x' || t[1] == 'X'))
+        return "hexadecimal numbers are not accepted (numbers are decimal)";
+    if (is_word(t, n, "inf") || is_word(t, n, "infinity") || is_word(t, n, "nan") ||
+        (n > 4 && is_word(t, 4, "nan(") && t[n - 1] == ')'))
+        return "not a finite number (nan and inf are not accepted)";
+    return otherwise;
+}
+
+/* Length of the decimal number at the start of tok: [+-] digits [. digits]
+ * [e [+-] digits], with at least one mantissa digit; 0 if there is none. */
+static size_t scan_decimal(const char *tok, size_t len)
+{
+    size_t i = 0, digits = 0;
+    if (i < len && (tok[i] == '+' || tok[i] == '-'))
+        i++;
+    for (; i < len && is_digit(tok[i]); i++)
+        digits++;
+    if (i < len && tok[i] == '.')
+        for (i++; i < len && is_digit(tok[i]); i++)
+            digits++;
+    if (digits == 0)
+        return 0;
+    if (i < len && (tok[i] == 'e' || tok[i] == 'E')) {
+        size_t j = i + 1;
+        if (j < len && (tok[j] == '+' || tok[j] == '-'))
+            j++;
+        size_t first = j;
+        while (j < len && is_digit(tok[j]))
+            j++;
+        if (j > first)
+            i = j;
+    }
+    return i;
+}
+
+const char *ftm_text_read_double(const char *tok, size_t len, double *out)
+{
+    if (len == 0 || scan_decimal(tok, len) != len)
+        return why_not_number(tok, len, "not a number");
+    /* strtod needs a terminated copy; long tokens (many digits, leading
+     * zeros) are valid numbers too, so they get one on the heap. */
+    char small[64];
+    char *buf = len < sizeof small ? small : malloc(len + 1);
+    if (!buf)
+        return "out of memory";
     memcpy(buf, tok, len);
     buf[len] = '\0';
     char *endp;
     double v = strtod(buf, &endp); /* underflow yields a tiny or zero value: accepted */
-    if (endp != buf + len || !isfinite(v))
-        return false; /* junk, "nan", "inf" or overflow */
+    bool whole = endp == buf + len; /* not so only under a locale with another decimal point */
+    if (buf != small)
+        free(buf);
+    if (!whole)
+        return "not a number";
+    if (!isfinite(v))
+        return "out of range for a double";
     *out = v;
-    return true;
+    return NULL;
+}
+
+const char *ftm_text_read_int(const char *tok, size_t len, int64_t *out)
+{
+    size_t i = len > 0 && (tok[0] == '+' || tok[0] == '-');
+    size_t end = i;
+    while (end < len && is_digit(tok[end]))
+        end++;
+    if (end == i || end != len)
+        return why_not_number(tok, len, "not an integer");
+    /* Leading zeros carry nothing: dropped, any length fits the buffer. */
+    while (i + 1 < len && tok[i] == '0')
+        i++;
+    if (len - i > 19)
+        return "out of range for a 64-bit integer";
+    char buf[24];
+    buf[0] = tok[0] == '-' ? '-' : '+';
+    memcpy(buf + 1, tok + i, len - i);
+    buf[1 + len - i] = '\0';
+    errno = 0;
+    long long v = strtoll(buf, NULL, 10);
+    if (errno == ERANGE)
+        return "out of range for a 64-bit integer";
+    *out = v;
+    return NULL;
+}
+
+bool ftm_text_parse_double(const char *tok, size_t len, double *out)
+{
+    return ftm_text_read_double(tok, len, out) == NULL;
 }
 
 bool ftm_text_parse_int(const char *tok, size_t len, int64_t *out)
 {
-    char buf[32];
-    if (len == 0 || len >= sizeof buf)
-        return false;
-    memcpy(buf, tok, len);
-    buf[len] = '\0';
-    char *endp;
-    errno = 0;
-    long long v = strtoll(buf, &endp, 10);
-    if (endp != buf + len || errno == ERANGE)
-        return false;
-    *out = v;
-    return true;
+    return ftm_text_read_int(tok, len, out) == NULL;
 }
 
 int ftm_text_verror(ftm_error *err, int code, const char *name, int32_t line, const char *fmt,

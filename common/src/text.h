@@ -20,6 +20,9 @@ typedef struct ftm_text {
 int ftm_text_read_file(const char *path, size_t max_bytes, char **data, size_t *length,
                        ftm_error *err);
 
+/* A UTF-8 byte order mark at the very start of data is skipped (editors on
+ * Windows write one); anywhere else it is ordinary text, and so an error
+ * wherever a reader expects something else. */
 void ftm_text_init(ftm_text *t, const char *name, const char *data, size_t length);
 
 /* Next line without its terminator (\n or \r\n); false at end of input.
@@ -39,8 +42,15 @@ int ftm_text_error(ftm_error *err, int code, const char *name, int32_t line, con
 int ftm_text_verror(ftm_error *err, int code, const char *name, int32_t line, const char *fmt,
                     va_list ap);
 
-/* Whole-token number parsing; false on trailing junk, overflow or (for
- * doubles) a non-finite value. */
+/* Whole-token number parsing, of any length. Doubles are decimal with an
+ * optional exponent ("-1.5e-3", ".5", "2."); integers are decimal digits with
+ * an optional sign. Returns NULL on success, else why the token is not one,
+ * for a message like "bad coordinate '0x1p3': <why>": not a number,
+ * hexadecimal, nan or inf, or out of range (for doubles, overflow; an
+ * underflow gives a tiny or zero value and is accepted). */
+const char *ftm_text_read_double(const char *tok, size_t len, double *out);
+const char *ftm_text_read_int(const char *tok, size_t len, int64_t *out);
+/* The same, as true on success. */
 bool ftm_text_parse_double(const char *tok, size_t len, double *out);
 bool ftm_text_parse_int(const char *tok, size_t len, int64_t *out);
 
