@@ -275,9 +275,10 @@ static int split(const parser *p, const char *keyname, const char *v, size_t vle
 
 static int number(const parser *p, const char *keyname, token t, double *out)
 {
-    if (!ftm_text_parse_double(t.s, t.n, out))
-        return fail_at(p, p->line, FTM_EPARSE, "%s: expected a finite number, got '%.*s'", keyname,
-                       shown(t.n), t.s);
+    const char *why = ftm_text_read_double(t.s, t.n, out);
+    if (why)
+        return fail_at(p, p->line, FTM_EPARSE, "%s: expected a finite number, got '%.*s': %s",
+                       keyname, shown(t.n), t.s, why);
     return FTM_OK;
 }
 
@@ -285,9 +286,10 @@ static int integer(const parser *p, const char *keyname, token t, int64_t lo, in
                    int64_t *out)
 {
     int64_t v = 0;
-    if (!ftm_text_parse_int(t.s, t.n, &v))
-        return fail_at(p, p->line, FTM_EPARSE, "%s: expected an integer, got '%.*s'", keyname,
-                       shown(t.n), t.s);
+    const char *why = ftm_text_read_int(t.s, t.n, &v);
+    if (why)
+        return fail_at(p, p->line, FTM_EPARSE, "%s: expected an integer, got '%.*s': %s", keyname,
+                       shown(t.n), t.s, why);
     if (v < lo || v > hi)
         return fail_at(p, p->line, FTM_EINVAL, "%s must be between %lld and %lld, got %lld",
                        keyname, (long long)lo, (long long)hi, (long long)v);
