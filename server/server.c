@@ -475,9 +475,15 @@ static void on_status(server *s, ftm_wire_received *rx)
         return;
     }
     bool fresh = p->role == 0;
-    if (fresh || p->state != st->state || p->role != st->role)
-        slog(s, "info", "participant %u (%s '%s'): %s at tick %" PRIu64, rx->sender,
-             ftm_wire_role_name(st->role), st->name, ftm_wire_state_name(st->state),
+    /* the tick is the participant's own, the last it applied: a joiner has
+     * none yet */
+    if ((fresh || p->state != st->state || p->role != st->role) &&
+        st->state == FTM_WIRE_STATE_JOINING)
+        slog(s, "info", "participant %u (%s '%s'): joining at server tick %" PRIu64, rx->sender,
+             ftm_wire_role_name(st->role), st->name, s->tick);
+    else if (fresh || p->state != st->state || p->role != st->role)
+        slog(s, "info", "participant %u (%s '%s'): %s, its last applied tick %" PRIu64,
+             rx->sender, ftm_wire_role_name(st->role), st->name, ftm_wire_state_name(st->state),
              st->last_applied_tick);
     if (!fresh && p->role != st->role) {
         release_probes(p);
@@ -1414,9 +1420,12 @@ static int parse(int argc, char **argv, options *o)
     }
     /* the heartbeat bounds the ticks a frame may skip, which replicas check
      * (FTM_WIRE_MAX_TICK_GAP: 10 s at 100 kHz, twice over) */
-    if (!(o->rate > 0 && o->rate <= 100000) || !(o->heartbeat > 0 && o->heartbeat <= 10)) {
-        fprintf(stderr, "ftm-server: --rate must be in (0, 100000], --heartbeat in (0, 10] "
-                        "seconds\n");
+    /* the rate is announced and recorded in whole hertz: a fraction would
+     * replay at another rate, below 0.5 Hz at none */
+    if (!(o->rate >= 1 && o->rate <= 100000 && o->rate == floor(o->rate)) ||
+        !(o->heartbeat > 0 && o->heartbeat <= 10)) {
+        fprintf(stderr, "ftm-server: --rate must be a whole number of hertz in 1..100000 (got "
+                        "%g), --heartbeat in (0, 10] seconds (got %g)\n", o->rate, o->heartbeat);
         return -1;
     }
     if (!(o->keyframe_every > 0 && o->keyframe_every <= MAX_SECONDS)) {

@@ -16,7 +16,10 @@ refused() { # expected-text options...
 }
 refused "--heartbeat in (0, 10] seconds" --heartbeat 10.5 --offline 1
 refused "--heartbeat in (0, 10] seconds" --heartbeat 0 --offline 1
-refused "--rate must be in (0, 100000]" --rate 100001 --offline 1
+# whole hertz, as announced and recorded (0.1 Hz was announced as 0)
+for v in 100001 0 0.1 0.9 333.3; do
+    refused "--rate must be a whole number of hertz in 1..100000 (got $v)" --rate "$v" --offline 1
+done
 for v in 0 -0.01 nan inf 1e999 1e-999; do
     refused "--max-penetration must be a length > 0 in metres (got '$v')" --max-penetration "$v" --offline 1
 done
