@@ -25,16 +25,12 @@
 #include <unistd.h>
 
 #define SEC 1000000000LL
-/* The longest time an option may give [s], about 31.7 years: in nanoseconds
- * (1e18) it still fits int64_t with the clock's value added; a larger double
- * would wrap when cast (--duration 1e300: stop at once). */
-#define MAX_SECONDS 1e9
+/* (a larger time would wrap when cast: --duration 1e300 stopped at once) */
+#define MAX_SECONDS FTM_OPTION_SECONDS_MAX
 /* The shortest --input-period: 10 kHz, ten times a 1 kHz haptic device.
  * Shorter ones only fill the publishing queue ("publishing queue full"). */
 #define MIN_INPUT_PERIOD 1e-4
-/* DDS domain ids: UINT32_MAX is Cyclone's "the configuration's default",
- * which --domain must not pick by accident (-1 parsed as unsigned). */
-#define MAX_DOMAIN 4294967294LL
+#define MAX_DOMAIN FTM_OPTION_DOMAIN_MAX
 
 typedef struct options {
     const char *role, *script, *scene, *session, *config, *log_path, *name;
@@ -110,24 +106,6 @@ static void usage(FILE *f)
             "  --log FILE             CSV: one line per applied frame\n");
 }
 
-/* An integer option's value: base 10, all of v, in lo..hi. What strtoul
- * and a cast let through is refused, not wrapped: a sign ("-1" as
- * 4294967295), a value beyond 32 bits cast down, trailing text. */
-static int int_opt(const char *opt, const char *v, long long lo, long long hi, long long *out)
-{
-    const char *digits = *v == '-' || *v == '+' ? v + 1 : v;
-    char *end = NULL;
-    errno = 0;
-    long long x = isdigit((unsigned char)*digits) ? strtoll(v, &end, 10) : 0;
-    if (!end || *end || errno == ERANGE || x < lo || x > hi) {
-        fprintf(stderr, "ftm-bot: %s must be an integer in %lld..%lld (got '%s')\n", opt, lo, hi,
-                v);
-        return -1;
-    }
-    *out = x;
-    return 0;
-}
-
 static int parse(int argc, char **argv, options *o)
 {
     *o = (options){.session = "ftm", .duration = 10.0, .resync_timeout = 5.0, .input_period = 0.001};
@@ -161,10 +139,10 @@ static int parse(int argc, char **argv, options *o)
         else if (strcmp(a, "--name") == 0)
             o->name = v;
         else if (strcmp(a, "--domain") == 0) {
-            bad = int_opt(a, v, 0, MAX_DOMAIN, &n);
+            bad = ftm_option_int_arg("ftm-bot", a, v, 0, MAX_DOMAIN, &n);
             o->domain = (uint32_t)n;
         } else if (strcmp(a, "--id") == 0) {
-            bad = int_opt(a, v, 0, UINT32_MAX, &n); /* 0: from pid and time */
+            bad = ftm_option_int_arg("ftm-bot", a, v, 0, UINT32_MAX, &n); /* 0: from pid and time */
             o->id = (uint32_t)n;
         } else if (strcmp(a, "--duration") == 0)
             o->duration = strtod(v, &end);

@@ -399,6 +399,8 @@ static int parse(int argc, char **argv, options *o)
         }
         const char *v = argv[++i];
         char *end = NULL;
+        long long n = 0;
+        int bad = 0; /* an integer option out of range, already said */
         errno = 0;
         if (strcmp(a, "--role") == 0)
             o->role = v;
@@ -420,20 +422,24 @@ static int parse(int argc, char **argv, options *o)
             o->renderer = v;
         else if (strcmp(a, "--screenshot") == 0)
             o->screenshot = v;
-        else if (strcmp(a, "--domain") == 0)
-            o->domain = (uint32_t)strtoul(v, &end, 10);
-        else if (strcmp(a, "--id") == 0)
-            o->id = (uint32_t)strtoul(v, &end, 10);
-        else if (strcmp(a, "--server-timeout") == 0)
+        else if (strcmp(a, "--domain") == 0) {
+            bad = ftm_option_int_arg("ftm-client", a, v, 0, FTM_OPTION_DOMAIN_MAX, &n);
+            o->domain = (uint32_t)n;
+        } else if (strcmp(a, "--id") == 0) {
+            bad = ftm_option_int_arg("ftm-client", a, v, 0, UINT32_MAX, &n); /* 0: automatic */
+            o->id = (uint32_t)n;
+        } else if (strcmp(a, "--server-timeout") == 0)
             o->server_timeout = strtod(v, &end);
         else if (strcmp(a, "--duration") == 0)
             o->duration = strtod(v, &end);
         else if (strcmp(a, "--screenshot-tick") == 0) {
-            o->shot_tick = strtoull(v, &end, 10);
+            bad = ftm_option_int_arg("ftm-client", a, v, 0, INT64_MAX, &n);
+            o->shot_tick = (uint64_t)n;
             o->shot_hold = true;
-        } else if (strcmp(a, "--screenshot-contact") == 0)
-            o->shot_contact = strtoll(v, &end, 10);
-        else if (strcmp(a, "--screenshot-after") == 0)
+        } else if (strcmp(a, "--screenshot-contact") == 0) {
+            bad = ftm_option_int_arg("ftm-client", a, v, 0, INT64_MAX, &n);
+            o->shot_contact = n;
+        } else if (strcmp(a, "--screenshot-after") == 0)
             o->shot_after = strtod(v, &end);
         else if (strcmp(a, "--screenshot-timeout") == 0)
             o->shot_timeout = strtod(v, &end);
@@ -441,11 +447,14 @@ static int parse(int argc, char **argv, options *o)
             o->bench = strtod(v, &end);
         else if (strcmp(a, "--colormap-full") == 0)
             o->colormap_full = strtod(v, &end) * 1e-3;
-        else if (strcmp(a, "--msaa") == 0)
-            o->msaa = (int)strtol(v, &end, 10);
-        else if (strcmp(a, "--swap-interval") == 0)
-            o->swap_interval = (int)strtol(v, &end, 10);
-        else if (strcmp(a, "--size") == 0) {
+        else if (strcmp(a, "--msaa") == 0) {
+            bad = ftm_option_int_arg("ftm-client", a, v, 0, 16, &n);
+            o->msaa = (int)n;
+        } else if (strcmp(a, "--swap-interval") == 0) {
+            /* -1: adaptive vsync where the driver has it */
+            bad = ftm_option_int_arg("ftm-client", a, v, -1, 8, &n);
+            o->swap_interval = (int)n;
+        } else if (strcmp(a, "--size") == 0) {
             if (sscanf(v, "%dx%d", &o->width, &o->height) != 2 || o->width < 64 ||
                 o->height < 64 || o->width > 8192 || o->height > 8192) {
                 fprintf(stderr, "ftm-client: --size: expected WxH (64..8192), got '%s'\n", v);
@@ -455,15 +464,24 @@ static int parse(int argc, char **argv, options *o)
             fprintf(stderr, "ftm-client: unknown option %s\n", a);
             return -1;
         }
+        if (bad)
+            return -1;
         if (end && (*end || errno)) {
             fprintf(stderr, "ftm-client: %s: bad number '%s'\n", a, v);
             return -1;
         }
     }
-    if (!(o->server_timeout > 0) || o->duration < 0 || !(o->shot_timeout > 0) || o->bench < 0 ||
-        o->colormap_full < 0 || o->shot_after < 0 || o->msaa < 0 || o->msaa > 16) {
-        fprintf(stderr, "ftm-client: --server-timeout, --screenshot-timeout must be > 0; "
-                        "--duration, --bench, --colormap-full >= 0; --msaa 0..16\n");
+    /* times at most FTM_OPTION_SECONDS_MAX: larger ones wrap when cast to
+     * nanoseconds */
+    const double most = FTM_OPTION_SECONDS_MAX;
+    if (!(o->server_timeout > 0 && o->server_timeout <= most) ||
+        !(o->shot_timeout > 0 && o->shot_timeout <= most) ||
+        !(o->duration >= 0 && o->duration <= most) || !(o->bench >= 0 && o->bench <= most) ||
+        !(o->shot_after >= 0 && o->shot_after <= most) ||
+        !(o->colormap_full >= 0 && isfinite(o->colormap_full))) {
+        fprintf(stderr, "ftm-client: --server-timeout, --screenshot-timeout must be in (0, %g] s; "
+                        "--duration, --bench, --screenshot-after in [0, %g] s; --colormap-full "
+                        ">= 0\n", most, most);
         return -1;
     }
     return 0;

@@ -200,3 +200,22 @@ ftm_vec3 ftm_script_points_at(const ftm_script_point *p, int32_t n, double t)
     ftm_vec3 a = p[lo].p, b = p[hi].p;
     return (ftm_vec3){a.x + w * (b.x - a.x), a.y + w * (b.y - a.y), a.z + w * (b.z - a.z)};
 }
+
+bool ftm_option_int(const char *v, size_t len, long long lo, long long hi, long long *out)
+{
+    int64_t x = 0;
+    if (ftm_text_read_int(v, len, &x) != NULL || x < lo || x > hi)
+        return false;
+    *out = (long long)x;
+    return true;
+}
+
+int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
+                       long long hi, long long *out)
+{
+    if (ftm_option_int(v, strlen(v), lo, hi, out))
+        return 0;
+    fprintf(stderr, "%s: %s must be an integer in %lld..%lld (got '%s')\n", program, opt, lo, hi,
+            v);
+    return -1;
+}

@@ -11,6 +11,7 @@
 
 #include "ftm/base.h"
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -63,5 +64,20 @@ void ftm_script_text_free(ftm_script_text *s);
 /* The HIP at time t: linear between points (exactly a point at its time),
  * held before the first and after the last. n >= 1. */
 ftm_vec3 ftm_script_points_at(const ftm_script_point *p, int32_t n, double t);
+
+/* Command-line values, read alike by ftm-server, ftm-bot and ftm-client.
+ * An integer option's value v[0..len): a whole base-10 number in lo..hi,
+ * nothing cast or wrapped ("-1" is not 4294967295, 4294967376 is not 80).
+ * The largest DDS domain an option may name: UINT32_MAX is Cyclone's "the
+ * configuration's default", which no wrapped "-1" may pick by accident. */
+bool ftm_option_int(const char *v, size_t len, long long lo, long long hi, long long *out);
+/* The same for a whole argument v of option opt; if it is no such integer,
+ * says "PROGRAM: OPT must be an integer in LO..HI (got 'V')" and returns -1. */
+int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
+                       long long hi, long long *out);
+#define FTM_OPTION_DOMAIN_MAX 4294967294LL
+/* The longest time an option may give [s], about 31.7 years: in nanoseconds
+ * it still fits 64-bit clock arithmetic (a larger double wraps when cast). */
+#define FTM_OPTION_SECONDS_MAX 1e9
 
 #endif

@@ -22,7 +22,6 @@
 #include "ftm/wire.h"
 
 #include <arpa/inet.h>
-#include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -42,14 +41,10 @@
 #define MAX_PROBES 4 /* per trainee; group = slot * MAX_PROBES + probe */
 _Static_assert(MAX_PROBES <= FTM_REPORT_PROBES, "the session report counts every probe");
 #define MAX_CATCHUP 50 /* ticks run in one timer callback before we call them missed */
-/* The longest time an option may give [s], about 31.7 years: in nanoseconds
- * (1e18) it still fits the 64-bit timer and deadline arithmetic with the
- * clock's value added; a larger double would wrap when cast (to 0: a
- * keyframe every tick, a session that stops at once). */
-#define MAX_SECONDS 1e9
-/* DDS domain ids: UINT32_MAX is Cyclone's "the configuration's default",
- * which --domain must not pick by accident (-1 parsed as unsigned). */
-#define MAX_DOMAIN 4294967294LL
+/* (a larger time would wrap when cast: a keyframe every tick, a session
+ * that stops at once) */
+#define MAX_SECONDS FTM_OPTION_SECONDS_MAX
+#define MAX_DOMAIN FTM_OPTION_DOMAIN_MAX
 
 typedef struct options {
     const char *scene;
@@ -1249,33 +1244,15 @@ static void usage(FILE *f)
             "                         thread one above, where permitted (default 10; 0: off)\n");
 }
 
-/* The base-10 integer at v, ending at `stop` ('\0': the end of v), in
- * lo..hi. What strtoul and a cast let through is refused, not wrapped: a
- * sign on an unsigned option ("-1" as 4294967295), a value beyond 32 bits
- * cast down (4294967376 as 80), trailing text. Returns where it ended (at
- * `stop`), NULL if v is no such integer; *out is set only then. */
+/* The integer option value at v, ending at `stop` ('\0': the end of v),
+ * in lo..hi (ftm_option_int). Returns where it ended (at `stop`), NULL if
+ * v is no such integer; *out is set only then. */
 static const char *int_in(const char *v, char stop, long long lo, long long hi, long long *out)
 {
-    const char *digits = *v == '-' || *v == '+' ? v + 1 : v;
-    if (!isdigit((unsigned char)*digits)) /* strtoll would skip blanks, take "" as 0 */
+    const char *end = stop ? strchr(v, stop) : v + strlen(v);
+    if (!end || !ftm_option_int(v, (size_t)(end - v), lo, hi, out))
         return NULL;
-    char *end = NULL;
-    errno = 0;
-    long long x = strtoll(v, &end, 10);
-    if (errno == ERANGE || *end != stop || x < lo || x > hi)
-        return NULL;
-    *out = x;
     return end;
-}
-
-/* An integer option's value in lo..hi; an error naming the option and the
- * range if it is not one. */
-static int int_opt(const char *opt, const char *v, long long lo, long long hi, long long *out)
-{
-    if (int_in(v, '\0', lo, hi, out))
-        return 0;
-    fprintf(stderr, "ftm-server: %s must be an integer in %lld..%lld (got '%s')\n", opt, lo, hi, v);
-    return -1;
 }
 
 /* Whether an address (inet_pton's bytes) is one no client can connect to:
@@ -1330,10 +1307,10 @@ static int parse(int argc, char **argv, options *o)
         else if (strcmp(a, "--log") == 0)
             o->log_path = v;
         else if (strcmp(a, "--domain") == 0) {
-            bad = int_opt(a, v, 0, MAX_DOMAIN, &n);
+            bad = ftm_option_int_arg("ftm-server", a, v, 0, MAX_DOMAIN, &n);
             o->domain = (uint32_t)n;
         } else if (strcmp(a, "--id") == 0) {
-            bad = int_opt(a, v, 1, UINT32_MAX, &n);
+            bad = ftm_option_int_arg("ftm-server", a, v, 1, UINT32_MAX, &n);
             o->id = (uint32_t)n;
         } else if (strcmp(a, "--rate") == 0)
             o->rate = strtod(v, &end);
@@ -1344,15 +1321,15 @@ static int parse(int argc, char **argv, options *o)
         else if (strcmp(a, "--duration") == 0)
             o->duration = strtod(v, &end);
         else if (strcmp(a, "--depth") == 0) {
-            bad = int_opt(a, v, 0, FTM_DEPTH_CTL_MAX, &n);
+            bad = ftm_option_int_arg("ftm-server", a, v, 0, FTM_DEPTH_CTL_MAX, &n);
             o->depth = (int32_t)n;
         } else if (strcmp(a, "--depth-floor") == 0) {
-            bad = int_opt(a, v, 0, FTM_DEPTH_CTL_MAX, &n);
+            bad = ftm_option_int_arg("ftm-server", a, v, 0, FTM_DEPTH_CTL_MAX, &n);
             o->depth_floor = (int32_t)n;
         } else if (strcmp(a, "--depth-hold-up") == 0)
             o->depth_hold_up = strtod(v, &end);
         else if (strcmp(a, "--adaptive") == 0) {
-            bad = int_opt(a, v, 0, 1, &n);
+            bad = ftm_option_int_arg("ftm-server", a, v, 0, 1, &n);
             o->adaptive = (int32_t)n;
         } else if (strcmp(a, "--record") == 0)
             o->record = v;
@@ -1363,10 +1340,10 @@ static int parse(int argc, char **argv, options *o)
         else if (strcmp(a, "--control-log") == 0)
             o->control_log = v;
         else if (strcmp(a, "--metrics-port") == 0) {
-            bad = int_opt(a, v, 0, 65535, &n);
+            bad = ftm_option_int_arg("ftm-server", a, v, 0, 65535, &n);
             o->metrics_port = (int32_t)n;
         } else if (strcmp(a, "--offline") == 0) {
-            bad = int_opt(a, v, 1, INT64_MAX, &n);
+            bad = ftm_option_int_arg("ftm-server", a, v, 1, INT64_MAX, &n);
             o->offline_ticks = n;
         } else if (strcmp(a, "--metrics-addr") == 0) {
             unsigned char addr[16];
@@ -1397,7 +1374,7 @@ static int parse(int argc, char **argv, options *o)
         else if (strcmp(a, "--reactions") == 0)
             o->reactions_csv = v;
         else if (strcmp(a, "--rt-priority") == 0) {
-            bad = int_opt(a, v, 0, 98, &n);
+            bad = ftm_option_int_arg("ftm-server", a, v, 0, 98, &n);
             o->rt_priority = (int32_t)n;
         } else if (strcmp(a, "--max-penetration") == 0) {
             o->max_penetration = strtod(v, &end);
@@ -1458,7 +1435,7 @@ static int parse(int argc, char **argv, options *o)
                         "--inputs or --offline\n");
         return -1;
     }
-    /* (--offline itself is at least 1: int_opt) */
+    /* (--offline itself is at least 1: ftm_option_int_arg) */
     if ((o->ntrainees || o->reactions_csv) && !o->offline_ticks) {
         fprintf(stderr, "ftm-server: --trainee and --reactions go with --offline\n");
         return -1;
