@@ -15,6 +15,7 @@
  * Not a test: figures depend on the machine and its load. */
 #include "haptic.h"
 #include "replay.h"
+#include "script_text.h"
 
 #include "ftm/scene.h"
 #include "ftm/sim.h"
@@ -101,19 +102,19 @@ static int parse_args(int argc, char **argv, options *o)
             usage(stdout);
             exit(0);
         } else if (v && !strcmp(a, "--seconds")) {
-            o->seconds = strtod(v, NULL);
+            char *e;
+            o->seconds = strtod(v, &e);
             i++;
-            if (!(o->seconds > 0 && o->seconds <= 3600)) {
+            if (*e || !(o->seconds > 0 && o->seconds <= 3600)) {
                 fprintf(stderr, "ftm-haptic-bench: --seconds %s: must be in (0, 3600]\n", v);
                 return 2;
             }
         } else if (v && !strcmp(a, "--repeat")) {
-            o->repeat = atoi(v);
+            long long n = 0;
             i++;
-            if (o->repeat < 1 || o->repeat > 100) {
-                fprintf(stderr, "ftm-haptic-bench: --repeat %s: must be in 1..100\n", v);
+            if (ftm_option_int_arg("ftm-haptic-bench", a, v, 1, 100, &n))
                 return 2;
-            }
+            o->repeat = (int)n;
         } else if (v && !strcmp(a, "--delays")) {
             o->ndelays = 0;
             const char *p = v;
@@ -146,9 +147,10 @@ static int parse_args(int argc, char **argv, options *o)
             o->script = v;
             i++;
         } else if (v && !strcmp(a, "--stiffness-scale")) {
-            o->kscale = strtod(v, NULL);
+            char *e;
+            o->kscale = strtod(v, &e);
             i++;
-            if (!(o->kscale >= 0 && o->kscale <= 100)) {
+            if (*e || !(o->kscale >= 0 && o->kscale <= 100)) {
                 fprintf(stderr, "ftm-haptic-bench: --stiffness-scale %s: must be in [0, 100]\n", v);
                 return 2;
             }

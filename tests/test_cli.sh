@@ -297,6 +297,8 @@ if "$FTM" bench --help | grep -q '^  net '; then
     check "bench net --rate 0 exits 2" [ "$rc" -eq 2 ]
     check "bench net states the accepted --rate range" \
         grep -q -- '--rate must be above 0 and at most 10000' "$tmp/err"
+    run bench net --bots 4294967297 # wrapped to 1 when cut to int
+    check "bench net refuses --bots beyond int" grep -q -- '--bots must be in 1\.\.' "$tmp/err"
 fi
 
 # ftm fem and ftm fit (built with the FEM library only)

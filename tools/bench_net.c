@@ -28,6 +28,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <inttypes.h>
+#include <limits.h>
 #include <math.h>
 #include <signal.h>
 #include <stdbool.h>
@@ -704,6 +705,14 @@ static char *exe_sibling(const char *rel)
     return buf[k];
 }
 
+/* A long option value as an int for the range checks after it: values
+ * beyond int become its limits (out of every range) instead of wrapping
+ * into one (--bots 4294967297 as 1). */
+static int clamp_int(long v)
+{
+    return v > INT_MAX ? INT_MAX : v < INT_MIN ? INT_MIN : (int)v;
+}
+
 static int parse(int argc, char **argv, net_options *o)
 {
     static char config[1024], lossy[1024];
@@ -738,10 +747,10 @@ static int parse(int argc, char **argv, net_options *o)
             o->size_duration = strtod(v, &end);
         else if (strcmp(a, "--rate") == 0)
             o->rate = strtod(v, &end);
-        else if (strcmp(a, "--bots") == 0)
-            o->bots = (int)strtol(v, &end, 10);
+        else if (strcmp(a, "--bots") == 0) /* (long: not cut to int before the range check) */
+            o->bots = clamp_int(strtol(v, &end, 10));
         else if (strcmp(a, "--domain") == 0)
-            o->domain = (int)strtol(v, &end, 10);
+            o->domain = clamp_int(strtol(v, &end, 10));
         else if (strcmp(a, "--server") == 0)
             o->server = v;
         else if (strcmp(a, "--bot") == 0)
