@@ -1460,26 +1460,45 @@ static int outputs_of(const options *o, output out[5])
     return n;
 }
 
-/* Before anything is opened for writing: an output that is the recording
- * --replay or --inputs reads (the same file, by device and inode: another
- * name, a link) would be truncated before it is read. Returns 0, or 2 (a
- * bad argument) after saying which. */
+/* Before anything is opened for writing: an output that is a file the run
+ * reads — the recording --replay or --inputs reads, the scene file, the DDS
+ * configuration, a --trainee script — (the same file, by device and inode:
+ * another name, a link) would be truncated before it is read. Returns 0, or
+ * 2 (a bad argument) after saying which. */
 static int outputs_apart_from_input(const options *o)
 {
-    const char *in = o->replay ? o->replay : o->inputs;
-    const char *in_opt = o->replay ? "--replay" : "--inputs";
-    struct stat si, so;
-    if (!in || stat(in, &si) != 0)
-        return 0; /* nothing to destroy; reading it fails with its own error */
+    output in[4 + 8];
+    int nin = 0;
+    if (o->replay || o->inputs)
+        in[nin++] = (output){o->replay ? "--replay" : "--inputs", o->replay ? o->replay : o->inputs};
+    in[nin++] = (output){"--scene", o->scene}; /* a built-in name is no file: skipped */
+    if (o->config)
+        in[nin++] = (output){"--config", o->config};
+    for (int t = 0; t < o->ntrainees; t++) { /* ID:T0:FILE */
+        const char *c = strchr(o->trainees[t], ':');
+        if (c && (c = strchr(c + 1, ':')))
+            in[nin++] = (output){"--trainee", c + 1};
+    }
     output out[5];
-    int n = outputs_of(o, out);
-    for (int i = 0; i < n; i++)
-        if (stat(out[i].path, &so) == 0 && so.st_dev == si.st_dev && so.st_ino == si.st_ino) {
-            fprintf(stderr, "ftm-server: %s %s is the recording %s %s reads: it would be "
-                            "overwritten; write to another file\n",
-                    out[i].opt, out[i].path, in_opt, in);
+    const int nout = outputs_of(o, out);
+    for (int k = 0; k < nin; k++) {
+        struct stat si, so;
+        if (stat(in[k].path, &si) != 0)
+            continue; /* nothing to destroy; reading it fails with its own error */
+        for (int i = 0; i < nout; i++) {
+            if (stat(out[i].path, &so) != 0 || so.st_dev != si.st_dev || so.st_ino != si.st_ino)
+                continue;
+            if (k == 0 && (o->replay || o->inputs))
+                fprintf(stderr, "ftm-server: %s %s is the recording %s %s reads: it would be "
+                                "overwritten; write to another file\n",
+                        out[i].opt, out[i].path, in[k].opt, in[k].path);
+            else
+                fprintf(stderr, "ftm-server: %s %s is the file %s %s reads: it would be "
+                                "overwritten; write to another file\n",
+                        out[i].opt, out[i].path, in[k].opt, in[k].path);
             return 2;
         }
+    }
     return 0;
 }
 

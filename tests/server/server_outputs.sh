@@ -4,7 +4,8 @@
 #   - a real recording (a 1 s session with --record) survives byte for byte
 #     every output option naming it under --inputs or --replay — by its
 #     name, another spelling, a symbolic or a hard link: each is refused
-#     (status 2) before anything is opened for writing;
+#     (status 2) before anything is opened for writing; so do a trainee
+#     script and the DDS configuration;
 #   - an output that is a directory is refused by --check (status 3, naming
 #     it) and at start-up (status 3), not after the session when the report
 #     is written.
@@ -67,4 +68,18 @@ for opt in --report --control-log --record --log; do
 done
 timeout 30 "$FTM_SERVER" --inputs a.rec --report sub >dir.out 2>dir.err
 [ $? -eq 3 ] && grep -q -- "--report sub is a directory" dir.err || fail "--inputs --report sub"
+# the other files a run reads: a trainee script, the scene file, the configuration
+printf '0 0 0 0.2\n1 0 0 0.2\n' >t.bot
+cp t.bot t.orig
+timeout 30 "$FTM_SERVER" --offline 10 --trainee 11:0:t.bot --reactions t.bot >same.out 2>same.err
+[ $? -eq 2 ] && grep -qF -- "--reactions t.bot is the file --trainee t.bot reads" same.err ||
+    fail "--reactions naming the trainee script was not refused"
+cmp -s t.bot t.orig || fail "the trainee script changed"
+cp "$FTM_CONFIG" c.xml
+cp c.xml c.orig
+timeout 30 "$FTM_SERVER" --config c.xml --session srv-outputs-$$ --domain $domain --check \
+    --log c.xml >same.out 2>same.err
+[ $? -eq 2 ] && grep -qF -- "--log c.xml is the file --config c.xml reads" same.err ||
+    fail "--log naming the configuration was not refused"
+cmp -s c.xml c.orig || fail "the configuration changed"
 echo "PASS outputs: $(wc -c <a.rec)-byte recording kept under every output option"
