@@ -209,6 +209,8 @@ typedef struct bot {
     double lat_sum_us, lat_max_us;
     uint64_t lat_n;
     bool ever_synced;
+    bool id_taken;   /* another process, there first, uses our id (on_status) */
+    bool id_told;    /* a later one using it was logged */
     int64_t unsynced_since;
 } bot;
 
@@ -462,6 +464,23 @@ static void on_status(bot *b, const ftm_wire_received *rx)
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
+    /* our own id from another process (a participant never hears itself):
+     * the server hears whichever claimed it first, so the one that has not
+     * synced yet, when the other has, is the one to go */
+    if (rx->sender == g_id) {
+        if (st->role == FTM_WIRE_ROLE_SERVER ||
+            (!b->ever_synced && st->state == FTM_WIRE_STATE_SYNCED)) {
+            blog("participant id %u is taken: another process in session '%s' uses it and the "
+                 "server listens to that one; give each participant its own --id",
+                 g_id, b->o.session);
+            b->id_taken = true;
+        } else if (b->ever_synced && !b->id_told) {
+            blog("another process joined as participant %u ('%s'): the server ignores it",
+                 g_id, st->name);
+            b->id_told = true;
+        }
+        return;
+    }
     if (st->role == FTM_WIRE_ROLE_SERVER && from_server(b, rx)) {
         if (st->state != FTM_WIRE_STATE_LEAVING)
             server_alive(b);
@@ -560,6 +579,10 @@ int main(int argc, char **argv)
             why = "script leave time";
             break;
         }
+        if (b->id_taken) {
+            why = "participant id taken";
+            break;
+        }
         /* the server has left: take what is still in flight, then stop. A
          * `gone` without LEAVING may be a lease that expired while this
          * process (or the server) was stalled: wait for it to come back for
@@ -639,6 +662,8 @@ int main(int argc, char **argv)
     ftm_wire_state st = cur_state(b);
     if (st != FTM_WIRE_STATE_SYNCED)
         rc_exit = 1;
+    if (b->id_taken)
+        rc_exit = 2;
     blog("stopping (%s): %s, %" PRIu64 " frames received, %" PRIu64 " applied, %" PRIu64
          " idle ticks, %" PRIu64 " mismatches, %" PRIu64 " gaps, %" PRIu64 " resyncs, %" PRIu64
          " keyframes loaded; latency mean %.0f us max %.0f us; replay %.2f us/tick",

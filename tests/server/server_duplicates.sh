@@ -1,9 +1,11 @@
 #!/bin/sh
 # One session, one server, one process per id (loopback, a DDS domain and
 # session of its own, `timeout` around every process):
-#   - two trainee bots given the same --id: the server listens to the first
-#     only (one press in its report), says so, never reports a gap from
-#     their interleaved sequence numbers, and its recording replays;
+#   - two trainee bots given the same --id, the second a second later: the
+#     server listens to the first only (one press in its report) and says
+#     so, never reports a gap from their interleaved sequence numbers, and
+#     its recording replays; the second bot learns its id is taken and
+#     stops (status 2), the first carries on;
 #   - a second ftm-server on a served session stops (status 3, naming the
 #     first), the first goes on to its end (status 0), and --check on the
 #     served session fails (status 3).
@@ -26,12 +28,18 @@ timeout 30 "$FTM_SERVER" $common --rate "$rate" --duration 5 --log ids.log --rec
     --report ids.json >ids.out 2>&1 &
 server=$!
 sleep 1
-for n in 1 2; do
-    timeout 30 "$FTM_BOT" $common --role trainee --id 11 --script "$FTM_SCRIPTS/trainee$n.bot" \
-        --duration 4 >bot$n.out 2>&1 &
-done
+timeout 30 "$FTM_BOT" $common --role trainee --id 11 --script "$FTM_SCRIPTS/trainee1.bot" \
+    --duration 4 >bot1.out 2>&1 &
+first=$!
+sleep 1
+timeout 30 "$FTM_BOT" $common --role trainee --id 11 --script "$FTM_SCRIPTS/trainee2.bot" \
+    --duration 4 >bot2.out 2>&1
+rc=$?
+[ $rc -eq 2 ] || fail "the second bot with id 11: status $rc, not 2"
+grep -q "participant id 11 is taken" bot2.out || fail "the second bot does not say its id is taken"
+wait $first || fail "the first bot did not end synced"
+grep -q "another process joined as participant 11" bot1.out || fail "the first bot did not notice"
 wait $server || fail "the server failed"
-wait
 grep -q "participant 11 (trainee .*): a second process uses this id" ids.log ||
     fail "no error about the second process using id 11"
 ! grep -q "missing before seq" ids.log || fail "the two bots' sequence numbers were taken as gaps"
