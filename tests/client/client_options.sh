@@ -5,12 +5,11 @@
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
 nodds=/nonexistent/ftm-test-cyclonedds.xml
+. "$(cd "$(dirname "$0")" && pwd)/../refused.sh"
 refused() { # expected-text options...
     want=$1
     shift
-    out=$(DISPLAY= WAYLAND_DISPLAY= timeout 20 "$FTM_CLIENT" --config $nodds "$@" 2>&1)
-    [ $? -eq 2 ] || fail "$*: exit status not 2 (usage): $out"
-    case $out in *"$want"*) ;; *) fail "$*: no '$want' in: $out" ;; esac
+    refused_by "$want" "$FTM_CLIENT" --config $nodds "$@"
 }
 # integers: range-checked, never cast to 32 bits nor read unsigned from a sign
 refused "--domain must be an integer in 0..4294967294 (got '-1')" --domain -1

@@ -5,12 +5,11 @@
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
 nodds=/nonexistent/ftm-test-cyclonedds.xml
+. "$(cd "$(dirname "$0")" && pwd)/../refused.sh"
 refused() { # expected-text options...
     want=$1
     shift
-    out=$(timeout 20 "$FTM_BOT" --role observer --config $nodds "$@" 2>&1)
-    [ $? -eq 2 ] || fail "$*: exit status not 2 (usage): $out"
-    case $out in *"$want"*) ;; *) fail "$*: no '$want' in: $out" ;; esac
+    refused_by "$want" "$FTM_BOT" --role observer --config $nodds "$@"
 }
 # times that would wrap when cast to nanoseconds (1e300: stop at once)
 for v in 1e300 1e10 inf nan 0 -1; do
