@@ -60,6 +60,8 @@ struct ftm_client_session {
     int64_t reject_until_ns;
     char reject_msg[200];
     bool silent_reported;
+    bool id_taken; /* another process, there first, uses our id: the server ignores us */
+    bool id_told;  /* a later one using it was logged */
     bool force_valid;
     uint64_t contact_ticks, counted_tick;
     bool dirty;
@@ -293,6 +295,26 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
+    /* our own id from another process (a participant never hears itself):
+     * the server hears whichever claimed it first, so if the other has
+     * synced and we have not, we are the one it ignores (as ftm-bot) */
+    if (rx->sender == s->cfg.id) {
+        const bool synced = s->rep && ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED;
+        if (!s->id_taken && (st->role == FTM_WIRE_ROLE_SERVER ||
+                             (!synced && st->state == FTM_WIRE_STATE_SYNCED))) {
+            slog(s, FTM_LOG_ERROR,
+                 "participant id %u is taken: another process in session '%s' uses it and the "
+                 "server listens to that one; restart with another --id",
+                 s->cfg.id, s->cfg.session);
+            s->id_taken = true;
+            force_off(s, "participant id taken");
+        } else if (synced && !s->id_taken && !s->id_told) {
+            slog(s, FTM_LOG_WARN, "another process joined as participant %u ('%s'): the server "
+                 "ignores it", s->cfg.id, st->name);
+            s->id_told = true;
+        }
+        return;
+    }
     if (st->role == FTM_WIRE_ROLE_SERVER && from_server(s, rx) &&
         st->state == FTM_WIRE_STATE_LEAVING)
         server_gone(s, "leaving");
@@ -439,7 +461,11 @@ static void watchdog(ftm_client_session *s, int64_t now)
         return; /* the scene banner set in on_announce stays */
     if (s->scene && !s->rep)
         return; /* scene mismatch banner stays */
-    if (s->server_left)
+    if (s->id_taken)
+        snprintf(banner, sizeof banner,
+                 "PARTICIPANT ID %u TAKEN BY ANOTHER PROCESS: THE SERVER IGNORES THIS ONE; "
+                 "RESTART WITH ANOTHER --id", s->cfg.id);
+    else if (s->server_left)
         snprintf(banner, sizeof banner, "SERVER LEFT THE SESSION: FORCE OFF");
     else if (s->silent_reported)
         snprintf(banner, sizeof banner, "SERVER SILENT FOR %.0f S: FORCE OFF", silent_s);

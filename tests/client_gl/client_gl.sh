@@ -9,9 +9,10 @@
 #       the stiffness and the depth limits; server and client apply them;
 #       a trainee bot presses meanwhile, and the instructor's debriefing
 #       figures (peak force and its tick) are those of the bot's frames.
-#   badinput: a scene the client cannot load, malformed tick frames, and a
-#       server that vanishes (SIGKILL): each time the client logs it, shows
-#       the red banner (checked in its screenshot) and keeps running. Then a
+#   badinput: a scene the client cannot load, malformed tick frames, its
+#       participant id already taken by another process, and a server that
+#       vanishes (SIGKILL): each time the client logs it, shows the red
+#       banner (checked in its screenshot) and keeps running. Then a
 #       server restarted (a new process on the session): the client rejoins;
 #       and restarted with another scene: the client loads and draws it.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
@@ -128,6 +129,20 @@ badinput)
     [ $rc -eq 0 ] || fail "client exited with $rc after malformed frames"
     grep -q "malformed tick frame rejected" "$dir/badframe.log" || fail "malformed frame not logged"
     "$FTM_PNG_CHECK" banner "$dir/badframe.png" || fail "no banner for the malformed frames"
+
+    # 3a. another process already has the client's participant id: the
+    # client says its id is taken (the server ignores it), banner, runs on
+    timeout 60 "$FTM_BOT" --role observer $common --id 77 --duration 30 \
+        >"$dir/idbot.out" 2>"$dir/idbot.err" &
+    idbot=$!
+    wait_for "$dir/idbot.err" "synced at tick" "the bot holding id 77 did not sync" 300
+    client idtaken --id 77 --screenshot "$dir/idtaken.png" --screenshot-after 4
+    rc=$?
+    [ $rc -eq 0 ] || fail "client with a taken id exited with $rc"
+    grep -q "participant id 77 is taken" "$dir/idtaken.log" || fail "taken id not logged"
+    "$FTM_PNG_CHECK" banner "$dir/idtaken.png" || fail "no banner for the taken id"
+    kill $idbot 2>/dev/null
+    wait $idbot 2>/dev/null
 
     # 3. the server vanishes (SIGKILL, no LEAVING): the client notices the silence
     client vanish --server-timeout 1 --screenshot "$dir/vanish.png" --screenshot-after 6 &
