@@ -210,7 +210,7 @@ typedef struct bot {
     uint64_t lat_n;
     bool ever_synced;
     bool id_taken;   /* another process, there first, uses our id (on_status) */
-    bool id_told;    /* a later one using it was logged */
+    bool id_heard;   /* a status of another process with our id was seen */
     int64_t unsynced_since;
 } bot;
 
@@ -464,20 +464,23 @@ static void on_status(bot *b, const ftm_wire_received *rx)
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
-    /* our own id from another process (a participant never hears itself):
-     * the server hears whichever claimed it first, so the one that has not
-     * synced yet, when the other has, is the one to go */
+    /* our own id from another process (a participant never hears itself).
+     * The server hears whichever claimed it first. The first status heard
+     * from the other tells which: a process that starts publishes JOINING
+     * for its first second, so one heard past JOINING (its latest status,
+     * handed to us as we join) was there before us. */
     if (rx->sender == g_id) {
-        if (st->role == FTM_WIRE_ROLE_SERVER ||
-            (!b->ever_synced && st->state == FTM_WIRE_STATE_SYNCED)) {
+        if (b->id_heard)
+            return;
+        b->id_heard = true;
+        if (st->role == FTM_WIRE_ROLE_SERVER || st->state != FTM_WIRE_STATE_JOINING) {
             blog("participant id %u is taken: another process in session '%s' uses it and the "
                  "server listens to that one; give each participant its own --id",
                  g_id, b->o.session);
             b->id_taken = true;
-        } else if (b->ever_synced && !b->id_told) {
+        } else {
             blog("another process joined as participant %u ('%s'): the server ignores it",
                  g_id, st->name);
-            b->id_told = true;
         }
         return;
     }
@@ -566,7 +569,9 @@ int main(int argc, char **argv)
     }
     blog("%s joining session '%s' on domain %u", b->o.role, b->o.session, b->o.domain);
     publish_status(b, FTM_WIRE_STATE_JOINING);
-    int64_t next_status = mono_ns() + SEC / 2, next_input = mono_ns();
+    /* the first status after JOINING a second on: JOINING is what another
+     * process with our id hears of us first (on_status) */
+    int64_t next_status = mono_ns() + SEC, next_input = mono_ns();
     int64_t leave_ns = b->sc.leave >= 0 ? script_deadline(b->sc.leave) : INT64_MAX;
     b->unsynced_since = mono_ns();
     int rc_exit = 0;

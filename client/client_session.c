@@ -61,7 +61,7 @@ struct ftm_client_session {
     char reject_msg[200];
     bool silent_reported;
     bool id_taken; /* another process, there first, uses our id: the server ignores us */
-    bool id_told;  /* a later one using it was logged */
+    bool id_heard; /* a status of another process with our id was seen */
     bool force_valid;
     uint64_t contact_ticks, counted_tick;
     bool dirty;
@@ -296,22 +296,24 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
     }
     const ftm_wire_status *st = &rx->msg.u.status;
     /* our own id from another process (a participant never hears itself):
-     * the server hears whichever claimed it first, so if the other has
-     * synced and we have not, we are the one it ignores (as ftm-bot) */
+     * the server hears whichever claimed it first, and the first status
+     * heard from the other tells which (as in ftm-bot): a process publishes
+     * JOINING for its first second, so one heard past JOINING was there
+     * before us */
     if (rx->sender == s->cfg.id) {
-        const bool synced = s->rep && ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED;
-        if (!s->id_taken && (st->role == FTM_WIRE_ROLE_SERVER ||
-                             (!synced && st->state == FTM_WIRE_STATE_SYNCED))) {
+        if (s->id_heard)
+            return;
+        s->id_heard = true;
+        if (st->role == FTM_WIRE_ROLE_SERVER || st->state != FTM_WIRE_STATE_JOINING) {
             slog(s, FTM_LOG_ERROR,
                  "participant id %u is taken: another process in session '%s' uses it and the "
                  "server listens to that one; restart with another --id",
                  s->cfg.id, s->cfg.session);
             s->id_taken = true;
             force_off(s, "participant id taken");
-        } else if (synced && !s->id_taken && !s->id_told) {
+        } else {
             slog(s, FTM_LOG_WARN, "another process joined as participant %u ('%s'): the server "
                  "ignores it", s->cfg.id, st->name);
-            s->id_told = true;
         }
         return;
     }
@@ -693,7 +695,10 @@ static void *session_main(void *arg)
             s->last_input_ns = now;
         }
         ftm_wire_state st = s->rep ? ftm_replay_state(s->rep) : FTM_WIRE_STATE_JOINING;
-        if (st != s->last_state || now - s->last_status_ns >= SEC / 2) {
+        /* a change is told at once, but for the first second a joiner's
+         * status stays the JOINING it sent (as ftm-bot's): what another
+         * process with our id hears first then says we came after it */
+        if (now - t0 >= SEC && (st != s->last_state || now - s->last_status_ns >= SEC / 2)) {
             if (st != s->last_state && st == FTM_WIRE_STATE_SYNCED)
                 slog(s, FTM_LOG_INFO, "synced at tick %" PRIu64, ftm_replay_tick(s->rep));
             s->last_state = st;
