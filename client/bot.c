@@ -470,8 +470,8 @@ static void on_status(bot *b, const ftm_wire_received *rx)
      * for its first second, so one heard past JOINING (its latest status,
      * handed to us as we join) was there before us. */
     if (rx->sender == g_id) {
-        if (b->id_heard)
-            return;
+        if (b->id_heard || st->state == FTM_WIRE_STATE_LEAVING)
+            return; /* (one leaving at once says nothing of who came first) */
         b->id_heard = true;
         if (st->role == FTM_WIRE_ROLE_SERVER || st->state != FTM_WIRE_STATE_JOINING) {
             blog("participant id %u is taken: another process in session '%s' uses it and the "
@@ -571,7 +571,8 @@ int main(int argc, char **argv)
     publish_status(b, FTM_WIRE_STATE_JOINING);
     /* the first status after JOINING a second on: JOINING is what another
      * process with our id hears of us first (on_status) */
-    int64_t next_status = mono_ns() + SEC, next_input = mono_ns();
+    const int64_t joined_ns = mono_ns();
+    int64_t next_status = joined_ns + SEC, next_input = joined_ns;
     int64_t leave_ns = b->sc.leave >= 0 ? script_deadline(b->sc.leave) : INT64_MAX;
     b->unsynced_since = mono_ns();
     int rc_exit = 0;
@@ -584,7 +585,9 @@ int main(int argc, char **argv)
             why = "script leave time";
             break;
         }
-        if (b->id_taken) {
+        /* taken: stop, but only a second after joining, so that the
+         * session (the server, the process with the id) heard who it was */
+        if (b->id_taken && now - joined_ns >= SEC) {
             why = "participant id taken";
             break;
         }
@@ -628,7 +631,7 @@ int main(int argc, char **argv)
         }
         now = mono_ns();
         double t = (double)(now - g_t0) * 1e-9;
-        if (b->role == FTM_WIRE_ROLE_TRAINEE && now >= next_input) {
+        if (b->role == FTM_WIRE_ROLE_TRAINEE && now >= next_input && !b->id_taken) {
             send_probe(b, t);
             next_input += (int64_t)(b->o.input_period * 1e9);
             if (next_input < now)

@@ -301,8 +301,8 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
      * JOINING for its first second, so one heard past JOINING was there
      * before us */
     if (rx->sender == s->cfg.id) {
-        if (s->id_heard)
-            return;
+        if (s->id_heard || st->state == FTM_WIRE_STATE_LEAVING)
+            return; /* (one leaving at once says nothing of who came first) */
         s->id_heard = true;
         if (st->role == FTM_WIRE_ROLE_SERVER || st->state != FTM_WIRE_STATE_JOINING) {
             slog(s, FTM_LOG_ERROR,
