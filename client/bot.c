@@ -464,21 +464,14 @@ static void on_status(bot *b, const ftm_wire_received *rx)
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
-    /* our own id from another process (a participant never hears itself).
-     * The server hears whichever claimed it first. The first status heard
-     * from the other tells which: a process that starts publishes JOINING
-     * for its first second, so one heard past JOINING (its latest status,
-     * handed to us as we join) was there before us. */
-    if (rx->sender == g_id) {
-        if (b->id_heard || st->state == FTM_WIRE_STATE_LEAVING)
-            return; /* (one leaving at once says nothing of who came first) */
-        b->id_heard = true;
-        if (st->role == FTM_WIRE_ROLE_SERVER || st->state != FTM_WIRE_STATE_JOINING) {
+    if (rx->sender == g_id) { /* another process with our id (ftm_replay_own_id_status) */
+        const ftm_id_claim c = ftm_replay_own_id_status(&b->id_heard, st);
+        if (c == FTM_ID_TAKEN) {
             blog("participant id %u is taken: another process in session '%s' uses it and the "
                  "server listens to that one; give each participant its own --id",
                  g_id, b->o.session);
             b->id_taken = true;
-        } else {
+        } else if (c == FTM_ID_NEWCOMER) {
             blog("another process joined as participant %u ('%s'): the server ignores it",
                  g_id, st->name);
         }

@@ -295,23 +295,16 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
-    /* our own id from another process (a participant never hears itself):
-     * the server hears whichever claimed it first, and the first status
-     * heard from the other tells which (as in ftm-bot): a process publishes
-     * JOINING for its first second, so one heard past JOINING was there
-     * before us */
-    if (rx->sender == s->cfg.id) {
-        if (s->id_heard || st->state == FTM_WIRE_STATE_LEAVING)
-            return; /* (one leaving at once says nothing of who came first) */
-        s->id_heard = true;
-        if (st->role == FTM_WIRE_ROLE_SERVER || st->state != FTM_WIRE_STATE_JOINING) {
+    if (rx->sender == s->cfg.id) { /* another process with our id (ftm_replay_own_id_status) */
+        const ftm_id_claim c = ftm_replay_own_id_status(&s->id_heard, st);
+        if (c == FTM_ID_TAKEN) {
             slog(s, FTM_LOG_ERROR,
                  "participant id %u is taken: another process in session '%s' uses it and the "
                  "server listens to that one; restart with another --id",
                  s->cfg.id, s->cfg.session);
             s->id_taken = true;
             force_off(s, "participant id taken");
-        } else {
+        } else if (c == FTM_ID_NEWCOMER) {
             slog(s, FTM_LOG_WARN, "another process joined as participant %u ('%s'): the server "
                  "ignores it", s->cfg.id, st->name);
         }

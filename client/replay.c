@@ -910,3 +910,13 @@ double ftm_replay_take_max(ftm_replay *r)
 ftm_sim *ftm_replay_sim(ftm_replay *r) { return r->sim; }
 
 ftm_wire_tissue ftm_replay_tissue(const ftm_replay *r) { return ftm_replay_tissue_now(&r->mat); }
+
+ftm_id_claim ftm_replay_own_id_status(bool *heard, const ftm_wire_status *st)
+{
+    if (*heard || st->state == FTM_WIRE_STATE_LEAVING)
+        return FTM_ID_NOTHING; /* one leaving at once says nothing of who came first */
+    *heard = true;
+    return st->role == FTM_WIRE_ROLE_SERVER || st->state != FTM_WIRE_STATE_JOINING
+               ? FTM_ID_TAKEN
+               : FTM_ID_NEWCOMER;
+}

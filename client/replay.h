@@ -110,6 +110,20 @@ void ftm_replay_destroy(ftm_replay *r);
  * and time step (FTM_EINVAL). A message names the mismatch. */
 int ftm_replay_check_announce(const ftm_replay *r, const ftm_wire_announce *a, ftm_error *err);
 
+/* What a status of another process carrying our own participant id says
+ * (a participant never hears itself). The server hears whichever claimed
+ * the id first, and a process's status says JOINING for its first second,
+ * so the first status heard of the other tells which: one past JOINING (or
+ * the server's) was there first, our id is TAKEN; a JOINING one is a
+ * NEWCOMER the server ignores. A LEAVING status, or any after the first
+ * (*heard, false at the start), says NOTHING. */
+typedef enum ftm_id_claim {
+    FTM_ID_NOTHING = 0,
+    FTM_ID_TAKEN,
+    FTM_ID_NEWCOMER,
+} ftm_id_claim;
+ftm_id_claim ftm_replay_own_id_status(bool *heard, const ftm_wire_status *st);
+
 /* A received tick frame (r->msg.kind == FTM_WIRE_TICK). Synced: applies it
  * (after stepping any ticks the server left out as idle), checks the hash;
  * a sequence gap or a mismatch switches to RESYNCING. Not synced: keeps it
