@@ -469,6 +469,8 @@ static void on_status(server *s, ftm_wire_received *rx)
         slog(s, "warn", "participant %u: table full (%d), ignored", rx->sender, MAX_PARTICIPANTS);
         return;
     }
+    if (!p->origin)
+        p->origin = rx->origin; /* its id is now this process's (admit; 0 in a replay) */
     bool fresh = p->role == 0;
     /* the tick is the participant's own, the last it applied: a joiner has
      * none yet */
@@ -730,12 +732,9 @@ static void drain(server *s)
                     record(s, true, kinds[k], rx.sender, buf, size, rx.gone);
                 free(buf);
             }
-            if (kinds[k] == FTM_WIRE_STATUS) {
+            if (kinds[k] == FTM_WIRE_STATUS)
                 on_status(s, &rx);
-                participant *p = rx.gone ? NULL : find_part(s, rx.sender, false);
-                if (p && !p->origin)
-                    p->origin = rx.origin; /* its id is now this process's */
-            } else if (kinds[k] == FTM_WIRE_CONTROL)
+            else if (kinds[k] == FTM_WIRE_CONTROL)
                 on_control(s, &rx);
             else
                 on_probe_input(s, &rx);
