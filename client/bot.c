@@ -212,6 +212,9 @@ typedef struct bot {
     bool id_taken;   /* another process, there first, uses our id (on_status) */
     bool id_heard;   /* a status of another process with our id was seen */
     int64_t unsynced_since;
+    /* statuses before this say JOINING (the periodic one at this time tells
+     * the state reached): see publish_state */
+    int64_t quiet_until_ns;
 } bot;
 
 static void publish_status(bot *b, ftm_wire_state state)
@@ -241,6 +244,19 @@ static void publish_status(bot *b, ftm_wire_state state)
 static ftm_wire_state cur_state(const bot *b)
 {
     return b->rep ? ftm_replay_state(b->rep) : FTM_WIRE_STATE_JOINING;
+}
+
+/* A change of the replica's state is told at once, except in the first
+ * second after joining: then the status stays the JOINING sent on joining
+ * (docs/protocol.md), which is what another process with our id must hear
+ * of us first; the periodic status at the end of that second tells the
+ * state reached. A SYNCED told early and then not repeated for a second
+ * also looked like a replica falling behind to the server's depth
+ * controller. */
+static void publish_state(bot *b)
+{
+    if (mono_ns() >= b->quiet_until_ns)
+        publish_status(b, cur_state(b));
 }
 
 static void on_announce(bot *b, const ftm_wire_announce *a)
@@ -372,7 +388,7 @@ static void on_tick(bot *b, const ftm_wire_received *rx)
         b->push_limited = limited;
     }
     if (ftm_replay_state(b->rep) != before)
-        publish_status(b, ftm_replay_state(b->rep));
+        publish_state(b);
 }
 
 static void on_keyframe(bot *b, const ftm_wire_keyframe *k)
@@ -383,7 +399,7 @@ static void on_keyframe(bot *b, const ftm_wire_keyframe *k)
     if (ftm_replay_on_keyframe(b->rep, k))
         blog("replay: out of memory");
     if (ftm_replay_state(b->rep) != before)
-        publish_status(b, ftm_replay_state(b->rep));
+        publish_state(b);
 }
 
 static void send_probe(bot *b, double t)
@@ -566,6 +582,7 @@ int main(int argc, char **argv)
      * process with our id hears of us first (on_status) */
     const int64_t joined_ns = mono_ns();
     int64_t next_status = joined_ns + SEC, next_input = joined_ns;
+    b->quiet_until_ns = next_status;
     int64_t leave_ns = b->sc.leave >= 0 ? script_deadline(b->sc.leave) : INT64_MAX;
     b->unsynced_since = mono_ns();
     int rc_exit = 0;

@@ -1039,6 +1039,11 @@ static void control_period(server *s)
             if (late > lag)
                 lag = late;
         }
+        /* a joiner has applied nothing yet, a leaver stops: neither is lag */
+        const bool replaying = p->state == FTM_WIRE_STATE_SYNCED ||
+                               p->state == FTM_WIRE_STATE_RESYNCING;
+        if (!replaying)
+            lag = 0;
         if (m->nparts < FTM_METRICS_PARTS) {
             ftm_metrics_part *mp = &m->parts[m->nparts++];
             mp->id = p->id;
@@ -1047,8 +1052,7 @@ static void control_period(server *s)
             mp->lag = lag;
             mp->replay_ns = p->replay_ns;
         }
-        /* a joiner has applied nothing yet, a leaver stops: neither is lag */
-        if (p->state == FTM_WIRE_STATE_SYNCED || p->state == FTM_WIRE_STATE_RESYNCING)
+        if (replaying)
             parts[np++] = (ftm_depth_ctl_part){p->id, ftm_wire_role_name(p->role), lag, p->replay_ns};
     }
     in.nparts = np;

@@ -1,8 +1,10 @@
 #!/bin/sh
 # ftm-server session tests on loopback (tests/server/CMakeLists.txt):
 #   adaptive: trainee 11 presses and holds; observer 13 is stopped (SIGSTOP)
-#             for 1.2 s. The server must lower the depth naming participant
-#             13, raise it again after SIGCONT, and every bot must end on the
+#             for 1.2 s. Before that the depth must not move, and the observer
+#             must say JOINING for its first second. The server must lower
+#             the depth naming participant 13, raise it again after SIGCONT,
+#             and every bot must end on the
 #             server's final tick and hash, and the session's recording
 #             replays (depth changes included) with every hash equal.
 #   record:   server --record with trainee 11; --replay reproduces every hash
@@ -74,6 +76,15 @@ adaptive)
         sleep 0.05
     done
     sleep 1.0
+    # nothing has loaded the session yet: a joiner must not look like lag
+    # (ftm-bot once told SYNCED at once and then nothing for a second)
+    early=$(grep "info: depth [0-9]* -> " "$dir/server.log" | head -n 1)
+    [ -z "$early" ] || fail "the depth changed before any load: $early"
+    # a joiner's status says JOINING for its first second (docs/protocol.md)
+    joined=$(sed -n 's/^\[ *\([0-9.]*\)\] info: participant 13 (observer.*): joining.*/\1/p' "$dir/server.log")
+    synced=$(sed -n 's/^\[ *\([0-9.]*\)\] info: participant 13 (observer.*): synced.*/\1/p' "$dir/server.log")
+    awk -v j="$joined" -v s="$synced" 'BEGIN { exit !(j != "" && s != "" && s - j >= 0.9) }' ||
+        fail "observer 13 told SYNCED $joined -> $synced s, within its first second"
     # stopped for 1.2 s or 90 ticks, whichever is longer: well past the lag
     # threshold (40 ticks) at the sanitizer builds' lower rate too, and short
     # of the 2 s status deadline (a participant silent that long is lost)
