@@ -7,28 +7,56 @@
 # Prints what each process ended on and exits non-zero unless every
 # participant replayed the session to the server's exact state.
 # With a display (DISPLAY or WAYLAND_DISPLAY set, ftm-client built, and
-# FTM_HEADLESS unset) an instructor window (ftm-client) joins too, the
+# FTM_HEADLESS unset, empty or 0) an instructor window (ftm-client) joins too, the
 # trainees repeat their presses every 3 s, and the session lasts 60 s by
 # default: watch, rotate (drag), toggle the colour map (c) and the BFS region
 # (b), pause (Space); docs/client.md lists the keys.
+# A window that cannot open (a stale DISPLAY) is reported and the session
+# goes on without it. Ctrl-C (or SIGTERM, SIGHUP) stops every process of
+# the session. KEEP=1 keeps the logs; a failed session keeps them anyway.
 #   deploy/run-session.sh [BUILD_DIR] [SECONDS]
 set -uo pipefail
+usage() { sed -n 's/^#   \(deploy\/run-session.sh .*\)$/usage: \1/p' "$0"; }
+case ${1:-} in -h|--help) usage; exit 0 ;; esac
 cd "$(dirname "$0")/.."
 build=${1:-build/release}
 server="$build/server/ftm-server"
 bot="$build/client/ftm-bot"
 client="$build/client/ftm-client"
 gui=
-if [ -z "${FTM_HEADLESS:-}" ] && { [ -n "${DISPLAY:-}" ] || [ -n "${WAYLAND_DISPLAY:-}" ]; } &&
+case ${FTM_HEADLESS:-0} in 0|'') headless= ;; *) headless=1 ;; esac
+if [ -z "$headless" ] && { [ -n "${DISPLAY:-}" ] || [ -n "${WAYLAND_DISPLAY:-}" ]; } &&
    [ -x "$client" ]; then
   gui=1
 fi
 seconds=${2:-$([ -n "$gui" ] && echo 60 || echo 6)}
+if ! [[ $seconds =~ ^[1-9][0-9]{0,4}$ ]] || [ "$seconds" -gt 86400 ]; then
+  echo "run-session: SECONDS must be a whole number of seconds, 1..86400 (got '$seconds')" >&2
+  usage >&2
+  exit 2
+fi
 for p in "$server" "$bot"; do
   [ -x "$p" ] || { echo "run-session: $p not built" >&2; exit 2; }
 done
-dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-session.XXXXXX")
+dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-session.XXXXXX") && [ -d "$dir" ] || {
+  echo "run-session: cannot create a directory for the session's logs under ${TMPDIR:-/tmp}" >&2
+  exit 2
+}
 trap '[ -n "${KEEP:-}" ] || rm -rf "$dir"' EXIT
+# the session's processes run under `timeout`, which puts itself in a
+# process group of its own, so a Ctrl-C in the terminal reaches only this
+# script: stop them all (timeout passes the signal on), then leave
+pids=()
+stop() {
+  trap - INT TERM HUP
+  echo "run-session: interrupted: stopping the session's processes" >&2
+  [ ${#pids[@]} -eq 0 ] || kill -TERM "${pids[@]}" 2>/dev/null
+  wait
+  exit "$1"
+}
+trap 'stop 130' INT
+trap 'stop 143' TERM
+trap 'stop 129' HUP
 common=(--session main-$$ --domain $((1 + $$ % 97)) --config deploy/cyclonedds-loopback.xml)
 
 script1=docs/sessions/trainee1.bot
@@ -49,6 +77,7 @@ echo "    instructor 15 (instructor.bot: stiffness 50 -> 80 N/m at 1.5 s)"
 timeout $((seconds + 20)) "$server" --scene default "${common[@]}" --duration "$seconds" \
   --log "$dir/server.log" --report "$dir/report.json" >"$dir/server.out" 2>&1 &
 spid=$!
+pids+=($spid)
 for _ in $(seq 100); do
   grep -q "session '" "$dir/server.log" 2>/dev/null && break
   sleep 0.05
@@ -56,19 +85,24 @@ done
 timeout $((seconds + 20)) "$bot" --role trainee --script "$script1" "${common[@]}" \
   --id 11 --duration $((seconds + 10)) --log "$dir/trainee11.csv" >"$dir/b11.out" 2>"$dir/b11.err" &
 p11=$!
+pids+=($p11)
 timeout $((seconds + 20)) "$bot" --role trainee --script "$script2" "${common[@]}" \
   --id 12 --duration $((seconds + 10)) >"$dir/b12.out" 2>"$dir/b12.err" &
 p12=$!
+pids+=($p12)
 timeout $((seconds + 20)) "$bot" --role observer "${common[@]}" \
   --id 13 --duration $((seconds + 10)) >"$dir/b13.out" 2>"$dir/b13.err" &
 p13=$!
+pids+=($p13)
 timeout $((seconds + 20)) "$bot" --role instructor --script docs/sessions/instructor.bot \
   "${common[@]}" --id 15 --duration $((seconds + 10)) >"$dir/b15.out" 2>"$dir/b15.err" &
 p15=$!
+pids+=($p15)
 if [ -n "$gui" ]; then
   "$client" --role instructor "${common[@]}" --id 14 --name instructor --duration "$seconds" \
     --log "$dir/client.log" >"$dir/client.out" 2>&1 &
   p14=$!
+pids+=($p14)
 fi
 
 status=0
@@ -94,13 +128,20 @@ echo "  debriefing, from the server's session report (--report; KEEP=1 keeps $di
 sed -n 's/^\[ *[0-9.]*\] info: \(participant .* probe [0-9]*: [0-9]* touch.*\)$/    \1/p' "$dir/server.log"
 if [ -n "$gui" ]; then
   wait $p14; rc=$?
-  echo "  instructor window: exit $rc ($(grep -c "" "$dir/client.log" 2>/dev/null || echo 0) log lines)"
-  [ $rc -eq 0 ] || { tail -5 "$dir/client.out"; status=1; }
+  if [ $rc -ne 0 ] && grep -q "cannot initialise GLFW\|cannot open an OpenGL" "$dir/client.out"; then
+    # a display that does not work (a stale DISPLAY): the session ran without the window
+    echo "  instructor window: could not open on '${DISPLAY:-${WAYLAND_DISPLAY:-}}', the session ran without it:"
+    grep "cannot initialise GLFW\|cannot open an OpenGL" "$dir/client.out" | head -n 2 | sed 's/^/    /'
+  else
+    echo "  instructor window: exit $rc ($(grep -c "" "$dir/client.log" 2>/dev/null || echo 0) log lines)"
+    [ $rc -eq 0 ] || { tail -5 "$dir/client.out"; status=1; }
+  fi
 fi
 echo
 if [ $status -eq 0 ]; then
   echo "result: every participant replayed the session bit-identically"
 else
-  echo "result: FAILED (logs kept in the messages above)"
+  KEEP=1
+  echo "result: FAILED (the session's logs are kept in $dir)"
 fi
 exit $status
