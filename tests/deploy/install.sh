@@ -48,6 +48,12 @@ unit=$p/lib/systemd/system/ftm-server@.service
 grep -q "^ExecStart=$p/bin/ftm-server " "$unit" || fail "the unit's ExecStart is not this install's"
 grep -q "^Environment=FTM_DDS_CONFIG=$p/share/ftm/cyclonedds/cyclonedds-lan.xml\$" "$unit" ||
     fail "the unit's DDS configuration is not this install's"
+# the unit's documentation, and the README's links to docs/, resolve in the install
+doc=$(sed -n 's|^Documentation=file://||p' "$unit")
+[ -f "$doc" ] || fail "the unit's Documentation= names $doc, not installed"
+for l in $(grep -o '](docs/[^)#]*' "$p/share/doc/ftm/README.md" | sed 's/^](//' | sort -u); do
+    [ -e "$p/share/doc/ftm/$l" ] || fail "the installed README links to $l, not installed"
+done
 if command -v systemd-analyze >/dev/null 2>&1; then
     cp "$unit" "$dir/ftm-server@ci.service"
     timeout 60 systemd-analyze verify "$dir/ftm-server@ci.service" >"$dir/verify.out" 2>&1 ||
