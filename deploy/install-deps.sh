@@ -5,6 +5,11 @@
 #   deploy/install-deps.sh          build + test dependencies
 #
 set -euo pipefail
+case ${1:-} in
+  '') ;;
+  -h|--help) sed -n 's/^#   \(deploy\/install-deps.sh\) .*/usage: \1 (no arguments)/p' "$0"; exit 0 ;;
+  *) echo "install-deps: takes no arguments (got '$1')" >&2; exit 2 ;;
+esac
 
 packages=(
   build-essential cmake ninja-build pkg-config   # toolchain

@@ -1402,10 +1402,14 @@ static int parse(int argc, char **argv, options *o)
      * (FTM_WIRE_MAX_TICK_GAP: 10 s at 100 kHz, twice over) */
     /* the rate is announced and recorded in whole hertz: a fraction would
      * replay at another rate, below 0.5 Hz at none */
-    if (!(o->rate >= 1 && o->rate <= 100000 && o->rate == floor(o->rate)) ||
-        !(o->heartbeat > 0 && o->heartbeat <= 10)) {
-        fprintf(stderr, "ftm-server: --rate must be a whole number of hertz in 1..100000 (got "
-                        "%g), --heartbeat in (0, 10] seconds (got %g)\n", o->rate, o->heartbeat);
+    if (!(o->rate >= 1 && o->rate <= 100000 && o->rate == floor(o->rate))) {
+        fprintf(stderr, "ftm-server: --rate must be a whole number of hertz in 1..100000 (got %g)\n",
+                o->rate);
+        return -1;
+    }
+    if (!(o->heartbeat > 0 && o->heartbeat <= 10)) {
+        fprintf(stderr, "ftm-server: --heartbeat must be in (0, 10] seconds (got %g)\n",
+                o->heartbeat);
         return -1;
     }
     if (!(o->keyframe_every > 0 && o->keyframe_every <= MAX_SECONDS)) {

@@ -14,11 +14,14 @@ refused() { # expected-text options...
     if out=$(timeout 20 "$FTM_SERVER" "$@" 2>&1); then fail "accepted: $*"; fi
     case $out in *"$want"*) ;; *) fail "$*: no '$want' in: $out" ;; esac
 }
-refused "--heartbeat in (0, 10] seconds" --heartbeat 10.5 --offline 1
-refused "--heartbeat in (0, 10] seconds" --heartbeat 0 --offline 1
-# whole hertz, as announced and recorded (0.1 Hz was announced as 0)
+refused "--heartbeat must be in (0, 10] seconds (got 10.5)" --heartbeat 10.5 --offline 1
+refused "--heartbeat must be in (0, 10] seconds (got 0)" --heartbeat 0 --offline 1
+# whole hertz, as announced and recorded (0.1 Hz was announced as 0); the
+# message names the rate alone (it used to blame a valid --heartbeat too)
 for v in 100001 0 0.1 0.9 333.3; do
     refused "--rate must be a whole number of hertz in 1..100000 (got $v)" --rate "$v" --offline 1
+    out=$(timeout 20 "$FTM_SERVER" --rate "$v" --offline 1 2>&1)
+    case $out in *heartbeat*) fail "--rate $v: the message blames --heartbeat: $out" ;; esac
 done
 for v in 0 -0.01 nan inf 1e999 1e-999; do
     refused "--max-penetration must be a length > 0 in metres (got '$v')" --max-penetration "$v" --offline 1
