@@ -352,7 +352,9 @@ static void after_frames(ftm_client_session *s)
         if (t->reactions[i].participant == s->cfg.id && t->reactions[i].probe == 0)
             mine = &t->reactions[i];
     uint64_t tick = ftm_replay_tick(s->rep);
-    if (ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED && !s->server_left) {
+    /* with our id taken, the reaction under it is the other process's:
+     * evaluated at our HIP it is no force of ours (up to the clamp) */
+    if (ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED && !s->server_left && !s->id_taken) {
         if (!s->force_valid && s->cfg.role == FTM_WIRE_ROLE_TRAINEE)
             slog(s, FTM_LOG_INFO, "force on at tick %" PRIu64, tick);
         s->force_valid = true;
@@ -409,7 +411,9 @@ static void send_probe(ftm_client_session *s)
 {
     ftm_wire_probe_sample smp[HIP_BATCH];
     int n = s->cfg.take_hips(s->cfg.hip_user, smp, HIP_BATCH);
-    if (n <= 0)
+    /* never with our id taken: the server would take our HIP for the other
+     * process's (taken all the same, so that none goes out stale later) */
+    if (n <= 0 || s->id_taken)
         return;
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
@@ -580,7 +584,7 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
             memset(p, 0, sizeof *p);
             p->participant = r->participant;
             p->probe = r->probe;
-            p->own = r->participant == s->cfg.id;
+            p->own = r->participant == s->cfg.id && !s->id_taken; /* else the other's */
             p->force = r->force;
             p->push_limited = r->push_limited;
             p->contact = contact_centroid(x, t, r->group, &p->in_contact);
@@ -610,7 +614,7 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
     }
     v->nparts = s->nparts;
     memcpy(v->parts, s->parts, (size_t)s->nparts * sizeof s->parts[0]);
-    const ftm_report_probe *own = live_probe0(s, s->cfg.id);
+    const ftm_report_probe *own = s->id_taken ? NULL : live_probe0(s, s->cfg.id);
     v->own_contact_ticks = own ? own->contact_ticks : 0;
     v->own_peak_force = own ? own->peak_force : 0.0;
     for (int32_t i = 0; i < v->nparts; i++) {

@@ -1,0 +1,49 @@
+#!/bin/sh
+# ftm-client's session thread without GL (test_session.c) against a real
+# ftm-server on loopback (its own DDS domain and session):
+#   idtaken: a bot presses under participant id 33; a trainee started
+#       with the same id must write zero force and show no figures as its own
+#   slow: a trainee whose replay is 3x slower than the ticks keeps its
+#       status going: the server must not declare it lost
+#   pause: an instructor pauses for 3 s (server timeout 1 s): the banner
+#       says paused, not silent
+# Every process runs under timeout; no timing is asserted.
+set -u
+mode=${1:?mode}
+. "$(cd "$(dirname "$0")" && pwd)/../wait_for.sh"
+: "${FTM_SERVER:?}" "${FTM_BOT:?}" "${FTM_TEST_SESSION:?}" "${FTM_CONFIG:?}" "${FTM_DATA:?}"
+dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-client-session-$mode.XXXXXX")
+server=
+bot=
+trap 'kill $server $bot 2>/dev/null; rm -rf "$dir"' EXIT
+domain=$(( 220 + $$ % 10 ))   # as tests/client_gl (RUN_SERIAL); the session names differ
+session="client-session-$mode-$$"
+rate=${FTM_TEST_RATE:-500}
+fail() { echo "FAIL: $*"; for f in "$dir"/*.log "$dir"/*.err; do [ -f "$f" ] && { echo "== $f"; tail -n 30 "$f"; }; done; exit 1; }
+"$FTM_SERVER" --scene default --session "$session" --domain $domain --config "$FTM_CONFIG" \
+    --rate "$rate" --duration 60 --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
+server=$!
+wait_for "$dir/server.log" "session '$session'" "server did not start"
+run() { # seconds id script
+    timeout 60 "$FTM_TEST_SESSION" "$mode" $domain "$session" "$FTM_CONFIG" "$2" "$3" "$1" \
+        >"$dir/test.out" 2>"$dir/test.err" || fail "test_session $mode exited with $?"
+    cat "$dir/test.out"
+}
+case $mode in
+idtaken)
+    timeout 60 "$FTM_BOT" --role trainee --script "$FTM_DATA/../client_gl/hold.bot" \
+        --session "$session" --domain $domain --config "$FTM_CONFIG" --id 33 --duration 40 \
+        >"$dir/bot.out" 2>"$dir/bot.err" &
+    bot=$!
+    wait_for "$dir/server.log" "participant 33 probe 0: contact" "the bot did not press" 600
+    run 5 33 "$FTM_DATA/side.bot"
+    ;;
+slow)
+    run 8 41 "$FTM_DATA/side.bot"
+    ! grep "participant 41 .* lost" "$dir/server.log" || fail "the server declared the slow client lost"
+    ;;
+pause)
+    run 7 42 -
+    ;;
+*) echo "unknown mode $mode"; exit 2 ;;
+esac
