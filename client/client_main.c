@@ -63,6 +63,8 @@ typedef struct app {
     ftm_device *dev;
     ftm_haptic *hap;
     bool hap_connected; /* session thread only */
+    ftm_haptic_timebase timebase; /* session thread only: tick times to our clock */
+    ftm_haptic_def hap_def;
     GLFWwindow *win;
     ftm_render *ren;
     ftm_camera cam;
@@ -113,8 +115,8 @@ static void alog(app *a, ftm_log_level level, const char *fmt, ...)
 
 /* ---- haptics wiring (session thread -> haptic loop) ------------------------------------- */
 
-static void on_force(void *user, uint64_t tick, const ftm_wire_reaction *r, bool valid,
-                     const char *why)
+static void on_force(void *user, uint64_t tick, double tick_time, const ftm_wire_reaction *r,
+                     bool valid, const char *why)
 {
     app *a = user;
     if (!a->hap)
@@ -125,14 +127,19 @@ static void on_force(void *user, uint64_t tick, const ftm_wire_reaction *r, bool
         a->hap_connected = false;
         return;
     }
-    if (!a->hap_connected)
+    if (!a->hap_connected) {
         ftm_haptic_set_connected(a->hap, true);
+        a->timebase = (ftm_haptic_timebase){0}; /* perhaps another server, another clock */
+    }
     a->hap_connected = true;
     ftm_haptic_state st;
     ftm_haptic_get_state(a->hap, &st);
     /* the force model and contact plane when the server sent them; the
-     * time is the arrival time (server ticks are not mapped to our clock) */
-    ftm_haptic_sample s = ftm_haptic_sample_from_reaction(r, ftm_haptic_clock(), st.hip);
+     * time is the tick's, on our clock (frames drained in a burst keep
+     * their ticks' spacing for the extrapolator's slope) */
+    double t = ftm_haptic_timebase_map(&a->timebase, tick_time, ftm_haptic_clock(),
+                                       a->hap_def.stale_after);
+    ftm_haptic_sample s = ftm_haptic_sample_from_reaction(r, t, st.hip);
     if (ftm_haptic_push(a->hap, &s))
         alog(a, FTM_LOG_WARN, "haptic: reaction force of tick %" PRIu64 " rejected", tick);
 }
@@ -841,6 +848,7 @@ int main(int argc, char **argv)
         hd.renderer = rkind;
         hd.log = app_log;
         hd.log_user = a;
+        a->hap_def = hd;
         if (ftm_haptic_create(&hd, a->dev, &a->hap, &err) || ftm_haptic_start(a->hap, &err)) {
             alog(a, FTM_LOG_ERROR, "haptic loop: %s", err.message);
             goto out_dev;

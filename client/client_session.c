@@ -104,7 +104,8 @@ static void force_off(ftm_client_session *s, const char *why)
         slog(s, FTM_LOG_WARN, "force off: %s", why);
     s->force_valid = false;
     if (s->cfg.on_force)
-        s->cfg.on_force(s->cfg.force_user, s->rep ? ftm_replay_tick(s->rep) : 0, NULL, false, why);
+        s->cfg.on_force(s->cfg.force_user, s->rep ? ftm_replay_tick(s->rep) : 0, 0.0, NULL, false,
+                        why);
 }
 
 /* Announcements, frames, keyframes and server statuses are taken from one
@@ -358,8 +359,10 @@ static void after_frames(ftm_client_session *s)
         if (!s->force_valid && s->cfg.role == FTM_WIRE_ROLE_TRAINEE)
             slog(s, FTM_LOG_INFO, "force on at tick %" PRIu64, tick);
         s->force_valid = true;
+        double rate = s->ann.tick_rate_hz ? (double)s->ann.tick_rate_hz : 1.0; /* (> 0 when valid) */
         if (s->cfg.on_force)
-            s->cfg.on_force(s->cfg.force_user, t->tick, t->tick == tick ? mine : NULL, true, NULL);
+            s->cfg.on_force(s->cfg.force_user, t->tick, (double)t->tick / rate,
+                            t->tick == tick ? mine : NULL, true, NULL);
     }
     if (tick != s->counted_tick) {
         if (t->contact_count > 0 && t->tick == tick)

@@ -17,9 +17,12 @@
 /* This participant's probe 0 after each applied frame: its reaction in
  * that frame (NULL: not in contact, zero force), or valid = false when force
  * must stop (bad input, server gone, replica not synced; why says which).
- * Called on the session thread; the haptic loop takes it from here. */
-typedef void (*ftm_client_force_fn)(void *user, uint64_t tick, const ftm_wire_reaction *reaction,
-                                    bool valid, const char *why);
+ * tick_time: the tick's time on the server's session clock, tick / tick
+ * rate [s] (frames arrive in bursts: their arrival times are no tick
+ * spacing; ftm_haptic_timebase maps it). Called on the session thread; the
+ * haptic loop takes it from here. */
+typedef void (*ftm_client_force_fn)(void *user, uint64_t tick, double tick_time,
+                                    const ftm_wire_reaction *reaction, bool valid, const char *why);
 
 /* The trainee's HIP samples since the previous call (probe 0, oldest
  * first, device_time_ns set): the session thread sends them to the server

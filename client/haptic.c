@@ -44,6 +44,7 @@ ftm_haptic_def ftm_default_haptic_def(void)
         .max_force = 8.0,
         .max_force_rate = 2000.0,
         .max_extrapolation = 0.1,
+        .min_sample_interval = 0.0005,
         .stale_after = 0.1,
         .fade_time = 0.1,
         .rate_hz = 1000.0,
@@ -72,6 +73,8 @@ int ftm_haptic_def_check(const ftm_haptic_def *def, ftm_error *err)
         return def_error(err, "max_force_rate", def->max_force_rate, "> 0");
     if (!(def->max_extrapolation >= 0) || !isfinite(def->max_extrapolation))
         return def_error(err, "max_extrapolation", def->max_extrapolation, "finite and >= 0");
+    if (!(def->min_sample_interval >= 0) || !isfinite(def->min_sample_interval))
+        return def_error(err, "min_sample_interval", def->min_sample_interval, "finite and >= 0");
     if (!(def->stale_after >= 0) || !isfinite(def->stale_after))
         return def_error(err, "stale_after", def->stale_after, "finite and >= 0");
     if (!(def->fade_time >= 0) || !isfinite(def->fade_time))
@@ -150,15 +153,17 @@ ftm_vec3 ftm_force_renderer_model(const ftm_force_renderer *r, double now, ftm_v
                                            K[6] * d.x + K[7] * d.y + K[8] * d.z});
     }
     /* the line through the two newest samples, at most max_extrapolation
-     * past the newest (a sample that stops coming must not run away) */
-    if (r->count < 2 || !(s1->time > r->s[0].time))
+     * past the newest (a sample that stops coming must not run away); two
+     * samples closer than min_sample_interval are a burst, not a trend */
+    double span = s1->time - r->s[0].time;
+    if (r->count < 2 || !(span > 0) || span < r->def.min_sample_interval)
         return s1->force;
     double ahead = now - s1->time;
     if (ahead > r->def.max_extrapolation)
         ahead = r->def.max_extrapolation;
     if (ahead < 0)
         ahead = 0; /* now before the sample's time: no back-extrapolation */
-    ftm_vec3 slope = v_scale(v_sub(s1->force, r->s[0].force), 1.0 / (s1->time - r->s[0].time));
+    ftm_vec3 slope = v_scale(v_sub(s1->force, r->s[0].force), 1.0 / span);
     return v_add(s1->force, v_scale(slope, ahead));
 }
 
@@ -243,4 +248,16 @@ ftm_vec3 ftm_force_renderer_eval(ftm_force_renderer *r, double now, ftm_vec3 hip
     if (flags)
         *flags = fl;
     return out;
+}
+
+double ftm_haptic_timebase_map(ftm_haptic_timebase *tb, double server_time, double arrival,
+                               double max_age)
+{
+    double t = server_time + tb->offset;
+    if (!tb->set || t > arrival || arrival - t > max_age) {
+        tb->offset = arrival - server_time; /* less delayed than any before, or re-anchored */
+        tb->set = true;
+        t = arrival;
+    }
+    return t;
 }

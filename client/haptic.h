@@ -6,7 +6,8 @@
  *
  *  - FTM_HAPTIC_EXTRAPOLATE (paper section 3.3.1): the line through the two
  *    most recent reaction forces, evaluated at the current time (at most
- *    max_extrapolation past the newest sample, then held).
+ *    max_extrapolation past the newest sample, then held; the newest force
+ *    held when the two are closer than min_sample_interval).
  *  - FTM_HAPTIC_FORCE_MODEL: the server sends with each force F0 the HIP x0
  *    it belongs to and the contact stiffness K = dF/dx (3x3); the loop
  *    evaluates F = F0 + K (x - x0) at the current HIP x. Without a stiffness
@@ -70,6 +71,11 @@ typedef struct ftm_haptic_def {
     double max_force;         /* [N] (default 8, a desktop device's peak) */
     double max_force_rate;    /* [N/s] (default 2000: 0 -> 8 N in 4 ms) */
     double max_extrapolation; /* [s] extrapolator horizon past the newest sample (default 0.1) */
+    /* [s] the extrapolator holds the newest force when the two newest
+     * samples are closer than this (default 0.5 ms, a 2 kHz server's tick):
+     * frames drained back to back, stamped with their arrival, would give
+     * a slope of a tick's change over tens of microseconds */
+    double min_sample_interval;
     double stale_after;       /* [s] since the newest arrival before fading (default 0.1) */
     double fade_time;         /* [s] fade from full force to zero (default 0.1) */
     double rate_hz;           /* loop rate (default 1000) */
@@ -124,6 +130,22 @@ ftm_vec3 ftm_force_renderer_model(const ftm_force_renderer *r, double now, ftm_v
  * stage; flags (may be NULL) receives FTM_HAPTIC_* bits. Times of
  * successive calls should not decrease (a decrease counts as dt = 0). */
 ftm_vec3 ftm_force_renderer_eval(ftm_force_renderer *r, double now, ftm_vec3 hip, int *flags);
+
+/* Sample times from the server's tick times (tick / tick rate): frames
+ * that arrive in a burst keep their ticks' spacing, which arrival times do
+ * not (the extrapolator's slope needs it). The offset to the local clock is
+ * the least delayed frame's: no sample gets a time after its arrival. A
+ * frame whose mapped time is more than max_age before its arrival (a pause,
+ * a restart, clock drift) re-anchors the offset at it. Zero it (= {0}) to
+ * start afresh, e.g. on reconnection. */
+typedef struct ftm_haptic_timebase {
+    bool set;
+    double offset; /* local time - server time [s] */
+} ftm_haptic_timebase;
+/* The local time for a sample of the tick at server_time that arrived at
+ * arrival (both [s]). */
+double ftm_haptic_timebase_map(ftm_haptic_timebase *tb, double server_time, double arrival,
+                               double max_age);
 
 /* ---- the haptic loop (a thread) ---- */
 

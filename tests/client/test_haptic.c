@@ -320,6 +320,90 @@ static void test_unilateral_and_bad_samples(void **state)
     assert_true(norm(ftm_force_renderer_model(&r, 2.051, c0.hip)) > 10.0); /* what it avoided */
 }
 
+/* QA's burst: a held press, then two frames drained back to back (100 us
+ * apart, arrival-stamped) 0.010 N apart, then no frame for 60 ms. Their
+ * slope (100 N/s) carried over the gap reached the 8 N clamp; a pair closer
+ * than min_sample_interval is held instead. */
+static void test_extrapolate_burst_held(void **state)
+{
+    ftm_haptic_def d = ftm_default_haptic_def();
+    d.renderer = FTM_HAPTIC_EXTRAPOLATE;
+    ftm_force_renderer r;
+    ftm_force_renderer_init(&r, &d);
+    ftm_vec3 x = {0, 0, 0.104};
+    double t = 10.0;
+    for (int k = 0; k < 200; k++, t += 1e-3) {
+        ftm_haptic_sample s = sample(t, (ftm_vec3){0, 0, 1.0}, x);
+        assert_int_equal(ftm_force_renderer_push(&r, &s, t), FTM_OK);
+        ftm_force_renderer_eval(&r, t + 0.5e-3, x, NULL);
+    }
+    ftm_haptic_sample a = sample(t, (ftm_vec3){0, 0, 1.0}, x);
+    ftm_haptic_sample b = sample(t + 100e-6, (ftm_vec3){0, 0, 1.010}, x);
+    ftm_force_renderer_push(&r, &a, a.time);
+    ftm_force_renderer_push(&r, &b, b.time);
+    for (int k = 1; k <= 200; k++) {
+        ftm_vec3 f = ftm_force_renderer_eval(&r, b.time + k * 1e-3, x, NULL);
+        assert_true(norm(f) <= 1.010 + 1e-12);
+        assert_true(f.z >= 0);
+    }
+}
+
+/* Frames of a press ramping 2.5 N/s at 500 Hz, 5 ms late, except ticks
+ * 100..129: held up by a stall (80 ms without a frame), then drained 60 us
+ * apart. Stamped by
+ * ftm_haptic_timebase they keep the ticks' spacing: the extrapolator then
+ * follows the ramp exactly through the stall and the burst (the server's
+ * force 5 ms ago), where arrival stamps gave glitches of tenths of N. */
+static void test_timebase_burst(void **state)
+{
+    ftm_haptic_def d = ftm_default_haptic_def();
+    d.renderer = FTM_HAPTIC_EXTRAPOLATE;
+    ftm_force_renderer r;
+    ftm_force_renderer_init(&r, &d);
+    ftm_haptic_timebase tb = {0};
+    const double rate = 500.0, lat = 5e-3, local = 100.0; /* local clock = server clock + 100 s */
+    ftm_vec3 x = {0, 0, 0.104};
+    double arrival[300], prev_mapped = -1;
+    for (int k = 0; k < 300; k++)
+        arrival[k] = local + k / rate + lat;
+    for (int k = 100; k < 130; k++)
+        arrival[k] = local + 129 / rate + lat + 0.020 + (k - 100) * 60e-6;
+    double now = arrival[0];
+    int evals = 0;
+    for (int k = 0; k < 300; k++) {
+        for (; now < arrival[k]; now += 1e-3, evals++) { /* the 1 kHz loop until this frame */
+            ftm_vec3 f = ftm_force_renderer_eval(&r, now, x, NULL);
+            double truth = 1.0 + 2.5 * (now - local - lat);
+            if (evals > 10) /* (after the first samples and the ramp from zero) */
+                assert_true(fabs(f.z - truth) < 1e-9);
+        }
+        double tk = k / rate;
+        double m = ftm_haptic_timebase_map(&tb, tk, arrival[k], d.stale_after);
+        assert_true(m <= arrival[k]);
+        if (k > 0)
+            assert_true(fabs(m - prev_mapped - 1 / rate) < 1e-9); /* the ticks' spacing */
+        prev_mapped = m;
+        ftm_haptic_sample s = sample(m, (ftm_vec3){0, 0, 1.0 + 2.5 * tk}, x);
+        assert_int_equal(ftm_force_renderer_push(&r, &s, arrival[k]), FTM_OK);
+    }
+    assert_true(evals > 500);
+}
+
+/* The offset follows the least delayed frame, and re-anchors after a pause
+ * (no ticks for 1 s: its frames would all look 1 s old). */
+static void test_timebase_floor_and_pause(void **state)
+{
+    ftm_haptic_timebase tb = {0};
+    assert_true(ftm_haptic_timebase_map(&tb, 1.0, 50.010, 0.1) == 50.010);
+    assert_true(fabs(ftm_haptic_timebase_map(&tb, 1.002, 50.030, 0.1) - 50.012) < 1e-12);
+    /* a frame less delayed than any before: it sets the floor */
+    assert_true(ftm_haptic_timebase_map(&tb, 1.004, 50.012, 0.1) == 50.012);
+    assert_true(fabs(ftm_haptic_timebase_map(&tb, 1.006, 50.020, 0.1) - 50.014) < 1e-12);
+    /* paused for a second: the next tick is re-anchored at its arrival */
+    assert_true(ftm_haptic_timebase_map(&tb, 1.008, 51.016, 0.1) == 51.016);
+    assert_true(fabs(ftm_haptic_timebase_map(&tb, 1.010, 51.019, 0.1) - 51.018) < 1e-12);
+}
+
 static void test_def_check(void **state)
 {
     ftm_haptic_def d = ftm_default_haptic_def();
@@ -328,6 +412,10 @@ static void test_def_check(void **state)
     d.max_force = -1;
     assert_int_equal(ftm_haptic_def_check(&d, &err), FTM_EINVAL);
     assert_non_null(strstr(err.message, "max_force"));
+    d = ftm_default_haptic_def();
+    d.min_sample_interval = -1;
+    assert_int_equal(ftm_haptic_def_check(&d, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "min_sample_interval"));
     d = ftm_default_haptic_def();
     d.rate_hz = 0;
     assert_int_equal(ftm_haptic_def_check(&d, &err), FTM_EINVAL);
@@ -354,6 +442,9 @@ int main(void)
         cmocka_unit_test(test_rate_limit),
         cmocka_unit_test(test_disconnect_zero),
         cmocka_unit_test(test_unilateral_and_bad_samples),
+        cmocka_unit_test(test_extrapolate_burst_held),
+        cmocka_unit_test(test_timebase_burst),
+        cmocka_unit_test(test_timebase_floor_and_pause),
         cmocka_unit_test(test_def_check),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

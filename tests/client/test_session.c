@@ -35,6 +35,7 @@
 typedef struct tapp {
     ftm_haptic *hap;
     bool hap_connected;
+    ftm_haptic_timebase timebase;
     ftm_device *inner;
     double frame_sleep; /* [s] per frame handed to on_force (slow mode) */
     atomic_bool taken;
@@ -80,8 +81,8 @@ static void w_write(void *self, double now, ftm_vec3 f)
 
 static const ftm_device_ops wrap_ops = {.name = "test", .read = w_read, .write = w_write};
 
-static void on_force(void *user, uint64_t tick, const ftm_wire_reaction *r, bool valid,
-                     const char *why)
+static void on_force(void *user, uint64_t tick, double tick_time, const ftm_wire_reaction *r,
+                     bool valid, const char *why)
 {
     tapp *a = user;
     atomic_fetch_add(&a->frames, 1);
@@ -95,12 +96,15 @@ static void on_force(void *user, uint64_t tick, const ftm_wire_reaction *r, bool
         a->hap_connected = false;
         return;
     }
-    if (!a->hap_connected)
+    if (!a->hap_connected) {
         ftm_haptic_set_connected(a->hap, true);
+        a->timebase = (ftm_haptic_timebase){0};
+    }
     a->hap_connected = true;
     ftm_haptic_state st;
     ftm_haptic_get_state(a->hap, &st);
-    ftm_haptic_sample s = ftm_haptic_sample_from_reaction(r, ftm_haptic_clock(), st.hip);
+    double t = ftm_haptic_timebase_map(&a->timebase, tick_time, ftm_haptic_clock(), 0.1);
+    ftm_haptic_sample s = ftm_haptic_sample_from_reaction(r, t, st.hip);
     ftm_haptic_push(a->hap, &s);
 }
 
