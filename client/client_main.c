@@ -31,6 +31,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -494,6 +495,95 @@ static int parse(int argc, char **argv, options *o)
     return 0;
 }
 
+/* ---- outputs ----------------------------------------------------------------------------- */
+
+typedef struct named_path {
+    const char *opt, *path;
+} named_path;
+
+/* Says why an output at path cannot be written, or returns NULL: checked
+ * at start, where writing it fails only at the end (a screenshot after its
+ * wait). why holds the message. in_dir: the file is made anew in its
+ * directory (a screenshot, written under another name first), which must
+ * then be writable even if the file exists. */
+static const char *unwritable(const char *path, bool in_dir, char *why, size_t n)
+{
+    struct stat st;
+    if (!path[0])
+        return snprintf(why, n, "an empty path"), why;
+    if (stat(path, &st) == 0) {
+        if (S_ISDIR(st.st_mode))
+            return snprintf(why, n, "is a directory"), why;
+        if (access(path, W_OK) != 0)
+            return snprintf(why, n, "cannot be written: %s", strerror(errno)), why;
+        if (!in_dir)
+            return NULL; /* (--log /dev/null) */
+    }
+    char dir[4096];
+    const char *slash = strrchr(path, '/');
+    if (!slash)
+        snprintf(dir, sizeof dir, ".");
+    else if (slash == path)
+        snprintf(dir, sizeof dir, "/");
+    else
+        snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+    if (stat(dir, &st) != 0)
+        return snprintf(why, n, "its directory %s: %s", dir, strerror(errno)), why;
+    if (!S_ISDIR(st.st_mode))
+        return snprintf(why, n, "%s is not a directory", dir), why;
+    if (access(dir, W_OK | X_OK) != 0)
+        return snprintf(why, n, "its directory %s cannot be written: %s", dir, strerror(errno)), why;
+    return NULL;
+}
+
+/* Before anything is opened for writing, as ftm-server checks its own: an
+ * output that is a file the client reads (--commands, the --device
+ * script, --config, a --scene file; the same file by device and inode:
+ * another name, a link) would be destroyed before it is read, and an
+ * output that cannot be written is better said now. Returns 0, or 2 (a bad
+ * argument) after saying which. */
+static int check_outputs(const options *o)
+{
+    named_path in[4], out[2];
+    int nin = 0, nout = 0;
+    if (o->commands)
+        in[nin++] = (named_path){"--commands", o->commands};
+    if (o->device && strncmp(o->device, "script:", 7) == 0)
+        in[nin++] = (named_path){"--device", o->device + 7};
+    if (o->config)
+        in[nin++] = (named_path){"--config", o->config};
+    if (o->scene)
+        in[nin++] = (named_path){"--scene", o->scene}; /* a scene's name is no file: skipped */
+    if (o->log_path)
+        out[nout++] = (named_path){"--log", o->log_path};
+    if (o->screenshot)
+        out[nout++] = (named_path){"--screenshot", o->screenshot};
+    for (int i = 0; i < nout; i++) {
+        char why[300];
+        if (unwritable(out[i].path, out[i].path == o->screenshot, why, sizeof why)) {
+            fprintf(stderr, "ftm-client: %s '%s': %s\n", out[i].opt, out[i].path, why);
+            return 2;
+        }
+        if (i == 1 && strcmp(out[0].path, out[1].path) == 0) {
+            fprintf(stderr, "ftm-client: --log and --screenshot are the same file %s\n", out[1].path);
+            return 2;
+        }
+    }
+    for (int k = 0; k < nin; k++) {
+        struct stat si, so;
+        if (stat(in[k].path, &si) != 0)
+            continue; /* nothing to destroy; reading it fails with its own error */
+        for (int i = 0; i < nout; i++) {
+            if (stat(out[i].path, &so) != 0 || so.st_dev != si.st_dev || so.st_ino != si.st_ino)
+                continue;
+            fprintf(stderr, "ftm-client: %s %s is the file %s %s reads: it would be overwritten; "
+                            "write to another file\n", out[i].opt, out[i].path, in[k].opt, in[k].path);
+            return 2;
+        }
+    }
+    return 0;
+}
+
 /* ---- the render loop ----------------------------------------------------------------------- */
 
 static void mesh_box(const ftm_mesh *m, ftm_vec3 *lo, ftm_vec3 *hi)
@@ -772,6 +862,8 @@ int main(int argc, char **argv)
         fprintf(stderr, "ftm-client: --commands needs --role instructor\n");
         return 2;
     }
+    if (check_outputs(&a->o))
+        return 2;
     if (a->o.id == 0)
         a->o.id = (uint32_t)(((uint64_t)getpid() * 2654435761u) ^ (uint64_t)time(NULL)) | 1u;
     if (a->o.log_path) {

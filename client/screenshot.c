@@ -2,11 +2,13 @@
 #include "screenshot.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <png.h>
 #include <setjmp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 static int fail(ftm_error *err, const char *path, const char *why)
 {
@@ -27,9 +29,31 @@ int ftm_screenshot_write_png(const char *path, int w, int h, const uint8_t *rgb,
         return fail(err, path, "out of memory");
     for (int y = 0; y < h; y++)
         rows[y] = (png_bytep)(rgb + (size_t)(h - 1 - y) * (size_t)w * 3);
-    FILE *f = fopen(path, "wb");
+    /* written under a temporary name in the same directory, then renamed
+     * over path: a failed write leaves no partial file (nor spoils one
+     * that was there) */
+    size_t tlen = strlen(path) + 48;
+    char *tmp = malloc(tlen);
+    if (!tmp) {
+        free(rows);
+        return fail(err, path, "out of memory");
+    }
+    int fd = -1;
+    errno = 0;
+    for (int i = 0; i < 100 && fd < 0; i++) { /* (open, not mkstemp: the umask applies) */
+        snprintf(tmp, tlen, "%s.tmp-%ld-%d", path, (long)getpid(), i);
+        fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (fd < 0 && errno != EEXIST)
+            break;
+    }
+    FILE *f = fd >= 0 ? fdopen(fd, "wb") : NULL;
     if (!f) {
         int e = errno;
+        if (fd >= 0) {
+            close(fd);
+            unlink(tmp);
+        }
+        free(tmp);
         free(rows);
         return fail(err, path, strerror(e));
     }
@@ -38,12 +62,16 @@ int ftm_screenshot_write_png(const char *path, int w, int h, const uint8_t *rgb,
     if (!png || !info) {
         png_destroy_write_struct(&png, &info);
         fclose(f);
+        unlink(tmp);
+        free(tmp);
         free(rows);
         return fail(err, path, "libpng initialisation failed");
     }
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
         fclose(f);
+        unlink(tmp);
+        free(tmp);
         free(rows);
         return fail(err, path, "libpng write error");
     }
@@ -55,7 +83,19 @@ int ftm_screenshot_write_png(const char *path, int w, int h, const uint8_t *rgb,
     png_write_end(png, NULL);
     png_destroy_write_struct(&png, &info);
     free(rows);
-    if (fclose(f) != 0)
-        return fail(err, path, strerror(errno));
+    if (fflush(f) != 0 || fsync(fileno(f)) != 0) {
+        int e = errno;
+        fclose(f);
+        unlink(tmp);
+        free(tmp);
+        return fail(err, path, strerror(e));
+    }
+    if (fclose(f) != 0 || rename(tmp, path) != 0) {
+        int e = errno;
+        unlink(tmp);
+        free(tmp);
+        return fail(err, path, strerror(e));
+    }
+    free(tmp);
     return FTM_OK;
 }

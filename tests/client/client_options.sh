@@ -30,4 +30,40 @@ done
 for v in 0 1e10 inf; do
     refused "--server-timeout, --screenshot-timeout must be in (0, 1e+09] s" --server-timeout "$v"
 done
+# outputs: never a file the client reads (by device and inode: another name,
+# a hard link), nor a path it cannot write; refused before anything is
+# opened for writing, the input left as it was
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/ftm-client-options.XXXXXX")
+trap 'chmod u+w "$tmp/ro" 2>/dev/null; rm -rf "$tmp"' EXIT
+printf 'pause 1\nresume 2\n' >"$tmp/lesson.cmds"
+printf '0 0.03 0.03 0.12\n1 0.03 0.03 0.12\n' >"$tmp/t.bot"
+printf '<CycloneDDS/>\n' >"$tmp/cfg.xml"
+ln "$tmp/lesson.cmds" "$tmp/link.cmds"
+sums() { cksum "$tmp/lesson.cmds" "$tmp/t.bot" "$tmp/cfg.xml"; }
+before=$(sums)
+refused "--log $tmp/lesson.cmds is the file --commands $tmp/lesson.cmds reads" \
+    --role instructor --commands "$tmp/lesson.cmds" --log "$tmp/lesson.cmds"
+refused "--log $tmp/link.cmds is the file --commands $tmp/lesson.cmds reads" \
+    --role instructor --commands "$tmp/lesson.cmds" --log "$tmp/link.cmds"
+refused "--log $tmp/t.bot is the file --device $tmp/t.bot reads" \
+    --role trainee --device "script:$tmp/t.bot" --log "$tmp/t.bot"
+refused "--screenshot $tmp/t.bot is the file --device $tmp/t.bot reads" \
+    --role trainee --device "script:$tmp/t.bot" --screenshot "$tmp/t.bot"
+refused "--screenshot $tmp/cfg.xml is the file --config $tmp/cfg.xml reads" \
+    --config "$tmp/cfg.xml" --screenshot "$tmp/cfg.xml"
+refused "--log $tmp/cfg.xml is the file --config $tmp/cfg.xml reads" \
+    --config "$tmp/cfg.xml" --log "$tmp/cfg.xml"
+[ "$(sums)" = "$before" ] || fail "an input file was changed"
+# outputs that cannot be written: said at once, status 2 (not after the wait)
+refused "--screenshot '$tmp': is a directory" --screenshot "$tmp"
+refused "--screenshot '$tmp/missing/x.png': its directory $tmp/missing: No such file" \
+    --screenshot "$tmp/missing/x.png"
+refused "--screenshot '': an empty path" --screenshot ""
+refused "--log '$tmp': is a directory" --log "$tmp"
+mkdir "$tmp/ro" && chmod a-w "$tmp/ro"
+if [ ! -w "$tmp/ro" ]; then # (root writes anyway)
+    refused "--screenshot '$tmp/ro/x.png': its directory $tmp/ro cannot be written" \
+        --screenshot "$tmp/ro/x.png"
+fi
+[ -z "$(ls -A "$tmp/ro")" ] || fail "a file was left in $tmp/ro"
 exit 0
