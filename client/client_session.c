@@ -18,6 +18,12 @@
 #define PUBLISH_EVERY_NS (4 * 1000000LL) /* view updates: 250 Hz is plenty for 60 Hz drawing */
 #define HIP_STALE_NS (2 * SEC)            /* a remote HIP not updated for this long is dropped */
 #define REJECT_BANNER_NS (5 * SEC)
+/* frames replayed per turn of the loop, at most this long: a replica that
+ * replays slower than the ticks come must still send its status, its probe
+ * input and its view in time (the server takes a participant whose status
+ * is 2 s late as lost and releases its probes) */
+#define DRAIN_NS (10 * 1000000LL)
+#define SERVER_STATUS_DEADLINE_NS (2 * SEC) /* the server's (docs/protocol.md) */
 
 typedef struct remote_hip {
     uint32_t participant;
@@ -151,7 +157,12 @@ static void publish_status(ftm_client_session *s, ftm_wire_state state)
     ftm_error err = {0, ""};
     if (ftm_wire_publish(s->wire, &m, &err))
         slog(s, FTM_LOG_WARN, "status: %s", err.message);
-    s->last_status_ns = mono_ns();
+    int64_t now = mono_ns();
+    if (s->last_status_ns && now - s->last_status_ns > SERVER_STATUS_DEADLINE_NS)
+        slog(s, FTM_LOG_WARN, "no status sent for %.1f s, past the server's %.0f s deadline: it has "
+             "probably declared this client lost and released its probes",
+             (double)(now - s->last_status_ns) * 1e-9, (double)SERVER_STATUS_DEADLINE_NS * 1e-9);
+    s->last_status_ns = now;
 }
 
 static void drop_scene(ftm_client_session *s)
@@ -677,8 +688,13 @@ static void *session_main(void *arg)
             nanosleep(&ts, NULL);
             caught_up = true;
         } else {
-            int n = 0;
-            for (; n < 2000 && !hold_reached(s); n++) {
+            const int64_t until = mono_ns() + DRAIN_NS;
+            bool more = false; /* frames left for the next turn */
+            for (int n = 0; !hold_reached(s); n++) {
+                if (n > 0 && mono_ns() >= until) {
+                    more = true;
+                    break;
+                }
                 if (ftm_wire_receive(s->wire, FTM_WIRE_TICK, &rx, n == 0 ? SEC / 1000 : 0, NULL) !=
                     FTM_OK)
                     break;
@@ -686,7 +702,7 @@ static void *session_main(void *arg)
                     on_tick(s, &rx);
                 ftm_wire_received_free(&rx);
             }
-            caught_up = n < 2000 && s->rep && ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED &&
+            caught_up = !more && s->rep && ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED &&
                         ftm_replay_tick(s->rep) >= s->newest_rx_tick;
         }
         int64_t now = mono_ns();

@@ -3,8 +3,9 @@
 # ftm-server on loopback (its own DDS domain and session):
 #   idtaken: a bot presses under participant id 33; a trainee started
 #       with the same id must write zero force and show no figures as its own
-#   slow: a trainee whose replay is 3x slower than the ticks keeps its
-#       status going: the server must not declare it lost
+#   slow: while a bot presses (a frame every tick), a trainee whose replay
+#       is 3x slower than the ticks keeps its status going: the server must
+#       not declare it lost
 #   pause: an instructor pauses for 3 s (server timeout 1 s): the banner
 #       says paused, not silent
 # Every process runs under timeout; no timing is asserted.
@@ -29,16 +30,20 @@ run() { # seconds id script
         >"$dir/test.out" 2>"$dir/test.err" || fail "test_session $mode exited with $?"
     cat "$dir/test.out"
 }
-case $mode in
-idtaken)
+press() { # a bot pressing under id $1: frames every tick
     timeout 60 "$FTM_BOT" --role trainee --script "$FTM_DATA/../client_gl/hold.bot" \
-        --session "$session" --domain $domain --config "$FTM_CONFIG" --id 33 --duration 40 \
+        --session "$session" --domain $domain --config "$FTM_CONFIG" --id $1 --duration 40 \
         >"$dir/bot.out" 2>"$dir/bot.err" &
     bot=$!
-    wait_for "$dir/server.log" "participant 33 probe 0: contact" "the bot did not press" 600
+    wait_for "$dir/server.log" "participant $1 probe 0: contact" "the bot did not press" 600
+}
+case $mode in
+idtaken)
+    press 33
     run 5 33 "$FTM_DATA/side.bot"
     ;;
 slow)
+    press 34
     run 8 41 "$FTM_DATA/side.bot"
     ! grep "participant 41 .* lost" "$dir/server.log" || fail "the server declared the slow client lost"
     ;;
