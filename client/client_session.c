@@ -176,6 +176,8 @@ static void drop_scene(ftm_client_session *s)
 static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
 {
     ftm_error err = {0, ""};
+    if (!s->have_ann || s->ann.paused != a->paused)
+        s->last_frame_ns = mono_ns(); /* frames stop (paused) or start again from now */
     s->ann = *a;
     s->have_ann = true;
     s->dirty = true;
@@ -322,9 +324,19 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         }
         return;
     }
-    if (st->role == FTM_WIRE_ROLE_SERVER && from_server(s, rx) &&
-        st->state == FTM_WIRE_STATE_LEAVING)
-        server_gone(s, "leaving");
+    if (st->role == FTM_WIRE_ROLE_SERVER && from_server(s, rx)) {
+        if (st->state == FTM_WIRE_STATE_LEAVING) {
+            server_gone(s, "leaving");
+        } else if (s->have_ann && s->ann.paused) {
+            /* a paused server sends no frames: its statuses (every 0.5 s)
+             * are what says it is alive */
+            s->last_frame_ns = mono_ns();
+            if (s->silent_reported) {
+                slog(s, FTM_LOG_INFO, "the server is back (the session is paused)");
+                s->silent_reported = false;
+            }
+        }
+    }
     ftm_client_part *p = ftm_parts_find(s->parts, &s->nparts, rx->sender, true);
     if (p) {
         p->left = false;
@@ -460,7 +472,10 @@ static void watchdog(ftm_client_session *s, int64_t now)
     double silent_s = (double)(now - s->last_frame_ns) * 1e-9;
     if (s->have_ann && !s->server_left && silent_s > s->cfg.server_timeout && !s->silent_reported) {
         s->silent_reported = true;
-        slog(s, FTM_LOG_WARN, "no tick frames from the server for %.1f s", silent_s);
+        if (s->ann.paused)
+            slog(s, FTM_LOG_WARN, "no status from the paused server for %.1f s", silent_s);
+        else
+            slog(s, FTM_LOG_WARN, "no tick frames from the server for %.1f s", silent_s);
         force_off(s, "server silent");
         s->dirty = true;
     }
@@ -490,6 +505,11 @@ static void watchdog(ftm_client_session *s, int64_t now)
     } else if (s->rep && ftm_replay_state(s->rep) != FTM_WIRE_STATE_SYNCED) {
         snprintf(banner, sizeof banner, "%s...",
                  ftm_replay_state(s->rep) == FTM_WIRE_STATE_JOINING ? "JOINING" : "RESYNCING");
+        error = false;
+    } else if (s->ann.paused) {
+        /* no frames, so no force samples: the haptic loop fades to zero */
+        snprintf(banner, sizeof banner, "SESSION PAUSED%s",
+                 s->cfg.role == FTM_WIRE_ROLE_TRAINEE ? ": NO FORCE UNTIL IT RESUMES" : "");
         error = false;
     }
     pthread_mutex_lock(&s->lock);
