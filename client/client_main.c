@@ -36,6 +36,7 @@
 #include <unistd.h>
 
 #define SEC 1000000000LL
+#define MOUSE_MAX_DEPTH 0.2 /* the mouse probe's deepest push, as a part of the scene's size */
 
 typedef struct options {
     const char *role, *scene, *session, *config, *name, *log_path, *device, *renderer;
@@ -611,6 +612,11 @@ static void new_mesh(app *a)
     if (mouse_probe(a)) { /* the probe starts above the middle of the top */
         ftm_vec3 lo, hi;
         mesh_box(a->view.mesh, &lo, &hi);
+        /* its travel: within the scene's size around it, and at most a
+         * fifth of that deep (docs/client.md, Devices) */
+        double size = fmax(hi.x - lo.x, fmax(hi.y - lo.y, hi.z - lo.z));
+        if (ftm_mouse_set_limits(a->dev, lo, hi, MOUSE_MAX_DEPTH * size, size))
+            alog(a, FTM_LOG_WARN, "mouse probe: no travel limits for this scene");
         double l = ftm_render_link_length(a->ren);
         ftm_mouse_set_hip(a->dev, (ftm_vec3){0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), hi.z + 3 * l});
     }

@@ -100,6 +100,14 @@ int ftm_mouse_motion(ftm_device *d, double px, double py);
 /* Wheel: dy > 0 pushes the HIP away from the camera (into the scene) by
  * dy * scroll_step, dy < 0 pulls it back. */
 int ftm_mouse_scroll(ftm_device *d, double dy);
+/* Limits the HIP's travel around a scene whose bounding box is lo..hi:
+ * it stays within margin of the box, and at most max_depth inside it (a
+ * HIP deeper than that is moved back to that depth below the nearest
+ * face; a box thinner than 2 max_depth on any axis gives no depth limit,
+ * the margin only). Without it the wheel, 1 mm per notch, drove a probe through
+ * the whole organ and the shared session unstable. The HIP is moved inside
+ * at once. FTM_EINVAL for an empty box or a negative or non-finite value. */
+int ftm_mouse_set_limits(ftm_device *d, ftm_vec3 lo, ftm_vec3 hi, double max_depth, double margin);
 /* Places the HIP (e.g. above the organ after loading a scene). */
 int ftm_mouse_set_hip(ftm_device *d, ftm_vec3 hip);
 /* Where the cursor has put the HIP (before smoothing), scene coordinates. */

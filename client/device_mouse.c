@@ -16,6 +16,8 @@ typedef struct mouse {
     double px, py;   /* cursor at the last event of the drag */
     ftm_vec3 target; /* scene coordinates */
     double step, tau;
+    bool limited;        /* ftm_mouse_set_limits: the boxes below hold */
+    ftm_vec3 outer_lo, outer_hi, inner_lo, inner_hi;
     /* haptic thread only */
     bool have_out;
     ftm_vec3 out;
@@ -93,6 +95,50 @@ int ftm_mouse_create(const ftm_device_def *def, ftm_vec3 hip0, double scroll_ste
     return rc;
 }
 
+/* The target kept in the outer box and out of the inner one (moved to
+ * the inner box's nearest face). Under the lock. */
+static void limit(mouse *m)
+{
+    if (!m->limited)
+        return;
+    double *t = &m->target.x;
+    const double *olo = &m->outer_lo.x, *ohi = &m->outer_hi.x;
+    const double *ilo = &m->inner_lo.x, *ihi = &m->inner_hi.x;
+    bool inside = true;
+    for (int k = 0; k < 3; k++) {
+        t[k] = fmin(fmax(t[k], olo[k]), ohi[k]);
+        inside = inside && t[k] > ilo[k] && t[k] < ihi[k];
+    }
+    if (!inside)
+        return;
+    int best = 0;
+    double best_d = INFINITY, to = 0;
+    for (int k = 0; k < 3; k++) {
+        if (t[k] - ilo[k] < best_d)
+            best = k, best_d = t[k] - ilo[k], to = ilo[k];
+        if (ihi[k] - t[k] < best_d)
+            best = k, best_d = ihi[k] - t[k], to = ihi[k];
+    }
+    t[best] = to;
+}
+
+int ftm_mouse_set_limits(ftm_device *d, ftm_vec3 lo, ftm_vec3 hi, double max_depth, double margin)
+{
+    mouse *m = as_mouse(d);
+    if (!m || !fin(lo) || !fin(hi) || !(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z) ||
+        !(max_depth >= 0) || !isfinite(max_depth) || !(margin >= 0) || !isfinite(margin))
+        return FTM_EINVAL;
+    pthread_mutex_lock(&m->lock);
+    m->limited = true;
+    m->outer_lo = (ftm_vec3){lo.x - margin, lo.y - margin, lo.z - margin};
+    m->outer_hi = (ftm_vec3){hi.x + margin, hi.y + margin, hi.z + margin};
+    m->inner_lo = (ftm_vec3){lo.x + max_depth, lo.y + max_depth, lo.z + max_depth};
+    m->inner_hi = (ftm_vec3){hi.x - max_depth, hi.y - max_depth, hi.z - max_depth};
+    limit(m);
+    pthread_mutex_unlock(&m->lock);
+    return FTM_OK;
+}
+
 int ftm_mouse_set_view(ftm_device *d, const ftm_mouse_view *v)
 {
     mouse *m = as_mouse(d);
@@ -147,6 +193,7 @@ int ftm_mouse_motion(ftm_device *d, double px, double py)
             ftm_vec3 a = unproject(v, m->px, m->py, depth), b = unproject(v, px, py, depth);
             m->target = (ftm_vec3){m->target.x + b.x - a.x, m->target.y + b.y - a.y,
                                    m->target.z + b.z - a.z};
+            limit(m);
         }
     }
     m->px = px;
@@ -166,6 +213,7 @@ int ftm_mouse_scroll(ftm_device *d, double dy)
         m->target = (ftm_vec3){m->target.x + s * m->view.forward.x,
                                m->target.y + s * m->view.forward.y,
                                m->target.z + s * m->view.forward.z};
+        limit(m);
     }
     pthread_mutex_unlock(&m->lock);
     return FTM_OK;
@@ -178,6 +226,7 @@ int ftm_mouse_set_hip(ftm_device *d, ftm_vec3 hip)
         return FTM_EINVAL;
     pthread_mutex_lock(&m->lock);
     m->target = hip;
+    limit(m);
     pthread_mutex_unlock(&m->lock);
     return FTM_OK;
 }

@@ -236,6 +236,27 @@ static void test_mouse_probe(void **state)
     assert_true(fabs(p.z + 0.006) < 1e-12);
     assert_int_equal(ftm_mouse_set_hip(dev, (ftm_vec3){0, 0, 0.1}), FTM_OK);
     assert_int_equal(ftm_mouse_scroll(dev, NAN), FTM_EINVAL);
+
+    /* travel limits: QA's 200 wheel notches into a 0.11 m organ (top face
+     * at z = 0.11) stop 0.02 m deep; a drag stays within the margin */
+    ftm_vec3 lo = {-0.055, -0.055, 0}, hi = {0.055, 0.055, 0.11};
+    assert_int_equal(ftm_mouse_set_limits(dev, lo, hi, 0.02, 0.11), FTM_OK);
+    assert_int_equal(ftm_mouse_set_hip(dev, (ftm_vec3){0.01, 0, 0.15}), FTM_OK);
+    for (int k = 0; k < 200; k++)
+        assert_int_equal(ftm_mouse_scroll(dev, 1.0), FTM_OK);
+    assert_int_equal(ftm_mouse_target(dev, &p), FTM_OK);
+    assert_true(fabs(p.z - 0.09) < 1e-12 && fabs(p.x - 0.01) < 1e-12);
+    assert_int_equal(ftm_mouse_scroll(dev, -10.0), FTM_OK); /* and back out: 1 cm */
+    assert_int_equal(ftm_mouse_target(dev, &p), FTM_OK);
+    assert_true(fabs(p.z - 0.11) < 1e-12);
+    assert_int_equal(ftm_mouse_button(dev, true, 400, 200), FTM_OK);
+    assert_int_equal(ftm_mouse_motion(dev, 800, 200), FTM_OK); /* far right */
+    assert_int_equal(ftm_mouse_motion(dev, 800, 200), FTM_OK);
+    assert_int_equal(ftm_mouse_target(dev, &p), FTM_OK);
+    assert_true(p.x <= 0.165 + 1e-12);
+    assert_int_equal(ftm_mouse_set_limits(dev, hi, lo, 0.02, 0.11), FTM_EINVAL);
+    assert_int_equal(ftm_mouse_set_limits(dev, lo, hi, -1, 0.11), FTM_EINVAL);
+    assert_int_equal(ftm_mouse_button(dev, false, 800, 200), FTM_OK);
     v.fov_y = 0;
     assert_int_equal(ftm_mouse_set_view(dev, &v), FTM_EINVAL);
     ftm_device_destroy(dev);
