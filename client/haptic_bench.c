@@ -33,6 +33,9 @@
 #endif
 
 #define MAX_DELAYS 16
+/* the longest probe path [s]: its truth is held tick by tick (about 200 B a
+ * tick, more with --trace) and computed at about 5 ms per simulated second */
+#define MAX_PATH_S 600.0
 #define NREND 4
 
 /* model: what the server sends (held-tissue K, passive, secant-scaled);
@@ -79,6 +82,7 @@ static void usage(FILE *f)
             "  --scene NAME     renderers: scene (default: default)\n"
             "  --path NAME      renderers: built-in closed path: press (default) or circle\n"
             "  --script FILE    renderers: closed probe path, ftm-bot format, instead\n"
+            "                   (at most 600 s long)\n"
             "  --trace FILE     renderers: CSV of truth and rendered force per tick\n"
             "  --stiffness-scale S  renderers: multiply the model's K by S (experiment; default 1)\n"
             "  --json           JSON instead of tables\n");
@@ -397,7 +401,17 @@ static int make_truth(const options *o, truth *tr)
     }
     memset(tr, 0, sizeof *tr);
     tr->h = def.time_step;
-    tr->n = (int32_t)(ftm_script_device_duration(path) / tr->h) + 1;
+    /* (a double out of int32's range is no tick count: refused, not cast) */
+    const double dur = ftm_script_device_duration(path), ticks = dur / tr->h;
+    if (!(dur <= MAX_PATH_S) || !(ticks < (double)INT32_MAX - 1)) {
+        fprintf(stderr, "ftm-haptic-bench: renderers: the probe path %s lasts %g s: at most %g s\n",
+                o->script ? o->script : o->path, dur, MAX_PATH_S);
+        ftm_sim_destroy(sim);
+        ftm_device_destroy(path);
+        ftm_scene_destroy(scene);
+        return 2;
+    }
+    tr->n = (int32_t)ticks + 1;
     tr->x = calloc((size_t)tr->n, sizeof *tr->x);
     tr->f = calloc((size_t)tr->n, sizeof *tr->f);
     tr->K = calloc((size_t)tr->n * 9, sizeof *tr->K);
@@ -550,8 +564,9 @@ static rend_result run_renderer(const truth *tr, int r, int32_t lag, double ksca
 static int run_renderers(const options *o, bool json_open)
 {
     truth tr;
-    if (make_truth(o, &tr))
-        return 1;
+    int rc = make_truth(o, &tr);
+    if (rc)
+        return rc;
     double peak = 0, work = 0, asum = 0;
     int32_t in_contact = 0;
     for (int32_t k = 0; k < tr.n; k++) {
@@ -666,8 +681,8 @@ int main(int argc, char **argv)
                    o.seconds, o.repeat, t.rate, t.p50, t.p99, t.p999, t.max, t.overruns,
                    t.realtime ? "SCHED_FIFO" : "default scheduling");
     }
-    if (rend && run_renderers(&o, o.json && timing))
-        return 1;
+    if (rend && (rc = run_renderers(&o, o.json && timing)))
+        return rc; /* 2: a bad argument found on the way (the path's length) */
     if (o.json)
         printf("%s}\n", timing || rend ? "" : "{");
     return 0;
