@@ -20,12 +20,14 @@
 #include "ftm/scene.h"
 #include "ftm/sim.h"
 
+#include <errno.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 
 #ifndef M_PI
@@ -122,7 +124,12 @@ static int parse_args(int argc, char **argv, options *o)
         } else if (v && !strcmp(a, "--delays")) {
             o->ndelays = 0;
             const char *p = v;
-            while (*p && o->ndelays < MAX_DELAYS) {
+            while (*p) {
+                if (o->ndelays == MAX_DELAYS) {
+                    fprintf(stderr, "ftm-haptic-bench: --delays %s: at most %d delays\n", v,
+                            MAX_DELAYS);
+                    return 2;
+                }
                 char *e;
                 double d = strtod(p, &e);
                 if (e == p || !(d >= 0 && d <= 10000)) {
@@ -135,6 +142,11 @@ static int parse_args(int argc, char **argv, options *o)
                     fprintf(stderr, "ftm-haptic-bench: --delays %s: expected a comma list\n", v);
                     return 2;
                 }
+            }
+            if (o->ndelays == 0) {
+                fprintf(stderr, "ftm-haptic-bench: --delays '%s': expected a comma list of delays "
+                                "in ms\n", v);
+                return 2;
             }
             i++;
         } else if (v && !strcmp(a, "--scene")) {
@@ -563,10 +575,27 @@ static rend_result run_renderer(const truth *tr, int r, int32_t lag, double ksca
 
 static int run_renderers(const options *o, bool json_open)
 {
+    /* --trace opened first: a path that cannot be written is said before
+     * the work, not after it (and fails the run) */
+    FILE *tf = NULL;
+    struct stat si, so;
+    if (o->trace && o->script && stat(o->script, &si) == 0 && stat(o->trace, &so) == 0 &&
+        si.st_dev == so.st_dev && si.st_ino == so.st_ino) {
+        fprintf(stderr, "ftm-haptic-bench: --trace %s is the file --script %s reads: it would be "
+                        "overwritten; write to another file\n", o->trace, o->script);
+        return 2;
+    }
+    if (o->trace && !(tf = fopen(o->trace, "w"))) {
+        fprintf(stderr, "ftm-haptic-bench: --trace %s: %s\n", o->trace, strerror(errno));
+        return 2;
+    }
     truth tr;
     int rc = make_truth(o, &tr);
-    if (rc)
+    if (rc) {
+        if (tf)
+            fclose(tf);
         return rc;
+    }
     double peak = 0, work = 0, asum = 0;
     int32_t in_contact = 0;
     for (int32_t k = 0; k < tr.n; k++) {
@@ -591,32 +620,39 @@ static int run_renderers(const options *o, bool json_open)
                                      traces ? traces + ((size_t)d * NREND + (size_t)r) * (size_t)tr.n
                                             : NULL);
     }
+    if (tf && !traces) {
+        fprintf(stderr, "ftm-haptic-bench: --trace %s: out of memory\n", o->trace);
+        rc = 1;
+    }
     if (traces) {
-        FILE *f = fopen(o->trace, "w");
-        if (!f) {
-            fprintf(stderr, "ftm-haptic-bench: cannot write %s\n", o->trace);
-        } else {
-            fprintf(f, "# t_s,hip_x,hip_z,truth_fx,truth_fz");
+        FILE *f = tf;
+        tf = NULL;
+        fprintf(f, "# t_s,hip_x,hip_z,truth_fx,truth_fz");
+        for (int d = 0; d < o->ndelays; d++)
+            for (int r = 0; r < NREND; r++)
+                fprintf(f, ",%s_%gms_fx,%s_%gms_fz", rend_names[r], o->delays[d],
+                        rend_names[r], o->delays[d]);
+        fprintf(f, "\n");
+        for (int32_t k = 0; k < tr.n; k++) {
+            fprintf(f, "%.4f,%.6f,%.6f,%.6f,%.6f", k * tr.h, tr.x[k].x, tr.x[k].z, tr.f[k].x,
+                    tr.f[k].z);
             for (int d = 0; d < o->ndelays; d++)
-                for (int r = 0; r < NREND; r++)
-                    fprintf(f, ",%s_%gms_fx,%s_%gms_fz", rend_names[r], o->delays[d],
-                            rend_names[r], o->delays[d]);
+                for (int r = 0; r < NREND; r++) {
+                    ftm_vec3 v = traces[((size_t)d * NREND + (size_t)r) * (size_t)tr.n +
+                                        (size_t)k];
+                    fprintf(f, ",%.6f,%.6f", v.x, v.z);
+                }
             fprintf(f, "\n");
-            for (int32_t k = 0; k < tr.n; k++) {
-                fprintf(f, "%.4f,%.6f,%.6f,%.6f,%.6f", k * tr.h, tr.x[k].x, tr.x[k].z, tr.f[k].x,
-                        tr.f[k].z);
-                for (int d = 0; d < o->ndelays; d++)
-                    for (int r = 0; r < NREND; r++) {
-                        ftm_vec3 v = traces[((size_t)d * NREND + (size_t)r) * (size_t)tr.n +
-                                            (size_t)k];
-                        fprintf(f, ",%.6f,%.6f", v.x, v.z);
-                    }
-                fprintf(f, "\n");
-            }
-            fclose(f);
+        }
+        int bad = ferror(f);
+        if (fclose(f) != 0 || bad) {
+            fprintf(stderr, "ftm-haptic-bench: --trace %s: write error\n", o->trace);
+            rc = 1;
         }
         free(traces);
     }
+    if (tf)
+        fclose(tf);
     if (o->json) {
         printf("%s\"renderers\": {\"scene\": \"%s\", \"path\": \"%s\", \"ticks\": %d, "
                "\"tick_s\": %g, \"contact_ticks\": %d, \"path_closure_m\": %.3g, "
@@ -654,7 +690,7 @@ static int run_renderers(const options *o, bool json_open)
                        res[d][0].rms > 0 ? res[d][r].rms / res[d][0].rms : 0.0);
     }
     truth_free(&tr);
-    return 0;
+    return rc;
 }
 
 int main(int argc, char **argv)

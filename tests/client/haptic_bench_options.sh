@@ -12,4 +12,16 @@ refused_by "the probe path $tmp/long.bot lasts 1e+07 s: at most 600 s" \
     "$FTM_BENCH" renderers --script "$tmp/long.bot" --delays 0
 printf '0 0.06 0.06 0.12\n601 0.06 0.06 0.12\n' >"$tmp/601.bot"
 refused_by "lasts 601 s: at most 600 s" "$FTM_BENCH" renderers --script "$tmp/601.bot" --delays 0
+# --delays: an empty list or more than 16 is no table
+refused_by "--delays '': expected a comma list" "$FTM_BENCH" renderers --delays ""
+refused_by "at most 16 delays" "$FTM_BENCH" renderers --delays 0,1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16
+# --trace: a path that cannot be written fails at once (it said so and
+# exited 0 after the work), nor may it be the --script it reads
+refused_by "--trace $tmp/missing/x.csv: No such file or directory" \
+    "$FTM_BENCH" renderers --delays 0 --trace "$tmp/missing/x.csv"
+refused_by "--trace $tmp: Is a directory" "$FTM_BENCH" renderers --delays 0 --trace "$tmp"
+sum=$(cksum "$tmp/601.bot")
+refused_by "--trace $tmp/601.bot is the file --script $tmp/601.bot reads" \
+    "$FTM_BENCH" renderers --script "$tmp/601.bot" --delays 0 --trace "$tmp/601.bot"
+[ "$(cksum "$tmp/601.bot")" = "$sum" ] || fail "--trace overwrote the --script file"
 exit 0
