@@ -465,11 +465,16 @@ static int parse(int argc, char **argv, options *o)
             bad = ftm_option_int_arg("ftm-client", a, v, -1, 8, &n);
             o->swap_interval = (int)n;
         } else if (strcmp(a, "--size") == 0) {
-            if (sscanf(v, "%dx%d", &o->width, &o->height) != 2 || o->width < 64 ||
-                o->height < 64 || o->width > 8192 || o->height > 8192) {
+            /* two whole numbers and an x, nothing else ("100x100junk", " 100x 100") */
+            const char *x = strchr(v, 'x');
+            long long w = 0, h = 0;
+            if (!x || !ftm_option_int(v, (size_t)(x - v), 64, 8192, &w) ||
+                !ftm_option_int(x + 1, strlen(x + 1), 64, 8192, &h)) {
                 fprintf(stderr, "ftm-client: --size: expected WxH (64..8192), got '%s'\n", v);
                 return -1;
             }
+            o->width = (int)w;
+            o->height = (int)h;
         } else {
             fprintf(stderr, "ftm-client: unknown option %s\n", a);
             return -1;
@@ -873,20 +878,40 @@ int main(int argc, char **argv)
         return 2;
     if (a->o.id == 0)
         a->o.id = (uint32_t)(((uint64_t)getpid() * 2654435761u) ^ (uint64_t)time(NULL)) | 1u;
+    if (a->o.commands) {
+        if (ftm_script_load(a->o.commands, &a->cmds)) /* says FILE:LINE: why */
+            return 2;
+        a->have_cmds = true;
+    }
+    /* a trainee's device before the window: a bad script is a bad
+     * argument (status 2), said before anything opens */
+    if (a->role == FTM_WIRE_ROLE_TRAINEE) {
+        ftm_error derr = {0, ""};
+        struct stat st;
+        const char *file = a->o.device + 7;
+        int drc;
+        if (strcmp(a->o.device, "mouse") == 0)
+            drc = ftm_mouse_create(NULL, (ftm_vec3){0, 0, 1}, 0.0, -1.0, &a->dev, &derr);
+        else if (stat(file, &st) == 0 && S_ISDIR(st.st_mode))
+            drc = FTM_EIO, snprintf(derr.message, sizeof derr.message, "%s: is a directory", file);
+        else
+            drc = ftm_script_device_open(file, NULL, &a->dev, &derr); /* says FILE:LINE: why */
+        if (drc) {
+            fprintf(stderr, "ftm-client: --device %s: %s\n", a->o.device, derr.message);
+            if (a->have_cmds)
+                ftm_script_free(&a->cmds);
+            return drc == FTM_ENOMEM ? 3 : 2;
+        }
+    }
     if (a->o.log_path) {
         a->logf = fopen(a->o.log_path, "w");
         if (!a->logf) {
             fprintf(stderr, "ftm-client: cannot open %s: %s\n", a->o.log_path, strerror(errno));
+            ftm_device_destroy(a->dev);
+            if (a->have_cmds)
+                ftm_script_free(&a->cmds);
             return 3;
         }
-    }
-    if (a->o.commands) {
-        if (ftm_script_load(a->o.commands, &a->cmds)) { /* says FILE:LINE: why */
-            if (a->logf)
-                fclose(a->logf);
-            return 2;
-        }
-        a->have_cmds = true;
     }
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
@@ -934,15 +959,6 @@ int main(int argc, char **argv)
 
     /* trainee: the device and the 1 kHz haptic loop (highest priority) */
     if (a->role == FTM_WIRE_ROLE_TRAINEE) {
-        int drc;
-        if (strcmp(a->o.device, "mouse") == 0)
-            drc = ftm_mouse_create(NULL, (ftm_vec3){0, 0, 1}, 0.0, -1.0, &a->dev, &err);
-        else
-            drc = ftm_script_device_open(a->o.device + 7, NULL, &a->dev, &err);
-        if (drc) {
-            alog(a, FTM_LOG_ERROR, "device: %s", err.message);
-            goto out_render;
-        }
         ftm_haptic_def hd = ftm_default_haptic_def();
         hd.renderer = rkind;
         hd.log = app_log;
@@ -950,7 +966,7 @@ int main(int argc, char **argv)
         a->hap_def = hd;
         if (ftm_haptic_create(&hd, a->dev, &a->hap, &err) || ftm_haptic_start(a->hap, &err)) {
             alog(a, FTM_LOG_ERROR, "haptic loop: %s", err.message);
-            goto out_dev;
+            goto out_hap;
         }
         ftm_haptic_set_connected(a->hap, false); /* no force before the replica is synced */
     }
@@ -986,9 +1002,6 @@ int main(int argc, char **argv)
     ftm_client_session_stop(a->sess);
 out_hap:
     ftm_haptic_destroy(a->hap);
-out_dev:
-    ftm_device_destroy(a->dev);
-out_render:
     ftm_client_view_free(&a->view);
     ftm_render_destroy(a->ren);
 out_win:
@@ -996,6 +1009,7 @@ out_win:
 out_glfw:
     glfwTerminate();
 out:
+    ftm_device_destroy(a->dev); /* (the haptic loop, its user, is gone) */
     if (a->have_cmds)
         ftm_script_free(&a->cmds);
     if (a->logf)

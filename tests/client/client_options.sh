@@ -66,4 +66,13 @@ if [ ! -w "$tmp/ro" ]; then # (root writes anyway)
         --screenshot "$tmp/ro/x.png"
 fi
 [ -z "$(ls -A "$tmp/ro")" ] || fail "a file was left in $tmp/ro"
+# --size: two whole numbers and an x, nothing more
+refused "--size: expected WxH (64..8192), got '100x100junk'" --size 100x100junk
+refused "--size: expected WxH (64..8192), got ' 100x 100'" --size " 100x 100"
+refused "--size: expected WxH (64..8192), got '100'" --size 100
+# a bad device script is a bad argument: status 2, before any window
+printf '0 0.03 0.03\n' >"$tmp/bad.bot"
+refused "--device script:$tmp/bad.bot: $tmp/bad.bot:1:" --role trainee --device "script:$tmp/bad.bot"
+refused "--device script:$tmp: $tmp: is a directory" --role trainee --device "script:$tmp"
+refused "--device script:$tmp/none.bot: " --role trainee --device "script:$tmp/none.bot"
 exit 0
