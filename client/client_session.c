@@ -69,6 +69,7 @@ struct ftm_client_session {
     bool id_taken; /* another process, there first, uses our id: the server ignores us */
     bool id_heard; /* a status of another process with our id was seen */
     bool force_valid;
+    bool synced, ever_synced; /* the replica is synced; was once */
     uint64_t contact_ticks, counted_tick;
     bool dirty;
     ftm_wire_state last_state;
@@ -192,6 +193,7 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         ftm_replay_destroy(s->rep);
         s->rep = NULL;
         s->server_left = s->silent_reported = false;
+        s->ever_synced = false; /* no probe input before it knows us (send_probe) */
         s->last_frame_ns = mono_ns();
         s->newest_rx_tick = 0;
         ftm_report_free(&s->live); /* a new session: its ticks start again */
@@ -236,8 +238,10 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         }
         if (strcmp(path, name) != 0)
             slog(s, FTM_LOG_INFO, "scene '%s': %s", name, path);
-        slog(s, FTM_LOG_INFO, "joined session: scene '%s', %u Hz, tick %" PRIu64 "%s",
-             a->scene_id, a->tick_rate_hz, a->tick, a->paused ? " (paused)" : "");
+        /* (the announcement's tick is when it was made, not where we sync:
+         * "synced at tick" says that) */
+        slog(s, FTM_LOG_INFO, "joined session: scene '%s', %u Hz%s; syncing from a keyframe",
+             a->scene_id, a->tick_rate_hz, a->paused ? " (paused)" : "");
         const ftm_mesh *m = ftm_scene_mesh(s->scene);
         pthread_mutex_lock(&s->lock);
         s->shared.mesh = m;
@@ -376,6 +380,11 @@ static void after_frames(ftm_client_session *s)
         if (t->reactions[i].participant == s->cfg.id && t->reactions[i].probe == 0)
             mine = &t->reactions[i];
     uint64_t tick = ftm_replay_tick(s->rep);
+    bool synced = ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED;
+    if (synced && !s->synced)
+        slog(s, FTM_LOG_INFO, "synced at tick %" PRIu64, tick);
+    s->synced = synced;
+    s->ever_synced = s->ever_synced || synced;
     /* with our id taken, the reaction under it is the other process's:
      * evaluated at our HIP it is no force of ours (up to the clamp) */
     if (ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED && !s->server_left && !s->id_taken) {
@@ -437,9 +446,12 @@ static void send_probe(ftm_client_session *s)
 {
     ftm_wire_probe_sample smp[HIP_BATCH];
     int n = s->cfg.take_hips(s->cfg.hip_user, smp, HIP_BATCH);
-    /* never with our id taken: the server would take our HIP for the other
-     * process's (taken all the same, so that none goes out stale later) */
-    if (n <= 0 || s->id_taken)
+    /* (taken all the same, so that none goes out stale later) Not before
+     * the first sync: the server may not have our first status yet (sent
+     * as the session thread starts) and would reject the input of an
+     * unknown participant; there is no force before it anyway. Never with
+     * our id taken: the server would take our HIP for the other process's. */
+    if (n <= 0 || !s->ever_synced || s->id_taken)
         return;
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
@@ -734,9 +746,9 @@ static void *session_main(void *arg)
         /* a change is told at once, but for the first second a joiner's
          * status stays the JOINING it sent (as ftm-bot's): what another
          * process with our id hears first then says we came after it */
+        if (s->synced && st != FTM_WIRE_STATE_SYNCED)
+            s->synced = false; /* (a resync: "synced at tick" again when it ends) */
         if (now - t0 >= SEC && (st != s->last_state || now - s->last_status_ns >= SEC / 2)) {
-            if (st != s->last_state && st == FTM_WIRE_STATE_SYNCED)
-                slog(s, FTM_LOG_INFO, "synced at tick %" PRIu64, ftm_replay_tick(s->rep));
             s->last_state = st;
             publish_status(s, st);
             s->dirty = true;

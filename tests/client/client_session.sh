@@ -28,6 +28,17 @@ wait_for "$dir/server.log" "session '$session'" "server did not start"
 run() { # seconds id script
     timeout 60 "$FTM_TEST_SESSION" "$mode" $domain "$session" "$FTM_CONFIG" "$2" "$3" "$1" \
         >"$dir/test.out" 2>"$dir/test.err" || fail "test_session $mode exited with $?"
+    # the join and sync lines name the tick it synced at (the join line
+    # said the announcement's; "synced at" came with the first status, a
+    # second later): the replay's keyframe, or a few frames queued after it.
+    # And no probe input went out before the server had its status.
+    grep -q "joined session: .* syncing from a keyframe" "$dir/test.err" || fail "no join line"
+    t1=$(sed -n 's/.*replay: synced from keyframe at tick \([0-9]*\).*/\1/p' "$dir/test.err" | head -n 1)
+    t2=$(sed -n 's/.*] synced at tick \([0-9]*\).*/\1/p' "$dir/test.err" | head -n 1)
+    [ -n "$t1" ] && [ -n "$t2" ] && [ "$t2" -ge "$t1" ] && [ "$t2" -le $((t1 + 50)) ] ||
+        fail "synced at tick '$t2', the replay synced at '$t1'"
+    ! grep "probe input from participant $2 rejected" "$dir/server.log" ||
+        fail "probe input went out before the server knew the client"
     cat "$dir/test.out"
 }
 press() { # a bot pressing under id $1: frames every tick
