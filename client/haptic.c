@@ -216,7 +216,7 @@ ftm_vec3 ftm_force_renderer_eval(ftm_force_renderer *r, double now, ftm_vec3 hip
         }
     }
     double mag = v_norm(target);
-    if (!isfinite(mag)) { /* overflow in the model: treat as the limit along F0 */
+    if (!isfinite(mag)) { /* overflow in the model: no direction to trust, so zero */
         target = (ftm_vec3){0, 0, 0};
         mag = 0;
         fl |= FTM_HAPTIC_CLAMPED;
