@@ -135,7 +135,9 @@ badinput)
     timeout 60 "$FTM_BOT" --role observer $common --id 77 --duration 30 \
         >"$dir/idbot.out" 2>"$dir/idbot.err" &
     idbot=$!
-    wait_for "$dir/idbot.err" "synced at tick" "the bot holding id 77 did not sync" 300
+    # (the server's "synced": the bot's statuses say JOINING for its first
+    # second, and a client hearing that first takes the bot for the newcomer)
+    wait_for "$dir/server.log" "participant 77 .*: synced" "the bot holding id 77 did not sync" 300
     client idtaken --id 77 --screenshot "$dir/idtaken.png" --screenshot-after 4
     rc=$?
     [ $rc -eq 0 ] || fail "client with a taken id exited with $rc"
