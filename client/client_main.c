@@ -41,6 +41,7 @@
 typedef struct options {
     const char *role, *scene, *session, *config, *name, *log_path, *device, *renderer;
     const char *commands; /* instructor: timed session commands (bot script format) */
+    bool device_given, renderer_given; /* (trainee options: said for another role, refused) */
     uint32_t domain, id;
     double server_timeout, duration;
     int width, height, swap_interval, msaa;
@@ -425,11 +426,11 @@ static int parse(int argc, char **argv, options *o)
         else if (strcmp(a, "--log") == 0)
             o->log_path = v;
         else if (strcmp(a, "--device") == 0)
-            o->device = v;
+            o->device = v, o->device_given = true;
         else if (strcmp(a, "--commands") == 0)
             o->commands = v;
         else if (strcmp(a, "--renderer") == 0)
-            o->renderer = v;
+            o->renderer = v, o->renderer_given = true;
         else if (strcmp(a, "--screenshot") == 0)
             o->screenshot = v;
         else if (strcmp(a, "--domain") == 0) {
@@ -872,6 +873,11 @@ int main(int argc, char **argv)
     }
     if (a->o.commands && a->role != FTM_WIRE_ROLE_INSTRUCTOR) {
         fprintf(stderr, "ftm-client: --commands needs --role instructor\n");
+        return 2;
+    }
+    if ((a->o.device_given || a->o.renderer_given) && a->role != FTM_WIRE_ROLE_TRAINEE) {
+        fprintf(stderr, "ftm-client: %s needs --role trainee (an %s has no probe)\n",
+                a->o.device_given ? "--device" : "--renderer", a->o.role);
         return 2;
     }
     if (check_outputs(&a->o))

@@ -75,4 +75,7 @@ printf '0 0.03 0.03\n' >"$tmp/bad.bot"
 refused "--device script:$tmp/bad.bot: $tmp/bad.bot:1:" --role trainee --device "script:$tmp/bad.bot"
 refused "--device script:$tmp: $tmp: is a directory" --role trainee --device "script:$tmp"
 refused "--device script:$tmp/none.bot: " --role trainee --device "script:$tmp/none.bot"
+# trainee options for another role: refused, not ignored
+refused "--device needs --role trainee" --role observer --device "script:$tmp/t.bot"
+refused "--renderer needs --role trainee" --role instructor --renderer extrapolate
 exit 0
