@@ -209,8 +209,8 @@ typedef struct bot {
     double lat_sum_us, lat_max_us;
     uint64_t lat_n;
     bool ever_synced;
-    bool id_taken;   /* another process, there first, uses our id (on_status) */
-    bool id_heard;   /* a status of another process with our id was seen */
+    bool id_taken;   /* the server hears another process with our id, not us (on_status) */
+    ftm_id_told id_told; /* what the server said of our id (on_status) */
     int64_t unsynced_since;
     /* statuses before this say JOINING (the periodic one at this time tells
      * the state reached): see publish_state */
@@ -480,20 +480,19 @@ static void on_status(bot *b, const ftm_wire_received *rx)
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
-    if (rx->sender == g_id) { /* another process with our id (ftm_replay_own_id_status) */
-        const ftm_id_claim c = ftm_replay_own_id_status(&b->id_heard, st);
+    if (rx->sender == g_id) /* another process with our id: the server says which it hears */
+        return;
+    if (st->role == FTM_WIRE_ROLE_SERVER && from_server(b, rx)) {
+        const ftm_id_claim c =
+            ftm_replay_id_verdict(&b->id_told, st, g_id, ftm_wire_transport_origin(b->wire));
         if (c == FTM_ID_TAKEN) {
             blog("participant id %u is taken: another process in session '%s' uses it and the "
                  "server listens to that one; give each participant its own --id",
                  g_id, b->o.session);
             b->id_taken = true;
         } else if (c == FTM_ID_NEWCOMER) {
-            blog("another process joined as participant %u ('%s'): the server ignores it",
-                 g_id, st->name);
+            blog("another process joined as participant %u: the server ignores it", g_id);
         }
-        return;
-    }
-    if (st->role == FTM_WIRE_ROLE_SERVER && from_server(b, rx)) {
         if (st->state != FTM_WIRE_STATE_LEAVING)
             server_alive(b);
         if (st->state == FTM_WIRE_STATE_LEAVING && (!b->server_left || b->server_gone)) {

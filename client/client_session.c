@@ -66,8 +66,8 @@ struct ftm_client_session {
     int64_t reject_until_ns;
     char reject_msg[200];
     bool silent_reported;
-    bool id_taken; /* another process, there first, uses our id: the server ignores us */
-    bool id_heard; /* a status of another process with our id was seen */
+    bool id_taken; /* the server hears another process with our id, not us (on_status) */
+    ftm_id_told id_told; /* what the server said of our id (on_status) */
     bool force_valid;
     bool synced, ever_synced; /* the replica is synced; was once */
     uint64_t contact_ticks, counted_tick;
@@ -313,8 +313,11 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
-    if (rx->sender == s->cfg.id) { /* another process with our id (ftm_replay_own_id_status) */
-        const ftm_id_claim c = ftm_replay_own_id_status(&s->id_heard, st);
+    if (rx->sender == s->cfg.id) /* another process with our id: the server says which it hears */
+        return;
+    if (st->role == FTM_WIRE_ROLE_SERVER && from_server(s, rx)) {
+        const ftm_id_claim c = ftm_replay_id_verdict(&s->id_told, st, s->cfg.id,
+                                                     ftm_wire_transport_origin(s->wire));
         if (c == FTM_ID_TAKEN) {
             slog(s, FTM_LOG_ERROR,
                  "participant id %u is taken: another process in session '%s' uses it and the "
@@ -323,12 +326,9 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
             s->id_taken = true;
             force_off(s, "participant id taken");
         } else if (c == FTM_ID_NEWCOMER) {
-            slog(s, FTM_LOG_WARN, "another process joined as participant %u ('%s'): the server "
-                 "ignores it", s->cfg.id, st->name);
+            slog(s, FTM_LOG_WARN, "another process joined as participant %u: the server ignores it",
+                 s->cfg.id);
         }
-        return;
-    }
-    if (st->role == FTM_WIRE_ROLE_SERVER && from_server(s, rx)) {
         if (st->state == FTM_WIRE_STATE_LEAVING) {
             server_gone(s, "leaving");
         } else if (s->have_ann && s->ann.paused) {

@@ -911,12 +911,28 @@ ftm_sim *ftm_replay_sim(ftm_replay *r) { return r->sim; }
 
 ftm_wire_tissue ftm_replay_tissue(const ftm_replay *r) { return ftm_replay_tissue_now(&r->mat); }
 
-ftm_id_claim ftm_replay_own_id_status(bool *heard, const ftm_wire_status *st)
+ftm_id_claim ftm_replay_id_verdict(ftm_id_told *told, const ftm_wire_status *server_status,
+                                   uint32_t own_id, uint64_t own_origin)
 {
-    if (*heard || st->state == FTM_WIRE_STATE_LEAVING)
-        return FTM_ID_NOTHING; /* one leaving at once says nothing of who came first */
-    *heard = true;
-    return st->role == FTM_WIRE_ROLE_SERVER || st->state != FTM_WIRE_STATE_JOINING
-               ? FTM_ID_TAKEN
-               : FTM_ID_NEWCOMER;
+    const ftm_wire_status *st = server_status;
+    if (st->role != FTM_WIRE_ROLE_SERVER)
+        return FTM_ID_NOTHING;
+    bool us = false, other = false;
+    for (int32_t i = 0; i < st->ignored_count; i++) {
+        if (st->ignored_participant[i] != own_id)
+            continue;
+        if (st->ignored_origin[i] == own_origin)
+            us = true;
+        else
+            other = true;
+    }
+    if (us && !told->taken) {
+        told->taken = true;
+        return FTM_ID_TAKEN;
+    }
+    if (other && !us && !told->taken && !told->newcomer) {
+        told->newcomer = true;
+        return FTM_ID_NEWCOMER;
+    }
+    return FTM_ID_NOTHING;
 }

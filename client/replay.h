@@ -110,19 +110,26 @@ void ftm_replay_destroy(ftm_replay *r);
  * and time step (FTM_EINVAL). A message names the mismatch. */
 int ftm_replay_check_announce(const ftm_replay *r, const ftm_wire_announce *a, ftm_error *err);
 
-/* What a status of another process carrying our own participant id says
- * (a participant never hears itself). The server hears whichever claimed
- * the id first, and a process's status says JOINING for its first second,
- * so the first status heard of the other tells which: one past JOINING (or
- * the server's) was there first, our id is TAKEN; a JOINING one is a
- * NEWCOMER the server ignores. A LEAVING status, or any after the first
- * (*heard, false at the start), says NOTHING. */
+/* Whether our participant id is ours, from a status of the server. The
+ * server hears an id only from the first process it heard with it; its
+ * statuses list the other processes that use the id (ftm_wire_status.
+ * ignored_*, by origin), as long as they are heard. So a server's status
+ * that lists our id with our origin (ftm_wire_transport_origin) says our
+ * id is TAKEN: the server ignores us. One that lists our id with another
+ * origin says a NEWCOMER uses it and is ignored. Each is said once (*told:
+ * what was said, false at the start); anything else says NOTHING. The
+ * server decides, not the order in which the processes heard each other,
+ * so two processes started together agree with it. */
 typedef enum ftm_id_claim {
     FTM_ID_NOTHING = 0,
     FTM_ID_TAKEN,
     FTM_ID_NEWCOMER,
 } ftm_id_claim;
-ftm_id_claim ftm_replay_own_id_status(bool *heard, const ftm_wire_status *st);
+typedef struct ftm_id_told {
+    bool taken, newcomer;
+} ftm_id_told;
+ftm_id_claim ftm_replay_id_verdict(ftm_id_told *told, const ftm_wire_status *server_status,
+                                   uint32_t own_id, uint64_t own_origin);
 
 /* A received tick frame (r->msg.kind == FTM_WIRE_TICK). Synced: applies it
  * (after stepping any ticks the server left out as idle), checks the hash;

@@ -133,6 +133,13 @@ typedef struct server {
     uint64_t start_unix_ns;    /* wall clock at start: announced, so replicas tell a restart */
     uint64_t rejected_unknown; /* messages from senders with no status yet (log rate) */
     uint64_t own_id_msgs;      /* messages from another process using the server's id */
+    /* Processes heard with an id another process holds (admit): listed in
+     * the server's status while heard, so that each learns it is ignored. */
+    struct {
+        uint32_t id;
+        uint64_t origin;
+        uint64_t last_ns; /* monotonic; 0: a free slot */
+    } ignored[FTM_WIRE_IGNORED_MAX];
     bool displaced;            /* stopped: another server was serving this session first */
     bool other_server_told;    /* a later server on this session was logged */
     char record_path[1024];    /* --record-dir: this run's recording */
@@ -197,6 +204,9 @@ typedef struct server {
     char replay_scene[FTM_WIRE_NAME_MAX];
     char replay_session[128];
 } server;
+
+/* a participant whose status is older than this is lost (its probe released) */
+#define STATUS_DEADLINE_NS 2000000000u
 
 static uint64_t mono_ns(void)
 {
@@ -337,7 +347,35 @@ static void publish_status(server *s, ftm_wire_state state)
     st->replay_ns_per_tick = s->tick ? s->step_ns_total / (double)s->tick : 0.0;
     st->replay_ns_max = s->step_ns_max;
     snprintf(st->name, sizeof st->name, "ftm-server");
+    const uint64_t now = mono_ns();
+    for (int i = 0; i < FTM_WIRE_IGNORED_MAX; i++)
+        if (s->ignored[i].last_ns && now - s->ignored[i].last_ns <= STATUS_DEADLINE_NS) {
+            st->ignored_participant[st->ignored_count] = s->ignored[i].id;
+            st->ignored_origin[st->ignored_count++] = s->ignored[i].origin;
+        }
     publish(s, &m, NULL);
+}
+
+/* Notes a process whose messages carry an id another process holds. A new
+ * one is told at once, in a status of the server (publish_status), rather
+ * than at the next periodic one: it decides what the process does. */
+static void note_ignored(server *s, uint32_t id, uint64_t origin)
+{
+    const uint64_t now = mono_ns();
+    int slot = 0;
+    for (int i = 0; i < FTM_WIRE_IGNORED_MAX; i++) {
+        if (s->ignored[i].last_ns && s->ignored[i].id == id && s->ignored[i].origin == origin) {
+            s->ignored[i].last_ns = now;
+            return;
+        }
+        if (s->ignored[i].last_ns < s->ignored[slot].last_ns) /* a free or the oldest slot */
+            slot = i;
+    }
+    s->ignored[slot].id = id;
+    s->ignored[slot].origin = origin;
+    s->ignored[slot].last_ns = now;
+    if (!s->stopping)
+        publish_status(s, FTM_WIRE_STATE_SYNCED);
 }
 
 /* Only with the integrator in its plain mode: keyframes do not carry the
@@ -705,6 +743,8 @@ static bool admit(server *s, int kind, const ftm_wire_received *rx)
     participant *p = find_part(s, rx->sender, false);
     if (!p || !p->origin || !rx->origin || rx->origin == p->origin)
         return true;
+    if (!rx->gone)
+        note_ignored(s, rx->sender, rx->origin);
     if (p->impostor_msgs++ % 1000 == 0)
         slog(s, "error", "participant %u (%s '%s'): a second process uses this id (%s, %" PRIu64
              " messages so far): ignored; give each participant its own --id",
@@ -1148,7 +1188,6 @@ static void on_tick_timer(uv_timer_t *h)
  * reports a vanished participant (a `gone` status event, on_status), but
  * that was not observed for a SIGKILLed process with Cyclone 0.10.2 here, so
  * the server does not rely on it alone. */
-#define STATUS_DEADLINE_NS 2000000000u
 
 static void on_status_timer(uv_timer_t *h)
 {

@@ -506,6 +506,15 @@ static int check_status(const vctx *v, const Ftm__V1__ParticipantStatus *m)
     if (m->name && strlen(m->name) >= FTM_WIRE_DISPLAY_MAX)
         return wire_err(v->err, FTM_EINVAL, "%s: name of %zu bytes (at most %d)", v->what,
                         strlen(m->name), FTM_WIRE_DISPLAY_MAX - 1);
+    if (m->n_ignored_participant != m->n_ignored_origin)
+        return wire_err(v->err, FTM_EINVAL, "%s: %zu ignored_participant but %zu ignored_origin",
+                        v->what, m->n_ignored_participant, m->n_ignored_origin);
+    if (m->n_ignored_participant > FTM_WIRE_IGNORED_MAX)
+        return wire_err(v->err, FTM_ERANGE, "%s: %zu ignored processes (at most %d)", v->what,
+                        m->n_ignored_participant, FTM_WIRE_IGNORED_MAX);
+    if (m->n_ignored_participant && (int)m->role != FTM_WIRE_ROLE_SERVER)
+        return wire_err(v->err, FTM_EINVAL, "%s: ignored processes in a %s's status (a server's only)",
+                        v->what, ftm_wire_role_name((ftm_wire_role)m->role));
     return FTM_OK;
 }
 
@@ -715,6 +724,11 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         s->replay_ns_per_tick = m->replay_ns_per_tick;
         s->replay_ns_max = m->replay_ns_max;
         snprintf(s->name, sizeof s->name, "%s", m->name ? m->name : "");
+        s->ignored_count = (int32_t)m->n_ignored_participant; /* <= FTM_WIRE_IGNORED_MAX: checked */
+        for (size_t i = 0; i < m->n_ignored_participant; i++) {
+            s->ignored_participant[i] = m->ignored_participant[i];
+            s->ignored_origin[i] = m->ignored_origin[i];
+        }
         return FTM_OK;
     }
     case FTM_WIRE_CONTROL: {
@@ -1150,6 +1164,15 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         m->has_replay_ns_max = 1;
         m->replay_ns_max = st->replay_ns_max;
         m->name = st->name[0] ? (char *)st->name : NULL;
+        if (st->ignored_count < 0 || st->ignored_count > FTM_WIRE_IGNORED_MAX)
+            return wire_err(err, FTM_ERANGE, "%s: %d ignored processes (0..%d)", what,
+                            (int)st->ignored_count, FTM_WIRE_IGNORED_MAX);
+        if (st->ignored_count && st->role != FTM_WIRE_ROLE_SERVER)
+            return wire_err(err, FTM_EINVAL, "%s: ignored processes in a %s's status (a server's only)",
+                            what, ftm_wire_role_name(st->role));
+        m->n_ignored_participant = m->n_ignored_origin = (size_t)st->ignored_count;
+        m->ignored_participant = (uint32_t *)st->ignored_participant;
+        m->ignored_origin = (uint64_t *)st->ignored_origin;
         *out = &m->base;
         return FTM_OK;
     }

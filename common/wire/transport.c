@@ -55,7 +55,7 @@ typedef struct rx_item {
     bool valid;             /* valid_data; else an instance-state change */
     bool alive;             /* instance_state == ALIVE */
     uint32_t sender;
-    uint64_t origin; /* the writer's DDS participant (origin_of) */
+    uint64_t origin; /* the writer's process (origin_of) */
     uint8_t kind;
     uint64_t seq;
     size_t size;
@@ -105,6 +105,7 @@ typedef struct kind_io {
 
 struct ftm_wire_transport {
     dds_entity_t participant;
+    uint64_t origin; /* ours, as others see it (origin_of_guid) */
     char session[64];
     uint32_t id;
     ftm_wire_limits limits;
@@ -421,10 +422,23 @@ static int64_t real_now_ns(void)
     return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
 }
 
-/* The DDS participant (in this process's handles) of the writer of a
- * sample: one process has a writer per kind, so this is what tells two
- * processes that give one sender id apart. 0 if the writer is no longer
- * matched (a sample that reports it gone). Cached: asked once per writer. */
+/* A process's origin: its DDS participant's GUID, which every process sees
+ * alike, folded to 64 bits (FNV-1a, then a final mix); never 0. */
+static uint64_t origin_of_guid(const dds_guid_t *g)
+{
+    uint64_t h = 0xcbf29ce484222325u;
+    for (size_t i = 0; i < sizeof g->v; i++)
+        h = (h ^ g->v[i]) * 0x100000001b3u;
+    h ^= h >> 33;
+    h *= 0xff51afd7ed558ccdu;
+    h ^= h >> 33;
+    return h ? h : 1;
+}
+
+/* The origin (origin_of_guid) of the writer of a sample: one process has a
+ * writer per kind, so this is what tells two processes that give one
+ * sender id apart. 0 if the writer is no longer matched (a sample that
+ * reports it gone). Cached: asked once per writer. */
 static uint64_t origin_of(kind_io *io, dds_entity_t reader, dds_instance_handle_t writer)
 {
     for (int i = 0; i < ORIGIN_CACHE; i++)
@@ -433,7 +447,7 @@ static uint64_t origin_of(kind_io *io, dds_entity_t reader, dds_instance_handle_
     dds_builtintopic_endpoint_t *ep = dds_get_matched_publication_data(reader, writer);
     if (!ep)
         return 0;
-    const uint64_t origin = ep->participant_instance_handle;
+    const uint64_t origin = origin_of_guid(&ep->participant_key);
     dds_builtintopic_free_endpoint(ep);
     io->origins[io->next_origin].writer = writer;
     io->origins[io->next_origin].origin = origin;
@@ -610,6 +624,13 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
         if (t->participant < 0) {
             rc = dds_fail(err, "dds_create_participant", t->participant);
             t->participant = 0;
+        } else {
+            dds_guid_t g;
+            dds_return_t r = dds_get_guid(t->participant, &g);
+            if (r < 0)
+                rc = dds_fail(err, "dds_get_guid", r);
+            else
+                t->origin = origin_of_guid(&g);
         }
     }
     for (int k = FTM_WIRE_KIND_MIN; rc == FTM_OK && k <= FTM_WIRE_KIND_MAX; k++) {
@@ -709,6 +730,8 @@ int ftm_wire_wait_matched(ftm_wire_transport *t, int kind, int32_t count, int64_
         sleep_ns(5000000);
     }
 }
+
+uint64_t ftm_wire_transport_origin(const ftm_wire_transport *t) { return t->origin; }
 
 int ftm_wire_pin_publisher(ftm_wire_transport *t, int cpu, ftm_error *err)
 {

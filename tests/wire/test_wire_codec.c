@@ -347,7 +347,36 @@ static void test_round_trip_status(void **state)
     assert_true(same_double(r->replay_ns_per_tick, 1234.5));
     assert_true(same_double(r->replay_ns_max, 99999.25));
     assert_string_equal(r->name, "trainee A");
+    assert_int_equal(r->ignored_count, 0);
     ftm_wire_msg_free(&b);
+
+    /* the server's status, with the processes it ignores (a full list) */
+    s->participant = 1;
+    s->role = FTM_WIRE_ROLE_SERVER;
+    s->state = FTM_WIRE_STATE_SYNCED;
+    s->ignored_count = FTM_WIRE_IGNORED_MAX;
+    for (int i = 0; i < FTM_WIRE_IGNORED_MAX; i++) {
+        s->ignored_participant[i] = 100 + (uint32_t)i;
+        s->ignored_origin[i] = UINT64_MAX - (uint64_t)i * 0x9e3779b97f4a7c15u;
+    }
+    round_trip(&m, &b);
+    assert_int_equal(b.u.status.ignored_count, FTM_WIRE_IGNORED_MAX);
+    assert_memory_equal(b.u.status.ignored_participant, s->ignored_participant,
+                        sizeof s->ignored_participant);
+    assert_memory_equal(b.u.status.ignored_origin, s->ignored_origin, sizeof s->ignored_origin);
+    ftm_wire_msg_free(&b);
+
+    /* only a server's status lists them, and at most FTM_WIRE_IGNORED_MAX */
+    uint8_t *buf = NULL;
+    size_t size = 0;
+    ftm_error err = {0, ""};
+    s->role = FTM_WIRE_ROLE_TRAINEE;
+    assert_int_equal(ftm_wire_encode(&m, &buf, &size, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "ignored processes in a trainee's status"));
+    s->role = FTM_WIRE_ROLE_SERVER;
+    s->ignored_count = FTM_WIRE_IGNORED_MAX + 1;
+    assert_int_equal(ftm_wire_encode(&m, &buf, &size, &err), FTM_ERANGE);
+    assert_null(buf);
 }
 
 static void test_round_trip_control(void **state)
@@ -619,6 +648,32 @@ static void test_missing_and_invalid(void **state)
     uint8_t buf[256];
     size_t n = protobuf_c_message_pack(&st.base, buf);
     expect_reject(FTM_WIRE_STATUS, buf, n, NULL, FTM_EPARSE, "missing field participant_id", NULL);
+
+    /* ignored processes: pairs that do not pair, too many, or not the server's */
+    st.has_participant_id = st.has_role = st.has_state = st.has_last_applied_tick = 1;
+    st.has_state_hash = st.has_replay_ns_per_tick = st.has_replay_ns_max = 1;
+    st.participant_id = 1;
+    st.role = FTM__V1__ROLE__ROLE_SERVER;
+    st.state = FTM__V1__PARTICIPANT_STATE__STATE_SYNCED;
+    uint32_t ids[FTM_WIRE_IGNORED_MAX + 1] = {0};
+    uint64_t origins[FTM_WIRE_IGNORED_MAX + 1] = {0};
+    st.ignored_participant = ids;
+    st.ignored_origin = origins;
+    st.n_ignored_participant = 2;
+    st.n_ignored_origin = 1;
+    n = protobuf_c_message_pack(&st.base, buf);
+    expect_reject(FTM_WIRE_STATUS, buf, n, NULL, FTM_EINVAL,
+                  "2 ignored_participant but 1 ignored_origin", NULL);
+    st.n_ignored_participant = st.n_ignored_origin = FTM_WIRE_IGNORED_MAX + 1;
+    n = protobuf_c_message_pack(&st.base, buf);
+    expect_reject(FTM_WIRE_STATUS, buf, n, NULL, FTM_ERANGE, "17 ignored processes (at most 16)",
+                  NULL);
+    st.n_ignored_participant = st.n_ignored_origin = 1;
+    st.role = FTM__V1__ROLE__ROLE_OBSERVER;
+    n = protobuf_c_message_pack(&st.base, buf);
+    expect_reject(FTM_WIRE_STATUS, buf, n, NULL, FTM_EINVAL,
+                  "ignored processes in a observer's status", NULL);
+    st = (Ftm__V1__ParticipantStatus)FTM__V1__PARTICIPANT_STATUS__INIT;
 
     /* a reaction force without z */
     Ftm__V1__TickFrame tf = FTM__V1__TICK_FRAME__INIT;

@@ -450,7 +450,10 @@ static void test_in_process_status_and_leave(void **state)
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_STATUS;
-    m.u.status = (ftm_wire_status){11, FTM_WIRE_ROLE_BOT, FTM_WIRE_STATE_SYNCED, 5, 6, 1.5, 2.5, "bot"};
+    m.u.status = (ftm_wire_status){.participant = 11, .role = FTM_WIRE_ROLE_BOT,
+                                   .state = FTM_WIRE_STATE_SYNCED, .last_applied_tick = 5,
+                                   .state_hash = 6, .replay_ns_per_tick = 1.5,
+                                   .replay_ns_max = 2.5, .name = "bot"};
     assert_int_equal(ftm_wire_publish(a, &m, &err), FTM_OK);
     ftm_wire_received r;
     int rc = ftm_wire_receive(b, FTM_WIRE_STATUS, &r, 10 * SEC, &err);
@@ -458,6 +461,11 @@ static void test_in_process_status_and_leave(void **state)
         fail_msg("%s", err.message);
     assert_int_equal(r.sender, 11);
     assert_false(r.gone);
+    /* the sender's origin is what it says of itself, and not ours: what a
+     * server's list of ignored processes names (ftm_replay_id_verdict) */
+    assert_true(r.origin != 0);
+    assert_true(r.origin == ftm_wire_transport_origin(a));
+    assert_true(r.origin != ftm_wire_transport_origin(b));
     assert_string_equal(r.msg.u.status.name, "bot");
     ftm_wire_received_free(&r);
     /* b does not hear itself */

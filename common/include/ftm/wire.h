@@ -68,6 +68,7 @@ const char *ftm_wire_kind_name(int kind);
  * frame or recording entry costs them. */
 #define FTM_WIRE_MAX_TICK_GAP 2000000u
 #define FTM_WIRE_REACTIONS_MAX 4096
+#define FTM_WIRE_IGNORED_MAX 16 /* ignored processes in a server's status */
 
 typedef struct ftm_wire_tissue {
     double node_mass;    /* [kg] > 0 */
@@ -181,6 +182,12 @@ typedef struct ftm_wire_status {
     double replay_ns_per_tick; /* >= 0 */
     double replay_ns_max;      /* >= 0 */
     char name[FTM_WIRE_DISPLAY_MAX];
+    /* The server's status only: processes it ignores because another holds
+     * their participant id, by id and origin (ftm_wire_received.origin,
+     * ftm_wire_transport_origin). */
+    int32_t ignored_count; /* 0..FTM_WIRE_IGNORED_MAX */
+    uint32_t ignored_participant[FTM_WIRE_IGNORED_MAX];
+    uint64_t ignored_origin[FTM_WIRE_IGNORED_MAX];
 } ftm_wire_status;
 
 typedef enum ftm_wire_command {
@@ -313,6 +320,10 @@ int ftm_wire_flush(ftm_wire_transport *t, int64_t timeout_ns, ftm_error *err);
  * (possibly idle) core. FTM_EINVAL, or the error of the system call. */
 int ftm_wire_pin_publisher(ftm_wire_transport *t, int cpu, ftm_error *err);
 
+/* This process's origin, as others see it in ftm_wire_received.origin
+ * (never 0). */
+uint64_t ftm_wire_transport_origin(const ftm_wire_transport *t);
+
 /* Waits up to timeout_ns until the writer (if this side publishes kind) or
  * else the reader of kind is matched with at least count remote endpoints. */
 int ftm_wire_wait_matched(ftm_wire_transport *t, int kind, int32_t count, int64_t timeout_ns,
@@ -322,8 +333,9 @@ int ftm_wire_wait_matched(ftm_wire_transport *t, int kind, int32_t count, int64_
 typedef struct ftm_wire_received {
     ftm_wire_msg msg;      /* decoded; release with ftm_wire_received_free */
     uint32_t sender;       /* Envelope.sender */
-    /* The DDS participant it came from (a handle local to this process; 0:
-     * no longer known): two processes that give one sender id differ here. */
+    /* The process it came from: a hash of its DDS participant's GUID, the
+     * same in every process (0: no longer known). Two processes that give
+     * one sender id differ here; ftm_wire_transport_origin is our own. */
     uint64_t origin;
     uint64_t seq;          /* Envelope.seq */
     /* Messages of this kind from this sender (and origin) that never
