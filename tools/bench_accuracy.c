@@ -17,9 +17,12 @@
  * L2 error ||u - u_FEM|| / ||u_FEM|| over all nodes.
  *
  * All explicit methods share the nodal masses (lumped from the FEM density),
- * the damping (the fundamental mode critically damped: d_i = 2 w1 m_i, w1 from
- * the Rayleigh quotient of the FEM solution under a body force along the
- * load) and half their critical step. */
+ * the damping (d_i = 2 zeta m_i, zeta = max(w1, 0.11 / h_crit): the
+ * fundamental mode critically damped, w1 from the Rayleigh quotient of the
+ * FEM solution under a body force along the load, or the floor the
+ * layer-by-layer update needs at h_crit / 2, whichever is larger; on both
+ * bodies the floor, so both are overdamped, docs/accuracy.md) and half their
+ * critical step. */
 #include "bench.h"
 #include "commands.h"
 
@@ -45,7 +48,7 @@
 
 typedef struct body {
     char name[16];
-    ftm_mesh *mesh;     /* lumped masses, damping 2 w1 m, springs of stiffness k */
+    ftm_mesh *mesh;     /* lumped masses, damping 2 zeta m, springs of stiffness k */
     int32_t n, free_nodes;
     double *f;          /* external force, 3 per node */
     ftm_contact *contacts;

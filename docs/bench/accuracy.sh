@@ -30,8 +30,8 @@ series() { # body method style title [extra: labels offset]
 panel() { # body title
   echo "set title \"$2\""
   echo "plot \\"
-  series "$1" ft-springs "with linespoints lw 2 pt 7 lc rgb '#1f77b4'" "transmittal, springs (depth 1..full)" "0,0.8 tc rgb '#1f77b4'"
-  series "$1" ft-fem "with linespoints lw 2 pt 5 lc rgb '#d62728'" "transmittal, linear FEM forces (depth 1..full)" "0,-0.9 tc rgb '#d62728'"
+  series "$1" ft-springs "with linespoints lw 2 pt 7 lc rgb '#1f77b4'" "transmittal, springs (depth 1..full)" "-0.8,0.8 tc rgb '#1f77b4'"
+  series "$1" ft-fem "with linespoints lw 2 pt 5 lc rgb '#d62728'" "transmittal, linear FEM forces (depth 1..full)" "1,-0.9 tc rgb '#d62728'"
   series "$1" ft-corot "with points ps 1.6 pt 9 lc rgb '#9467bd'" "transmittal, co-rotational FEM forces (full)"
   series "$1" explicit-springs "with points ps 1.6 pt 11 lc rgb '#2ca02c'" "explicit mass-spring, all nodes"
   series "$1" implicit-springs "with points ps 1.6 pt 13 lc rgb '#ff7f0e'" "backward Euler mass-spring (constant tangent)"
@@ -41,12 +41,14 @@ panel() { # body title
   printf '"%s" using 8:%s with steps lw 8 lc rgb "#b0808080" title "Pareto front"\n' "$tmp/front-$1.dat" "$Y"
 }
 gnuplot <<GP
-set terminal pngcairo size 1500,620 font "sans,10"
+set terminal pngcairo size 1500,720 font "sans,10"
 set output "docs/img/accuracy.png"
 set multiplot layout 1,2
 set logscale xy
 set grid
-set key bottom left font "sans,8"
+# the key below the panels: inside, it hid the CHOLMOD points (drawn at 1e-9)
+set key below maxrows 4 font "sans,8"
+set bmargin 11
 set xlabel "time to equilibrium per load [s]  (steps x median step; set-up not included)"
 set ylabel "relative error ||u - u_FEM|| / ||u_FEM||" noenhanced
 set yrange [5e-10:3]
