@@ -2,7 +2,8 @@
  * For each configuration: the theoretical critical step (the Gershgorin bound
  * the core uses, and the spectral limit 2/sqrt(lambda_max)), the measured
  * boundary (largest stable h/h_crit with the guard off, by bisection), the
- * damping threshold of the core's warning, and what the guard does at the
+ * damping against the core's low-damping warning (which the core itself
+ * reports: column warn), and what the guard does at the
  * unstable steps. Exit status 1 if a NaN was ever observable with the guard
  * on; "missed" (slow growth the guard never saw) is reported, not an error;
  * 2 for bad arguments or a CSV file that cannot be written. */
@@ -75,15 +76,19 @@ int ftm_cmd_stability(int argc, char **argv)
                     "events2,substeps2,max_u1,max_u2,stable_ratio,stable_events,stable_long\n");
     }
     if (!json) {
-        printf("stability sweep: simulated time %g x h_crit per run, guard off, bisection %d steps in "
-               "[%g, %g] x h_crit\nh_crit = the core's Gershgorin bound; spectral = 2/sqrt(lambda_max) "
-               "at rest; damping = d/2m / (0.025 w_max), the core warns below 1\n\n",
-               def.sim_time_factor, def.bisect_iters, def.lo, def.hi);
-        printf("%-26s %5s %4s %10s %8s %8s %5s %9s %6s | %-28s | %-28s\n", "configuration", "nodes",
-               "deg", "h_crit[s]", "spectral", "damping", "warn", "measured", "falsea",
-               "guard at 1st unstable", "guard at 2x");
-        printf("%-26s %5s %4s %10s %8s %8s %5s %9s %6s | %-28s | %-28s\n", "", "", "", "", "", "", "",
-               "", "", "h/h_crit outcome ev/sub u", "h/h_crit outcome ev/sub u");
+        printf("stability sweep: simulated time %g x h_crit per run, guard off, bisection %d steps "
+               "in [%g, %g] x h_crit\nh_crit = the core's Gershgorin bound; spectral = "
+               "2/sqrt(lambda_max) at rest;\ndamping = d/2m / (0.025 w_max), the sweep's unit "
+               "(\"x threshold\": the core's warning before\n2026-11-25). The core now warns when "
+               "d/2m < 0.11 w_max h/h_crit, i.e. damping < 4.4 h/h_crit;\nwarn = the core's "
+               "warning at h = %g h_crit; nowarn = the largest h/h_crit without it (damping/4.4)"
+               "\n\n",
+               def.sim_time_factor, def.bisect_iters, def.lo, def.hi, def.lo);
+        printf("%-26s %5s %4s %10s %8s %8s %5s %7s %9s %6s | %-28s | %-28s\n", "configuration",
+               "nodes", "deg", "h_crit[s]", "spectral", "damping", "warn", "nowarn", "measured",
+               "falsea", "guard at 1st unstable", "guard at 2x");
+        printf("%-26s %5s %4s %10s %8s %8s %5s %7s %9s %6s | %-28s | %-28s\n", "", "", "", "", "", "",
+               "", "", "", "", "h/h_crit outcome ev/sub u", "h/h_crit outcome ev/sub u");
     }
     bool bad = false;
     uint64_t false_alarms = 0;
@@ -132,9 +137,10 @@ int ftm_cmd_stability(int argc, char **argv)
                          r->max_u[p] / r->spacing, r->nan_seen[p] ? " NaN!" : "");
         }
         if (!json)
-            printf("%-26s %5d %4d %10.4g %8.3f %8.3g %5s %9s %6s | %-28s | %-28s\n",
+            printf("%-26s %5d %4d %10.4g %8.3f %8.3g %5s %7.3g %9s %6s | %-28s | %-28s\n",
                    configs[i].name, r->nodes, r->max_degree, r->h_crit, r->h_spectral / r->h_crit,
-                   r->damping_ratio, r->warned ? "yes" : "no", meas, fa, probe[0], probe[1]);
+                   r->damping_ratio, r->warned ? "yes" : "no", r->damping_ratio / 4.4, meas, fa,
+                   probe[0], probe[1]);
         if (!json)
             fflush(stdout);
         if (cf)

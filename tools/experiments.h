@@ -149,7 +149,7 @@ typedef struct ftm_stab_config {
     ftm_stab_mesh_kind kind;
     int n;              /* lattice nodes per side */
     double mass, stiffness;
-    double damping_factor; /* d = factor * (the core's threshold 2m * 0.025 w_max) */
+    double damping_factor; /* d = factor * 2m * 0.025 w_max (the sweep's unit) */
     double damping;        /* if damping_factor < 0: absolute d */
     int depth;
     double short_frac;     /* FTM_STAB_SHORT: distance to the neighbour / spacing */
@@ -165,8 +165,8 @@ typedef struct ftm_stab_row {
     double h_crit;         /* ftm_mesh_critical_time_step (Gershgorin) [s] */
     double h_spectral;     /* 2 / sqrt(lambda_max(M^-1 K)) at rest, by power iteration [s] */
     double damping;        /* d used [N s/m] */
-    double damping_ratio;  /* d/2m / (0.025 w_max): the core warns below 1 */
-    bool warned;           /* the core logged its low-damping warning */
+    double damping_ratio;  /* d/2m / (0.025 w_max); the core warns below 4.4 h/h_crit */
+    bool warned;           /* the core logged its low-damping warning at h = lo */
     /* measured boundary: largest stable h / h_crit, bisection in [lo, hi] */
     double measured;       /* < 0: unstable at the smallest ratio tried; > hi: stable at hi */
     double lo, hi;         /* bracket: stable at lo, unstable at hi (when both exist) */
