@@ -19,7 +19,7 @@ typedef struct exp_opts {
 static void usage(FILE *f)
 {
     fprintf(f,
-            "usage: ftm experiment NAME [--csv-dir DIR] [--json] [--quick]\n\n"
+            "usage: ftm experiment NAME [--csv-dir DIR] [--json] [--quick] [--observe T]\n\n"
             "experiments (Choi, Sun, Heng 2004, section 4.1):\n"
             "  depth       optimum penetration depth by calibration, k = 0.5, 2, 5 (Figs. 9-10)\n"
             "  tissue      creep, hysteresis, load-deformation for three dampings (Fig. 11)\n"

@@ -507,8 +507,9 @@ ftm_exp_aniso_def ftm_exp_default_aniso_def(bool quick)
         .n = quick ? 5 : 11,
         .spacing = 1.0,
         .mass = 1.0,
-        /* model B (horizontal springs 10x) needs d > 1.5 here although d = 1
-         * is above the core's warning threshold (docs/stability.md) */
+        /* model B (horizontal springs 10x) gains energy at d = 1 (the guard
+         * holds it only by substepping), below the core's warning threshold
+         * (d ~ 1.75 here); d = 2 is above it (docs/experiments.md) */
         .damping = 2.0,
         .stiffness = 1.0,
         .ratio = 10.0,
@@ -920,7 +921,8 @@ int ftm_stab_run(const ftm_stab_def *def, const ftm_stab_config *c, ftm_stab_row
         return FTM_EINVAL;
     double hc = ftm_mesh_critical_time_step(mesh);
     double wmax = 2.0 / hc;
-    double threshold = 2.0 * c->mass * 0.025 * wmax; /* the core's warning, uniform m and d */
+    double threshold = 2.0 * c->mass * 0.025 * wmax; /* the sweep's damping unit (the core's
+                                                       * warning before 2026-11-25) */
     ftm_mesh_destroy(mesh);
     row->damping = c->damping_factor >= 0 ? c->damping_factor * threshold : c->damping;
     row->damping_ratio = row->damping / threshold;

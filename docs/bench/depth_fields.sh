@@ -23,6 +23,8 @@ set cbrange [-6:0]
 set palette rgbformulae 33,13,10
 set colorbox horizontal user origin 0.35,0.07 size 0.3,0.03
 set xtics 10; set ytics 10
+set xlabel "x [m] (deformed)"
+set ylabel "y [m] (deformed)"
 do for [d in "2 5 10 20"] {
   set title "depth ".d
   plot "$tmp/d".d.".csv" every ::1 using (\$2+\$5):(\$3+\$6):(log10(sqrt(\$5**2+\$6**2+\$7**2)+1e-6)) with points pt 7 ps 0.5 lc palette
