@@ -631,16 +631,25 @@ int main(int argc, char **argv)
             wait = 0;
         if (wait > SEC / 1000)
             wait = SEC / 1000;
+        /* frames for at most 10 ms a turn: a replica slower than the ticks
+         * (a sanitizer build, a loaded host) must still send its status
+         * every 500 ms, or the server takes it for lost mid-press */
+        const int64_t drain_until = mono_ns() + wait + SEC / 100;
         for (int n = 0; n < 1000; n++) {
             if (ftm_wire_receive(b->wire, FTM_WIRE_TICK, &rx, n == 0 ? wait : 0, NULL) != FTM_OK)
                 break;
             if (from_server(b, &rx))
                 on_tick(b, &rx);
             ftm_wire_received_free(&rx);
+            if (mono_ns() >= drain_until)
+                break;
         }
         now = mono_ns();
         double t = (double)(now - g_t0) * 1e-9;
-        if (b->role == FTM_WIRE_ROLE_TRAINEE && now >= next_input && !b->id_taken) {
+        /* no probe input before the first sync: the server would not know
+         * us yet (our JOINING status travels on another topic) and warn */
+        if (b->role == FTM_WIRE_ROLE_TRAINEE && now >= next_input && !b->id_taken &&
+            b->ever_synced) {
             send_probe(b, t);
             next_input += (int64_t)(b->o.input_period * 1e9);
             if (next_input < now)
