@@ -72,7 +72,7 @@ else
   echo "FTM headless session on loopback: ftm-server (scene 'default', 1000 Hz, ${seconds} s)"
 fi
 echo "  + trainee 11 (docs/sessions/trainee1.bot), trainee 12 (trainee2.bot), observer 13,"
-echo "    instructor 15 (instructor.bot: stiffness 50 -> 80 N/m at 1.5 s)"
+echo "    instructor 15 (instructor.bot: damping 0.3 -> 0.33 N s/m at 1.4 s, stiffness 50 -> 80 N/m at 1.5 s)"
 [ -n "$gui" ] && echo "  + instructor 14: ftm-client window (keys: docs/client.md)"
 timeout $((seconds + 20)) "$server" --scene default "${common[@]}" --duration "$seconds" \
   --log "$dir/server.log" --report "$dir/report.json" >"$dir/server.out" 2>&1 &
@@ -111,7 +111,7 @@ for p in $p11 $p12 $p13 $p15; do wait "$p" || status=1; done
 
 echo
 grep -E "contact on triangle|tissue from tick|ticks in" "$dir/server.log" |
-  sed -e 's/, damping .*//' -e 's/^/  server /'
+  sed -e 's/, node mass .*//' -e 's/^/  server /'
 want=$(sed -n 's/^ftm-server: final tick \(.*\)$/\1/p' "$dir/server.out")
 echo "  server         final tick $want"
 for b in 11 12 13 15; do
