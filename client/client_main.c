@@ -505,10 +505,6 @@ static int parse(int argc, char **argv, options *o)
 
 /* ---- outputs ----------------------------------------------------------------------------- */
 
-typedef struct named_path {
-    const char *opt, *path;
-} named_path;
-
 /* Says why an output at path cannot be written, or returns NULL: checked
  * at start, where writing it fails only at the end (a screenshot after its
  * wait). why holds the message. in_dir: the file is made anew in its
@@ -552,20 +548,20 @@ static const char *unwritable(const char *path, bool in_dir, char *why, size_t n
  * argument) after saying which. */
 static int check_outputs(const options *o)
 {
-    named_path in[4], out[2];
+    ftm_option_path in[4], out[2];
     int nin = 0, nout = 0;
     if (o->commands)
-        in[nin++] = (named_path){"--commands", o->commands};
+        in[nin++] = (ftm_option_path){"--commands", o->commands};
     if (o->device && strncmp(o->device, "script:", 7) == 0)
-        in[nin++] = (named_path){"--device", o->device + 7};
+        in[nin++] = (ftm_option_path){"--device", o->device + 7};
     if (o->config)
-        in[nin++] = (named_path){"--config", o->config};
+        in[nin++] = (ftm_option_path){"--config", o->config};
     if (o->scene)
-        in[nin++] = (named_path){"--scene", o->scene}; /* a scene's name is no file: skipped */
+        in[nin++] = (ftm_option_path){"--scene", o->scene}; /* a scene's name is no file: skipped */
     if (o->log_path)
-        out[nout++] = (named_path){"--log", o->log_path};
+        out[nout++] = (ftm_option_path){"--log", o->log_path};
     if (o->screenshot)
-        out[nout++] = (named_path){"--screenshot", o->screenshot};
+        out[nout++] = (ftm_option_path){"--screenshot", o->screenshot};
     for (int i = 0; i < nout; i++) {
         char why[300];
         if (unwritable(out[i].path, out[i].path == o->screenshot, why, sizeof why)) {
@@ -577,17 +573,11 @@ static int check_outputs(const options *o)
             return 2;
         }
     }
-    for (int k = 0; k < nin; k++) {
-        struct stat si, so;
-        if (stat(in[k].path, &si) != 0)
-            continue; /* nothing to destroy; reading it fails with its own error */
-        for (int i = 0; i < nout; i++) {
-            if (stat(out[i].path, &so) != 0 || so.st_dev != si.st_dev || so.st_ino != si.st_ino)
-                continue;
-            fprintf(stderr, "ftm-client: %s %s is the file %s %s reads: it would be overwritten; "
-                            "write to another file\n", out[i].opt, out[i].path, in[k].opt, in[k].path);
-            return 2;
-        }
+    int k, i;
+    if (ftm_option_output_is_input(in, nin, out, nout, &k, &i)) {
+        fprintf(stderr, "ftm-client: %s %s is the file %s %s reads: it would be overwritten; "
+                        "write to another file\n", out[i].opt, out[i].path, in[k].opt, in[k].path);
+        return 2;
     }
     return 0;
 }

@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 enum { KW_JOIN = -1, KW_LEAVE = -2 }; /* set a time of the script, not a command */
 
@@ -218,4 +219,22 @@ int ftm_option_int_arg(const char *program, const char *opt, const char *v, long
     fprintf(stderr, "%s: %s must be an integer in %lld..%lld (got '%s')\n", program, opt, lo, hi,
             v);
     return -1;
+}
+
+bool ftm_option_output_is_input(const ftm_option_path *in, int nin, const ftm_option_path *out,
+                                int nout, int *in_i, int *out_i)
+{
+    for (int k = 0; k < nin; k++) {
+        struct stat si, so;
+        if (stat(in[k].path, &si) != 0)
+            continue; /* nothing to destroy; reading it fails with its own error */
+        for (int i = 0; i < nout; i++) {
+            if (stat(out[i].path, &so) == 0 && so.st_dev == si.st_dev && so.st_ino == si.st_ino) {
+                *in_i = k;
+                *out_i = i;
+                return true;
+            }
+        }
+    }
+    return false;
 }

@@ -76,6 +76,16 @@ bool ftm_option_int(const char *v, size_t len, long long lo, long long hi, long 
 int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
                        long long hi, long long *out);
 #define FTM_OPTION_DOMAIN_MAX 4294967294LL
+/* A file a program reads or writes, with the option that names it. */
+typedef struct ftm_option_path {
+    const char *opt, *path;
+} ftm_option_path;
+/* Whether an output is one of the inputs, the same file by device and
+ * inode (another name, a symlink, a hard link): writing it would destroy
+ * the input before it is read. If so, *in_i and *out_i say which; inputs
+ * or outputs that do not exist are never the same. */
+bool ftm_option_output_is_input(const ftm_option_path *in, int nin, const ftm_option_path *out,
+                                int nout, int *in_i, int *out_i);
 /* The longest time an option may give [s], about 31.7 years: in nanoseconds
  * it still fits 64-bit clock arithmetic (a larger double wraps when cast). */
 #define FTM_OPTION_SECONDS_MAX 1e9

@@ -1490,9 +1490,7 @@ static int parse(int argc, char **argv, options *o)
 }
 
 /* The files a run writes, by option (--record-dir's are new files). */
-typedef struct output {
-    const char *opt, *path;
-} output;
+typedef ftm_option_path output;
 
 static int outputs_of(const options *o, output out[5])
 {
@@ -1527,25 +1525,13 @@ static int outputs_apart_from_input(const options *o)
     }
     output out[5];
     const int nout = outputs_of(o, out);
-    for (int k = 0; k < nin; k++) {
-        struct stat si, so;
-        if (stat(in[k].path, &si) != 0)
-            continue; /* nothing to destroy; reading it fails with its own error */
-        for (int i = 0; i < nout; i++) {
-            if (stat(out[i].path, &so) != 0 || so.st_dev != si.st_dev || so.st_ino != si.st_ino)
-                continue;
-            if (k == 0 && (o->replay || o->inputs))
-                fprintf(stderr, "ftm-server: %s %s is the recording %s %s reads: it would be "
-                                "overwritten; write to another file\n",
-                        out[i].opt, out[i].path, in[k].opt, in[k].path);
-            else
-                fprintf(stderr, "ftm-server: %s %s is the file %s %s reads: it would be "
-                                "overwritten; write to another file\n",
-                        out[i].opt, out[i].path, in[k].opt, in[k].path);
-            return 2;
-        }
-    }
-    return 0;
+    int k, i;
+    if (!ftm_option_output_is_input(in, nin, out, nout, &k, &i))
+        return 0;
+    fprintf(stderr, "ftm-server: %s %s is the %s %s %s reads: it would be overwritten; write to "
+                    "another file\n", out[i].opt, out[i].path,
+            k == 0 && (o->replay || o->inputs) ? "recording" : "file", in[k].opt, in[k].path);
+    return 2;
 }
 
 /* An output that is an existing directory; NULL if none. fopen fails on it
