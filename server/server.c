@@ -133,6 +133,14 @@ typedef struct server {
     uint64_t start_unix_ns;    /* wall clock at start: announced, so replicas tell a restart */
     uint64_t rejected_unknown; /* messages from senders with no status yet (log rate) */
     uint64_t own_id_msgs;      /* messages from another process using the server's id */
+    /* Participants gone in the last 2 s: their probe input still in flight
+     * when their LEAVING status and departure were taken is no stranger's */
+    struct {
+        uint32_t id;
+        uint64_t tick; /* the server's tick when it went (ticks, so that
+                        * --inputs decides alike); 0: a free slot */
+    } left[8];
+    int left_next;
     /* Processes heard with an id another process holds (admit): listed in
      * the server's status while heard, so that each learns it is ignored. */
     struct {
@@ -494,6 +502,9 @@ static void on_status(server *s, ftm_wire_received *rx)
                                                    : "lost without leaving (lease expired)");
         release_probes(p);
         p->used = false;
+        s->left[s->left_next].id = p->id;
+        s->left[s->left_next].tick = s->tick + 1;
+        s->left_next = (s->left_next + 1) % (int)(sizeof s->left / sizeof s->left[0]);
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
@@ -551,15 +562,30 @@ static void reject(server *s, participant *p, uint32_t id, const char *what, con
              why);
 }
 
+/* Whether id left the session (its `gone`) within the last 2 s of ticks. */
+static bool just_left(const server *s, uint32_t id)
+{
+    const uint64_t window = (uint64_t)(2.0 * s->o.rate);
+    for (size_t i = 0; i < sizeof s->left / sizeof s->left[0]; i++)
+        if (s->left[i].tick && s->left[i].id == id && s->tick + 1 - s->left[i].tick <= window)
+            return true;
+    return false;
+}
+
 static void on_probe_input(server *s, ftm_wire_received *rx)
 {
     participant *p = find_part(s, rx->sender, false);
+    /* input sent just before a trainee's LEAVING status (another topic) may
+     * be taken after it, or after its departure: dropped without a warning,
+     * which every orderly leave would otherwise log */
+    if ((!p || p->role == 0) && just_left(s, rx->sender))
+        return;
     if (!p || p->role == 0)
         { reject(s, NULL, rx->sender, "probe input", "unknown participant (no status yet)"); return; }
+    if (p->state == FTM_WIRE_STATE_LEAVING)
+        return;
     if (p->role != FTM_WIRE_ROLE_TRAINEE)
         { reject(s, p, rx->sender, "probe input", "only trainees may move tissue"); return; }
-    if (p->state == FTM_WIRE_STATE_LEAVING)
-        { reject(s, p, rx->sender, "probe input", "participant is leaving"); return; }
     if (p->silent)
         { reject(s, p, rx->sender, "probe input", "participant missed its status deadline"); return; }
     const ftm_wire_probe_input *in = &rx->msg.u.probe_input;

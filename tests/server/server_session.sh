@@ -322,6 +322,31 @@ EOF
     fi
     grep -q "recorded by a physics core of arithmetic revision 1, this build's is revision [2-9]" \
         "$dir/old-core.err" || fail "the other core's recording was not refused clearly: $(cat "$dir/old-core.err")"
+    # probe input of trainee 11 taken after its departure (sent just before
+    # its LEAVING status, on another topic): dropped without a warning, as
+    # at every orderly leave; a stranger's input is still refused by name
+    PYTHONPATH="$here" python3 - "$rec" "$dir/late-input.rec" <<'EOF' || fail "could not forge the late input"
+import sys
+from recfile import *
+data = open(sys.argv[1], 'rb').read()
+last_tick, last_input = 0, None
+for at, fs in entries(data):
+    e = {f: v for f, t, v, a in fs}
+    last_tick = max(last_tick, e.get(TICK, 0))
+    if e.get(KIND) == KIND_PROBE_INPUT and e.get(INCOMING) and e.get(5) == 11:
+        last_input = fs
+assert last_input, "no probe input of trainee 11"
+gone = [(TICK, 0, last_tick), (KIND, 0, KIND_STATUS), (5, 0, 11), (INCOMING, 0, 1), (7, 0, 1)]
+late = [(f, t, last_tick if f == TICK else v) for f, t, v, a in last_input]
+stranger = [(f, t, 99 if f == 5 else v) for f, t, v in late]
+open(sys.argv[2], 'wb').write(data + entry(gone) + entry(late) + entry(stranger))
+EOF
+    timeout 60 "$FTM_SERVER" --inputs "$dir/late-input.rec" >"$dir/late.out" 2>"$dir/late.err" ||
+        fail "--inputs of the late input failed: $(tail -3 "$dir/late.err")"
+    ! grep -q "probe input from participant 11 rejected" "$dir/late.err" ||
+        fail "a departed trainee's late input was warned about: $(grep rejected "$dir/late.err")"
+    grep -q "probe input from participant 99 rejected (1 so far): unknown participant" "$dir/late.err" ||
+        fail "a stranger's input was not refused by name: $(cat "$dir/late.err")"
     # --inputs: the recorded inputs through this server again reach the live
     # server's final state; recorded again, they replay
     timeout 60 "$FTM_SERVER" --inputs "$rec" --record "$dir/rerun.rec" >"$dir/rerun.out" 2>"$dir/rerun.err" ||
