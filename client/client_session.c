@@ -67,6 +67,7 @@ struct ftm_client_session {
     char reject_msg[200];
     bool silent_reported;
     bool id_taken; /* the server hears another process with our id, not us (on_status) */
+    int64_t unlisted_ns; /* last status of a participant the full table could not list */
     ftm_id_told id_told; /* what the server said of our id (on_status) */
     bool force_valid;
     bool synced, ever_synced; /* the replica is synced; was once */
@@ -342,6 +343,8 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         }
     }
     ftm_client_part *p = ftm_parts_find(s->parts, &s->nparts, rx->sender, true);
+    if (!p)
+        s->unlisted_ns = mono_ns();
     if (p) {
         p->left = false;
         p->role = st->role;
@@ -660,6 +663,8 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
     }
     v->nparts = s->nparts;
     memcpy(v->parts, s->parts, (size_t)s->nparts * sizeof s->parts[0]);
+    /* heard within the status deadline (statuses come every 0.5 s) */
+    v->parts_unlisted = s->unlisted_ns && now - s->unlisted_ns < 2 * SEC;
     const ftm_report_probe *own = s->id_taken ? NULL : live_probe0(s, s->cfg.id);
     v->own_contact_ticks = own ? own->contact_ticks : 0;
     v->own_peak_force = own ? own->peak_force : 0.0;

@@ -97,6 +97,7 @@ typedef struct ftm_client_view {
     ftm_client_probe probes[FTM_CLIENT_MAX_PROBES];
     int32_t nparts;
     ftm_client_part parts[FTM_CLIENT_MAX_PARTS];
+    bool parts_unlisted;  /* more participants than parts holds are in the session */
 
     int32_t region_count; /* nodes of the active BFS region */
     int32_t *region;

@@ -49,7 +49,8 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         LINE("tissue k %.4g N/m  d %.4g N s/m  m %.4g kg", v->tissue.stiffness,
              v->tissue.node_damping, v->tissue.node_mass);
         LINE("participants:");
-        for (int32_t i = 0; i < v->nparts && n < FTM_HUD_LINES - 4; i++) {
+        int32_t i = 0;
+        for (; i < v->nparts && n < FTM_HUD_LINES - 5; i++) {
             const ftm_client_part *p = &v->parts[i];
             if (p->contact_ticks > 0) /* a trainee that has touched: the figures to debrief */
                 LINE("  %u %s %s tick %" PRIu64 " %s  %.1f s in contact, peak %.2f N", p->id,
@@ -60,6 +61,10 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
                 LINE("  %u %s %s tick %" PRIu64 " %s", p->id, ftm_wire_role_name(p->role),
                      ftm_wire_state_name(p->state), p->tick, p->name);
         }
+        /* say so rather than cut the list silently */
+        if (i < v->nparts || v->parts_unlisted)
+            LINE("  ... %s", v->parts_unlisted ? "more participants than the list holds"
+                                               : "more not shown");
         LINE("keys: space pause/resume  backspace reset  +/- depth max  k/j stiffness");
         if (in->last_command)
             LINE("sent: %s", in->last_command);

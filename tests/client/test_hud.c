@@ -119,9 +119,36 @@ static void test_restart_forgets_departed(void **state)
     assert_true(find(n, "  13 observer") > 0);
 }
 
+/* A list cut short says so: by the HUD's lines, or because more took part
+ * than the participant table holds (it was cut silently). */
+static void test_cut_list_says_so(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_INSTRUCTOR, .id = 21};
+    int n = ftm_hud_lines(&v, &in, lines);
+    assert_int_equal(find(n, "  ... "), -1); /* all shown */
+    v.parts_unlisted = true;
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "  ... more participants than the list holds") > find(n, "  13 observer"));
+    v.parts_unlisted = false;
+    for (uint32_t id = 100; v.nparts < FTM_CLIENT_MAX_PARTS; id++)
+        assert_non_null(ftm_parts_find(v.parts, &v.nparts, id, true));
+    /* many probes in contact take their lines first */
+    v.nprobes = 16;
+    for (int i = 0; i < v.nprobes; i++)
+        v.probes[i] = (ftm_client_probe){.participant = 100 + (uint32_t)i, .in_contact = true};
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_true(n <= FTM_HUD_LINES);
+    int more = find(n, "  ... more not shown");
+    assert_true(more > 0);
+    assert_true(find(n, "keys:") > more); /* the keys are still shown */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_cut_list_says_so),
         cmocka_unit_test(test_instructor_sees_debriefing),
         cmocka_unit_test(test_trainee_sees_own_figures),
         cmocka_unit_test(test_departed_trainee_kept),
