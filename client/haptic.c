@@ -253,11 +253,20 @@ ftm_vec3 ftm_force_renderer_eval(ftm_force_renderer *r, double now, ftm_vec3 hip
 double ftm_haptic_timebase_map(ftm_haptic_timebase *tb, double server_time, double arrival,
                                double max_age)
 {
-    double t = server_time + tb->offset;
-    if (!tb->set || t > arrival || arrival - t > max_age) {
-        tb->offset = arrival - server_time; /* less delayed than any before, or re-anchored */
+    const double d = arrival - server_time; /* this frame's delay, plus the clocks' offset */
+    if (!tb->set || d < tb->offset || d - tb->offset > max_age) {
+        tb->offset = d; /* less delayed than any before, or re-anchored */
         tb->set = true;
-        t = arrival;
+        tb->win_min = d;
+        tb->win_start = arrival;
+        return arrival;
     }
-    return t;
+    if (d < tb->win_min)
+        tb->win_min = d;
+    if (arrival - tb->win_start >= FTM_HAPTIC_TIMEBASE_WINDOW) {
+        tb->offset = tb->win_min; /* the window's least delay: follows a drift */
+        tb->win_min = d;
+        tb->win_start = arrival;
+    }
+    return server_time + tb->offset;
 }

@@ -134,13 +134,20 @@ ftm_vec3 ftm_force_renderer_eval(ftm_force_renderer *r, double now, ftm_vec3 hip
 /* Sample times from the server's tick times (tick / tick rate): frames
  * that arrive in a burst keep their ticks' spacing, which arrival times do
  * not (the extrapolator's slope needs it). The offset to the local clock is
- * the least delayed frame's: no sample gets a time after its arrival. A
- * frame whose mapped time is more than max_age before its arrival (a pause,
- * a restart, clock drift) re-anchors the offset at it. Zero it (= {0}) to
- * start afresh, e.g. on reconnection. */
+ * the least delayed frame's: no sample gets a time after its arrival. The
+ * least delay is taken over windows of FTM_HAPTIC_TIMEBASE_WINDOW, so the
+ * offset follows a server whose ticks run a little slower than their
+ * nominal rate (999.7 per second is common): held at the least delay ever
+ * seen, such a drift would make fresh samples look ever older and the
+ * extrapolator run ahead by up to max_age. A frame whose mapped time is
+ * more than max_age before its arrival (a pause, a restart) re-anchors the
+ * offset at it. Zero it (= {0}) to start afresh, e.g. on reconnection. */
+#define FTM_HAPTIC_TIMEBASE_WINDOW 0.5 /* [s] */
 typedef struct ftm_haptic_timebase {
     bool set;
-    double offset; /* local time - server time [s] */
+    double offset;    /* local time - server time [s] */
+    double win_min;   /* the least delay (arrival - server time) in this window */
+    double win_start; /* when this window began (local) */
 } ftm_haptic_timebase;
 /* The local time for a sample of the tick at server_time that arrived at
  * arrival (both [s]). */

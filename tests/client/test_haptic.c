@@ -404,6 +404,27 @@ static void test_timebase_floor_and_pause(void **state)
     assert_true(fabs(ftm_haptic_timebase_map(&tb, 1.010, 51.019, 0.1) - 51.018) < 1e-12);
 }
 
+/* A server whose ticks run 0.03 % slow (999.7 a second, as logged), every
+ * frame delayed 2 ms: the mapped time of each fresh frame stays within a
+ * window's drift of its arrival, instead of falling behind by up to max_age
+ * (90 ms after 300 s when the offset only ever moved to a smaller delay,
+ * which made the extrapolator run that far ahead). */
+static void test_timebase_follows_drift(void **state)
+{
+    (void)state;
+    ftm_haptic_timebase tb = {0};
+    double worst = 0;
+    for (int k = 0; k < 300000; k++) {
+        const double server_time = k * 1e-3, arrival = 100.0 + k / 999.7 + 0.002;
+        const double lag = arrival - ftm_haptic_timebase_map(&tb, server_time, arrival, 0.1);
+        assert_true(lag >= 0);
+        if (lag > worst)
+            worst = lag;
+    }
+    /* 0.03 % of a 0.5 s window, and one more window's worth before it acts */
+    assert_true(worst < 0.0005);
+}
+
 static void test_def_check(void **state)
 {
     ftm_haptic_def d = ftm_default_haptic_def();
@@ -445,6 +466,7 @@ int main(void)
         cmocka_unit_test(test_extrapolate_burst_held),
         cmocka_unit_test(test_timebase_burst),
         cmocka_unit_test(test_timebase_floor_and_pause),
+        cmocka_unit_test(test_timebase_follows_drift),
         cmocka_unit_test(test_def_check),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
