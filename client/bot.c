@@ -272,6 +272,10 @@ static void on_announce(bot *b, const ftm_wire_announce *a)
         b->rep = NULL;
         b->restarts++;
         b->server_left = b->server_gone = false;
+        /* no probe input until synced with the new server (it would not
+         * know us yet); which process holds our id is its to say */
+        b->ever_synced = false;
+        b->id_told = (ftm_id_told){0};
         b->last_frame_ns = mono_ns();
         if (!same && !b->o.scene) {
             /* it serves another scene: load that one below, as on joining */
@@ -492,6 +496,9 @@ static void on_status(bot *b, const ftm_wire_received *rx)
             b->id_taken = true;
         } else if (c == FTM_ID_NEWCOMER) {
             blog("another process joined as participant %u: the server ignores it", g_id);
+        } else if (c == FTM_ID_OURS_AGAIN) {
+            blog("participant id %u is ours again: the process that held it left", g_id);
+            b->id_taken = false;
         }
         if (st->state != FTM_WIRE_STATE_LEAVING)
             server_alive(b);
@@ -649,7 +656,7 @@ int main(int argc, char **argv)
         /* no probe input before the first sync: the server would not know
          * us yet (our JOINING status travels on another topic) and warn */
         if (b->role == FTM_WIRE_ROLE_TRAINEE && now >= next_input && !b->id_taken &&
-            b->ever_synced) {
+            b->ever_synced && !b->server_left) {
             send_probe(b, t);
             next_input += (int64_t)(b->o.input_period * 1e9);
             if (next_input < now)

@@ -195,6 +195,9 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         s->rep = NULL;
         s->server_left = s->silent_reported = false;
         s->ever_synced = false; /* no probe input before it knows us (send_probe) */
+        /* which process holds our id is the new server's to say */
+        s->id_taken = false;
+        s->id_told = (ftm_id_told){0};
         s->last_frame_ns = mono_ns();
         s->newest_rx_tick = 0;
         ftm_report_free(&s->live); /* a new session: its ticks start again */
@@ -329,6 +332,10 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         } else if (c == FTM_ID_NEWCOMER) {
             slog(s, FTM_LOG_WARN, "another process joined as participant %u: the server ignores it",
                  s->cfg.id);
+        } else if (c == FTM_ID_OURS_AGAIN) {
+            slog(s, FTM_LOG_INFO, "participant id %u is ours again: the process that held it left "
+                 "and the server hears this one", s->cfg.id);
+            s->id_taken = false; /* the force comes back with the next frame (after_frames) */
         }
         if (st->state == FTM_WIRE_STATE_LEAVING) {
             server_gone(s, "leaving");
@@ -453,8 +460,9 @@ static void send_probe(ftm_client_session *s)
      * the first sync: the server may not have our first status yet (sent
      * as the session thread starts) and would reject the input of an
      * unknown participant; there is no force before it anyway. Never with
-     * our id taken: the server would take our HIP for the other process's. */
-    if (n <= 0 || !s->ever_synced || s->id_taken)
+     * our id taken: the server would take our HIP for the other process's.
+ * Nor while the server is gone: a restarted one would not know us yet. */
+    if (n <= 0 || !s->ever_synced || s->id_taken || s->server_left)
         return;
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);

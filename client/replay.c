@@ -930,6 +930,11 @@ ftm_id_claim ftm_replay_id_verdict(ftm_id_told *told, const ftm_wire_status *ser
         told->taken = true;
         return FTM_ID_TAKEN;
     }
+    if (!us && told->taken) {
+        told->taken = false;
+        told->newcomer = false;
+        return FTM_ID_OURS_AGAIN;
+    }
     if (other && !us && !told->taken && !told->newcomer) {
         told->newcomer = true;
         return FTM_ID_NEWCOMER;

@@ -111,19 +111,23 @@ void ftm_replay_destroy(ftm_replay *r);
 int ftm_replay_check_announce(const ftm_replay *r, const ftm_wire_announce *a, ftm_error *err);
 
 /* Whether our participant id is ours, from a status of the server. The
- * server hears an id only from the first process it heard with it; its
- * statuses list the other processes that use the id (ftm_wire_status.
- * ignored_*, by origin), as long as they are heard. So a server's status
- * that lists our id with our origin (ftm_wire_transport_origin) says our
- * id is TAKEN: the server ignores us. One that lists our id with another
- * origin says a NEWCOMER uses it and is ignored. Each is said once (*told:
- * what was said, false at the start); anything else says NOTHING. The
- * server decides, not the order in which the processes heard each other,
- * so two processes started together agree with it. */
+ * server hears an id only from the first process it heard with it, until
+ * that one leaves or is lost; its statuses list the other processes that
+ * use the id (ftm_wire_status.ignored_*, by origin), as long as they are
+ * heard. So a server's status that lists our id with our origin
+ * (ftm_wire_transport_origin) says our id is TAKEN: the server ignores us.
+ * Once TAKEN, the first server status that does not list us says the id
+ * is OURS_AGAIN (the holder left, the server now hears us). One that lists
+ * our id with another origin says a NEWCOMER uses it and is ignored. Each
+ * is said once per change (*told, zeroed at the start and when another
+ * server is joined); anything else says NOTHING. The server decides, not
+ * the order in which the processes heard each other, so two processes
+ * started together agree with it. */
 typedef enum ftm_id_claim {
     FTM_ID_NOTHING = 0,
     FTM_ID_TAKEN,
     FTM_ID_NEWCOMER,
+    FTM_ID_OURS_AGAIN,
 } ftm_id_claim;
 typedef struct ftm_id_told {
     bool taken, newcomer;

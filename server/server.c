@@ -148,6 +148,7 @@ typedef struct server {
         uint64_t origin;
         uint64_t last_ns; /* monotonic; 0: a free slot */
     } ignored[FTM_WIRE_IGNORED_MAX];
+    uint64_t ignored_told_ns; /* the last status published for a new one */
     bool displaced;            /* stopped: another server was serving this session first */
     bool other_server_told;    /* a later server on this session was logged */
     char record_path[1024];    /* --record-dir: this run's recording */
@@ -215,6 +216,7 @@ typedef struct server {
 
 /* a participant whose status is older than this is lost (its probe released) */
 #define STATUS_DEADLINE_NS 2000000000u
+#define STATUS_PERIOD_NS 500000000u  /* participants send a status this often */
 
 static uint64_t mono_ns(void)
 {
@@ -379,11 +381,19 @@ static void note_ignored(server *s, uint32_t id, uint64_t origin)
         if (s->ignored[i].last_ns < s->ignored[slot].last_ns) /* a free or the oldest slot */
             slot = i;
     }
+    /* all heard within a status period (more than 16 ignored processes):
+     * this one waits for a slot rather than push out one just listed, which
+     * would then come back, and so on, a status for every message */
+    if (s->ignored[slot].last_ns && now - s->ignored[slot].last_ns < STATUS_PERIOD_NS)
+        return;
     s->ignored[slot].id = id;
     s->ignored[slot].origin = origin;
     s->ignored[slot].last_ns = now;
-    if (!s->stopping)
+    /* told at once, but no more than 20 extra statuses a second */
+    if (!s->stopping && now - s->ignored_told_ns >= 50000000u) {
+        s->ignored_told_ns = now;
         publish_status(s, FTM_WIRE_STATE_SYNCED);
+    }
 }
 
 /* Only with the integrator in its plain mode: keyframes do not carry the
@@ -518,8 +528,19 @@ static void on_status(server *s, ftm_wire_received *rx)
         slog(s, "warn", "participant %u: table full (%d), ignored", rx->sender, MAX_PARTICIPANTS);
         return;
     }
-    if (!p->origin)
-        p->origin = rx->origin; /* its id is now this process's (admit; 0 in a replay) */
+    if (!p->origin && rx->origin) {
+        /* its id is now this process's (admit). One that was ignored while
+         * another held the id is heard from now on: off the list, so that
+         * it learns the id is its own (ftm_replay_id_verdict) */
+        p->origin = rx->origin;
+        for (int i = 0; i < FTM_WIRE_IGNORED_MAX; i++)
+            if (s->ignored[i].last_ns && s->ignored[i].id == p->id &&
+                s->ignored[i].origin == rx->origin) {
+                s->ignored[i].last_ns = 0;
+                slog(s, "info", "participant %u: the process that held the id is gone; the one "
+                     "ignored until now is heard", p->id);
+            }
+    }
     bool fresh = p->role == 0;
     /* the tick is the participant's own, the last it applied: a joiner has
      * none yet */
@@ -550,8 +571,13 @@ static void on_status(server *s, ftm_wire_received *rx)
     p->report = ftm_report_seen(&s->report, p->id, ftm_wire_role_name(p->role), p->name, s->tick);
     if (st->state == FTM_WIRE_STATE_JOINING || st->state == FTM_WIRE_STATE_RESYNCING)
         s->keyframe_due = true;
-    if (st->state == FTM_WIRE_STATE_LEAVING)
+    if (st->state == FTM_WIRE_STATE_LEAVING) {
         release_probes(p);
+        /* the id is free: the next process heard with it claims it (another
+         * one using it may stay on; its status keeps the DDS instance
+         * alive, so no `gone` comes to free the entry) */
+        p->origin = 0;
+    }
 }
 
 static void reject(server *s, participant *p, uint32_t id, const char *what, const char *why)
@@ -1048,7 +1074,6 @@ static void run_tick(server *s)
 /* ---- adaptive depth and metrics, every 100 ms ------------------------------------------ */
 
 #define CONTROL_PERIOD_NS 100000000u
-#define STATUS_PERIOD_NS 500000000u  /* participants send a status this often */
 #define STATUS_OVERDUE_NS 750000000u /* later than this: lagging at least by its age */
 #define REXMIT_FLOOR 8192u            /* bytes per control period, see control_period */
 
@@ -1230,6 +1255,7 @@ static void on_status_timer(uv_timer_t *h)
              "are released",
              p->id, ftm_wire_role_name(p->role), p->name, (double)(now - p->last_status_ns) * 1e-9);
         release_probes(p);
+        p->origin = 0; /* the id is free for the next process heard (on_status) */
         /* a decision by the clock: recorded, so that a replay makes it too */
         record_entry(s, true, FTM_WIRE_STATUS, p->id, NULL, 0, false, true);
     }

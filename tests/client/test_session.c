@@ -8,6 +8,8 @@
  *            bot already uses: once it knows the id is taken, the force
  *            written to its device is zero and its view shows no probe,
  *            force, contact time or peak of its own (they are the bot's).
+ *   idback   the same, but the bot leaves first: the client is told the id is
+ *            its own again, and its force and figures come back.
  *   slow     a trainee whose replay is 3x slower than the ticks (each frame
  *            handed to the haptic side sleeps): it never catches up, yet
  *            must not go silent (the script checks that the server did not
@@ -38,7 +40,7 @@ typedef struct tapp {
     ftm_haptic_timebase timebase;
     ftm_device *inner;
     double frame_sleep; /* [s] per frame handed to on_force (slow mode) */
-    atomic_bool taken;
+    atomic_bool taken, back;
     atomic_int nonzero_after_taken;
     atomic_int frames;
     atomic_int silent_logged, lost_logged;
@@ -59,6 +61,8 @@ static void on_log(void *user, ftm_log_level level, const char *msg)
     fprintf(stderr, "test_session [%7.3f] %s\n", ftm_haptic_clock() - a->t0, msg);
     if (strstr(msg, "is taken"))
         atomic_store(&a->taken, true);
+    if (strstr(msg, "is ours again"))
+        atomic_store(&a->back, true);
     if (strstr(msg, "no tick frames"))
         atomic_fetch_add(&a->silent_logged, 1);
     if (strstr(msg, "declared this client lost"))
@@ -75,7 +79,7 @@ static int w_read(void *self, double now, ftm_vec3 *hip)
 static void w_write(void *self, double now, ftm_vec3 f)
 {
     tapp *a = self;
-    if (atomic_load(&a->taken) && (f.x != 0 || f.y != 0 || f.z != 0))
+    if (atomic_load(&a->taken) && !atomic_load(&a->back) && (f.x != 0 || f.y != 0 || f.z != 0))
         atomic_fetch_add(&a->nonzero_after_taken, 1);
 }
 
@@ -131,7 +135,7 @@ static int failures;
 int main(int argc, char **argv)
 {
     if (argc != 8) {
-        fprintf(stderr, "usage: test_session idtaken|slow|pause DOMAIN SESSION CONFIG ID SCRIPT "
+        fprintf(stderr, "usage: test_session idtaken|idback|slow|pause DOMAIN SESSION CONFIG ID SCRIPT "
                         "SECONDS\n");
         return 2;
     }
@@ -193,7 +197,8 @@ int main(int argc, char **argv)
         if (taken_at < 0 && atomic_load(&a.taken))
             taken_at = t;
         /* (a view published before it may still be the newest for a moment) */
-        if (strcmp(mode, "idtaken") == 0 && taken_at >= 0 && t - taken_at > 0.2) {
+        if (strncmp(mode, "id", 2) == 0 && taken_at >= 0 && t - taken_at > 0.2 &&
+            !atomic_load(&a.back)) {
             for (int32_t i = 0; i < v.nprobes; i++) {
                 const ftm_client_probe *p = &v.probes[i];
                 if (p->own)
@@ -247,6 +252,13 @@ int main(int argc, char **argv)
               atomic_load(&a.nonzero_after_taken));
         CHECK(bad_own == 0, "%d views showed the other process's probe or figures as our own",
               bad_own);
+    } else if (strcmp(mode, "idback") == 0) {
+        CHECK(atomic_load(&a.taken), "the client never said its id is taken");
+        CHECK(atomic_load(&a.back), "the client was not told the id is its own again after the "
+                                    "holder left");
+        CHECK(bad_own == 0, "%d views showed the other process's figures as our own while taken",
+              bad_own);
+        CHECK(v.force_valid, "the force did not come back with the id");
     } else if (strcmp(mode, "slow") == 0) {
         CHECK(v.synced_once, "never synced");
         CHECK(atomic_load(&a.frames) > 100, "only %d frames applied", atomic_load(&a.frames));
