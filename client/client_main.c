@@ -515,6 +515,11 @@ static const char *unwritable(const char *path, bool in_dir, char *why, size_t n
     struct stat st;
     if (!path[0])
         return snprintf(why, n, "an empty path"), why;
+    /* a screenshot is renamed over its path: over a symbolic link, a
+     * device or a FIFO (/dev/null as root) that would replace the node */
+    if (in_dir && lstat(path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode))
+        return snprintf(why, n, "is not a regular file (a symbolic link, a device or a "
+                                "FIFO): name a file"), why;
     if (stat(path, &st) == 0) {
         if (S_ISDIR(st.st_mode))
             return snprintf(why, n, "is a directory"), why;

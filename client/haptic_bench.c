@@ -29,6 +29,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -578,14 +579,16 @@ static int run_renderers(const options *o, bool json_open)
     /* --trace opened first: a path that cannot be written is said before
      * the work, not after it (and fails the run) */
     FILE *tf = NULL;
-    struct stat si, so;
-    if (o->trace && o->script && stat(o->script, &si) == 0 && stat(o->trace, &so) == 0 &&
-        si.st_dev == so.st_dev && si.st_ino == so.st_ino) {
+    const ftm_option_path in = {"--script", o->script}, out = {"--trace", o->trace};
+    int ii, oi;
+    if (o->trace && o->script && ftm_option_output_is_input(&in, 1, &out, 1, &ii, &oi)) {
         fprintf(stderr, "ftm-haptic-bench: --trace %s is the file --script %s reads: it would be "
                         "overwritten; write to another file\n", o->trace, o->script);
         return 2;
     }
-    if (o->trace && !(tf = fopen(o->trace, "w"))) {
+    /* opened without truncating it: a run refused below (a script too
+     * long, say) leaves an earlier trace as it was */
+    if (o->trace && !(tf = fopen(o->trace, "a"))) {
         fprintf(stderr, "ftm-haptic-bench: --trace %s: %s\n", o->trace, strerror(errno));
         return 2;
     }
@@ -595,6 +598,12 @@ static int run_renderers(const options *o, bool json_open)
         if (tf)
             fclose(tf);
         return rc;
+    }
+    if (tf && (fflush(tf) != 0 || ftruncate(fileno(tf), 0) != 0)) {
+        fprintf(stderr, "ftm-haptic-bench: --trace %s: %s\n", o->trace, strerror(errno));
+        fclose(tf);
+        truth_free(&tr);
+        return 1;
     }
     double peak = 0, work = 0, asum = 0;
     int32_t in_contact = 0;

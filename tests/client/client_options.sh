@@ -60,6 +60,12 @@ refused "--screenshot '$tmp/missing/x.png': its directory $tmp/missing: No such 
     --screenshot "$tmp/missing/x.png"
 refused "--screenshot '': an empty path" --screenshot ""
 refused "--log '$tmp': is a directory" --log "$tmp"
+# a screenshot is renamed over its path: never over a link or a device
+ln -s "$tmp/target.png" "$tmp/link.png"
+refused "--screenshot '$tmp/link.png': is not a regular file" --screenshot "$tmp/link.png"
+[ -L "$tmp/link.png" ] || fail "the symbolic link was replaced"
+refused "--screenshot '/dev/null': is not a regular file" --screenshot /dev/null
+[ -c /dev/null ] || fail "/dev/null is no longer a device"
 mkdir "$tmp/ro" && chmod a-w "$tmp/ro"
 if [ ! -w "$tmp/ro" ]; then # (root writes anyway)
     refused "--screenshot '$tmp/ro/x.png': its directory $tmp/ro cannot be written" \

@@ -24,4 +24,9 @@ sum=$(cksum "$tmp/601.bot")
 refused_by "--trace $tmp/601.bot is the file --script $tmp/601.bot reads" \
     "$FTM_BENCH" renderers --script "$tmp/601.bot" --delays 0 --trace "$tmp/601.bot"
 [ "$(cksum "$tmp/601.bot")" = "$sum" ] || fail "--trace overwrote the --script file"
+# a run refused after --trace was opened leaves an earlier trace as it was
+printf 'an earlier trace\n' >"$tmp/old.csv"
+refused_by "lasts 601 s: at most 600 s" \
+    "$FTM_BENCH" renderers --script "$tmp/601.bot" --delays 0 --trace "$tmp/old.csv"
+[ "$(cat "$tmp/old.csv")" = "an earlier trace" ] || fail "a refused run emptied the earlier --trace"
 exit 0
