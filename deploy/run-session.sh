@@ -13,7 +13,8 @@
 # (b), pause (Space); docs/client.md lists the keys.
 # A window that cannot open (a stale DISPLAY) is reported and the session
 # goes on without it. Ctrl-C (or SIGTERM, SIGHUP) stops every process of
-# the session. KEEP=1 keeps the logs; a failed session keeps them anyway.
+# the session. KEEP=1 keeps the logs; a failed or interrupted session
+# keeps them anyway.
 #   deploy/run-session.sh [BUILD_DIR] [SECONDS]
 set -uo pipefail
 usage() { sed -n 's/^#   \(deploy\/run-session.sh .*\)$/usage: \1/p' "$0"; }
@@ -42,14 +43,15 @@ dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-session.XXXXXX") && [ -d "$dir" ] || {
   echo "run-session: cannot create a directory for the session's logs under ${TMPDIR:-/tmp}" >&2
   exit 2
 }
-trap '[ -n "${KEEP:-}" ] || rm -rf "$dir"' EXIT
+trap 'case ${KEEP:-0} in 0|"") rm -rf "$dir" ;; esac' EXIT
 # the session's processes run under `timeout`, which puts itself in a
 # process group of its own, so a Ctrl-C in the terminal reaches only this
 # script: stop them all (timeout passes the signal on), then leave
 pids=()
 stop() {
   trap - INT TERM HUP
-  echo "run-session: interrupted: stopping the session's processes" >&2
+  KEEP=1
+  echo "run-session: interrupted: stopping the session's processes (logs kept in $dir)" >&2
   [ ${#pids[@]} -eq 0 ] || kill -TERM "${pids[@]}" 2>/dev/null
   wait
   exit "$1"

@@ -35,7 +35,8 @@ grep -q "cannot create a directory for the session's logs under $dir/none" "$dir
     fail "unusable TMPDIR: no clear message"
 
 # stopped 2 s into a 30 s session: everything gone within 10 s
-setsid "$rs" "$FTM_BUILD" 30 >"$dir/term.out" 2>&1 &
+# (its logs, kept when interrupted, under our directory)
+TMPDIR=$dir setsid "$rs" "$FTM_BUILD" 30 >"$dir/term.out" 2>&1 &
 pid=$!
 i=0
 until pgrep -f -- "--session main-$pid .*--id 13" >/dev/null; do
@@ -52,7 +53,8 @@ done
 wait $pid
 rc=$?
 [ $rc -eq 143 ] || fail "SIGTERM: exit $rc, not 143"
-grep -q "interrupted: stopping the session's processes" "$dir/term.out" || fail "SIGTERM: no message"
+grep -q "interrupted: stopping the session's processes (logs kept in $dir/ftm-session\." "$dir/term.out" ||
+    fail "SIGTERM: no message, or the logs not kept"
 i=0
 while pgrep -f -- "--session main-$pid " >/dev/null; do
     i=$((i + 1))
