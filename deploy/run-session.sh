@@ -47,12 +47,14 @@ trap 'case ${KEEP:-0} in 0|"") rm -rf "$dir" ;; esac' EXIT
 # the session's processes run under `timeout`, which puts itself in a
 # process group of its own, so a Ctrl-C in the terminal reaches only this
 # script: stop them all (timeout passes the signal on), then leave
-pids=()
 stop() {
   trap - INT TERM HUP
   KEEP=1
   echo "run-session: interrupted: stopping the session's processes (logs kept in $dir)" >&2
-  [ ${#pids[@]} -eq 0 ] || kill -TERM "${pids[@]}" 2>/dev/null
+  # every background job of this script, one started the moment before
+  # the signal included
+  running=$(jobs -p)
+  [ -z "$running" ] || kill -TERM $running 2>/dev/null
   wait
   exit "$1"
 }
@@ -79,7 +81,6 @@ echo "    instructor 15 (instructor.bot: damping 0.3 -> 0.33 N s/m at 1.4 s, sti
 timeout $((seconds + 20)) "$server" --scene default "${common[@]}" --duration "$seconds" \
   --log "$dir/server.log" --report "$dir/report.json" >"$dir/server.out" 2>&1 &
 spid=$!
-pids+=($spid)
 for _ in $(seq 100); do
   grep -q "session '" "$dir/server.log" 2>/dev/null && break
   sleep 0.05
@@ -87,24 +88,19 @@ done
 timeout $((seconds + 20)) "$bot" --role trainee --script "$script1" "${common[@]}" \
   --id 11 --duration $((seconds + 10)) --log "$dir/trainee11.csv" >"$dir/b11.out" 2>"$dir/b11.err" &
 p11=$!
-pids+=($p11)
 timeout $((seconds + 20)) "$bot" --role trainee --script "$script2" "${common[@]}" \
   --id 12 --duration $((seconds + 10)) >"$dir/b12.out" 2>"$dir/b12.err" &
 p12=$!
-pids+=($p12)
 timeout $((seconds + 20)) "$bot" --role observer "${common[@]}" \
   --id 13 --duration $((seconds + 10)) >"$dir/b13.out" 2>"$dir/b13.err" &
 p13=$!
-pids+=($p13)
 timeout $((seconds + 20)) "$bot" --role instructor --script docs/sessions/instructor.bot \
   "${common[@]}" --id 15 --duration $((seconds + 10)) >"$dir/b15.out" 2>"$dir/b15.err" &
 p15=$!
-pids+=($p15)
 if [ -n "$gui" ]; then
   "$client" --role instructor "${common[@]}" --id 14 --name instructor --duration "$seconds" \
     --log "$dir/client.log" >"$dir/client.out" 2>&1 &
   p14=$!
-pids+=($p14)
 fi
 
 status=0
