@@ -209,8 +209,9 @@ typedef struct bot {
     double lat_sum_us, lat_max_us;
     uint64_t lat_n;
     bool ever_synced;
-    bool id_taken;   /* the server hears another process with our id, not us (on_status) */
-    ftm_id_told id_told; /* what the server said of our id (on_status) */
+    /* what the server said of our id (on_status); id_told.taken: it hears
+     * another process with our id, not us */
+    ftm_id_told id_told;
     int64_t unsynced_since;
     /* statuses before this say JOINING (the periodic one at this time tells
      * the state reached): see publish_state */
@@ -493,12 +494,10 @@ static void on_status(bot *b, const ftm_wire_received *rx)
             blog("participant id %u is taken: another process in session '%s' uses it and the "
                  "server listens to that one; give each participant its own --id",
                  g_id, b->o.session);
-            b->id_taken = true;
         } else if (c == FTM_ID_NEWCOMER) {
             blog("another process joined as participant %u: the server ignores it", g_id);
         } else if (c == FTM_ID_OURS_AGAIN) {
             blog("participant id %u is ours again: the process that held it left", g_id);
-            b->id_taken = false;
         }
         if (st->state != FTM_WIRE_STATE_LEAVING)
             server_alive(b);
@@ -603,7 +602,7 @@ int main(int argc, char **argv)
         }
         /* taken: stop, but only a second after joining, so that the
          * session (the server, the process with the id) heard who it was */
-        if (b->id_taken && now - joined_ns >= SEC) {
+        if (b->id_told.taken && now - joined_ns >= SEC) {
             why = "participant id taken";
             break;
         }
@@ -655,7 +654,7 @@ int main(int argc, char **argv)
         double t = (double)(now - g_t0) * 1e-9;
         /* no probe input before the first sync: the server would not know
          * us yet (our JOINING status travels on another topic) and warn */
-        if (b->role == FTM_WIRE_ROLE_TRAINEE && now >= next_input && !b->id_taken &&
+        if (b->role == FTM_WIRE_ROLE_TRAINEE && now >= next_input && !b->id_told.taken &&
             b->ever_synced && !b->server_left) {
             send_probe(b, t);
             next_input += (int64_t)(b->o.input_period * 1e9);
@@ -695,7 +694,7 @@ int main(int argc, char **argv)
     ftm_wire_state st = cur_state(b);
     if (st != FTM_WIRE_STATE_SYNCED)
         rc_exit = 1;
-    if (b->id_taken)
+    if (b->id_told.taken)
         rc_exit = 2;
     blog("stopping (%s): %s, %" PRIu64 " frames received, %" PRIu64 " applied, %" PRIu64
          " idle ticks, %" PRIu64 " mismatches, %" PRIu64 " gaps, %" PRIu64 " resyncs, %" PRIu64

@@ -66,9 +66,10 @@ struct ftm_client_session {
     int64_t reject_until_ns;
     char reject_msg[200];
     bool silent_reported;
-    bool id_taken; /* the server hears another process with our id, not us (on_status) */
     int64_t unlisted_ns; /* last status of a participant the full table could not list */
-    ftm_id_told id_told; /* what the server said of our id (on_status) */
+    /* what the server said of our id (on_status); id_told.taken: it hears
+     * another process with our id, not us */
+    ftm_id_told id_told;
     bool force_valid;
     bool synced, ever_synced; /* the replica is synced; was once */
     uint64_t contact_ticks, counted_tick;
@@ -196,7 +197,6 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         s->server_left = s->silent_reported = false;
         s->ever_synced = false; /* no probe input before it knows us (send_probe) */
         /* which process holds our id is the new server's to say */
-        s->id_taken = false;
         s->id_told = (ftm_id_told){0};
         s->last_frame_ns = mono_ns();
         s->newest_rx_tick = 0;
@@ -327,7 +327,6 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
                  "participant id %u is taken: another process in session '%s' uses it and the "
                  "server listens to that one; restart with another --id",
                  s->cfg.id, s->cfg.session);
-            s->id_taken = true;
             force_off(s, "participant id taken");
         } else if (c == FTM_ID_NEWCOMER) {
             slog(s, FTM_LOG_WARN, "another process joined as participant %u: the server ignores it",
@@ -335,7 +334,7 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         } else if (c == FTM_ID_OURS_AGAIN) {
             slog(s, FTM_LOG_INFO, "participant id %u is ours again: the process that held it left "
                  "and the server hears this one", s->cfg.id);
-            s->id_taken = false; /* the force comes back with the next frame (after_frames) */
+            /* the force comes back with the next frame (after_frames) */
         }
         if (st->state == FTM_WIRE_STATE_LEAVING) {
             server_gone(s, "leaving");
@@ -397,7 +396,7 @@ static void after_frames(ftm_client_session *s)
     s->ever_synced = s->ever_synced || synced;
     /* with our id taken, the reaction under it is the other process's:
      * evaluated at our HIP it is no force of ours (up to the clamp) */
-    if (ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED && !s->server_left && !s->id_taken) {
+    if (ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED && !s->server_left && !s->id_told.taken) {
         if (!s->force_valid && s->cfg.role == FTM_WIRE_ROLE_TRAINEE)
             slog(s, FTM_LOG_INFO, "force on at tick %" PRIu64, tick);
         s->force_valid = true;
@@ -462,7 +461,7 @@ static void send_probe(ftm_client_session *s)
      * unknown participant; there is no force before it anyway. Never with
      * our id taken: the server would take our HIP for the other process's.
  * Nor while the server is gone: a restarted one would not know us yet. */
-    if (n <= 0 || !s->ever_synced || s->id_taken || s->server_left)
+    if (n <= 0 || !s->ever_synced || s->id_told.taken || s->server_left)
         return;
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
@@ -512,7 +511,7 @@ static void watchdog(ftm_client_session *s, int64_t now)
         return; /* the scene banner set in on_announce stays */
     if (s->scene && !s->rep)
         return; /* scene mismatch banner stays */
-    if (s->id_taken)
+    if (s->id_told.taken)
         snprintf(banner, sizeof banner,
                  "PARTICIPANT ID %u TAKEN BY ANOTHER PROCESS: THE SERVER IGNORES THIS ONE; "
                  "RESTART WITH ANOTHER --id", s->cfg.id);
@@ -641,7 +640,7 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
             memset(p, 0, sizeof *p);
             p->participant = r->participant;
             p->probe = r->probe;
-            p->own = r->participant == s->cfg.id && !s->id_taken; /* else the other's */
+            p->own = r->participant == s->cfg.id && !s->id_told.taken; /* else the other's */
             p->force = r->force;
             p->push_limited = r->push_limited;
             p->contact = contact_centroid(x, t, r->group, &p->in_contact);
@@ -673,7 +672,7 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
     memcpy(v->parts, s->parts, (size_t)s->nparts * sizeof s->parts[0]);
     /* heard within the status deadline (statuses come every 0.5 s) */
     v->parts_unlisted = s->unlisted_ns && now - s->unlisted_ns < 2 * SEC;
-    const ftm_report_probe *own = s->id_taken ? NULL : live_probe0(s, s->cfg.id);
+    const ftm_report_probe *own = s->id_told.taken ? NULL : live_probe0(s, s->cfg.id);
     v->own_contact_ticks = own ? own->contact_ticks : 0;
     v->own_peak_force = own ? own->peak_force : 0.0;
     for (int32_t i = 0; i < v->nparts; i++) {
