@@ -946,17 +946,6 @@ static void usage(FILE *f)
             "be written\n");
 }
 
-/* A whole number: strtod's, with nothing after it. */
-static bool parse_number(const char *s, double *out)
-{
-    char *end;
-    double v = strtod(s, &end);
-    if (end == s || *end != '\0')
-        return false;
-    *out = v;
-    return true;
-}
-
 static int parse_depths(const char *s, options *o)
 {
     o->ndepths = 0;
@@ -1083,18 +1072,18 @@ int ftm_bench_accuracy(int argc, char **argv)
                 return 2;
             }
         } else if (strcmp(a, "--tol") == 0 && more) {
-            if (!parse_number(argv[++i], &o.tol) || !(o.tol > 0 && o.tol < 1)) {
+            if (!ftm_cli_double(argv[++i], &o.tol) || !(o.tol > 0 && o.tol < 1)) {
                 fprintf(stderr, "ftm bench accuracy: --tol must be in (0, 1)\n");
                 return 2;
             }
         } else if (strcmp(a, "--be-step") == 0 && more) {
-            if (!parse_number(argv[++i], &o.be_step) || !(o.be_step > 0 && o.be_step < 100)) {
+            if (!ftm_cli_double(argv[++i], &o.be_step) || !(o.be_step > 0 && o.be_step < 100)) {
                 fprintf(stderr, "ftm bench accuracy: --be-step must be in (0, 100) s\n");
                 return 2;
             }
         } else if (strcmp(a, "--max-steps") == 0 && more) {
             double v;
-            if (!parse_number(argv[++i], &v) || v != floor(v) || v < 10 || v > 100000000) {
+            if (!ftm_cli_double(argv[++i], &v) || v != floor(v) || v < 10 || v > 100000000) {
                 fprintf(stderr, "ftm bench accuracy: --max-steps must be in 10..100000000\n");
                 return 2;
             }

@@ -183,18 +183,6 @@ static const char *order_name(ftm_order o)
     return o == FTM_ORDER_BFS ? "bfs" : o == FTM_ORDER_LAYER_JACOBI ? "jacobi" : "colored";
 }
 
-/* A whole decimal integer in [lo, hi]. */
-static bool parse_steps(const char *s, int lo, int hi, int *out)
-{
-    char *end;
-    errno = 0;
-    long v = strtol(s, &end, 10);
-    if (end == s || *end != '\0' || errno == ERANGE || v < lo || v > hi)
-        return false;
-    *out = (int)v;
-    return true;
-}
-
 int ftm_bench_table3(int argc, char **argv)
 {
     bool json = false;
@@ -213,12 +201,12 @@ int ftm_bench_table3(int argc, char **argv)
         else if (strcmp(a, "--json-file") == 0)
             json_file = argv[++i];
         else if (strcmp(a, "--eq-steps") == 0) {
-            if (!parse_steps(argv[++i], 1, 10000000, &eq_steps)) {
+            if (!ftm_cli_int(argv[++i], 1, 10000000, &eq_steps)) {
                 fprintf(stderr, "ftm bench table3: --eq-steps must be in 1..10000000\n");
                 return 2;
             }
         } else if (strcmp(a, "--steps") == 0) {
-            if (!parse_steps(argv[++i], 11, 10000000, &steps)) {
+            if (!ftm_cli_int(argv[++i], 11, 10000000, &steps)) {
                 fprintf(stderr, "ftm bench table3: --steps must be in 11..10000000\n");
                 return 2;
             }

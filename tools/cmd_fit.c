@@ -84,26 +84,6 @@ static void usage(FILE *out)
             "(--trace, standard output) that cannot be written\n");
 }
 
-static int parse_double(const char *s, double *out)
-{
-    char *end;
-    double v = strtod(s, &end);
-    if (end == s || *end != '\0' || !isfinite(v))
-        return -1;
-    *out = v;
-    return 0;
-}
-
-static int parse_int(const char *s, long lo, long hi, int *out)
-{
-    char *end;
-    long v = strtol(s, &end, 10);
-    if (end == s || *end != '\0' || v < lo || v > hi)
-        return -1;
-    *out = (int)v;
-    return 0;
-}
-
 static int parse_options(int argc, char **argv, fit_options *o)
 {
     memset(o, 0, sizeof *o);
@@ -162,7 +142,7 @@ static int parse_options(int argc, char **argv, fit_options *o)
             }
             bool bad = false;
             if (strcmp(name, "--stencil") == 0) {
-                bad = parse_int(v, 6, 26, &o->stencil) != 0 ||
+                bad = !ftm_cli_int(v, 6, 26, &o->stencil) ||
                       (o->stencil != 6 && o->stencil != 18 && o->stencil != 26);
             } else if (strcmp(name, "--forces") == 0) {
                 char buf[512];
@@ -170,14 +150,14 @@ static int parse_options(int argc, char **argv, fit_options *o)
                 o->nforces = 0;
                 for (char *tok = strtok(buf, ","); tok && !bad; tok = strtok(NULL, ",")) {
                     double f;
-                    if (o->nforces >= FTM_FIT_MAX_CASES || parse_double(tok, &f) != 0 || !(f > 0))
+                    if (o->nforces >= FTM_FIT_MAX_CASES || !ftm_cli_double(tok, &f) || !(f > 0))
                         bad = true;
                     else
                         o->forces[o->nforces++] = f;
                 }
                 bad = bad || o->nforces == 0;
             } else if (strcmp(name, "--depth") == 0) {
-                bad = parse_int(v, 0, 1000000, &o->depth) != 0;
+                bad = !ftm_cli_int(v, 0, 1000000, &o->depth);
             } else if (strcmp(name, "--model") == 0) {
                 if (strcmp(v, "uniform") == 0)
                     o->models = 1;
@@ -195,11 +175,11 @@ static int parse_options(int argc, char **argv, fit_options *o)
                 else
                     bad = true;
             } else if (strcmp(name, "--time") == 0) {
-                bad = parse_double(v, &o->sim_time) != 0 || !(o->sim_time > 0);
+                bad = !ftm_cli_double(v, &o->sim_time) || !(o->sim_time > 0);
             } else if (strcmp(name, "--iterations") == 0) {
-                bad = parse_int(v, 0, 1000000, &o->iterations) != 0;
+                bad = !ftm_cli_int(v, 0, 1000000, &o->iterations);
             } else if (strcmp(name, "--prerun") == 0) {
-                bad = parse_int(v, 1, 100000, &o->prerun) != 0;
+                bad = !ftm_cli_int(v, 1, 100000, &o->prerun);
             } else if (strcmp(name, "--seed") == 0) {
                 /* strtoull would take "-1" as 2^64 - 1 and clamp an overflow
                  * there, so digits only and ERANGE checked. */
@@ -213,18 +193,18 @@ static int parse_options(int argc, char **argv, fit_options *o)
                 }
                 o->seed = s;
             } else if (strcmp(name, "--nm-evals") == 0) {
-                bad = parse_int(v, 0, 1000000, &o->nm_evals) != 0;
+                bad = !ftm_cli_int(v, 0, 1000000, &o->nm_evals);
             } else if (strcmp(name, "--tolerance") == 0) {
-                bad = parse_double(v, &o->tolerance) != 0 || !(o->tolerance > 0);
+                bad = !ftm_cli_double(v, &o->tolerance) || !(o->tolerance > 0);
             } else if (strcmp(name, "--max-steps") == 0) {
-                bad = parse_int(v, 1, 2000000000, &o->max_steps) != 0;
+                bad = !ftm_cli_int(v, 1, 2000000000, &o->max_steps);
             } else if (strcmp(name, "--density") == 0) {
-                bad = parse_double(v, &o->density) != 0 || !(o->density > 0);
+                bad = !ftm_cli_double(v, &o->density) || !(o->density > 0);
             } else if (strcmp(name, "--trace") == 0) {
                 o->trace = v;
                 bad = v[0] == '\0';
             } else if (strcmp(name, "--progress") == 0) {
-                bad = parse_int(v, 1, 1000000, &o->every) != 0;
+                bad = !ftm_cli_int(v, 1, 1000000, &o->every);
             }
             if (bad) {
                 fprintf(stderr, "ftm fit: bad value for %s: '%s'\n", name, v);

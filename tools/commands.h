@@ -6,12 +6,18 @@
 #ifndef FTM_TOOLS_COMMANDS_H
 #define FTM_TOOLS_COMMANDS_H
 
+#include <stdbool.h>
 #include <stdio.h>
 
 /* Closes f, a file a command wrote. If a write failed, now or earlier (the
  * stream remembers it), says "WHO: PATH: cannot write: REASON" and returns
  * -1; else 0. */
 int ftm_close_output(FILE *f, const char *who, const char *path);
+
+/* Option values: all of s one finite number (strtod's syntax), or one
+ * whole decimal integer in [lo, hi]; false (and *out untouched) if not. */
+bool ftm_cli_double(const char *s, double *out);
+bool ftm_cli_int(const char *s, long lo, long hi, int *out);
 
 int ftm_cmd_sim(int argc, char **argv);
 int ftm_cmd_bench(int argc, char **argv);
