@@ -4,8 +4,10 @@
  * tick frames with ftm_replay like a real client, drives a probe along a
  * scripted HIP trajectory (trainee) or issues scripted session commands
  * (instructor), publishes its status every 500 ms, and logs reaction forces,
- * latency and hashes. Exit status: 0 synced at the end; 1 a hash mismatch or
- * gap that did not recover (or never synced); 2 usage; 3 set-up failure. */
+ * latency and hashes; checks the script's expectations on the forces it
+ * receives. Exit status: 0 synced at the end; 1 a hash mismatch or gap that
+ * did not recover (or never synced); 2 usage; 3 set-up failure; 4 synced,
+ * but an expectation failed. */
 #include "replay.h"
 #include "script.h"
 
@@ -332,16 +334,13 @@ static double frame_latency_us(const ftm_wire_received *rx)
     return (double)(rx->arrival_ns - (sent ? (int64_t)sent : rx->source_time_ns)) * 1e-3;
 }
 
-/* rx_ns: when this thread took the frame (after its arrival) */
-static void log_frame(bot *b, const ftm_wire_received *rx, int64_t rx_ns)
+/* rx_ns: when this thread took the frame (after its arrival); now_s: when
+ * it was applied, in script time; f: the reaction on our probe 0 */
+static void log_frame(bot *b, const ftm_wire_received *rx, int64_t rx_ns, double now_s, ftm_vec3 f)
 {
     if (!b->csv || !b->rep)
         return;
     const ftm_wire_tick *t = ftm_replay_last_frame(b->rep);
-    ftm_vec3 f = {0, 0, 0};
-    for (int32_t i = 0; i < t->reaction_count; i++)
-        if (t->reactions[i].participant == b->o.id && t->reactions[i].probe == 0)
-            f = t->reactions[i].force;
     double lat_us = frame_latency_us(rx);
     size_t bytes = rx->payload_size; /* as the server sent it */
     ftm_sim_stats st;
@@ -349,7 +348,7 @@ static void log_frame(bot *b, const ftm_wire_received *rx, int64_t rx_ns)
     fprintf(b->csv,
             "%.6f,%" PRIu64 ",%016" PRIx64 ",%016" PRIx64 ",%d,%d,%.9g,%.9g,%.9g,%.1f,%d,%.1f,%zu,"
             "%.1f\n",
-            (double)(mono_ns() - g_t0) * 1e-9, t->tick, t->state_hash, ftm_replay_hash(b->rep),
+            now_s, t->tick, t->state_hash, ftm_replay_hash(b->rep),
             (int)ftm_replay_state(b->rep), (int)t->contact_count, f.x, f.y, f.z, lat_us,
             (int)st.updated_nodes, (double)(rx->arrival_ns - rx->source_time_ns) * 1e-3, bytes,
             (double)(rx_ns - rx->arrival_ns) * 1e-3);
@@ -382,8 +381,15 @@ static void on_tick(bot *b, const ftm_wire_received *rx)
     if (lat_us > b->lat_max_us)
         b->lat_max_us = lat_us;
     if (ftm_replay_last_frame(b->rep)->tick != applied) {
-        log_frame(b, rx, rx_ns);
         const ftm_wire_tick *t = ftm_replay_last_frame(b->rep);
+        /* the log and the expectations see the frame at the same time: when
+         * it was applied here, the trainee's "now" (after the latency) */
+        const double now_s = (double)(mono_ns() - g_t0) * 1e-9;
+        ftm_wire_reaction re;
+        const bool contact = ftm_replay_find_reaction(t, b->o.id, 0, &re);
+        const ftm_vec3 f = contact ? re.force : (ftm_vec3){0, 0, 0};
+        log_frame(b, rx, rx_ns, now_s, f);
+        ftm_script_expect_frame(&b->sc, now_s, t->tick, f, contact);
         bool limited = false;
         for (int32_t i = 0; i < t->reaction_count; i++)
             limited |= t->reactions[i].participant == b->o.id && t->reactions[i].push_limited;
@@ -535,6 +541,12 @@ int main(int argc, char **argv)
         b->have_script = true;
     } else {
         b->sc.leave = -1.0;
+    }
+    if (b->role != FTM_WIRE_ROLE_TRAINEE && b->sc.nexpects > 0) {
+        fprintf(stderr, "ftm-bot: %s:%d: 'expect' needs --role trainee (it checks the force on "
+                        "the bot's probe)\n", b->o.script, (int)b->sc.expects[0].e.line);
+        ftm_script_free(&b->sc);
+        return 2;
     }
     if (b->role == FTM_WIRE_ROLE_TRAINEE && (!b->have_script || b->sc.npts == 0)) {
         fprintf(stderr, "ftm-bot: a trainee needs a --script with HIP positions\n");
@@ -706,6 +718,14 @@ int main(int argc, char **argv)
                            : 0.0);
     if (b->restarts)
         blog("%u server restart%s rejoined", b->restarts, b->restarts > 1 ? "s" : "");
+    if (b->sc.nexpects > 0) {
+        int failed = ftm_script_expect_report(&b->sc, b->o.script,
+                                              (double)(mono_ns() - g_t0) * 1e-9, stderr);
+        blog("%d of %d expectations failed", failed, (int)b->sc.nexpects);
+        /* a sync failure (1) or a taken id (2) says more: it keeps its code */
+        if (failed && rc_exit == 0)
+            rc_exit = 4;
+    }
     printf("ftm-bot %u: final tick %" PRIu64 " hash %016" PRIx64 " %s\n", b->o.id,
            b->rep ? ftm_replay_tick(b->rep) : 0, b->rep ? ftm_replay_hash(b->rep) : 0,
            st == FTM_WIRE_STATE_SYNCED ? "synced" : "not-synced");

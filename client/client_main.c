@@ -882,6 +882,13 @@ int main(int argc, char **argv)
     if (a->o.commands) {
         if (ftm_script_load(a->o.commands, &a->cmds)) /* says FILE:LINE: why */
             return 2;
+        /* an instructor's probe feels nothing: refused, as by an instructor ftm-bot */
+        if (a->cmds.nexpects > 0) {
+            fprintf(stderr, "ftm-client: %s:%d: 'expect' is checked by a trainee ftm-bot only, "
+                            "not by --commands\n", a->o.commands, (int)a->cmds.expects[0].e.line);
+            ftm_script_free(&a->cmds);
+            return 2;
+        }
         a->have_cmds = true;
     }
     /* a trainee's device before the window: a bad script is a bad

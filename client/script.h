@@ -8,17 +8,31 @@
 #include "ftm/wire.h"
 #include "script_text.h" /* the format's parser, ftm_script_point */
 
+#include <stdio.h>
+
 /* A timed command as parsed (keyword, time, values) and whether it was sent. */
 typedef struct ftm_script_command {
     ftm_script_entry e;
     bool done;
 } ftm_script_command;
 
+/* An expectation as parsed and what the frames in its window showed. */
+typedef struct ftm_script_check {
+    ftm_script_expect e;
+    int64_t frames, in_contact; /* frames in the window; those with the probe in contact */
+    double min, max, max_t;     /* |F| [N] over them; when the max came [s] */
+    bool broken;                /* a frame broke it (force, contact): the first one */
+    double bad_t, bad_f;        /* [s], |F| [N] */
+    uint64_t bad_tick;
+} ftm_script_check;
+
 typedef struct ftm_script {
     ftm_script_point *pts; /* times >= 0, strictly increasing */
     int32_t npts;
     ftm_script_command cmds[FTM_SCRIPT_COMMANDS_MAX];
     int32_t ncmds;
+    ftm_script_check expects[FTM_SCRIPT_EXPECTS_MAX];
+    int32_t nexpects;
     double join, leave; /* leave < 0: none */
 } ftm_script;
 
@@ -36,5 +50,16 @@ const char *ftm_script_control(const ftm_script_command *c, const ftm_wire_tissu
 /* The HIP at time t (ftm_script_points_at). The script must have at least
  * one point. */
 ftm_vec3 ftm_script_at(const ftm_script *sc, double t);
+
+/* A frame applied at script time t [s]: its tick, the reaction force on the
+ * probe and whether the probe is in contact. Counted by every expectation
+ * whose window holds t (t0 <= t <= t1). */
+void ftm_script_expect_frame(ftm_script *sc, double t, uint64_t tick, ftm_vec3 force,
+                             bool contact);
+/* Prints one line per expectation to f: "NAME:LINE: expect ...: ok (...)"
+ * or "...: FAILED: why". end: the script time the frames stopped [s]; a
+ * window not over by then fails, as does one without frames. Returns how
+ * many failed. */
+int ftm_script_expect_report(const ftm_script *sc, const char *name, double end, FILE *f);
 
 #endif

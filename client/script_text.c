@@ -52,7 +52,7 @@ static int command(ftm_script_text *sc, const token *tok, int ntok, const char *
     if (k == sizeof keywords / sizeof *keywords)
         return ftm_text_error(err, FTM_EPARSE, name, line,
                     "unknown keyword '%.*s' (join, leave, pause, resume, reset, stiffness, "
-                    "damping, mass, depth)",
+                    "damping, mass, depth, expect)",
                     (int)(tok[0].n < 32 ? tok[0].n : 32), tok[0].p);
     const char *word = keywords[k].word;
     double t;
@@ -86,6 +86,49 @@ static int command(ftm_script_text *sc, const token *tok, int ntok, const char *
         return ftm_text_error(err, FTM_EPARSE, name, line, "more than %d commands",
                     FTM_SCRIPT_COMMANDS_MAX);
     sc->cmds[sc->ncmds++] = (ftm_script_entry){(ftm_script_keyword)kw, t, {v[0], v[1]}, line};
+    return FTM_OK;
+}
+
+/* expect t0 t1 force|peak MIN MAX, expect t0 t1 contact yes|no */
+static int expectation(ftm_script_text *sc, const token *tok, int ntok, const char *name,
+                       int32_t line, ftm_error *err)
+{
+    static const struct {
+        const char *word;
+        ftm_script_expect_kind kind;
+        int ntok; /* tokens of the whole line */
+    } kinds[] = {
+        {"force", FTM_SCRIPT_EXPECT_FORCE, 6},
+        {"peak", FTM_SCRIPT_EXPECT_PEAK, 6},
+        {"contact", FTM_SCRIPT_EXPECT_CONTACT, 5},
+    };
+    ftm_script_expect e = {.line = line};
+    int want = 0;
+    for (size_t k = 0; k < sizeof kinds / sizeof *kinds && ntok >= 4; k++)
+        if (token_is(tok[3], kinds[k].word)) {
+            e.kind = kinds[k].kind;
+            want = kinds[k].ntok;
+        }
+    if (!want || ntok != want || !number(tok[1], &e.t0) || !number(tok[2], &e.t1) ||
+        (want == 6 && (!number(tok[4], &e.lo) || !number(tok[5], &e.hi))) ||
+        (want == 5 && !token_is(tok[4], "yes") && !token_is(tok[4], "no")))
+        return ftm_text_error(err, FTM_EPARSE, name, line,
+                    "expected 'expect <t0> <t1> force|peak <min> <max>' or "
+                    "'expect <t0> <t1> contact yes|no'");
+    if (!(e.t0 >= 0))
+        return ftm_text_error(err, FTM_EPARSE, name, line,
+                    "time %g is negative (times are seconds from the start)", e.t0);
+    if (!(e.t0 <= e.t1))
+        return ftm_text_error(err, FTM_EPARSE, name, line,
+                    "the window ends before it starts (%g > %g)", e.t0, e.t1);
+    if (want == 6 && !(e.lo >= 0 && e.lo <= e.hi))
+        return ftm_text_error(err, FTM_EPARSE, name, line,
+                    "force bounds must be 0 <= min <= max [N] (got %g, %g)", e.lo, e.hi);
+    e.contact = want == 5 && token_is(tok[4], "yes");
+    if (sc->nexpects == FTM_SCRIPT_EXPECTS_MAX)
+        return ftm_text_error(err, FTM_EPARSE, name, line, "more than %d expectations",
+                    FTM_SCRIPT_EXPECTS_MAX);
+    sc->expects[sc->nexpects++] = e;
     return FTM_OK;
 }
 
@@ -143,13 +186,15 @@ int ftm_script_text_parse(const char *text, size_t length, const char *name,
         }
         const char *hash = memchr(line, '#', len);
         const char *cur = line, *end = hash ? hash : line + len;
-        token tok[5]; /* a fifth means too many for any line */
+        token tok[7]; /* a seventh means too many for any line */
         int ntok = 0;
-        while (ntok < 5 && ftm_text_token(&cur, end, &tok[ntok].p, &tok[ntok].n))
+        while (ntok < 7 && ftm_text_token(&cur, end, &tok[ntok].p, &tok[ntok].n))
             ntok++;
         if (ntok == 0)
             continue;
-        if (isalpha((unsigned char)tok[0].p[0]))
+        if (token_is(tok[0], "expect"))
+            rc = expectation(out, tok, ntok, name, txt.line, err);
+        else if (isalpha((unsigned char)tok[0].p[0]))
             rc = command(out, tok, ntok, name, txt.line, err);
         else
             rc = point(out, &cap, tok, ntok, name, txt.line, err);
@@ -181,6 +226,7 @@ void ftm_script_text_free(ftm_script_text *s)
     s->pts = NULL;
     s->npts = 0;
     s->ncmds = 0;
+    s->nexpects = 0;
 }
 
 ftm_vec3 ftm_script_points_at(const ftm_script_point *p, int32_t n, double t)

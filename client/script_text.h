@@ -16,6 +16,7 @@
 #include <stdint.h>
 
 #define FTM_SCRIPT_COMMANDS_MAX 64 /* timed commands (join and leave not counted) */
+#define FTM_SCRIPT_EXPECTS_MAX 64  /* expectations (`expect` lines) */
 #define FTM_SCRIPT_LINE_MAX 511    /* bytes of a line, without its newline */
 #define FTM_SCRIPT_FILE_MAX ((size_t)64 << 20)
 
@@ -41,11 +42,31 @@ typedef struct ftm_script_entry {
     int32_t line;
 } ftm_script_entry;
 
+/* `expect t0 t1 force|peak MIN MAX` and `expect t0 t1 contact yes|no`:
+ * what ftm-bot checks in the frames it applies at times t0..t1
+ * (docs/bot-script.md). Not commands: readers that do not check them
+ * leave them alone. */
+typedef enum ftm_script_expect_kind {
+    FTM_SCRIPT_EXPECT_FORCE = 1, /* every frame's |F| in [lo, hi] N */
+    FTM_SCRIPT_EXPECT_PEAK,      /* the window's largest |F| in [lo, hi] N */
+    FTM_SCRIPT_EXPECT_CONTACT,   /* every frame in contact (contact) or none */
+} ftm_script_expect_kind;
+
+typedef struct ftm_script_expect {
+    ftm_script_expect_kind kind;
+    double t0, t1;  /* [s], 0 <= t0 <= t1 */
+    double lo, hi;  /* [N], 0 <= lo <= hi (force, peak) */
+    bool contact;   /* (contact) */
+    int32_t line;
+} ftm_script_expect;
+
 typedef struct ftm_script_text {
     ftm_script_point *pts; /* times strictly increasing; NULL when npts == 0 */
     int32_t npts;
     ftm_script_entry cmds[FTM_SCRIPT_COMMANDS_MAX]; /* in file order */
     int32_t ncmds;
+    ftm_script_expect expects[FTM_SCRIPT_EXPECTS_MAX]; /* in file order */
+    int32_t nexpects;
     double join;  /* `join t`, default 0 */
     double leave; /* `leave t`, -1: none */
 } ftm_script_text;

@@ -81,6 +81,10 @@ printf '0 0.03 0.03\n' >"$tmp/bad.bot"
 refused "--device script:$tmp/bad.bot: $tmp/bad.bot:1:" --role trainee --device "script:$tmp/bad.bot"
 refused "--device script:$tmp: $tmp: is a directory" --role trainee --device "script:$tmp"
 refused "--device script:$tmp/none.bot: " --role trainee --device "script:$tmp/none.bot"
+# an expectation is checked by a trainee bot only: --commands refuses it
+printf 'pause 1\nexpect 0 1 contact no\n' >"$tmp/expect.cmds"
+refused "ftm-client: $tmp/expect.cmds:2: 'expect' is checked by a trainee ftm-bot only" \
+    --role instructor --commands "$tmp/expect.cmds"
 # trainee options for another role: refused, not ignored
 refused "--device needs --role trainee" --role observer --device "script:$tmp/t.bot"
 refused "--renderer needs --role trainee" --role instructor --renderer extrapolate

@@ -5,7 +5,10 @@
  * increase and a finite trajectory; every reader accepts the same texts
  * (the device also needs a point) and sees the same trajectory, bit for
  * bit. Before they shared one parser, the bot read "7 0 0+1" as four
- * numbers and the device refused it. */
+ * numbers and the device refused it. Expectations: accepted ones have
+ * finite, ordered windows and bounds, the loader keeps them as parsed, and
+ * checking frames against them and reporting never fails more than there
+ * are. */
 #include "fuzz.h"
 
 #include "device.h"
@@ -13,6 +16,7 @@
 #include "script_text.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -31,6 +35,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         for (int32_t i = 0; i < st.ncmds; i++)
             fuzz_check(st.cmds[i].t >= 0 && isfinite(st.cmds[i].value[0]) &&
                        isfinite(st.cmds[i].value[1]));
+        fuzz_check(st.nexpects >= 0 && st.nexpects <= FTM_SCRIPT_EXPECTS_MAX);
+        for (int32_t i = 0; i < st.nexpects; i++) {
+            const ftm_script_expect *e = &st.expects[i];
+            fuzz_check(e->kind >= FTM_SCRIPT_EXPECT_FORCE && e->kind <= FTM_SCRIPT_EXPECT_CONTACT);
+            fuzz_check(e->t0 >= 0 && e->t0 <= e->t1 && isfinite(e->t1) && e->line >= 1);
+            fuzz_check(e->lo >= 0 && e->lo <= e->hi && isfinite(e->hi));
+        }
     }
 
     ftm_script sc;
@@ -45,6 +56,23 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (loaded) {
         fuzz_check(sc.npts == st.npts && sc.ncmds == st.ncmds);
         fuzz_check(sc.join == st.join && sc.leave == st.leave);
+        fuzz_check(sc.nexpects == st.nexpects);
+        for (int32_t i = 0; i < sc.nexpects; i++)
+            fuzz_check(memcmp(&sc.expects[i].e, &st.expects[i], sizeof st.expects[i]) == 0 &&
+                       sc.expects[i].frames == 0);
+        /* frames at every window's ends, in contact and not */
+        for (int32_t i = 0; i < sc.nexpects; i++) {
+            const ftm_script_expect e = sc.expects[i].e;
+            ftm_script_expect_frame(&sc, e.t0, (uint64_t)i, (ftm_vec3){0, 0, e.lo}, i % 2 == 0);
+            ftm_script_expect_frame(&sc, e.t1, (uint64_t)i, (ftm_vec3){e.hi, 0, 0}, i % 3 == 0);
+        }
+        static FILE *null;
+        if (!null)
+            null = fopen("/dev/null", "w");
+        if (null) {
+            int failed = ftm_script_expect_report(&sc, "f.bot", 1.0, null);
+            fuzz_check(failed >= 0 && failed <= sc.nexpects);
+        }
     }
     if (d) {
         double dur = ftm_script_device_duration(d);

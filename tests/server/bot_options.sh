@@ -26,6 +26,20 @@ refused "--id must be an integer in 0..4294967295 (got '4294967297')" --id 42949
 refused "--domain must be an integer in 0..4294967294 (got '-1')" --domain -1
 refused "--domain must be an integer in 0..4294967294 (got '4294967296')" --domain 4294967296
 refused "--domain must be an integer in 0..4294967294 (got '1x')" --domain 1x
+# expectations: only a trainee has a probe to check; a bad one is a script
+# error naming its line, before DDS
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/ftm-bot-options.XXXXXX")
+trap 'rm -rf "$tmp"' EXIT
+printf 'pause 1\nexpect 0 1 contact no\n' >"$tmp/instructor.bot"
+refused "ftm-bot: $tmp/instructor.bot:2: 'expect' needs --role trainee" --script "$tmp/instructor.bot"
+refused_by "ftm-bot: $tmp/instructor.bot:2: 'expect' needs --role trainee" \
+    "$FTM_BOT" --role instructor --config $nodds --script "$tmp/instructor.bot"
+printf '0 0.03 0.03 0.12\nexpect 2 1 force 0 1\n' >"$tmp/reversed.bot"
+refused_by "$tmp/reversed.bot:2: the window ends before it starts (2 > 1)" \
+    "$FTM_BOT" --role trainee --config $nodds --script "$tmp/reversed.bot"
+printf '0 0.03 0.03 0.12\nexpect 0 1 contact no\n' >"$tmp/good.bot"
+out=$(timeout 20 "$FTM_BOT" --role trainee --config $nodds --script "$tmp/good.bot" 2>&1)
+case $out in *"Cyclone DDS configuration $nodds"*) ;; *) fail "a good expectation refused: $out" ;; esac
 # the limits themselves pass the options and fail only at the configuration
 out=$(timeout 20 "$FTM_BOT" --role observer --config $nodds --duration 1e9 --resync-timeout 1e9 \
     --input-period 0.0001 --id 4294967295 --domain 4294967294 2>&1)
