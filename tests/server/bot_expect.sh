@@ -21,7 +21,7 @@ fail() {
     for f in "$dir"/*.log "$dir"/*.out "$dir"/*.err; do [ -f "$f" ] && { echo "== $f"; tail -n 30 "$f"; }; done
     exit 1
 }
-timeout 60 "$FTM_SERVER" --scene default $common --rate "$rate" --duration 7 --log "$dir/server.log" \
+timeout 60 "$FTM_SERVER" --scene default $common --rate "$rate" --duration 7.5 --log "$dir/server.log" \
     >"$dir/server.out" 2>"$dir/server.err" &
 server=$!
 wait_for "$dir/server.log" "session '$session'" "server did not start"
@@ -42,7 +42,7 @@ echo "== trainee 12 (exit $rc12)"; grep "expect" "$dir/bot12.err"
 [ "$(grep -c "^$here/expect-hold.bot:[0-9]*: expect .*: ok (" "$dir/bot11.err")" -eq 5 ] ||
     fail "trainee 11: not 5 expectations ok"
 grep -q "0 of 5 expectations failed" "$dir/bot11.err" || fail "trainee 11: no summary"
-grep -q "^$here/expect-wrong.bot:13: expect 1.6 3.6 force 50 100: FAILED: [0-9.]* N at t = " \
+grep -q "^$here/expect-wrong.bot:13: expect 2.1 4.1 force 50 100: FAILED: [0-9.]* N at t = " \
     "$dir/bot12.err" || fail "trainee 12: no failure naming line 13"
 [ "$(grep -c "^$here/expect-wrong.bot:[0-9]*: expect .*: ok (" "$dir/bot12.err")" -eq 2 ] ||
     fail "trainee 12: its other 2 expectations not ok"
