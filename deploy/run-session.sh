@@ -5,7 +5,9 @@
 # stiffer 1.5 s in (docs/sessions/instructor.bot) and an observer, for a few
 # seconds.
 # Prints what each process ended on and exits non-zero unless every
-# participant replayed the session to the server's exact state.
+# participant replayed the session to the server's exact state and the
+# trainees felt what their scripts expect (up to 2 s in: a session of 1 s
+# ends before that and fails).
 # With a display (DISPLAY or WAYLAND_DISPLAY set, ftm-client built, and
 # FTM_HEADLESS unset, empty or 0) an instructor window (ftm-client) joins too, the
 # trainees repeat their presses every 3 s, and the session lasts 60 s by
@@ -119,6 +121,13 @@ for b in 11 12 13 15; do
   [ -n "$want" ] && [ "$got" = "$want" ] || { mark="DIFFERS from the server"; status=1; }
   echo "  participant $b final tick ${got:-?}: $mark ($stats)"
 done
+# what the trainees' scripts expect them to feel (docs/bot-script.md,
+# Expectations; a failure is also the bot's exit status 4)
+expects=$(grep -h ": expect " "$dir/b11.err" "$dir/b12.err" 2>/dev/null)
+if [ -n "$expects" ]; then
+  echo "  trainees' expectations: $(grep -c ': ok (' <<<"$expects") of $(grep -c '' <<<"$expects") held"
+  grep ': FAILED' <<<"$expects" | sed 's/^/    /'
+fi
 peak=$(awk -F, 'NR > 1 { f = sqrt($7*$7 + $8*$8 + $9*$9); if (f > m) m = f } END { printf "%.3g", m }' \
   "$dir/trainee11.csv")
 echo "  trainee 11 peak reaction force: $peak N (as its bot received it)"
