@@ -6,8 +6,8 @@
 # seconds.
 # Prints what each process ended on and exits non-zero unless every
 # participant replayed the session to the server's exact state and the
-# trainees felt what their scripts expect (up to 2 s in: a session of 1 s
-# ends before that and fails).
+# trainees felt what their scripts expect (docs/bot-script.md, Expectations;
+# their presses end 2.4 s in, so a session lasts at least 3 s).
 # With a display (DISPLAY or WAYLAND_DISPLAY set, ftm-client built, and
 # FTM_HEADLESS unset, empty or 0) an instructor window (ftm-client) joins too, the
 # trainees repeat their presses every 3 s, and the session lasts 60 s by
@@ -33,8 +33,8 @@ if [ -z "$headless" ] && { [ -n "${DISPLAY:-}" ] || [ -n "${WAYLAND_DISPLAY:-}" 
   gui=1
 fi
 seconds=${2:-$([ -n "$gui" ] && echo 60 || echo 6)}
-if ! [[ $seconds =~ ^[1-9][0-9]{0,4}$ ]] || [ "$seconds" -gt 86400 ]; then
-  echo "run-session: SECONDS must be a whole number of seconds, 1..86400 (got '$seconds')" >&2
+if ! [[ $seconds =~ ^[1-9][0-9]{0,4}$ ]] || [ "$seconds" -lt 3 ] || [ "$seconds" -gt 86400 ]; then
+  echo "run-session: SECONDS must be a whole number of seconds, 3..86400: the trainees' presses take 2.4 s (got '$seconds')" >&2
   usage >&2
   exit 2
 fi

@@ -1,7 +1,7 @@
 #!/bin/bash
 # deploy/run-session.sh, the main job's session (README), as an operator
 # meets it:
-#   - SECONDS that is not a whole number of seconds in 1..86400 is refused
+#   - SECONDS that is not a whole number of seconds in 3..86400 is refused
 #     with exit 2 before anything starts;
 #   - a TMPDIR where no directory can be made is refused with exit 2;
 #   - SIGTERM (and Ctrl-C, which the script turns into the same) stops every
@@ -20,15 +20,15 @@ fail() {
     exit 1
 }
 export FTM_HEADLESS=1
-for s in abc 1.5 0 -3 100000 ''; do
+for s in abc 1.5 0 2 -3 100000 ''; do
     [ -z "$s" ] && continue
     timeout 20 "$rs" "$FTM_BUILD" "$s" >"$dir/bad.out" 2>&1
     rc=$?
     [ $rc -eq 2 ] || fail "SECONDS '$s': exit $rc, not 2"
-    grep -q "SECONDS must be a whole number of seconds, 1..86400 (got '$s')" "$dir/bad.out" ||
+    grep -q "SECONDS must be a whole number of seconds, 3..86400: the trainees' presses take 2.4 s (got '$s')" "$dir/bad.out" ||
         fail "SECONDS '$s': no clear message"
 done
-TMPDIR=$dir/none timeout 20 "$rs" "$FTM_BUILD" 2 >"$dir/tmpdir.out" 2>&1
+TMPDIR=$dir/none timeout 20 "$rs" "$FTM_BUILD" 3 >"$dir/tmpdir.out" 2>&1
 rc=$?
 [ $rc -eq 2 ] || fail "unusable TMPDIR: exit $rc, not 2"
 grep -q "cannot create a directory for the session's logs under $dir/none" "$dir/tmpdir.out" ||
