@@ -3,6 +3,7 @@
 #include "depth_ctl.h" /* FTM_DEPTH_CTL_MAX */
 
 #include "ftm/sim.h"
+#include "ftm/wire.h" /* FTM_WIRE_KIND_MIN, FTM_WIRE_KIND_MAX */
 #include "ftm/v1/ftm.pb-c.h"
 
 #include <errno.h>
@@ -351,12 +352,13 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
     if (rc)
         return rc;
     const Ftm__V1__RecordEntry *m = r->cur;
-    if (m->header || !m->has_tick || !m->has_kind || m->kind < 1 || m->kind > 6 ||
+    if (m->header || !m->has_tick || !m->has_kind || m->kind < FTM_WIRE_KIND_MIN ||
+        m->kind > FTM_WIRE_KIND_MAX ||
         !m->has_sender || !m->has_incoming)
         return rec_err(err, FTM_EPARSE,
                        "%s: entry %llu at byte %llu: %s", r->path, (unsigned long long)r->index,
                        (unsigned long long)start,
-                       m->header ? "a second header" : "tick, kind (1..6), sender or incoming missing");
+                       m->header ? "a second header" : "tick, kind (1..7), sender or incoming missing");
     e->tick = m->tick;
     e->kind = (int)m->kind;
     e->sender = m->sender;

@@ -69,6 +69,7 @@ const ProtobufCMessageDescriptor *wire_descriptor(int kind)
     case FTM_WIRE_KEYFRAME: return &ftm__v1__keyframe__descriptor;
     case FTM_WIRE_STATUS: return &ftm__v1__participant_status__descriptor;
     case FTM_WIRE_CONTROL: return &ftm__v1__session_control__descriptor;
+    case FTM_WIRE_CONTROL_REPLY: return &ftm__v1__control_reply__descriptor;
     default: return NULL;
     }
 }
@@ -82,6 +83,7 @@ size_t ftm_wire_default_cap(int kind)
     case FTM_WIRE_KEYFRAME: return FTM_WIRE_CAP_KEYFRAME;
     case FTM_WIRE_STATUS: return FTM_WIRE_CAP_STATUS;
     case FTM_WIRE_CONTROL: return FTM_WIRE_CAP_CONTROL;
+    case FTM_WIRE_CONTROL_REPLY: return FTM_WIRE_CAP_CONTROL_REPLY;
     default: return 0;
     }
 }
@@ -538,6 +540,39 @@ static int check_control(const vctx *v, const Ftm__V1__SessionControl *m)
     }
 }
 
+/* The reason is shown on an instructor's HUD and written to logs and
+ * terminals: bounded, and no control bytes (escape sequences, newlines). */
+static int check_control_reply(const vctx *v, const Ftm__V1__ControlReply *m)
+{
+    int rc = check_version(v, m->has_version, m->version);
+    if (rc)
+        return rc;
+    if (!m->has_issuer_id)
+        return missing(v, "issuer_id");
+    if (!m->has_command_id)
+        return missing(v, "command_id");
+    if (!m->has_outcome)
+        return missing(v, "outcome");
+    if ((int)m->outcome < FTM_WIRE_OUTCOME_APPLIED || (int)m->outcome > FTM_WIRE_OUTCOME_REFUSED)
+        return wire_err(v->err, FTM_EINVAL, "%s: unknown outcome %d", v->what, (int)m->outcome);
+    if (!m->has_tick)
+        return missing(v, "tick");
+    size_t n = m->reason ? strlen(m->reason) : 0;
+    if (n >= FTM_WIRE_REASON_MAX)
+        return wire_err(v->err, FTM_EINVAL, "%s: reason of %zu bytes (at most %d)", v->what, n,
+                        FTM_WIRE_REASON_MAX - 1);
+    for (size_t i = 0; i < n; i++) {
+        unsigned char c = (unsigned char)m->reason[i];
+        if (c < 0x20 || c == 0x7f)
+            return wire_err(v->err, FTM_EINVAL, "%s: reason has control character 0x%02x at byte %zu",
+                            v->what, c, i);
+    }
+    if (n == 0 && (int)m->outcome != FTM_WIRE_OUTCOME_APPLIED)
+        return wire_err(v->err, FTM_EINVAL, "%s: a %s command needs a reason", v->what,
+                        ftm_wire_outcome_name((ftm_wire_outcome)m->outcome));
+    return FTM_OK;
+}
+
 static int check_any(const vctx *v, int kind, const ProtobufCMessage *m)
 {
     switch (kind) {
@@ -547,6 +582,7 @@ static int check_any(const vctx *v, int kind, const ProtobufCMessage *m)
     case FTM_WIRE_KEYFRAME: return check_keyframe(v, (const Ftm__V1__Keyframe *)m);
     case FTM_WIRE_STATUS: return check_status(v, (const Ftm__V1__ParticipantStatus *)m);
     case FTM_WIRE_CONTROL: return check_control(v, (const Ftm__V1__SessionControl *)m);
+    case FTM_WIRE_CONTROL_REPLY: return check_control_reply(v, (const Ftm__V1__ControlReply *)m);
     default: return wire_err(v->err, FTM_EINVAL, "unknown message kind %d", kind);
     }
 }
@@ -750,6 +786,16 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
             c->depth_max = (int32_t)m->depth_limits->max;
             break;
         }
+        return FTM_OK;
+    }
+    case FTM_WIRE_CONTROL_REPLY: {
+        const Ftm__V1__ControlReply *m = (const void *)pm;
+        ftm_wire_control_reply *r = &out->u.control_reply;
+        r->issuer = m->issuer_id;
+        r->command_id = m->command_id;
+        r->outcome = (ftm_wire_outcome)m->outcome;
+        r->tick = m->tick;
+        snprintf(r->reason, sizeof r->reason, "%s", m->reason ? m->reason : "");
         return FTM_OK;
     }
     default: return wire_err(err, FTM_EINVAL, "unknown message kind %d", kind);
@@ -1220,6 +1266,28 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         default:
             return wire_err(err, FTM_EINVAL, "%s: unknown command %d", what, (int)c->command);
         }
+        *out = &m->base;
+        return FTM_OK;
+    }
+    case FTM_WIRE_CONTROL_REPLY: {
+        const ftm_wire_control_reply *r = &msg->u.control_reply;
+        Ftm__V1__ControlReply *m = scratch_alloc(s, sizeof *m);
+        if (!m)
+            return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+        if (!memchr(r->reason, '\0', sizeof r->reason))
+            return wire_err(err, FTM_EINVAL, "%s: reason is not NUL-terminated", what);
+        ftm__v1__control_reply__init(m);
+        m->has_version = 1;
+        m->version = FTM_WIRE_VERSION;
+        m->has_issuer_id = 1;
+        m->issuer_id = r->issuer;
+        m->has_command_id = 1;
+        m->command_id = r->command_id;
+        m->has_outcome = 1;
+        m->outcome = (Ftm__V1__ControlOutcome)r->outcome;
+        m->has_tick = 1;
+        m->tick = r->tick;
+        m->reason = r->reason[0] ? (char *)r->reason : NULL;
         *out = &m->base;
         return FTM_OK;
     }

@@ -129,6 +129,7 @@ static const char *const topic_names[KINDS] = {
     "ftm_v1_keyframe",
     "ftm_v1_participant_status",
     "ftm_v1_session_control",
+    "ftm_v1_control_reply",
 };
 
 const char *ftm_wire_topic_name(int kind)
@@ -216,6 +217,7 @@ static dds_qos_t *kind_qos(int kind, bool writer)
             dds_qset_deadline(q, STATUS_DEADLINE);
         break;
     case FTM_WIRE_CONTROL:
+    case FTM_WIRE_CONTROL_REPLY: /* one per command, like the commands */
     default:
         dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, MAX_BLOCKING);
         dds_qset_history(q, DDS_HISTORY_KEEP_LAST, CONTROL_DEPTH);

@@ -37,6 +37,7 @@ const char *ftm_wire_kind_name(int kind)
     case FTM_WIRE_KEYFRAME: return "keyframe";
     case FTM_WIRE_STATUS: return "participant status";
     case FTM_WIRE_CONTROL: return "session control";
+    case FTM_WIRE_CONTROL_REPLY: return "control reply";
     default: return "unknown kind";
     }
 }
@@ -60,6 +61,16 @@ const char *ftm_wire_state_name(ftm_wire_state state)
     case FTM_WIRE_STATE_SYNCED: return "synced";
     case FTM_WIRE_STATE_RESYNCING: return "resyncing";
     case FTM_WIRE_STATE_LEAVING: return "leaving";
+    }
+    return "unknown";
+}
+
+const char *ftm_wire_outcome_name(ftm_wire_outcome outcome)
+{
+    switch (outcome) {
+    case FTM_WIRE_OUTCOME_APPLIED: return "applied";
+    case FTM_WIRE_OUTCOME_CHANGED: return "changed";
+    case FTM_WIRE_OUTCOME_REFUSED: return "refused";
     }
     return "unknown";
 }

@@ -1,6 +1,7 @@
 /* Wire decoder (ftm_wire_decode): what a peer sends. Input: byte 0 picks
- * the kind (0 and 7 are unknown kinds), byte 1 the mesh size the indices are
- * checked against (0: unknown), the rest is the payload.
+ * the kind (mod 8: 0 is an unknown kind, 7 the control reply), byte 1 the
+ * mesh size the indices are checked against (0: unknown), the rest is the
+ * payload.
  * Properties: a rejected payload gets a negative code and a message; an
  * accepted one encodes, and the encoding decodes and encodes to the same
  * bytes (what the server relays is what it understood). */

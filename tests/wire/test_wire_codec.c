@@ -405,6 +405,144 @@ static void test_round_trip_control(void **state)
     }
 }
 
+static void test_round_trip_control_reply(void **state)
+{
+    (void)state;
+    static const char *reasons[] = {"", "depth now 6",
+                                    "the material's critical time step 3.3e-07 s is too short"};
+    for (int o = FTM_WIRE_OUTCOME_APPLIED; o <= FTM_WIRE_OUTCOME_REFUSED; o++) {
+        ftm_wire_msg m, b;
+        memset(&m, 0, sizeof m);
+        m.kind = FTM_WIRE_CONTROL_REPLY;
+        ftm_wire_control_reply *r = &m.u.control_reply;
+        r->issuer = 4000000000u;
+        r->command_id = UINT64_MAX - (uint64_t)o;
+        r->outcome = (ftm_wire_outcome)o;
+        r->tick = 1234;
+        snprintf(r->reason, sizeof r->reason, "%s", reasons[o - 1]);
+        round_trip(&m, &b);
+        const ftm_wire_control_reply *q = &b.u.control_reply;
+        assert_int_equal(q->issuer, r->issuer);
+        assert_true(q->command_id == r->command_id);
+        assert_int_equal(q->outcome, o);
+        assert_int_equal(q->tick, 1234);
+        assert_string_equal(q->reason, r->reason);
+        ftm_wire_msg_free(&b);
+    }
+    /* the longest reason, multi-byte characters included */
+    ftm_wire_msg m, b;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_CONTROL_REPLY;
+    m.u.control_reply = (ftm_wire_control_reply){1, 2, FTM_WIRE_OUTCOME_CHANGED, 3, ""};
+    memset(m.u.control_reply.reason, 'x', FTM_WIRE_REASON_MAX - 1);
+    memcpy(m.u.control_reply.reason, "h = 1 \xc2\xb5s", 9);
+    round_trip(&m, &b);
+    assert_string_equal(b.u.control_reply.reason, m.u.control_reply.reason);
+    ftm_wire_msg_free(&b);
+    assert_string_equal(ftm_wire_kind_name(FTM_WIRE_CONTROL_REPLY), "control reply");
+    assert_string_equal(ftm_wire_topic_name(FTM_WIRE_CONTROL_REPLY), "ftm_v1_control_reply");
+    assert_string_equal(ftm_wire_outcome_name(FTM_WIRE_OUTCOME_REFUSED), "refused");
+}
+
+/* What a decoder of control replies refuses, and the encoder with it. */
+static void test_control_reply_rejects(void **state)
+{
+    (void)state;
+    uint8_t buf[512];
+    char reason[300];
+    Ftm__V1__ControlReply cr = FTM__V1__CONTROL_REPLY__INIT;
+    cr.has_version = cr.has_issuer_id = cr.has_command_id = cr.has_outcome = cr.has_tick = 1;
+    cr.version = 1;
+    cr.issuer_id = 12;
+    cr.command_id = 3;
+    cr.outcome = FTM__V1__CONTROL_OUTCOME__OUTCOME_REFUSED;
+    cr.tick = 99;
+    cr.reason = reason;
+    snprintf(reason, sizeof reason, "too stiff");
+    size_t n = protobuf_c_message_pack(&cr.base, buf);
+    ftm_wire_msg ok;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_wire_decode(FTM_WIRE_CONTROL_REPLY, buf, n, NULL, &ok, &err), FTM_OK);
+    ftm_wire_msg_free(&ok);
+    /* a refusal must say why */
+    cr.reason = NULL;
+    n = protobuf_c_message_pack(&cr.base, buf);
+    expect_reject(FTM_WIRE_CONTROL_REPLY, buf, n, NULL, FTM_EINVAL, "a refused command needs a reason",
+                  NULL);
+    cr.outcome = FTM__V1__CONTROL_OUTCOME__OUTCOME_CHANGED;
+    n = protobuf_c_message_pack(&cr.base, buf);
+    expect_reject(FTM_WIRE_CONTROL_REPLY, buf, n, NULL, FTM_EINVAL, "a changed command needs", NULL);
+    cr.outcome = FTM__V1__CONTROL_OUTCOME__OUTCOME_APPLIED; /* applied: none needed */
+    n = protobuf_c_message_pack(&cr.base, buf);
+    assert_int_equal(ftm_wire_decode(FTM_WIRE_CONTROL_REPLY, buf, n, NULL, &ok, &err), FTM_OK);
+    assert_string_equal(ok.u.control_reply.reason, "");
+    ftm_wire_msg_free(&ok);
+    /* one byte too long, and a control character (an escape sequence) */
+    cr.reason = reason;
+    memset(reason, 'r', FTM_WIRE_REASON_MAX);
+    reason[FTM_WIRE_REASON_MAX] = '\0';
+    n = protobuf_c_message_pack(&cr.base, buf);
+    expect_reject(FTM_WIRE_CONTROL_REPLY, buf, n, NULL, FTM_EINVAL, "reason of 128 bytes",
+                  "at most 127");
+    snprintf(reason, sizeof reason, "ok\x1b[2Jcleared");
+    n = protobuf_c_message_pack(&cr.base, buf);
+    expect_reject(FTM_WIRE_CONTROL_REPLY, buf, n, NULL, FTM_EINVAL, "control character 0x1b",
+                  "byte 2");
+    snprintf(reason, sizeof reason, "two\nlines");
+    n = protobuf_c_message_pack(&cr.base, buf);
+    expect_reject(FTM_WIRE_CONTROL_REPLY, buf, n, NULL, FTM_EINVAL, "control character 0x0a", NULL);
+    snprintf(reason, sizeof reason, "fine");
+    /* unknown and unspecified outcomes */
+    cr.outcome = (Ftm__V1__ControlOutcome)4;
+    n = protobuf_c_message_pack(&cr.base, buf);
+    expect_reject(FTM_WIRE_CONTROL_REPLY, buf, n, NULL, FTM_EINVAL, "unknown outcome 4", NULL);
+    cr.outcome = FTM__V1__CONTROL_OUTCOME__OUTCOME_UNSPECIFIED;
+    n = protobuf_c_message_pack(&cr.base, buf);
+    expect_reject(FTM_WIRE_CONTROL_REPLY, buf, n, NULL, FTM_EINVAL, "unknown outcome 0", NULL);
+    cr.outcome = FTM__V1__CONTROL_OUTCOME__OUTCOME_APPLIED;
+    /* every field required */
+    struct {
+        protobuf_c_boolean *has;
+        const char *name;
+    } f[] = {{&cr.has_issuer_id, "issuer_id"}, {&cr.has_command_id, "command_id"},
+             {&cr.has_outcome, "outcome"}, {&cr.has_tick, "tick"}};
+    for (size_t i = 0; i < sizeof f / sizeof f[0]; i++) {
+        *f[i].has = 0;
+        n = protobuf_c_message_pack(&cr.base, buf);
+        char want[64];
+        snprintf(want, sizeof want, "missing field %s", f[i].name);
+        expect_reject(FTM_WIRE_CONTROL_REPLY, buf, n, NULL, FTM_EPARSE, want, NULL);
+        *f[i].has = 1;
+    }
+    cr.version = 2;
+    n = protobuf_c_message_pack(&cr.base, buf);
+    expect_reject(FTM_WIRE_CONTROL_REPLY, buf, n, NULL, FTM_EVERSION, "version 2", NULL);
+    cr.version = 1;
+    /* the reason as a varint: the structural scan names it */
+    static const uint8_t wt[] = {0x08, 0x01, 0x30, 0x05};
+    expect_reject(FTM_WIRE_CONTROL_REPLY, wt, sizeof wt, NULL, FTM_EPARSE, "field reason",
+                  "expected length-delimited");
+
+    /* the encoder refuses what a decoder would */
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_CONTROL_REPLY;
+    m.u.control_reply = (ftm_wire_control_reply){12, 3, FTM_WIRE_OUTCOME_REFUSED, 99, ""};
+    uint8_t *out = NULL;
+    size_t size = 0;
+    assert_int_equal(ftm_wire_encode(&m, &out, &size, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "needs a reason"));
+    snprintf(m.u.control_reply.reason, sizeof m.u.control_reply.reason, "bell\a");
+    assert_int_equal(ftm_wire_encode(&m, &out, &size, &err), FTM_EINVAL);
+    memset(m.u.control_reply.reason, 'x', sizeof m.u.control_reply.reason); /* no NUL */
+    assert_int_equal(ftm_wire_encode(&m, &out, &size, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "not NUL-terminated"));
+    m.u.control_reply.reason[0] = '\0';
+    m.u.control_reply.outcome = (ftm_wire_outcome)9;
+    assert_int_equal(ftm_wire_encode(&m, &out, &size, &err), FTM_EINVAL);
+    assert_null(out);
+}
+
 static void test_unknown_fields_ignored(void **state)
 {
     (void)state;
@@ -800,6 +938,8 @@ int main(void)
         cmocka_unit_test(test_round_trip_tissue),
         cmocka_unit_test(test_round_trip_status),
         cmocka_unit_test(test_round_trip_control),
+        cmocka_unit_test(test_round_trip_control_reply),
+        cmocka_unit_test(test_control_reply_rejects),
         cmocka_unit_test(test_unknown_fields_ignored),
         cmocka_unit_test(test_encode_rejects),
         cmocka_unit_test(test_truncated),

@@ -46,11 +46,12 @@ typedef enum ftm_wire_kind {
     FTM_WIRE_KEYFRAME = 4,    /* Keyframe: server -> late joiners, resync */
     FTM_WIRE_STATUS = 5,      /* ParticipantStatus: everyone -> all */
     FTM_WIRE_CONTROL = 6,     /* SessionControl: instructor -> server */
+    FTM_WIRE_CONTROL_REPLY = 7, /* ControlReply: server -> all (the issuer reads it) */
 } ftm_wire_kind;
 #define FTM_WIRE_KIND_MIN 1
-#define FTM_WIRE_KIND_MAX 6
+#define FTM_WIRE_KIND_MAX 7
 #define FTM_WIRE_KIND_BIT(k) (1u << (k))
-#define FTM_WIRE_ALL_KINDS 0x7eu
+#define FTM_WIRE_ALL_KINDS 0xfeu
 
 /* "tick frame", "keyframe", ...; "unknown kind" for anything else. */
 const char *ftm_wire_kind_name(int kind);
@@ -206,6 +207,28 @@ typedef struct ftm_wire_control {
     int32_t depth_min, depth_max;
 } ftm_wire_control;
 
+/* What became of a session command (ftm.v1.ControlOutcome). */
+typedef enum ftm_wire_outcome {
+    FTM_WIRE_OUTCOME_APPLIED = 1, /* in force as sent (or already was) */
+    FTM_WIRE_OUTCOME_CHANGED = 2, /* in force with values the server adjusted (reason says how) */
+    FTM_WIRE_OUTCOME_REFUSED = 3, /* nothing changed (reason says why) */
+} ftm_wire_outcome;
+
+#define FTM_WIRE_REASON_MAX 128 /* a reply's reason incl. NUL */
+
+typedef struct ftm_wire_control_reply {
+    uint32_t issuer;     /* the command's sender */
+    uint64_t command_id; /* its command_id */
+    ftm_wire_outcome outcome;
+    uint64_t tick; /* the server's tick when it handled the command */
+    /* no control characters; non-empty for CHANGED and REFUSED */
+    char reason[FTM_WIRE_REASON_MAX];
+} ftm_wire_control_reply;
+
+/* Lower-case name of an outcome ("applied", "changed", "refused"); "unknown"
+ * for anything else. */
+const char *ftm_wire_outcome_name(ftm_wire_outcome outcome);
+
 /* One message of any kind. Arrays in a decoded message are owned by it
  * (release with ftm_wire_msg_free); in a message being encoded they are the
  * caller's. Zero-initialise, set kind, fill the member of that kind. */
@@ -218,6 +241,7 @@ typedef struct ftm_wire_msg {
         ftm_wire_keyframe keyframe;
         ftm_wire_status status;
         ftm_wire_control control;
+        ftm_wire_control_reply control_reply;
     } u;
     void *storage; /* decoder-owned memory; NULL otherwise */
 } ftm_wire_msg;
@@ -234,6 +258,7 @@ void ftm_wire_msg_free(ftm_wire_msg *msg);
 #define FTM_WIRE_CAP_KEYFRAME (16u * 1024u * 1024u)
 #define FTM_WIRE_CAP_STATUS (4u * 1024u)
 #define FTM_WIRE_CAP_CONTROL (4u * 1024u)
+#define FTM_WIRE_CAP_CONTROL_REPLY (4u * 1024u)
 
 /* Decoding limits; zero-initialised means all defaults. */
 typedef struct ftm_wire_limits {
