@@ -5,9 +5,11 @@
  * scripted HIP trajectory (trainee) or issues scripted session commands
  * (instructor), publishes its status every 500 ms, and logs reaction forces,
  * latency and hashes; checks the script's expectations on the forces it
- * receives. Exit status: 0 synced at the end; 1 a hash mismatch or gap that
- * did not recover (or never synced); 2 usage; 3 set-up failure; 4 synced,
- * but an expectation failed. */
+ * receives (trainee) and what the server replied to each command
+ * (instructor). Exit status: 0 synced at the end; 1 a hash mismatch or gap
+ * that did not recover (or never synced); 2 usage; 3 set-up failure; 4
+ * otherwise fine, but the script did not hold: an expectation failed or a
+ * command was refused or never answered (docs/bot-script.md). */
 #include "replay.h"
 #include "script.h"
 
@@ -205,9 +207,16 @@ typedef struct bot {
     bool server_gone; /* left by a `gone` event (lease expiry), not a LEAVING status */
     uint64_t server_start; /* the announced start of the server process we replay */
     uint32_t restarts;     /* server restarts rejoined */
+    /* the server was gone: commands wait for its announcement, which says
+     * whether it is the same process (back after its lease expired) or a
+     * restarted one (on_announce); its statuses and frames do not tell */
+    bool need_announce;
     int64_t server_left_ns;
     int64_t last_frame_ns;
     uint64_t command_id;
+    /* commands waiting for the server's reply; what became of them */
+    ftm_pending pending;
+    uint64_t applied, changed, refused, unanswered;
     double lat_sum_us, lat_max_us;
     uint64_t lat_n;
     bool ever_synced;
@@ -322,6 +331,7 @@ static void on_announce(bot *b, const ftm_wire_announce *a)
     }
     if (b->rep)
         b->server_start = a->server_start_ns;
+    b->need_announce = false;
 }
 
 /* Server-to-bot latency of a frame [us]: from the server's send time in the
@@ -428,6 +438,12 @@ static void send_probe(bot *b, double t)
         blog("probe input: %s", err.message);
 }
 
+static void unanswered(bot *b, const char *text)
+{
+    b->unanswered++;
+    blog("command %s", text);
+}
+
 static void send_commands(bot *b, double t)
 {
     for (int32_t i = 0; i < b->sc.ncmds; i++) {
@@ -454,11 +470,37 @@ static void send_commands(bot *b, double t)
         else
             snprintf(what, sizeof what, "%s", name);
         ftm_error err = {0, ""};
-        if (ftm_wire_publish(b->wire, &m, &err))
+        if (ftm_wire_publish(b->wire, &m, &err)) {
             blog("control: %s", err.message);
-        else
-            blog("sent %s", what);
+            continue;
+        }
+        blog("sent %s (command %" PRIu64 ")", what, ctl->command_id);
+        char brief[FTM_PENDING_WHAT], text[FTM_OUTCOME_TEXT];
+        ftm_script_command_text(c, brief, sizeof brief);
+        if (ftm_pending_add(&b->pending, ctl->command_id, brief, mono_ns(), text, sizeof text))
+            unanswered(b, text);
     }
+}
+
+static void on_reply(bot *b, const ftm_wire_control_reply *r)
+{
+    if (r->issuer != b->o.id)
+        return; /* another instructor's */
+    char text[FTM_OUTCOME_TEXT];
+    bool known = ftm_pending_reply(&b->pending, r, text, sizeof text);
+    if (known) {
+        b->applied += r->outcome == FTM_WIRE_OUTCOME_APPLIED;
+        b->changed += r->outcome == FTM_WIRE_OUTCOME_CHANGED;
+        b->refused += r->outcome == FTM_WIRE_OUTCOME_REFUSED;
+    }
+    blog("command %s%s", text, known ? "" : " (no such command waiting)");
+}
+
+static void expire_commands(bot *b)
+{
+    char text[FTM_OUTCOME_TEXT];
+    while (ftm_pending_expired(&b->pending, mono_ns(), FTM_REPLY_TIMEOUT_NS, text, sizeof text))
+        unanswered(b, text);
 }
 
 /* Announcements, tick frames, keyframes and server statuses are taken from
@@ -486,6 +528,7 @@ static void on_status(bot *b, const ftm_wire_received *rx)
         if (rx->sender == b->server_id && !b->server_left) {
             blog("server %u gone", rx->sender);
             b->server_left = b->server_gone = true;
+            b->need_announce = true;
             b->server_left_ns = mono_ns();
         }
         return;
@@ -583,10 +626,12 @@ int main(int argc, char **argv)
     wd.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS);
     if (b->role == FTM_WIRE_ROLE_TRAINEE)
         wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT);
-    if (b->role == FTM_WIRE_ROLE_INSTRUCTOR)
-        wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL);
     wd.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE) | FTM_WIRE_KIND_BIT(FTM_WIRE_TICK) |
                    FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME) | FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS);
+    if (b->role == FTM_WIRE_ROLE_INSTRUCTOR) {
+        wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL);
+        wd.subscribe |= FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL_REPLY);
+    }
     wd.log = log_hook;
     ftm_error err = {0, ""};
     if (ftm_wire_transport_create(&wd, &b->wire, &err)) {
@@ -644,6 +689,14 @@ int main(int argc, char **argv)
                 on_keyframe(b, &rx.msg.u.keyframe);
             ftm_wire_received_free(&rx);
         }
+        if (b->role == FTM_WIRE_ROLE_INSTRUCTOR) {
+            while (ftm_wire_receive(b->wire, FTM_WIRE_CONTROL_REPLY, &rx, 0, NULL) == FTM_OK) {
+                if (from_server(b, &rx))
+                    on_reply(b, &rx.msg.u.control_reply);
+                ftm_wire_received_free(&rx);
+            }
+            expire_commands(b);
+        }
         int64_t wait = b->role == FTM_WIRE_ROLE_TRAINEE ? next_input - mono_ns() : SEC / 1000;
         if (wait < 0)
             wait = 0;
@@ -673,7 +726,10 @@ int main(int argc, char **argv)
             if (next_input < now)
                 next_input = now;
         }
-        if (b->role == FTM_WIRE_ROLE_INSTRUCTOR && b->ever_synced)
+        /* not while the server is away: nobody would hear them. Due ones
+         * wait for the server's return (a restarted one: once synced with it) */
+        if (b->role == FTM_WIRE_ROLE_INSTRUCTOR && b->ever_synced && !b->server_left &&
+            !b->need_announce)
             send_commands(b, t);
         ftm_wire_state st = cur_state(b);
         if (st == FTM_WIRE_STATE_SYNCED) {
@@ -697,6 +753,41 @@ int main(int argc, char **argv)
     }
     if (g_stop)
         why = "signal";
+    /* the replies to the last commands, if the server is still there */
+    for (int64_t until = mono_ns() + FTM_REPLY_TIMEOUT_NS;
+         b->pending.n > 0 && !g_stop && !b->server_left && mono_ns() < until;) {
+        ftm_wire_received rx;
+        if (ftm_wire_receive(b->wire, FTM_WIRE_CONTROL_REPLY, &rx, SEC / 100, NULL) == FTM_OK) {
+            if (from_server(b, &rx))
+                on_reply(b, &rx.msg.u.control_reply);
+            ftm_wire_received_free(&rx);
+        }
+        while (ftm_wire_receive(b->wire, FTM_WIRE_STATUS, &rx, 0, NULL) == FTM_OK) {
+            on_status(b, &rx);
+            ftm_wire_received_free(&rx);
+        }
+        if (mono_ns() >= next_status) {
+            publish_status(b, cur_state(b));
+            next_status = mono_ns() + SEC / 2;
+        }
+    }
+    expire_commands(b);
+    double t_end = (double)(mono_ns() - g_t0) * 1e-9;
+    for (int32_t i = 0; i < b->sc.ncmds && b->role == FTM_WIRE_ROLE_INSTRUCTOR; i++) {
+        const ftm_script_command *c = &b->sc.cmds[i];
+        if (!c->done && c->e.t <= t_end) { /* due, but held: no server to hear it */
+            char what[FTM_PENDING_WHAT], text[FTM_OUTCOME_TEXT];
+            ftm_script_command_text(c, what, sizeof what);
+            snprintf(text, sizeof text, "%s: not sent: no server was there to hear it", what);
+            unanswered(b, text);
+        }
+    }
+    for (char text[FTM_OUTCOME_TEXT]; b->pending.n > 0;) {
+        snprintf(text, sizeof text, "%.95s: no reply from the server before this bot stopped",
+                 b->pending.cmd[0].what);
+        b->pending.cmd[0] = b->pending.cmd[--b->pending.n]; /* order no longer matters */
+        unanswered(b, text);
+    }
     publish_status(b, FTM_WIRE_STATE_LEAVING);
     ftm_wire_flush(b->wire, SEC, NULL);
     ftm_replay_stats rs;
@@ -708,6 +799,8 @@ int main(int argc, char **argv)
         rc_exit = 1;
     if (b->id_told.taken)
         rc_exit = 2;
+    if (rc_exit == 0 && (b->refused || b->unanswered))
+        rc_exit = 4;
     blog("stopping (%s): %s, %" PRIu64 " frames received, %" PRIu64 " applied, %" PRIu64
          " idle ticks, %" PRIu64 " mismatches, %" PRIu64 " gaps, %" PRIu64 " resyncs, %" PRIu64
          " keyframes loaded; latency mean %.0f us max %.0f us; replay %.2f us/tick",
@@ -716,6 +809,10 @@ int main(int argc, char **argv)
          rs.keyframes_loaded, b->lat_n ? b->lat_sum_us / (double)b->lat_n : 0.0, b->lat_max_us,
          rs.frames_applied ? rs.replay_ns_total / (double)(rs.frames_applied + rs.idle_ticks) * 1e-3
                            : 0.0);
+    if (b->role == FTM_WIRE_ROLE_INSTRUCTOR)
+        blog("commands: %" PRIu64 " sent, %" PRIu64 " applied, %" PRIu64 " changed, %" PRIu64
+             " refused, %" PRIu64 " unanswered", b->command_id, b->applied, b->changed, b->refused,
+             b->unanswered);
     if (b->restarts)
         blog("%u server restart%s rejoined", b->restarts, b->restarts > 1 ? "s" : "");
     if (b->sc.nexpects > 0) {

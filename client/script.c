@@ -61,6 +61,25 @@ const char *ftm_script_control(const ftm_script_command *c, const ftm_wire_tissu
     return "unknown";
 }
 
+void ftm_script_command_text(const ftm_script_command *c, char *text, size_t cap)
+{
+    const double *v = c->e.value;
+    switch (c->e.keyword) {
+    case FTM_SCRIPT_KW_DEPTH:
+        snprintf(text, cap, "depth limits %d..%d", (int)v[0], (int)v[1]);
+        return;
+    case FTM_SCRIPT_KW_STIFFNESS: snprintf(text, cap, "stiffness %g N/m", v[0]); return;
+    case FTM_SCRIPT_KW_DAMPING: snprintf(text, cap, "damping %g N s/m", v[0]); return;
+    case FTM_SCRIPT_KW_MASS: snprintf(text, cap, "mass %g kg", v[0]); return;
+    default: {
+        ftm_wire_control ctl;
+        const ftm_wire_tissue none = {0, 0, 0, {0, 0, 0}};
+        snprintf(text, cap, "%s", ftm_script_control(c, &none, &ctl));
+        return;
+    }
+    }
+}
+
 ftm_vec3 ftm_script_at(const ftm_script *sc, double t)
 {
     return ftm_script_points_at(sc->pts, sc->npts, t);

@@ -47,6 +47,10 @@ void ftm_script_free(ftm_script *sc);
 const char *ftm_script_control(const ftm_script_command *c, const ftm_wire_tissue *now,
                                ftm_wire_control *out);
 
+/* A command for logs and the HUD, with its value: "stiffness 80 N/m",
+ * "depth limits 2..6", "pause". */
+void ftm_script_command_text(const ftm_script_command *c, char *text, size_t cap);
+
 /* The HIP at time t (ftm_script_points_at). The script must have at least
  * one point. */
 ftm_vec3 ftm_script_at(const ftm_script *sc, double t);

@@ -37,7 +37,8 @@ typedef struct rstate {
     int32_t last_depth, last_n;
     ftm_contact *last_c;
     int32_t cap;
-    uint64_t frames, idle, keyframes_checked, resets, inputs[7], gone, depth_changes;
+    uint64_t frames, idle, keyframes_checked, resets, inputs[FTM_WIRE_KIND_MAX + 1], gone, depth_changes;
+    uint64_t replies, refused; /* control replies published, of them refused */
     int32_t depth_min_seen, depth_max_seen;
     uint64_t pending_mismatch; /* tick whose frame mismatched; 0: none */
     uint64_t pending_hash;     /* that frame's hash */
@@ -243,6 +244,9 @@ int ftm_server_replay(const char *path, const char *scene_name)
             rc = on_frame(&s, &e, &m.u.tick);
         } else if (e.kind == FTM_WIRE_KEYFRAME) {
             rc = on_keyframe(&s, &e, &m.u.keyframe);
+        } else if (e.kind == FTM_WIRE_CONTROL_REPLY) {
+            s.replies++;
+            s.refused += m.u.control_reply.outcome == FTM_WIRE_OUTCOME_REFUSED;
         } else if (e.kind == FTM_WIRE_STATUS && m.u.status.state == FTM_WIRE_STATE_LEAVING) {
             s.have_final_status = true;
             s.final_status_tick = m.u.status.last_applied_tick;
@@ -272,11 +276,12 @@ int ftm_server_replay(const char *path, const char *scene_name)
     printf("replay %s: scene '%s', %" PRIu64 " tick frames and %" PRIu64
            " idle ticks replayed, every hash equal; %" PRIu64 " keyframes checked, %" PRIu64
            " resets; depth %d..%d (%" PRIu64 " changes); %" PRIu64 " tissue changes; inputs: %" PRIu64
-           " probe, %" PRIu64 " status, %" PRIu64 " control, %" PRIu64 " gone\n",
+           " probe, %" PRIu64 " status, %" PRIu64 " control, %" PRIu64 " gone; %" PRIu64
+           " control replies (%" PRIu64 " refused)\n",
            path, h.scene_id, s.frames, s.idle, s.keyframes_checked, s.resets,
            (int)s.depth_min_seen, (int)s.depth_max_seen, s.depth_changes, s.tissue_changes,
            s.inputs[FTM_WIRE_PROBE_INPUT], s.inputs[FTM_WIRE_STATUS], s.inputs[FTM_WIRE_CONTROL],
-           s.gone);
+           s.gone, s.replies, s.refused);
     printf("ftm-server: final tick %" PRIu64 " hash %016" PRIx64 "\n", tick, hash);
 done:
     ftm_sim_destroy(s.sim);

@@ -657,25 +657,80 @@ static void do_reset(server *s, bool publish_now)
     }
 }
 
+/* Tells the issuer what became of its command (docs/protocol.md,
+ * ControlReply): published, and recorded, like every outgoing message. The
+ * reason is made what the codec accepts: control bytes become spaces, and
+ * it is cut to FTM_WIRE_REASON_MAX - 1 bytes at a UTF-8 character boundary. */
+static void reply(server *s, uint32_t issuer, uint64_t command_id, ftm_wire_outcome outcome,
+                  const char *fmt, ...) __attribute__((format(printf, 5, 6)));
+static void reply(server *s, uint32_t issuer, uint64_t command_id, ftm_wire_outcome outcome,
+                  const char *fmt, ...)
+{
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_CONTROL_REPLY;
+    ftm_wire_control_reply *r = &m.u.control_reply;
+    r->issuer = issuer;
+    r->command_id = command_id;
+    r->outcome = outcome;
+    r->tick = s->tick;
+    char text[FTM_ERROR_MESSAGE_MAX + 64];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    size_t n = strlen(text);
+    if (n >= sizeof r->reason) {
+        n = sizeof r->reason - 1;
+        while (n > 0 && ((unsigned char)text[n] & 0xc0) == 0x80) /* text[n] continues a character */
+            n--;
+    }
+    for (size_t i = 0; i < n; i++) {
+        unsigned char c = (unsigned char)text[i];
+        r->reason[i] = c < 0x20 || c == 0x7f ? ' ' : (char)c;
+    }
+    r->reason[n] = '\0';
+    if (!r->reason[0] && outcome != FTM_WIRE_OUTCOME_APPLIED)
+        snprintf(r->reason, sizeof r->reason, "no reason given");
+    publish(s, &m, NULL);
+}
+
+/* A refused command: logged (rate-limited, as every rejection) and told to
+ * its issuer. */
+static void refuse(server *s, participant *p, const ftm_wire_received *rx, const char *what,
+                   const char *why)
+{
+    reject(s, p, rx->sender, what, why);
+    reply(s, rx->sender, rx->msg.u.control.command_id, FTM_WIRE_OUTCOME_REFUSED, "%s", why);
+}
+
 /* Between ticks: the simulation switches material now, so the next tick is
  * stepped with it, and that tick's frame carries the parameters for the
  * replicas to switch at the same tick (docs/protocol.md, "Tissue parameters").
  * If the current tick's frame was not sent (idle), it goes first: replicas
  * must reach this tick under the old material. */
-static void set_tissue(server *s, participant *p, uint32_t sender, const ftm_wire_tissue *t)
+static void set_tissue(server *s, participant *p, const ftm_wire_received *rx)
 {
+    const uint32_t sender = rx->sender;
+    const ftm_wire_tissue *t = &rx->msg.u.control.tissue;
+    const uint64_t id = rx->msg.u.control.command_id;
     ftm_wire_tissue before = ftm_replay_tissue_now(&s->mat);
     if (before.node_mass == t->node_mass && before.node_damping == t->node_damping &&
         before.stiffness == t->stiffness && before.axis_scale.x == t->axis_scale.x &&
-        before.axis_scale.y == t->axis_scale.y && before.axis_scale.z == t->axis_scale.z)
-        return; /* already in force */
+        before.axis_scale.y == t->axis_scale.y && before.axis_scale.z == t->axis_scale.z) {
+        reply(s, sender, id, FTM_WIRE_OUTCOME_APPLIED, "already in force");
+        return;
+    }
     /* harmless if the change is then refused: a heartbeat */
     if (!s->published_any || s->pub_tick != s->tick)
         publish_frame(s, 0, 0, true); /* an unsent tick was idle: no contacts */
     uint64_t t0 = mono_ns();
     ftm_error err = {0, ""};
     if (ftm_replay_set_tissue(&s->mat, s->sim, t, &err)) {
-        reject(s, p, sender, "tissue parameters", err.message);
+        /* "sim set mesh: the material's critical time step ... is too short ..." */
+        const char *why = strncmp(err.message, "sim set mesh: ", 14) == 0 ? err.message + 14
+                                                                          : err.message;
+        refuse(s, p, rx, "tissue parameters", why);
         return;
     }
     double ms = (double)(mono_ns() - t0) * 1e-6;
@@ -687,6 +742,7 @@ static void set_tissue(server *s, participant *p, uint32_t sender, const ftm_wir
     s->tissue_frame = true;
     s->tissue_changes++;
     publish_announce(s);
+    reply(s, sender, id, FTM_WIRE_OUTCOME_APPLIED, "%s", "");
 }
 
 static void on_control(server *s, ftm_wire_received *rx)
@@ -694,15 +750,18 @@ static void on_control(server *s, ftm_wire_received *rx)
     participant *p = find_part(s, rx->sender, false);
     const ftm_wire_control *c = &rx->msg.u.control;
     if (!p || p->role == 0)
-        { reject(s, NULL, rx->sender, "session control", "unknown participant (no status yet)"); return; }
+        { refuse(s, NULL, rx, "session control", "unknown participant (no status yet)"); return; }
     if (p->role != FTM_WIRE_ROLE_INSTRUCTOR)
-        { reject(s, p, rx->sender, "session control", "only the instructor controls the session"); return; }
+        { refuse(s, p, rx, "session control", "only the instructor controls the session"); return; }
     switch (c->command) {
     case FTM_WIRE_CMD_PAUSE:
         if (!s->paused) {
             s->paused = true;
             slog(s, "info", "paused at tick %" PRIu64 " by instructor %u", s->tick, rx->sender);
             publish_announce(s);
+            reply(s, rx->sender, c->command_id, FTM_WIRE_OUTCOME_APPLIED, "%s", "");
+        } else {
+            reply(s, rx->sender, c->command_id, FTM_WIRE_OUTCOME_APPLIED, "already paused");
         }
         break;
     case FTM_WIRE_CMD_RESUME:
@@ -712,6 +771,9 @@ static void on_control(server *s, ftm_wire_received *rx)
             s->base_tick = s->tick;
             slog(s, "info", "resumed at tick %" PRIu64 " by instructor %u", s->tick, rx->sender);
             publish_announce(s);
+            reply(s, rx->sender, c->command_id, FTM_WIRE_OUTCOME_APPLIED, "%s", "");
+        } else {
+            reply(s, rx->sender, c->command_id, FTM_WIRE_OUTCOME_APPLIED, "was not paused");
         }
         break;
     case FTM_WIRE_CMD_DEPTH_LIMITS: {
@@ -720,7 +782,7 @@ static void on_control(server *s, ftm_wire_received *rx)
         ftm_error err = {0, ""};
         if (ftm_depth_ctl_set_limits(&s->ctl, c->depth_min, c->depth_max, (int64_t)mono_ns(),
                                      &changed, why, sizeof why, &err)) {
-            reject(s, p, rx->sender, "depth limits", err.message);
+            refuse(s, p, rx, "depth limits", err.message);
             break;
         }
         slog(s, "info", "depth limits [%d, %d] from instructor %u at tick %" PRIu64,
@@ -730,17 +792,19 @@ static void on_control(server *s, ftm_wire_received *rx)
             s->depth = s->ctl.depth;
         }
         publish_announce(s);
+        reply(s, rx->sender, c->command_id, FTM_WIRE_OUTCOME_APPLIED, "depth now %d", (int)s->depth);
         break;
     }
     case FTM_WIRE_CMD_RESET:
         slog(s, "info", "reset at tick %" PRIu64 " by instructor %u", s->tick, rx->sender);
         do_reset(s, true);
+        reply(s, rx->sender, c->command_id, FTM_WIRE_OUTCOME_APPLIED, "%s", "");
         break;
     case FTM_WIRE_CMD_TISSUE:
-        set_tissue(s, p, rx->sender, &c->tissue);
+        set_tissue(s, p, rx);
         break;
     default:
-        reject(s, p, rx->sender, "session control", "unknown command");
+        refuse(s, p, rx, "session control", "unknown command");
     }
 }
 
@@ -2222,7 +2286,8 @@ int ftm_server_main(int argc, char **argv)
     wd.session = s->o.session;
     wd.participant_id = s->o.id;
     wd.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE) | FTM_WIRE_KIND_BIT(FTM_WIRE_TICK) |
-                 FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME) | FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS);
+                 FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME) | FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) |
+                 FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL_REPLY);
     wd.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT) |
                    FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL);
     wd.limits.node_count = ftm_mesh_node_count(s->mesh);

@@ -14,6 +14,13 @@
 #   metrics:  --metrics-port on --metrics-addr 127.0.0.2: /metrics has the metric
 #             names, the tick and frame counters rise between two scrapes, 404
 #             elsewhere, nothing on 127.0.0.1.
+#   control:  an instructor bot's applied and refused commands: the server's
+#             replies (ControlReply) reach it, it logs each outcome, counts
+#             the refusal in its summary and exits with status 4; the
+#             recording (replies included) replays.
+#   lesson:   an instructor bot's command sent just after its server was
+#             killed is reported unanswered; one due while no server is there
+#             waits and goes to the restarted server, which applies it.
 #   restart:  an observer with --rejoin outlives its server; new server
 #             processes on the same session (service restarts) are noticed
 #             by their announcements and rejoined: one on the same scene,
@@ -466,6 +473,67 @@ restart)
     grep -q "2 server restarts rejoined" "$dir/bot13.err" || fail "the restarts were not counted"
     echo "PASS restart: server A $a_final; observer rejoined server B ($b_final) and server C" \
         "with another scene, ending on its $want"
+    ;;
+control)
+    start_server --duration 4 --record "$dir/control.rec"
+    timeout 60 "$FTM_BOT" --role instructor --script "$here/control-instructor.bot" $common \
+        --id 12 --duration 30 >"$dir/bot12.out" 2>"$dir/bot12.err"
+    rc=$?
+    wait $server || fail "server exited with $?"
+    [ $rc -eq 4 ] || fail "instructor bot exited with $rc, want 4 (a command refused)"
+    check_hashes 12
+    grep -q "command stiffness 80 N/m: applied at tick [0-9]" "$dir/bot12.err" ||
+        fail "the applied stiffness was not reported"
+    grep -q "command stiffness 1e+09 N/m: refused: the material's critical time step .* is too short" \
+        "$dir/bot12.err" || fail "the refused stiffness was not reported with its reason"
+    grep -q "command depth limits 2..6: applied at tick [0-9]*: depth now 6" "$dir/bot12.err" ||
+        fail "the depth limits were not reported"
+    grep -q "commands: 3 sent, 2 applied, 0 changed, 1 refused, 0 unanswered" "$dir/bot12.err" ||
+        fail "the summary does not count the refusal"
+    grep -q "tissue parameters from participant 12 rejected" "$dir/server.log" ||
+        fail "the server did not log the refusal"
+    timeout 60 "$FTM_SERVER" --replay "$dir/control.rec" >"$dir/replay.out" 2>"$dir/replay.err" ||
+        fail "replay of the session failed: $(tail -3 "$dir/replay.err")"
+    grep -q "every hash equal; .* 3 control replies (1 refused)" "$dir/replay.out" ||
+        fail "the recording lacks the 3 replies"
+    echo "PASS control: $(grep -c '] command ' "$dir/bot12.err") outcomes reported, exit status 4"
+    ;;
+lesson)
+    start_server --duration 30
+    timeout 60 "$FTM_BOT" --role instructor --script "$here/lesson-restart.bot" $common --id 12 \
+        --rejoin 10 --duration 11 >"$dir/bot12.out" 2>"$dir/bot12.err" &
+    b12=$!
+    wait_for "$dir/bot12.err" "command stiffness 60 N/m: applied" "the first server did not answer"
+    sleep 1
+    # the server itself, not the `timeout` that runs it: no LEAVING, no
+    # orderly goodbye, as in a crash or a power cut
+    child=$(pgrep -P $server)
+    [ -n "$child" ] || fail "no server process under timeout $server"
+    kill -KILL $child
+    wait $server 2>/dev/null
+    mv "$dir/server.log" "$dir/serverA.log"
+    wait_for "$dir/bot12.err" "server 1 gone" "the bot did not notice the server gone"
+    sleep 1
+    start_server --duration 10
+    wait $b12
+    rc=$?
+    kill $server 2>/dev/null; wait $server 2>/dev/null
+    [ $rc -eq 4 ] || fail "instructor bot exited with $rc, want 4 (a command unanswered)"
+    grep -q "command stiffness 70 N/m: no reply from the server in 3 s" "$dir/bot12.err" ||
+        fail "the command lost with the server was not reported unanswered"
+    restarted=$(grep -n "server 1 restarted" "$dir/bot12.err" | head -1 | cut -d: -f1)
+    sent=$(grep -n "sent depth limits 2..6" "$dir/bot12.err" | head -1 | cut -d: -f1)
+    [ -n "$restarted" ] && [ -n "$sent" ] && [ "$sent" -gt "$restarted" ] ||
+        fail "the command due while no server was there was not held for the new one"
+    grep -q "command depth limits 2..6: applied" "$dir/bot12.err" ||
+        fail "the new server did not answer the held command"
+    grep -q "command stiffness 80 N/m: applied" "$dir/bot12.err" ||
+        fail "the new server did not answer the last command"
+    grep -q "commands: 4 sent, 3 applied, 0 changed, 0 refused, 1 unanswered" "$dir/bot12.err" ||
+        fail "the summary does not count the unanswered command"
+    grep -q "depth limits \[2, 6\] from instructor 12" "$dir/server.log" ||
+        fail "the new server did not apply the held depth limits"
+    echo "PASS lesson: lost command reported unanswered, held command applied by the new server"
     ;;
 *)
     echo "unknown mode $mode"; exit 2 ;;
