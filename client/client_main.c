@@ -78,6 +78,12 @@ typedef struct app {
     double mx, my;
     int drag; /* 0 none, 1 orbit, 2 pan, 3 probe */
     char last_cmd[96];
+    /* the HUD's command line: the latest outcome (the server's reply, or
+     * this client's own "not sent: ..."), shown until notice_until */
+    char notice[FTM_OUTCOME_TEXT];
+    bool notice_bad;
+    int64_t notice_until;
+    uint64_t outcome_seen; /* view.outcome_seq taken into notice */
     ftm_script cmds; /* --commands */
     bool have_cmds;
 } app;
@@ -159,11 +165,29 @@ static int take_hips(void *user, ftm_wire_probe_sample *out, int max)
 
 /* ---- input ------------------------------------------------------------------------------- */
 
-static void send_control(app *a, ftm_wire_control *c, const char *what)
+#define NOTICE_NS (5 * SEC) /* how long a command's outcome stays on the HUD */
+
+/* A command's outcome on the HUD for a few seconds, and in the log. */
+static void notice(app *a, bool bad, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void notice(app *a, bool bad, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(a->notice, sizeof a->notice, fmt, ap);
+    va_end(ap);
+    a->notice_bad = bad;
+    a->notice_until = mono_ns() + NOTICE_NS;
+    alog(a, bad ? FTM_LOG_WARN : FTM_LOG_INFO, "%s", a->notice);
+}
+
+/* what: the key or script command ("stiffer", "stiffness"); label: the
+ * command with its value as the HUD names it ("stiffness 80 N/m"), under
+ * which the session thread reports the server's reply */
+static void send_control(app *a, ftm_wire_control *c, const char *what, const char *label)
 {
     ftm_error err = {0, ""};
-    if (ftm_client_session_control(a->sess, c, &err)) {
-        alog(a, FTM_LOG_WARN, "%s: %s", what, err.message);
+    if (ftm_client_session_control(a->sess, c, label, &err)) {
+        notice(a, true, "%s: not sent: %s", label, err.message);
         snprintf(a->last_cmd, sizeof a->last_cmd, "%s FAILED", what);
         return;
     }
@@ -178,10 +202,22 @@ static void send_control(app *a, ftm_wire_control *c, const char *what)
     alog(a, FTM_LOG_INFO, "sent %s", a->last_cmd);
 }
 
+#define DEPTH_CEILING_MAX 1000000 /* the protocol's largest depth (ftm_sim_set_depth's) */
+
+/* A key's command. One that cannot do anything (a limit reached, no server
+ * to hear it) is not sent, and the HUD says why at once. */
 static void send_command(app *a, ftm_wire_command cmd, const char *what)
 {
     if (a->role != FTM_WIRE_ROLE_INSTRUCTOR) {
         alog(a, FTM_LOG_INFO, "%s: only an instructor sends session commands", what);
+        return;
+    }
+    if (!a->view.announced) {
+        notice(a, true, "%s: not sent: no session joined yet", what);
+        return;
+    }
+    if (a->view.server_away) {
+        notice(a, true, "%s: not sent: the server is away (%s)", what, a->view.banner);
         return;
     }
     ftm_wire_control c;
@@ -190,23 +226,43 @@ static void send_command(app *a, ftm_wire_command cmd, const char *what)
     c.tissue = a->view.tissue;
     c.depth_min = a->view.depth_min;
     c.depth_max = a->view.depth_max;
-    if (cmd == FTM_WIRE_CMD_TISSUE && strcmp(what, "stiffer") == 0)
-        c.tissue.stiffness *= 1.25;
-    if (cmd == FTM_WIRE_CMD_TISSUE && strcmp(what, "softer") == 0)
-        c.tissue.stiffness /= 1.25;
-    if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS && strcmp(what, "depth max +1") == 0)
+    char name[FTM_PENDING_WHAT];
+    snprintf(name, sizeof name, "%s", what);
+    if (cmd == FTM_WIRE_CMD_TISSUE) {
+        if (strcmp(what, "stiffer") == 0)
+            c.tissue.stiffness *= 1.25;
+        else
+            c.tissue.stiffness /= 1.25;
+        snprintf(name, sizeof name, "stiffness %.4g N/m", c.tissue.stiffness);
+    }
+    if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS && strcmp(what, "depth max +1") == 0) {
+        if (c.depth_max >= DEPTH_CEILING_MAX) {
+            notice(a, true, "depth max +1: not sent: the ceiling is at the largest depth (%d)",
+                   (int)c.depth_max);
+            return;
+        }
         c.depth_max++;
-    if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS && strcmp(what, "depth max -1") == 0 &&
-        c.depth_max > c.depth_min)
+    }
+    if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS && strcmp(what, "depth max -1") == 0) {
+        if (c.depth_max <= c.depth_min) {
+            notice(a, true, "depth max -1: not sent: the ceiling is at the floor (%d)",
+                   (int)c.depth_min);
+            return;
+        }
         c.depth_max--;
-    send_control(a, &c, what);
+    }
+    if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS)
+        snprintf(name, sizeof name, "depth max %d", (int)c.depth_max);
+    send_control(a, &c, what, name);
 }
 
 /* --commands: the script's commands that are due, once synced (times from
- * the client's start, as ftm-bot plays them) */
+ * the client's start, as ftm-bot plays them). Not while the server is
+ * away: they wait until this client is synced with a server again. */
 static void scripted_commands(app *a)
 {
-    if (!a->have_cmds || !a->view.synced_once)
+    if (!a->have_cmds || !a->view.synced_once || a->view.state != FTM_WIRE_STATE_SYNCED ||
+        a->view.server_away)
         return;
     double t = (double)(mono_ns() - a->t0) * 1e-9;
     for (int32_t i = 0; i < a->cmds.ncmds; i++) {
@@ -216,7 +272,9 @@ static void scripted_commands(app *a)
         sc->done = true;
         ftm_wire_control c;
         const char *what = ftm_script_control(sc, &a->view.tissue, &c);
-        send_control(a, &c, what);
+        char label[FTM_PENDING_WHAT];
+        ftm_script_command_text(sc, label, sizeof label);
+        send_control(a, &c, what, label);
     }
 }
 
@@ -706,6 +764,12 @@ static int run(app *a)
             frame_ms = 1e3 / fps;
         }
         bool changed = ftm_client_session_snapshot(a->sess, &a->view);
+        if (a->view.outcome_seq != a->outcome_seen) { /* the session thread logged it */
+            a->outcome_seen = a->view.outcome_seq;
+            snprintf(a->notice, sizeof a->notice, "%s", a->view.outcome);
+            a->notice_bad = a->view.outcome_bad;
+            a->notice_until = now + NOTICE_NS;
+        }
         scripted_commands(a);
         if (a->view.mesh != a->drawn_mesh)
             new_mesh(a);
@@ -769,6 +833,10 @@ static int run(app *a)
         info.colormap_full =
             a->ropts.colormap_full > 0 ? a->ropts.colormap_full : 0.5 * ftm_render_link_length(a->ren);
         info.last_command = a->last_cmd[0] ? a->last_cmd : NULL;
+        if (a->notice[0] && now < a->notice_until) {
+            info.command_outcome = a->notice;
+            info.outcome_bad = a->notice_bad;
+        }
         int nhud = ftm_hud_lines(&draw, &info, lines);
         for (int i = 0; i < nhud; i++)
             hud[i] = lines[i];

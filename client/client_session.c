@@ -79,6 +79,7 @@ struct ftm_client_session {
     /* shared with the render thread: under lock */
     pthread_mutex_t lock;
     ftm_client_view shared;
+    ftm_pending pending; /* commands sent (any thread), waiting for their reply */
 };
 
 static int64_t mono_ns(void)
@@ -477,6 +478,45 @@ static void send_probe(ftm_client_session *s)
 
 /* ---- watchdog: silent server, malformed frames ----------------------------------------- */
 
+/* Under s->lock: a command's outcome for the view and the log. */
+static void outcome_locked(ftm_client_session *s, const char *text, bool bad)
+{
+    ftm_client_view *v = &s->shared;
+    snprintf(v->outcome, sizeof v->outcome, "%s", text);
+    v->outcome_bad = bad;
+    v->outcome_seq++;
+    v->version++;
+}
+
+static void on_reply(ftm_client_session *s, const ftm_wire_control_reply *r)
+{
+    if (r->issuer != s->cfg.id || s->id_told.taken)
+        return; /* another instructor's (or the process holding our id) */
+    char text[FTM_OUTCOME_TEXT];
+    pthread_mutex_lock(&s->lock);
+    bool known = ftm_pending_reply(&s->pending, r, text, sizeof text);
+    bool bad = r->outcome == FTM_WIRE_OUTCOME_REFUSED;
+    outcome_locked(s, text, bad);
+    pthread_mutex_unlock(&s->lock);
+    slog(s, bad ? FTM_LOG_WARN : FTM_LOG_INFO, "command %s%s", text,
+         known ? "" : " (no such command waiting)");
+}
+
+static void expire_commands(ftm_client_session *s, int64_t now)
+{
+    char text[FTM_OUTCOME_TEXT];
+    for (;;) {
+        pthread_mutex_lock(&s->lock);
+        bool late = ftm_pending_expired(&s->pending, now, FTM_REPLY_TIMEOUT_NS, text, sizeof text);
+        if (late)
+            outcome_locked(s, text, true);
+        pthread_mutex_unlock(&s->lock);
+        if (!late)
+            return;
+        slog(s, FTM_LOG_WARN, "command %s", text);
+    }
+}
+
 static void watchdog(ftm_client_session *s, int64_t now)
 {
     ftm_wire_stats ws;
@@ -535,6 +575,11 @@ static void watchdog(ftm_client_session *s, int64_t now)
         error = false;
     }
     pthread_mutex_lock(&s->lock);
+    bool away = s->server_left || s->silent_reported;
+    if (away != s->shared.server_away) {
+        s->shared.server_away = away;
+        s->shared.version++;
+    }
     if (strcmp(banner, s->shared.banner) != 0 || error != s->shared.banner_error) {
         snprintf(s->shared.banner, sizeof s->shared.banner, "%s", banner);
         s->shared.banner_error = error;
@@ -720,6 +765,16 @@ static void *session_main(void *arg)
             on_probe_input(s, &rx);
             ftm_wire_received_free(&rx);
         }
+        if (s->cfg.role == FTM_WIRE_ROLE_INSTRUCTOR) {
+            for (int i = 0;
+                 i < 64 && ftm_wire_receive(s->wire, FTM_WIRE_CONTROL_REPLY, &rx, 0, NULL) == FTM_OK;
+                 i++) {
+                if (from_server(s, &rx))
+                    on_reply(s, &rx.msg.u.control_reply);
+                ftm_wire_received_free(&rx);
+            }
+            expire_commands(s, mono_ns());
+        }
         if (!hold_reached(s) &&
             ftm_wire_receive(s->wire, FTM_WIRE_KEYFRAME, &rx, 0, NULL) == FTM_OK) {
             if (from_server(s, &rx))
@@ -819,12 +874,14 @@ int ftm_client_session_start(const ftm_client_config *cfg, ftm_client_session **
     wd.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS);
     if (s->cfg.role == FTM_WIRE_ROLE_TRAINEE)
         wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT);
-    if (s->cfg.role == FTM_WIRE_ROLE_INSTRUCTOR)
-        wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL);
     /* probe input of the others, to draw their HIPs */
     wd.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE) | FTM_WIRE_KIND_BIT(FTM_WIRE_TICK) |
                    FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME) | FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) |
                    FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT);
+    if (s->cfg.role == FTM_WIRE_ROLE_INSTRUCTOR) {
+        wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL);
+        wd.subscribe |= FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL_REPLY);
+    }
     wd.log = s->cfg.log;
     wd.log_user = s->cfg.log_user;
     int rc = ftm_wire_transport_create(&wd, &s->wire, err);
@@ -909,7 +966,8 @@ void ftm_client_session_want_region(ftm_client_session *s, bool on)
     atomic_store(&s->want_region, on);
 }
 
-int ftm_client_session_control(ftm_client_session *s, ftm_wire_control *c, ftm_error *err)
+int ftm_client_session_control(ftm_client_session *s, ftm_wire_control *c, const char *what,
+                               ftm_error *err)
 {
     c->issuer = s->cfg.id;
     c->command_id = (uint64_t)atomic_fetch_add(&s->command_id, 1) + 1;
@@ -917,5 +975,21 @@ int ftm_client_session_control(ftm_client_session *s, ftm_wire_control *c, ftm_e
     memset(&m, 0, sizeof m);
     m.kind = FTM_WIRE_CONTROL;
     m.u.control = *c;
-    return ftm_wire_publish(s->wire, &m, err);
+    /* waiting before it is out: the reply may come before this returns */
+    char text[FTM_OUTCOME_TEXT];
+    pthread_mutex_lock(&s->lock);
+    bool gave_up = ftm_pending_add(&s->pending, c->command_id, what ? what : "command", mono_ns(),
+                                   text, sizeof text);
+    if (gave_up)
+        outcome_locked(s, text, true);
+    pthread_mutex_unlock(&s->lock);
+    if (gave_up)
+        slog(s, FTM_LOG_WARN, "command %s", text);
+    int rc = ftm_wire_publish(s->wire, &m, err);
+    if (rc) { /* not sent: nothing to wait for */
+        pthread_mutex_lock(&s->lock);
+        ftm_pending_forget(&s->pending, c->command_id);
+        pthread_mutex_unlock(&s->lock);
+    }
+    return rc;
 }

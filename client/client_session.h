@@ -10,6 +10,7 @@
 
 #include "ftm/scene.h"
 #include "ftm/wire.h"
+#include "replay.h" /* ftm_pending: commands waiting for their reply */
 
 #define FTM_CLIENT_MAX_PROBES 64
 #define FTM_CLIENT_MAX_PARTS 32
@@ -109,6 +110,13 @@ typedef struct ftm_client_view {
     double own_peak_force;
     char banner[256];     /* empty: all well */
     bool banner_error;
+    /* the server left or went silent: commands would not be heard */
+    bool server_away;
+    /* instructor: what became of the latest command (the server's reply, or
+     * none within FTM_REPLY_TIMEOUT_NS); outcome_seq counts them (0: none yet) */
+    char outcome[FTM_OUTCOME_TEXT];
+    bool outcome_bad; /* refused or unanswered */
+    uint64_t outcome_seq;
 
     uint64_t frames, mismatches, resyncs, rejected;
 } ftm_client_view;
@@ -130,7 +138,10 @@ void ftm_client_view_free(ftm_client_view *v);
 void ftm_client_session_want_region(ftm_client_session *s, bool on);
 
 /* Instructor: publishes a session command (issuer and command_id are
- * filled in). Any thread. */
-int ftm_client_session_control(ftm_client_session *s, ftm_wire_control *c, ftm_error *err);
+ * filled in) and waits for the server's reply to it, which the session
+ * thread logs and puts in the view (outcome) under the name `what` ("stiffness
+ * 80 N/m"). Any thread. */
+int ftm_client_session_control(ftm_client_session *s, ftm_wire_control *c, const char *what,
+                               ftm_error *err);
 
 #endif

@@ -6,6 +6,7 @@
 #include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 static double norm(ftm_vec3 f) { return sqrt(f.x * f.x + f.y * f.y + f.z * f.z); }
 
@@ -50,7 +51,7 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
              v->tissue.node_damping, v->tissue.node_mass);
         LINE("participants:");
         int32_t i = 0;
-        for (; i < v->nparts && n < FTM_HUD_LINES - 5; i++) {
+        for (; i < v->nparts && n < FTM_HUD_LINES - 7; i++) {
             const ftm_client_part *p = &v->parts[i];
             if (p->contact_ticks > 0) /* a trainee that has touched: the figures to debrief */
                 LINE("  %u %s %s tick %" PRIu64 " %s  %.1f s in contact, peak %.2f N", p->id,
@@ -68,6 +69,20 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         LINE("keys: space pause/resume  backspace reset  +/- depth max  k/j stiffness");
         if (in->last_command)
             LINE("sent: %s", in->last_command);
+        if (in->command_outcome) {
+            /* two lines at most, broken at a space: a refusal's reason is long */
+            const char *t = in->command_outcome, *mark = in->outcome_bad ? "!! " : "";
+            int room = FTM_HUD_WIDTH - 1 - (int)strlen(mark), len = (int)strlen(t);
+            int cut = len;
+            if (len > room) {
+                cut = room;
+                while (cut > room / 2 && t[cut] != ' ')
+                    cut--;
+            }
+            LINE("%s%.*s", mark, cut, t);
+            if (cut < len)
+                LINE("%s%s", mark[0] ? "   " : "", t + cut + (t[cut] == ' '));
+        }
     }
     LINE("map %s (full %.1f mm)  region %s   c/b/h [ ] home", in->colormap ? "on" : "off",
          in->colormap_full * 1e3, in->region ? "on" : "off");

@@ -19,6 +19,10 @@ typedef struct ftm_hud_info {
     bool colormap, region;
     double colormap_full; /* [m] */
     const char *last_command; /* instructor: what was sent last; may be NULL */
+    /* instructor: what became of a command, shown for a few seconds ("stiffness
+     * 80 N/m: applied at tick 1234"); NULL: nothing to show */
+    const char *command_outcome;
+    bool outcome_bad; /* refused, unanswered or not sent */
 } ftm_hud_info;
 
 /* Fills lines[i] (each FTM_HUD_WIDTH bytes) and returns how many. */

@@ -145,6 +145,81 @@ static void test_cut_list_says_so(void **state)
     assert_true(find(n, "keys:") > more); /* the keys are still shown */
 }
 
+/* What became of a command: the server's reply, under the name the
+ * client gave the command, on one or two lines; the full list still fits. */
+static void test_command_outcome(void **state)
+{
+    (void)state;
+    ftm_pending p;
+    memset(&p, 0, sizeof p);
+    char text[FTM_OUTCOME_TEXT];
+    assert_false(ftm_pending_add(&p, 1, "stiffness 80 N/m", 1000, text, sizeof text));
+    assert_false(ftm_pending_add(&p, 2, "stiffness 5000 N/m", 2000, text, sizeof text));
+    assert_false(ftm_pending_add(&p, 3, "pause", 3000, text, sizeof text));
+    ftm_wire_control_reply r = {21, 1, FTM_WIRE_OUTCOME_APPLIED, 1234, ""};
+    assert_true(ftm_pending_reply(&p, &r, text, sizeof text));
+    assert_string_equal(text, "stiffness 80 N/m: applied at tick 1234");
+    r = (ftm_wire_control_reply){21, 2, FTM_WIRE_OUTCOME_REFUSED, 1300,
+                                 "the material's critical time step 1.4e-05 s is too short for "
+                                 "time step 0.001 s with at most 64 substeps"};
+    assert_true(ftm_pending_reply(&p, &r, text, sizeof text));
+    assert_string_equal(text, "stiffness 5000 N/m: refused: the material's critical time step "
+                              "1.4e-05 s is too short for time step 0.001 s with at most 64 substeps");
+    /* a second reply to it (a duplicate): named by its id */
+    assert_false(ftm_pending_reply(&p, &r, text, sizeof text));
+    assert_non_null(strstr(text, "command 2: refused: "));
+    r = (ftm_wire_control_reply){21, 9, FTM_WIRE_OUTCOME_CHANGED, 5, "ceiling lowered to 40"};
+    assert_false(ftm_pending_reply(&p, &r, text, sizeof text));
+    assert_string_equal(text, "command 9: changed at tick 5: ceiling lowered to 40");
+    assert_int_equal(p.n, 1);
+
+    /* no reply within the timeout: unanswered, once */
+    assert_false(ftm_pending_expired(&p, 3000 + FTM_REPLY_TIMEOUT_NS, FTM_REPLY_TIMEOUT_NS, text,
+                                     sizeof text));
+    assert_true(ftm_pending_expired(&p, 3001 + FTM_REPLY_TIMEOUT_NS, FTM_REPLY_TIMEOUT_NS, text,
+                                    sizeof text));
+    assert_non_null(strstr(text, "pause: no reply from the server in 3 s"));
+    assert_int_equal(p.n, 0);
+    assert_false(ftm_pending_expired(&p, INT64_MAX / 2, FTM_REPLY_TIMEOUT_NS, text, sizeof text));
+    /* a full table gives up the oldest, saying so */
+    for (int i = 0; i < FTM_PENDING_MAX; i++)
+        assert_false(ftm_pending_add(&p, 100 + (uint64_t)i, "reset", i, text, sizeof text));
+    assert_true(ftm_pending_add(&p, 999, "resume", 5 * FTM_REPLY_TIMEOUT_NS, text, sizeof text));
+    assert_non_null(strstr(text, "reset: no reply"));
+    assert_int_equal(p.n, FTM_PENDING_MAX);
+    assert_int_equal(p.cmd[0].id, 101);
+    ftm_pending_forget(&p, 999);
+    assert_int_equal(p.n, FTM_PENDING_MAX - 1);
+
+    /* on the HUD: a short one on one line, a long refusal on two, marked */
+    ftm_client_view v = sample_view();
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_INSTRUCTOR, .id = 21};
+    int n = ftm_hud_lines(&v, &in, lines);
+    assert_int_equal(find(n, "applied"), -1);
+    in.command_outcome = "stiffness 80 N/m: applied at tick 1234";
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "stiffness 80 N/m: applied at tick 1234") > find(n, "keys:"));
+    assert_int_equal(find(n, "!!"), -1);
+    in.command_outcome = text;
+    in.outcome_bad = true;
+    snprintf(text, sizeof text, "stiffness 5000 N/m: refused: the material's critical time step "
+                                "1.4e-05 s is too short for time step 0.001 s with at most 64 substeps");
+    n = ftm_hud_lines(&v, &in, lines);
+    int l = find(n, "!! stiffness 5000 N/m: refused: the material's");
+    assert_true(l > 0);
+    assert_non_null(strstr(lines[l + 1], "64 substeps"));
+    /* with the participant table full, the keys and the outcome still fit */
+    for (uint32_t id = 100; v.nparts < FTM_CLIENT_MAX_PARTS; id++)
+        assert_non_null(ftm_parts_find(v.parts, &v.nparts, id, true));
+    v.nprobes = 16;
+    for (int i = 0; i < v.nprobes; i++)
+        v.probes[i] = (ftm_client_probe){.participant = 100 + (uint32_t)i, .in_contact = true};
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_true(n <= FTM_HUD_LINES);
+    assert_true(find(n, "64 substeps") > find(n, "keys:"));
+    assert_true(find(n, "map ") == n - 1);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -153,6 +228,7 @@ int main(void)
         cmocka_unit_test(test_trainee_sees_own_figures),
         cmocka_unit_test(test_departed_trainee_kept),
         cmocka_unit_test(test_restart_forgets_departed),
+        cmocka_unit_test(test_command_outcome),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

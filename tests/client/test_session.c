@@ -189,6 +189,7 @@ int main(int argc, char **argv)
     int others_seen = 0, bad_own = 0, paused_views = 0, silent_banners = 0, paused_banners = 0;
     double paused_since = -1, resumed_at = -1, taken_at = -1;
     bool sent_pause = false, sent_resume = false, banner_after_resume = false;
+    bool pause_answered = false, resume_answered = false; /* the server's replies in the view */
     for (double t = 0; t < secs; t = ftm_haptic_clock() - a.t0) {
         sleep_s(0.02);
         ftm_client_session_snapshot(s, &v);
@@ -216,7 +217,7 @@ int main(int argc, char **argv)
             memset(&c, 0, sizeof c);
             if (!sent_pause && v.synced_once && v.caught_up) {
                 c.command = FTM_WIRE_CMD_PAUSE;
-                CHECK(ftm_client_session_control(s, &c, &err) == 0, "pause: %s", err.message);
+                CHECK(ftm_client_session_control(s, &c, c.command == FTM_WIRE_CMD_PAUSE ? "pause" : "resume", &err) == 0, "pause: %s", err.message);
                 sent_pause = true;
             }
             if (v.paused) {
@@ -229,11 +230,13 @@ int main(int argc, char **argv)
             /* held for 3 server timeouts, then resumed */
             if (!sent_resume && paused_since >= 0 && t - paused_since > 3 * cc.server_timeout) {
                 c.command = FTM_WIRE_CMD_RESUME;
-                CHECK(ftm_client_session_control(s, &c, &err) == 0, "resume: %s", err.message);
+                CHECK(ftm_client_session_control(s, &c, c.command == FTM_WIRE_CMD_PAUSE ? "pause" : "resume", &err) == 0, "resume: %s", err.message);
                 sent_resume = true;
             }
             if (sent_resume && !v.paused && resumed_at < 0)
                 resumed_at = t;
+            pause_answered |= strstr(v.outcome, "pause: applied at tick ") == v.outcome;
+            resume_answered |= strstr(v.outcome, "resume: applied at tick ") == v.outcome;
             if (resumed_at >= 0 && t - resumed_at > 1.0 && v.banner[0])
                 banner_after_resume = true;
         }
@@ -265,6 +268,9 @@ int main(int argc, char **argv)
         CHECK(atomic_load(&a.lost_logged) == 0, "the client says it went silent while catching up");
     } else {
         CHECK(sent_pause && sent_resume && resumed_at >= 0, "pause/resume not seen");
+        CHECK(pause_answered && resume_answered && !v.outcome_bad,
+              "the server's replies to pause and resume were not in the view (last: '%s')",
+              v.outcome);
         CHECK(paused_views > 0 && paused_banners > 0, "no PAUSED banner while paused");
         CHECK(silent_banners == 0, "%d views said SERVER SILENT during the pause", silent_banners);
         CHECK(atomic_load(&a.silent_logged) == 0, "\"no tick frames\" logged for a pause");

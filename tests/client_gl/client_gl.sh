@@ -94,6 +94,11 @@ instructor)
         fail "the server did not apply the instructor's depth limits"
     grep -q "sent stiffness (k = 100 N/m" "$dir/instr.log" || fail "the client did not send it"
     grep -q "tissue now k 100 N/m" "$dir/instr.log" || fail "the client's replica did not switch"
+    # the server's replies, as the HUD shows them for a few seconds
+    grep -q "command stiffness 100 N/m: applied at tick [0-9]" "$dir/instr.log" ||
+        fail "the client did not report the server's reply to the stiffness"
+    grep -q "command depth limits 2..6: applied at tick [0-9]*: depth now" "$dir/instr.log" ||
+        fail "the client did not report the server's reply to the depth limits"
     line=$(grep "participant 11 probe 0, from the frames received" "$dir/instr.log") ||
         fail "no debriefing line for trainee 11 in the instructor's log"
     debrief=$(timeout 30 python3 - "$dir/bot11.csv" "$line" <<'EOF'
