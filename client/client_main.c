@@ -202,8 +202,6 @@ static void send_control(app *a, ftm_wire_control *c, const char *what, const ch
     alog(a, FTM_LOG_INFO, "sent %s", a->last_cmd);
 }
 
-#define DEPTH_CEILING_MAX 1000000 /* the protocol's largest depth (ftm_sim_set_depth's) */
-
 /* A key's command. One that cannot do anything (a limit reached, no server
  * to hear it) is not sent, and the HUD says why at once. */
 static void send_command(app *a, ftm_wire_command cmd, const char *what)
@@ -212,48 +210,13 @@ static void send_command(app *a, ftm_wire_command cmd, const char *what)
         alog(a, FTM_LOG_INFO, "%s: only an instructor sends session commands", what);
         return;
     }
-    if (!a->view.announced) {
-        notice(a, true, "%s: not sent: no session joined yet", what);
-        return;
-    }
-    if (a->view.server_away) {
-        notice(a, true, "%s: not sent: the server is away (%s)", what, a->view.banner);
-        return;
-    }
     ftm_wire_control c;
-    memset(&c, 0, sizeof c);
-    c.command = cmd;
-    c.tissue = a->view.tissue;
-    c.depth_min = a->view.depth_min;
-    c.depth_max = a->view.depth_max;
-    char name[FTM_PENDING_WHAT];
-    snprintf(name, sizeof name, "%s", what);
-    if (cmd == FTM_WIRE_CMD_TISSUE) {
-        if (strcmp(what, "stiffer") == 0)
-            c.tissue.stiffness *= 1.25;
-        else
-            c.tissue.stiffness /= 1.25;
-        snprintf(name, sizeof name, "stiffness %.4g N/m", c.tissue.stiffness);
+    char label[FTM_OUTCOME_TEXT];
+    if (!ftm_hud_instructor_key(&a->view, cmd, what, &c, label, sizeof label)) {
+        notice(a, true, "%s", label);
+        return;
     }
-    if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS && strcmp(what, "depth max +1") == 0) {
-        if (c.depth_max >= DEPTH_CEILING_MAX) {
-            notice(a, true, "depth max +1: not sent: the ceiling is at the largest depth (%d)",
-                   (int)c.depth_max);
-            return;
-        }
-        c.depth_max++;
-    }
-    if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS && strcmp(what, "depth max -1") == 0) {
-        if (c.depth_max <= c.depth_min) {
-            notice(a, true, "depth max -1: not sent: the ceiling is at the floor (%d)",
-                   (int)c.depth_min);
-            return;
-        }
-        c.depth_max--;
-    }
-    if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS)
-        snprintf(name, sizeof name, "depth max %d", (int)c.depth_max);
-    send_control(a, &c, what, name);
+    send_control(a, &c, what, label);
 }
 
 /* --commands: the script's commands that are due, once synced (times from

@@ -89,3 +89,47 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
 #undef LINE
     return n;
 }
+
+#define DEPTH_CEILING_MAX 1000000 /* the protocol's largest depth (ftm_sim_set_depth's) */
+
+bool ftm_hud_instructor_key(const ftm_client_view *v, ftm_wire_command cmd, const char *what,
+                            ftm_wire_control *c, char *label, size_t cap)
+{
+    memset(c, 0, sizeof *c);
+    if (!v->announced) {
+        snprintf(label, cap, "%s: not sent: no session joined yet", what);
+        return false;
+    }
+    if (v->server_away) {
+        snprintf(label, cap, "%s: not sent: the server is away (%s)", what, v->banner);
+        return false;
+    }
+    c->command = cmd;
+    c->tissue = v->tissue;
+    c->depth_min = v->depth_min;
+    c->depth_max = v->depth_max;
+    snprintf(label, cap, "%s", what);
+    if (cmd == FTM_WIRE_CMD_TISSUE) {
+        if (strcmp(what, "stiffer") == 0)
+            c->tissue.stiffness *= 1.25;
+        else
+            c->tissue.stiffness /= 1.25;
+        snprintf(label, cap, "stiffness %.4g N/m", c->tissue.stiffness);
+    }
+    if (cmd == FTM_WIRE_CMD_DEPTH_LIMITS) {
+        bool up = strcmp(what, "depth max +1") == 0;
+        if (up && c->depth_max >= DEPTH_CEILING_MAX) {
+            snprintf(label, cap, "%s: not sent: the ceiling is at the largest depth (%d)", what,
+                     (int)c->depth_max);
+            return false;
+        }
+        if (!up && c->depth_max <= c->depth_min) {
+            snprintf(label, cap, "%s: not sent: the ceiling is at the floor (%d)", what,
+                     (int)c->depth_min);
+            return false;
+        }
+        c->depth_max += up ? 1 : -1;
+        snprintf(label, cap, "depth max %d", (int)c->depth_max);
+    }
+    return true;
+}

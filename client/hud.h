@@ -29,4 +29,15 @@ typedef struct ftm_hud_info {
 int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *info,
                   char lines[FTM_HUD_LINES][FTM_HUD_WIDTH]);
 
+/* An instructor's key as a session command, from what the view shows.
+ * what: "pause", "resume", "reset", "depth max +1", "depth max -1",
+ * "stiffer" (stiffness x 1.25) or "softer" (/ 1.25). true: *c is filled
+ * (issuer and command id are the sender's) and label names the command
+ * with its value ("stiffness 62.5 N/m", "depth max 5"). false: the key can
+ * do nothing now (a limit reached, no session, the server away): label
+ * says why, for the HUD ("depth max -1: not sent: the ceiling is at the
+ * floor (2)"), and nothing is to be sent. */
+bool ftm_hud_instructor_key(const ftm_client_view *v, ftm_wire_command cmd, const char *what,
+                            ftm_wire_control *c, char *label, size_t cap);
+
 #endif

@@ -220,6 +220,48 @@ static void test_command_outcome(void **state)
     assert_true(find(n, "map ") == n - 1);
 }
 
+/* Keys at a limit, or with nobody to hear them, send nothing and say why. */
+static void test_instructor_keys(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    v.depth_min = 2;
+    v.depth_max = 3;
+    v.tissue = (ftm_wire_tissue){0.001, 0.3, 50, {1, 1, 1}};
+    ftm_wire_control c;
+    char label[FTM_OUTCOME_TEXT];
+    assert_false(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_PAUSE, "pause", &c, label, sizeof label));
+    assert_string_equal(label, "pause: not sent: no session joined yet");
+    v.announced = true;
+    assert_true(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_DEPTH_LIMITS, "depth max -1", &c, label,
+                                       sizeof label));
+    assert_true(c.command == FTM_WIRE_CMD_DEPTH_LIMITS && c.depth_min == 2 && c.depth_max == 2);
+    assert_string_equal(label, "depth max 2");
+    v.depth_max = 2; /* at the floor */
+    assert_false(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_DEPTH_LIMITS, "depth max -1", &c, label,
+                                        sizeof label));
+    assert_string_equal(label, "depth max -1: not sent: the ceiling is at the floor (2)");
+    assert_true(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_DEPTH_LIMITS, "depth max +1", &c, label,
+                                       sizeof label));
+    assert_int_equal(c.depth_max, 3);
+    v.depth_max = 1000000;
+    assert_false(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_DEPTH_LIMITS, "depth max +1", &c, label,
+                                        sizeof label));
+    assert_non_null(strstr(label, "not sent: the ceiling is at the largest depth (1000000)"));
+    assert_true(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_TISSUE, "stiffer", &c, label, sizeof label));
+    assert_true(c.tissue.stiffness == 50 * 1.25 && c.tissue.node_damping == 0.3);
+    assert_string_equal(label, "stiffness 62.5 N/m");
+    assert_true(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_TISSUE, "softer", &c, label, sizeof label));
+    assert_true(c.tissue.stiffness == 50 / 1.25);
+    assert_true(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_RESET, "reset", &c, label, sizeof label));
+    assert_true(c.command == FTM_WIRE_CMD_RESET);
+    assert_string_equal(label, "reset");
+    v.server_away = true;
+    snprintf(v.banner, sizeof v.banner, "SERVER SILENT FOR 4 S: FORCE OFF");
+    assert_false(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_TISSUE, "stiffer", &c, label, sizeof label));
+    assert_string_equal(label, "stiffer: not sent: the server is away (SERVER SILENT FOR 4 S: FORCE OFF)");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -229,6 +271,7 @@ int main(void)
         cmocka_unit_test(test_departed_trainee_kept),
         cmocka_unit_test(test_restart_forgets_departed),
         cmocka_unit_test(test_command_outcome),
+        cmocka_unit_test(test_instructor_keys),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
