@@ -1000,7 +1000,7 @@ bool ftm_pending_reply(ftm_pending *p, const ftm_wire_control_reply *r, char *te
     case FTM_WIRE_OUTCOME_CHANGED:
     case FTM_WIRE_OUTCOME_APPLIED:
     default:
-        snprintf(text, cap, "%s: %s at tick %" PRIu64 "%s%s", what,
+        snprintf(text, cap, "%s: %s after tick %" PRIu64 "%s%s", what,
                  ftm_wire_outcome_name(r->outcome), r->tick, sep, r->reason);
         break;
     }

@@ -158,7 +158,7 @@ static void test_command_outcome(void **state)
     assert_false(ftm_pending_add(&p, 3, "pause", 3000, text, sizeof text));
     ftm_wire_control_reply r = {21, 1, FTM_WIRE_OUTCOME_APPLIED, 1234, ""};
     assert_true(ftm_pending_reply(&p, &r, text, sizeof text));
-    assert_string_equal(text, "stiffness 80 N/m: applied at tick 1234");
+    assert_string_equal(text, "stiffness 80 N/m: applied after tick 1234");
     r = (ftm_wire_control_reply){21, 2, FTM_WIRE_OUTCOME_REFUSED, 1300,
                                  "the material's critical time step 1.4e-05 s is too short for "
                                  "time step 0.001 s with at most 64 substeps"};
@@ -170,7 +170,7 @@ static void test_command_outcome(void **state)
     assert_non_null(strstr(text, "command 2: refused: "));
     r = (ftm_wire_control_reply){21, 9, FTM_WIRE_OUTCOME_CHANGED, 5, "ceiling lowered to 40"};
     assert_false(ftm_pending_reply(&p, &r, text, sizeof text));
-    assert_string_equal(text, "command 9: changed at tick 5: ceiling lowered to 40");
+    assert_string_equal(text, "command 9: changed after tick 5: ceiling lowered to 40");
     assert_int_equal(p.n, 1);
 
     /* no reply within the timeout: unanswered, once */
@@ -196,9 +196,9 @@ static void test_command_outcome(void **state)
     ftm_hud_info in = {.role = FTM_WIRE_ROLE_INSTRUCTOR, .id = 21};
     int n = ftm_hud_lines(&v, &in, lines);
     assert_int_equal(find(n, "applied"), -1);
-    in.command_outcome = "stiffness 80 N/m: applied at tick 1234";
+    in.command_outcome = "stiffness 80 N/m: applied after tick 1234";
     n = ftm_hud_lines(&v, &in, lines);
-    assert_true(find(n, "stiffness 80 N/m: applied at tick 1234") > find(n, "keys:"));
+    assert_true(find(n, "stiffness 80 N/m: applied after tick 1234") > find(n, "keys:"));
     assert_int_equal(find(n, "!!"), -1);
     in.command_outcome = text;
     in.outcome_bad = true;

@@ -235,8 +235,8 @@ int main(int argc, char **argv)
             }
             if (sent_resume && !v.paused && resumed_at < 0)
                 resumed_at = t;
-            pause_answered |= strstr(v.outcome, "pause: applied at tick ") == v.outcome;
-            resume_answered |= strstr(v.outcome, "resume: applied at tick ") == v.outcome;
+            pause_answered |= strstr(v.outcome, "pause: applied after tick ") == v.outcome;
+            resume_answered |= strstr(v.outcome, "resume: applied after tick ") == v.outcome;
             if (resumed_at >= 0 && t - resumed_at > 1.0 && v.banner[0])
                 banner_after_resume = true;
         }

@@ -95,9 +95,9 @@ instructor)
     grep -q "sent stiffness (k = 100 N/m" "$dir/instr.log" || fail "the client did not send it"
     grep -q "tissue now k 100 N/m" "$dir/instr.log" || fail "the client's replica did not switch"
     # the server's replies, as the HUD shows them for a few seconds
-    grep -q "command stiffness 100 N/m: applied at tick [0-9]" "$dir/instr.log" ||
+    grep -q "command stiffness 100 N/m: applied after tick [0-9]" "$dir/instr.log" ||
         fail "the client did not report the server's reply to the stiffness"
-    grep -q "command depth limits 2..6: applied at tick [0-9]*: depth now" "$dir/instr.log" ||
+    grep -q "command depth limits 2..6: applied after tick [0-9]*: depth now" "$dir/instr.log" ||
         fail "the client did not report the server's reply to the depth limits"
     line=$(grep "participant 11 probe 0, from the frames received" "$dir/instr.log") ||
         fail "no debriefing line for trainee 11 in the instructor's log"

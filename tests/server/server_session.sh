@@ -482,11 +482,11 @@ control)
     wait $server || fail "server exited with $?"
     [ $rc -eq 4 ] || fail "instructor bot exited with $rc, want 4 (a command refused)"
     check_hashes 12
-    grep -q "command stiffness 80 N/m: applied at tick [0-9]" "$dir/bot12.err" ||
+    grep -q "command stiffness 80 N/m: applied after tick [0-9]" "$dir/bot12.err" ||
         fail "the applied stiffness was not reported"
     grep -q "command stiffness 1e+09 N/m: refused: the material's critical time step .* is too short" \
         "$dir/bot12.err" || fail "the refused stiffness was not reported with its reason"
-    grep -q "command depth limits 2..6: applied at tick [0-9]*: depth now 6" "$dir/bot12.err" ||
+    grep -q "command depth limits 2..6: applied after tick [0-9]*: depth now 6" "$dir/bot12.err" ||
         fail "the depth limits were not reported"
     grep -q "commands: 3 sent, 2 applied, 0 changed, 1 refused, 0 unanswered" "$dir/bot12.err" ||
         fail "the summary does not count the refusal"
