@@ -128,6 +128,11 @@ if [ -n "$expects" ]; then
   echo "  trainees' expectations: $(grep -c ': ok (' <<<"$expects") of $(grep -c '' <<<"$expects") held"
   grep ': FAILED' <<<"$expects" | sed 's/^/    /'
 fi
+# what the server replied to the instructor's commands (a refused or
+# unanswered one is also the bot's exit status 4)
+cmds=$(sed -n 's/^ftm-bot 15 \[ *[0-9.]*\] commands: //p' "$dir/b15.err" | tail -1)
+[ -z "$cmds" ] || echo "  instructor's commands: $cmds"
+grep -E "command .*: (refused|no reply)" "$dir/b15.err" | sed 's/^ftm-bot 15 \[ *[0-9.]*\] /    /'
 peak=$(awk -F, 'NR > 1 { f = sqrt($7*$7 + $8*$8 + $9*$9); if (f > m) m = f } END { printf "%.3g", m }' \
   "$dir/trainee11.csv")
 echo "  trainee 11 peak reaction force: $peak N (as its bot received it)"
