@@ -45,6 +45,8 @@ _Static_assert(MAX_PROBES <= FTM_REPORT_PROBES, "the session report counts every
  * that stops at once) */
 #define MAX_SECONDS FTM_OPTION_SECONDS_MAX
 #define MAX_DOMAIN FTM_OPTION_DOMAIN_MAX
+#define RT_CPU_START (-1) /* --rt-cpu start: the CPU the server started on */
+#define RT_CPU_ANY (-2)   /* --rt-cpu any: not pinned */
 
 typedef struct options {
     const char *scene;
@@ -75,6 +77,7 @@ typedef struct options {
     int32_t metrics_port;  /* 0: off */
     const char *control_log; /* --control-log FILE: CSV per control period */
     int32_t rt_priority;   /* SCHED_FIFO priority of the tick and publishing threads; 0: off */
+    int32_t rt_cpu;        /* --rt-cpu: the CPU both run on; RT_CPU_START, RT_CPU_ANY */
     double max_penetration; /* --max-penetration M [m]; 0: not given, the scene's size */
     const char *inputs;     /* --inputs FILE: re-run a recording's inputs (frames ignored) */
     const char *metrics_addr; /* --metrics-addr: the address the metrics listen on */
@@ -1399,7 +1402,9 @@ static void usage(FILE *f)
             "  --max-penetration M    longest push a probe imposes on the tissue, in metres\n"
             "                         (default: the scene's size, the longest side of its rest surface's box)\n"
             "  --rt-priority N        SCHED_FIFO priority of the tick thread, the publishing\n"
-            "                         thread one above, where permitted (default 10; 0: off)\n");
+            "                         thread one above, where permitted (default 10; 0: off)\n"
+            "  --rt-cpu start|any|N   with --rt-priority: both threads on the CPU the server\n"
+            "                         started on (default), on no CPU in particular, or on CPU N\n");
 }
 
 /* The integer option value at v, ending at `stop` ('\0': the end of v),
@@ -1433,7 +1438,7 @@ static int parse(int argc, char **argv, options *o)
 {
     *o = (options){.scene = "default", .session = "ftm", .id = 1, .rate = 1000.0,
                    .keyframe_every = 1.0, .heartbeat = 0.1, .depth = -1, .depth_floor = -1,
-                   .depth_hold_up = 2.0, .rt_priority = 10, .metrics_addr = "127.0.0.1"};
+                   .depth_hold_up = 2.0, .rt_priority = 10, .rt_cpu = RT_CPU_START, .metrics_addr = "127.0.0.1"};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -1534,6 +1539,18 @@ static int parse(int argc, char **argv, options *o)
         else if (strcmp(a, "--rt-priority") == 0) {
             bad = ftm_option_int_arg("ftm-server", a, v, 0, 98, &n);
             o->rt_priority = (int32_t)n;
+        } else if (strcmp(a, "--rt-cpu") == 0) {
+            if (strcmp(v, "start") == 0)
+                o->rt_cpu = RT_CPU_START;
+            else if (strcmp(v, "any") == 0)
+                o->rt_cpu = RT_CPU_ANY;
+            else if (ftm_option_int(v, strlen(v), 0, CPU_SETSIZE - 1, &n))
+                o->rt_cpu = (int32_t)n;
+            else {
+                fprintf(stderr, "ftm-server: --rt-cpu must be 'start', 'any' or a CPU number in "
+                                "0..%d (got '%s')\n", CPU_SETSIZE - 1, v);
+                bad = 1;
+            }
         } else if (strcmp(a, "--max-penetration") == 0) {
             o->max_penetration = strtod(v, &end);
             if (!*end && !(isfinite(o->max_penetration) && o->max_penetration > 0)) {
@@ -2124,6 +2141,20 @@ static int check_setup(server *s)
             pthread_setschedparam(pthread_self(), policy, &was);
             printf("real-time   SCHED_FIFO priority %d permitted\n", (int)s->o.rt_priority);
         }
+        /* tried, not read off the affinity mask: taskset's mask is where a
+         * process starts, not a limit; a cpuset or a CPU that is not there is */
+        cpu_set_t given, one;
+        if (s->o.rt_cpu >= 0 && !pthread_getaffinity_np(pthread_self(), sizeof given, &given)) {
+            CPU_ZERO(&one);
+            CPU_SET(s->o.rt_cpu, &one);
+            int pe = pthread_setaffinity_np(pthread_self(), sizeof one, &one);
+            pthread_setaffinity_np(pthread_self(), sizeof given, &given);
+            if (pe)
+                printf("real-time   cpu %d not permitted (%s): the tick thread would run on no "
+                       "CPU in particular\n", (int)s->o.rt_cpu, strerror(pe));
+            else
+                printf("real-time   cpu %d permitted\n", (int)s->o.rt_cpu);
+        }
     }
     printf("ftm-server --check: %s\n", bad ? "the session would NOT start" : "ok");
     fflush(stdout);
@@ -2348,25 +2379,35 @@ int ftm_server_main(int argc, char **argv)
             slog(s, "info", "real-time scheduling not permitted (%s): default scheduling",
                  strerror(e));
         } else {
-            /* both on this CPU: the publishing thread, one level up, takes a
-             * queued frame by a context switch, without waking another core */
-            int cpu = sched_getcpu();
+            /* both on one CPU: the publishing thread, one level up, takes a
+             * queued frame by a context switch, without waking another core.
+             * Pinned, neither can move away from a busier real-time thread
+             * on that CPU: --rt-cpu any leaves them to the scheduler, --rt-cpu
+             * N puts them on a CPU kept for them (isolcpus, a cpuset). */
+            const int want = s->o.rt_cpu;
+            int cpu = want == RT_CPU_START ? sched_getcpu() : want;
             cpu_set_t was, set;
             CPU_ZERO(&set);
             if (cpu >= 0)
                 CPU_SET(cpu, &set);
-            if (cpu < 0 || pthread_getaffinity_np(pthread_self(), sizeof was, &was)) {
+            char where[96] = ", on no CPU in particular (--rt-cpu any)";
+            if (want == RT_CPU_ANY) {
                 cpu = -1;
+            } else if (cpu < 0 || pthread_getaffinity_np(pthread_self(), sizeof was, &was)) {
+                cpu = -1;
+                snprintf(where, sizeof where, ", on no CPU in particular (this one unknown)");
             } else if (pthread_setaffinity_np(pthread_self(), sizeof set, &set) ||
                        ftm_wire_pin_publisher(s->wire, cpu, &err)) {
                 /* back to the CPUs the server was given (taskset, cgroup) */
                 pthread_setaffinity_np(pthread_self(), sizeof was, &was);
+                snprintf(where, sizeof where, ", on no CPU in particular (cpu %d not permitted)",
+                         cpu);
                 cpu = -1;
             }
-            char where[32] = "";
             if (cpu >= 0)
                 snprintf(where, sizeof where, ", both on cpu %d", cpu);
-            slog(s, "info", "tick thread SCHED_FIFO priority %d, publishing thread %d%s",
+            slog(s, want >= 0 && cpu < 0 ? "warn" : "info",
+                 "tick thread SCHED_FIFO priority %d, publishing thread %d%s",
                  (int)s->o.rt_priority, (int)s->o.rt_priority + 1, where);
         }
     }

@@ -37,6 +37,9 @@ done
 refused "--record-dir goes with a session, without --record" --record-dir /tmp --record x.rec
 refused "--record-dir goes with a session, without --record" --record-dir /tmp --offline 5
 refused "--check checks a session's set-up: not with --replay" --check --replay a.rec
+for v in x -1 1024 2x ''; do
+    refused "--rt-cpu must be 'start', 'any' or a CPU number in 0..1023 (got '$v')" --rt-cpu "$v" --offline 1
+done
 refused "--check checks a session's set-up: not with --replay" --offline 5 --check
 t="--trainee 1:0:a.bot"
 # shellcheck disable=SC2086 # nine options
