@@ -38,6 +38,7 @@
 #include <uv.h>
 
 #define MAX_PARTICIPANTS 64
+_Static_assert(MAX_PARTICIPANTS <= FTM_WIRE_HOLDERS_MAX, "every holder fits the server's status");
 #define MAX_PROBES 4 /* per trainee; group = slot * MAX_PROBES + probe */
 _Static_assert(MAX_PROBES <= FTM_REPORT_PROBES, "the session report counts every probe");
 #define MAX_CATCHUP 50 /* ticks run in one timer callback before we call them missed */
@@ -151,7 +152,7 @@ typedef struct server {
         uint64_t origin;
         uint64_t last_ns; /* monotonic; 0: a free slot */
     } ignored[FTM_WIRE_IGNORED_MAX];
-    uint64_t ignored_told_ns; /* the last status published for a new one */
+    uint64_t told_ns; /* the last status published at once (tell_now) */
     bool displaced;            /* stopped: another server was serving this session first */
     bool other_server_told;    /* a later server on this session was logged */
     char record_path[1024];    /* --record-dir: this run's recording */
@@ -366,12 +367,30 @@ static void publish_status(server *s, ftm_wire_state state)
             st->ignored_participant[st->ignored_count] = s->ignored[i].id;
             st->ignored_origin[st->ignored_count++] = s->ignored[i].origin;
         }
+    /* the process heard under each id: what a trainee waits for before it
+     * sends probe input or renders force (docs/protocol.md) */
+    for (int i = 0; i < MAX_PARTICIPANTS; i++)
+        if (s->parts[i].used && s->parts[i].origin) {
+            st->holder_participant[st->holder_count] = s->parts[i].id;
+            st->holder_origin[st->holder_count++] = s->parts[i].origin;
+        }
     publish(s, &m, NULL);
 }
 
+/* A status now rather than at the next periodic one, for news that decides
+ * what a process does (an id taken, an id held); at most 20 extra a second,
+ * the periodic status tells the rest within 500 ms. */
+static void tell_now(server *s)
+{
+    const uint64_t now = mono_ns();
+    if (!s->stopping && now - s->told_ns >= 50000000u) {
+        s->told_ns = now;
+        publish_status(s, FTM_WIRE_STATE_SYNCED);
+    }
+}
+
 /* Notes a process whose messages carry an id another process holds. A new
- * one is told at once, in a status of the server (publish_status), rather
- * than at the next periodic one: it decides what the process does. */
+ * one is told at once (tell_now). */
 static void note_ignored(server *s, uint32_t id, uint64_t origin)
 {
     const uint64_t now = mono_ns();
@@ -392,11 +411,7 @@ static void note_ignored(server *s, uint32_t id, uint64_t origin)
     s->ignored[slot].id = id;
     s->ignored[slot].origin = origin;
     s->ignored[slot].last_ns = now;
-    /* told at once, but no more than 20 extra statuses a second */
-    if (!s->stopping && now - s->ignored_told_ns >= 50000000u) {
-        s->ignored_told_ns = now;
-        publish_status(s, FTM_WIRE_STATE_SYNCED);
-    }
+    tell_now(s);
 }
 
 /* Only with the integrator in its plain mode: keyframes do not carry the
@@ -533,8 +548,8 @@ static void on_status(server *s, ftm_wire_received *rx)
     }
     if (!p->origin && rx->origin) {
         /* its id is now this process's (admit). One that was ignored while
-         * another held the id is heard from now on: off the list, so that
-         * it learns the id is its own (ftm_replay_id_verdict) */
+         * another held the id is heard from now on: off the list. Either
+         * way it is told at once that it holds the id (ftm_replay_id_held) */
         p->origin = rx->origin;
         for (int i = 0; i < FTM_WIRE_IGNORED_MAX; i++)
             if (s->ignored[i].last_ns && s->ignored[i].id == p->id &&
@@ -543,6 +558,7 @@ static void on_status(server *s, ftm_wire_received *rx)
                 slog(s, "info", "participant %u: the process that held the id is gone; the one "
                      "ignored until now is heard", p->id);
             }
+        tell_now(s);
     }
     bool fresh = p->role == 0;
     /* the tick is the participant's own, the last it applied: a joiner has

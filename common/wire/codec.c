@@ -517,6 +517,22 @@ static int check_status(const vctx *v, const Ftm__V1__ParticipantStatus *m)
     if (m->n_ignored_participant && (int)m->role != FTM_WIRE_ROLE_SERVER)
         return wire_err(v->err, FTM_EINVAL, "%s: ignored processes in a %s's status (a server's only)",
                         v->what, ftm_wire_role_name((ftm_wire_role)m->role));
+    if (m->n_holder_participant != m->n_holder_origin)
+        return wire_err(v->err, FTM_EINVAL, "%s: %zu holder_participant but %zu holder_origin",
+                        v->what, m->n_holder_participant, m->n_holder_origin);
+    if (m->n_holder_participant > FTM_WIRE_HOLDERS_MAX)
+        return wire_err(v->err, FTM_ERANGE, "%s: %zu holders (at most %d)", v->what,
+                        m->n_holder_participant, FTM_WIRE_HOLDERS_MAX);
+    if (m->n_holder_participant && (int)m->role != FTM_WIRE_ROLE_SERVER)
+        return wire_err(v->err, FTM_EINVAL, "%s: holders in a %s's status (a server's only)",
+                        v->what, ftm_wire_role_name((ftm_wire_role)m->role));
+    /* one process per id: a second pair for an id would make "the server
+     * hears us" ambiguous */
+    for (size_t i = 1; i < m->n_holder_participant; i++)
+        for (size_t j = 0; j < i; j++)
+            if (m->holder_participant[i] == m->holder_participant[j])
+                return wire_err(v->err, FTM_EINVAL, "%s: holder_participant %u listed twice",
+                                v->what, m->holder_participant[i]);
     return FTM_OK;
 }
 
@@ -764,6 +780,11 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         for (size_t i = 0; i < m->n_ignored_participant; i++) {
             s->ignored_participant[i] = m->ignored_participant[i];
             s->ignored_origin[i] = m->ignored_origin[i];
+        }
+        s->holder_count = (int32_t)m->n_holder_participant; /* <= FTM_WIRE_HOLDERS_MAX: checked */
+        for (size_t i = 0; i < m->n_holder_participant; i++) {
+            s->holder_participant[i] = m->holder_participant[i];
+            s->holder_origin[i] = m->holder_origin[i];
         }
         return FTM_OK;
     }
@@ -1219,6 +1240,20 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         m->n_ignored_participant = m->n_ignored_origin = (size_t)st->ignored_count;
         m->ignored_participant = (uint32_t *)st->ignored_participant;
         m->ignored_origin = (uint64_t *)st->ignored_origin;
+        if (st->holder_count < 0 || st->holder_count > FTM_WIRE_HOLDERS_MAX)
+            return wire_err(err, FTM_ERANGE, "%s: %d holders (0..%d)", what,
+                            (int)st->holder_count, FTM_WIRE_HOLDERS_MAX);
+        if (st->holder_count && st->role != FTM_WIRE_ROLE_SERVER)
+            return wire_err(err, FTM_EINVAL, "%s: holders in a %s's status (a server's only)",
+                            what, ftm_wire_role_name(st->role));
+        for (int32_t i = 1; i < st->holder_count; i++)
+            for (int32_t j = 0; j < i; j++)
+                if (st->holder_participant[i] == st->holder_participant[j])
+                    return wire_err(err, FTM_EINVAL, "%s: holder_participant %u listed twice",
+                                    what, st->holder_participant[i]);
+        m->n_holder_participant = m->n_holder_origin = (size_t)st->holder_count;
+        m->holder_participant = (uint32_t *)st->holder_participant;
+        m->holder_origin = (uint64_t *)st->holder_origin;
         *out = &m->base;
         return FTM_OK;
     }

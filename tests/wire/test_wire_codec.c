@@ -348,6 +348,7 @@ static void test_round_trip_status(void **state)
     assert_true(same_double(r->replay_ns_max, 99999.25));
     assert_string_equal(r->name, "trainee A");
     assert_int_equal(r->ignored_count, 0);
+    assert_int_equal(r->holder_count, 0);
     ftm_wire_msg_free(&b);
 
     /* the server's status, with the processes it ignores (a full list) */
@@ -364,6 +365,21 @@ static void test_round_trip_status(void **state)
     assert_memory_equal(b.u.status.ignored_participant, s->ignored_participant,
                         sizeof s->ignored_participant);
     assert_memory_equal(b.u.status.ignored_origin, s->ignored_origin, sizeof s->ignored_origin);
+    assert_int_equal(b.u.status.holder_count, 0);
+    ftm_wire_msg_free(&b);
+
+    /* and with the processes it listens to (a full list) */
+    s->holder_count = FTM_WIRE_HOLDERS_MAX;
+    for (int i = 0; i < FTM_WIRE_HOLDERS_MAX; i++) {
+        s->holder_participant[i] = 7 + 3 * (uint32_t)i;
+        s->holder_origin[i] = 1 + (uint64_t)i * 0x9e3779b97f4a7c15u;
+    }
+    round_trip(&m, &b);
+    assert_int_equal(b.u.status.holder_count, FTM_WIRE_HOLDERS_MAX);
+    assert_memory_equal(b.u.status.holder_participant, s->holder_participant,
+                        sizeof s->holder_participant);
+    assert_memory_equal(b.u.status.holder_origin, s->holder_origin, sizeof s->holder_origin);
+    assert_int_equal(b.u.status.ignored_count, FTM_WIRE_IGNORED_MAX);
     ftm_wire_msg_free(&b);
 
     /* only a server's status lists them, and at most FTM_WIRE_IGNORED_MAX */
@@ -376,6 +392,19 @@ static void test_round_trip_status(void **state)
     s->role = FTM_WIRE_ROLE_SERVER;
     s->ignored_count = FTM_WIRE_IGNORED_MAX + 1;
     assert_int_equal(ftm_wire_encode(&m, &buf, &size, &err), FTM_ERANGE);
+    assert_null(buf);
+    /* holders: a server's only, at most FTM_WIRE_HOLDERS_MAX, one per id */
+    s->ignored_count = 0;
+    s->role = FTM_WIRE_ROLE_OBSERVER;
+    assert_int_equal(ftm_wire_encode(&m, &buf, &size, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "holders in a observer's status"));
+    s->role = FTM_WIRE_ROLE_SERVER;
+    s->holder_count = FTM_WIRE_HOLDERS_MAX + 1;
+    assert_int_equal(ftm_wire_encode(&m, &buf, &size, &err), FTM_ERANGE);
+    s->holder_count = 3;
+    s->holder_participant[2] = s->holder_participant[0];
+    assert_int_equal(ftm_wire_encode(&m, &buf, &size, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "holder_participant 7 listed twice"));
     assert_null(buf);
 }
 
@@ -811,6 +840,37 @@ static void test_missing_and_invalid(void **state)
     n = protobuf_c_message_pack(&st.base, buf);
     expect_reject(FTM_WIRE_STATUS, buf, n, NULL, FTM_EINVAL,
                   "ignored processes in a observer's status", NULL);
+    st.n_ignored_participant = st.n_ignored_origin = 0;
+
+    /* holders: the same rules (at most 64), and each id once */
+    st.role = FTM__V1__ROLE__ROLE_SERVER;
+    uint32_t hids[FTM_WIRE_HOLDERS_MAX + 1];
+    uint64_t horigins[FTM_WIRE_HOLDERS_MAX + 1];
+    for (int i = 0; i <= FTM_WIRE_HOLDERS_MAX; i++) {
+        hids[i] = 2 + (uint32_t)i;
+        horigins[i] = 1000 + (uint64_t)i;
+    }
+    st.holder_participant = hids;
+    st.holder_origin = horigins;
+    st.n_holder_participant = 3;
+    st.n_holder_origin = 2;
+    uint8_t big[2048];
+    n = protobuf_c_message_pack(&st.base, big);
+    expect_reject(FTM_WIRE_STATUS, big, n, NULL, FTM_EINVAL,
+                  "3 holder_participant but 2 holder_origin", NULL);
+    st.n_holder_participant = st.n_holder_origin = FTM_WIRE_HOLDERS_MAX + 1;
+    assert_true(protobuf_c_message_get_packed_size(&st.base) <= sizeof big);
+    n = protobuf_c_message_pack(&st.base, big);
+    expect_reject(FTM_WIRE_STATUS, big, n, NULL, FTM_ERANGE, "65 holders (at most 64)", NULL);
+    st.n_holder_participant = st.n_holder_origin = 3;
+    hids[2] = hids[1];
+    n = protobuf_c_message_pack(&st.base, big);
+    expect_reject(FTM_WIRE_STATUS, big, n, NULL, FTM_EINVAL, "holder_participant 3 listed twice",
+                  NULL);
+    hids[2] = 4;
+    st.role = FTM__V1__ROLE__ROLE_TRAINEE;
+    n = protobuf_c_message_pack(&st.base, big);
+    expect_reject(FTM_WIRE_STATUS, big, n, NULL, FTM_EINVAL, "holders in a trainee's status", NULL);
     st = (Ftm__V1__ParticipantStatus)FTM__V1__PARTICIPANT_STATUS__INIT;
 
     /* a reaction force without z */

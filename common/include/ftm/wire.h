@@ -70,6 +70,7 @@ const char *ftm_wire_kind_name(int kind);
 #define FTM_WIRE_MAX_TICK_GAP 2000000u
 #define FTM_WIRE_REACTIONS_MAX 4096
 #define FTM_WIRE_IGNORED_MAX 16 /* ignored processes in a server's status */
+#define FTM_WIRE_HOLDERS_MAX 64 /* processes listened to, in a server's status */
 
 typedef struct ftm_wire_tissue {
     double node_mass;    /* [kg] > 0 */
@@ -189,6 +190,11 @@ typedef struct ftm_wire_status {
     int32_t ignored_count; /* 0..FTM_WIRE_IGNORED_MAX */
     uint32_t ignored_participant[FTM_WIRE_IGNORED_MAX];
     uint64_t ignored_origin[FTM_WIRE_IGNORED_MAX];
+    /* The server's status only: the process it listens to under each id it
+     * holds, by id and origin; each id at most once. */
+    int32_t holder_count; /* 0..FTM_WIRE_HOLDERS_MAX */
+    uint32_t holder_participant[FTM_WIRE_HOLDERS_MAX];
+    uint64_t holder_origin[FTM_WIRE_HOLDERS_MAX];
 } ftm_wire_status;
 
 typedef enum ftm_wire_command {
