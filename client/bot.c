@@ -34,6 +34,8 @@
 /* The shortest --input-period: 10 kHz, ten times a 1 kHz haptic device.
  * Shorter ones only fill the publishing queue ("publishing queue full"). */
 #define MIN_INPUT_PERIOD 1e-4
+/* as ftm-client's: later than this, the server will not confirm our id */
+#define ID_CONFIRM_WAIT_NS (3 * SEC)
 #define MAX_DOMAIN FTM_OPTION_DOMAIN_MAX
 
 typedef struct options {
@@ -223,6 +225,12 @@ typedef struct bot {
     /* what the server said of our id (on_status); id_told.taken: it hears
      * another process with our id, not us */
     ftm_id_told id_told;
+    /* the newest server status lists this process as the one it hears under
+     * our id (ftm_replay_id_held): a trainee presses only then, and logs
+     * only then a force under our id as its own. held_since_ns: when the
+     * wait began (0: no server yet) */
+    bool id_held, held_late_told;
+    int64_t held_since_ns;
     int64_t unsynced_since;
     /* statuses before this say JOINING (the periodic one at this time tells
      * the state reached): see publish_state */
@@ -288,6 +296,8 @@ static void on_announce(bot *b, const ftm_wire_announce *a)
          * know us yet); which process holds our id is its to say */
         b->ever_synced = false;
         b->id_told = (ftm_id_told){0};
+        b->id_held = b->held_late_told = false;
+        b->held_since_ns = 0;
         b->last_frame_ns = mono_ns();
         if (!same && !b->o.scene) {
             /* it serves another scene: load that one below, as on joining */
@@ -396,7 +406,9 @@ static void on_tick(bot *b, const ftm_wire_received *rx)
          * it was applied here, the trainee's "now" (after the latency) */
         const double now_s = (double)(mono_ns() - g_t0) * 1e-9;
         ftm_wire_reaction re;
-        const bool contact = ftm_replay_find_reaction(t, b->o.id, 0, &re);
+        /* (unconfirmed or taken, a force under our id may be another's) */
+        const bool contact = b->id_held && !b->id_told.taken &&
+                             ftm_replay_find_reaction(t, b->o.id, 0, &re);
         const ftm_vec3 f = contact ? re.force : (ftm_vec3){0, 0, 0};
         log_frame(b, rx, rx_ns, now_s, f);
         ftm_script_expect_frame(&b->sc, now_s, t->tick, f, contact);
@@ -548,6 +560,17 @@ static void on_status(bot *b, const ftm_wire_received *rx)
         } else if (c == FTM_ID_OURS_AGAIN) {
             blog("participant id %u is ours again: the process that held it left", g_id);
         }
+        const bool held = ftm_replay_id_held(st, g_id, ftm_wire_transport_origin(b->wire));
+        if (held && !b->id_held)
+            blog("participant id %u is confirmed: the server hears this process under it", g_id);
+        else if (!held && b->id_held)
+            blog("the server no longer confirms participant id %u as this process's: no probe "
+                 "input until it does", g_id);
+        if (!held && b->id_held) {
+            b->held_since_ns = mono_ns();
+            b->held_late_told = false;
+        }
+        b->id_held = held;
         if (st->state != FTM_WIRE_STATE_LEAVING)
             server_alive(b);
         if (st->state == FTM_WIRE_STATE_LEAVING && (!b->server_left || b->server_gone)) {
@@ -719,8 +742,18 @@ int main(int argc, char **argv)
         double t = (double)(now - g_t0) * 1e-9;
         /* no probe input before the first sync: the server would not know
          * us yet (our JOINING status travels on another topic) and warn */
+        /* nor before the server confirmed that it hears us under our id */
+        if (!b->held_since_ns && b->server_id)
+            b->held_since_ns = now;
+        if (b->role == FTM_WIRE_ROLE_TRAINEE && !b->id_held && !b->id_told.taken &&
+            !b->held_late_told && b->held_since_ns && now - b->held_since_ns > ID_CONFIRM_WAIT_NS) {
+            b->held_late_told = true;
+            blog("the server %u has not confirmed participant id %u as this process's for %.0f s "
+                 "(a server older than this bot never does): no probe input",
+                 b->server_id, g_id, (double)ID_CONFIRM_WAIT_NS * 1e-9);
+        }
         if (b->role == FTM_WIRE_ROLE_TRAINEE && now >= next_input && !b->id_told.taken &&
-            b->ever_synced && !b->server_left) {
+            b->id_held && b->ever_synced && !b->server_left) {
             send_probe(b, t);
             next_input += (int64_t)(b->o.input_period * 1e9);
             if (next_input < now)

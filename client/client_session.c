@@ -24,6 +24,12 @@
  * is 2 s late as lost and releases its probes) */
 #define DRAIN_NS (10 * 1000000LL)
 #define SERVER_STATUS_DEADLINE_NS (2 * SEC) /* the server's (docs/protocol.md) */
+/* The server confirms our id in a status sent the moment it first hears us
+ * (statuses are reliable, transient-local): on loopback it comes with the
+ * sync, ~12 ms after the start. Without it for this long the server will
+ * not confirm (one older than the confirmation) or does not hear us: said
+ * in red */
+#define ID_CONFIRM_WAIT_NS (3 * SEC)
 
 typedef struct remote_hip {
     uint32_t participant;
@@ -70,6 +76,12 @@ struct ftm_client_session {
     /* what the server said of our id (on_status); id_told.taken: it hears
      * another process with our id, not us */
     ftm_id_told id_told;
+    /* the newest server status lists this process as the one it hears
+     * under our id (ftm_replay_id_held): until then no probe input, no
+     * force, no figures of our own. held_since_ns: when the wait began (0:
+     * no server yet); held_late_told: the wait's bound was logged */
+    bool id_held, held_late_told;
+    int64_t held_since_ns;
     bool force_valid;
     bool synced, ever_synced; /* the replica is synced; was once */
     uint64_t contact_ticks, counted_tick;
@@ -199,6 +211,8 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         s->ever_synced = false; /* no probe input before it knows us (send_probe) */
         /* which process holds our id is the new server's to say */
         s->id_told = (ftm_id_told){0};
+        s->id_held = s->held_late_told = false;
+        s->held_since_ns = 0;
         s->last_frame_ns = mono_ns();
         s->newest_rx_tick = 0;
         ftm_report_free(&s->live); /* a new session: its ticks start again */
@@ -335,8 +349,21 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         } else if (c == FTM_ID_OURS_AGAIN) {
             slog(s, FTM_LOG_INFO, "participant id %u is ours again: the process that held it left "
                  "and the server hears this one", s->cfg.id);
-            /* the force comes back with the next frame (after_frames) */
+            /* the force comes back with the next frame once the server
+             * also confirms we hold the id (after_frames) */
         }
+        const bool held = ftm_replay_id_held(st, s->cfg.id, ftm_wire_transport_origin(s->wire));
+        if (held && !s->id_held) {
+            slog(s, FTM_LOG_INFO, "participant id %u is confirmed: the server hears this process "
+                 "under it%s", s->cfg.id, s->held_late_told ? " (late)" : "");
+        } else if (!held && s->id_held) {
+            slog(s, FTM_LOG_WARN, "the server no longer confirms participant id %u as this "
+                 "process's: no probe input or force until it does", s->cfg.id);
+            force_off(s, "participant id not confirmed");
+            s->held_since_ns = mono_ns();
+            s->held_late_told = false;
+        }
+        s->id_held = held;
         if (st->state == FTM_WIRE_STATE_LEAVING) {
             server_gone(s, "leaving");
         } else if (s->have_ann && s->ann.paused) {
@@ -382,6 +409,10 @@ static void on_probe_input(ftm_client_session *s, const ftm_wire_received *rx)
     s->dirty = true;
 }
 
+/* The server has confirmed that it hears this process under our id, and
+ * has not said since that another process holds it. */
+static bool id_ours(const ftm_client_session *s) { return s->id_held && !s->id_told.taken; }
+
 static void after_frames(ftm_client_session *s)
 {
     const ftm_wire_tick *t = ftm_replay_last_frame(s->rep);
@@ -395,9 +426,10 @@ static void after_frames(ftm_client_session *s)
         slog(s, FTM_LOG_INFO, "synced at tick %" PRIu64, tick);
     s->synced = synced;
     s->ever_synced = s->ever_synced || synced;
-    /* with our id taken, the reaction under it is the other process's:
-     * evaluated at our HIP it is no force of ours (up to the clamp) */
-    if (ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED && !s->server_left && !s->id_told.taken) {
+    /* with our id taken, or not yet confirmed ours, the reaction under it
+     * may be another process's: evaluated at our HIP it is no force of ours
+     * (up to the clamp) */
+    if (ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED && !s->server_left && id_ours(s)) {
         if (!s->force_valid && s->cfg.role == FTM_WIRE_ROLE_TRAINEE)
             slog(s, FTM_LOG_INFO, "force on at tick %" PRIu64, tick);
         s->force_valid = true;
@@ -459,10 +491,11 @@ static void send_probe(ftm_client_session *s)
     /* (taken all the same, so that none goes out stale later) Not before
      * the first sync: the server may not have our first status yet (sent
      * as the session thread starts) and would reject the input of an
-     * unknown participant; there is no force before it anyway. Never with
-     * our id taken: the server would take our HIP for the other process's.
- * Nor while the server is gone: a restarted one would not know us yet. */
-    if (n <= 0 || !s->ever_synced || s->id_told.taken || s->server_left)
+     * unknown participant; there is no force before it anyway. Only with
+     * our id confirmed ours: the server might take our HIP for another
+     * process's. Nor while the server is gone: a restarted one would not
+     * know us yet. */
+    if (n <= 0 || !s->ever_synced || !id_ours(s) || s->server_left)
         return;
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
@@ -543,6 +576,20 @@ static void watchdog(ftm_client_session *s, int64_t now)
     }
     if (s->rep && ftm_replay_state(s->rep) != FTM_WIRE_STATE_SYNCED && s->force_valid)
         force_off(s, "replica not synced");
+    /* the wait for the server to confirm our id starts with its first
+     * announcement (or its restart, or the confirmation's loss) */
+    if (s->have_ann && !s->held_since_ns)
+        s->held_since_ns = now;
+    const bool trainee = s->cfg.role == FTM_WIRE_ROLE_TRAINEE;
+    const bool id_late = trainee && !s->id_held && !s->id_told.taken && s->held_since_ns &&
+                         now - s->held_since_ns > ID_CONFIRM_WAIT_NS;
+    if (id_late && !s->held_late_told) {
+        s->held_late_told = true;
+        slog(s, FTM_LOG_ERROR,
+             "the server %u has not confirmed participant id %u as this process's for %.0f s (a "
+             "server older than this client never does): no probe input, no force",
+             s->server_id, s->cfg.id, (double)ID_CONFIRM_WAIT_NS * 1e-9);
+    }
 
     /* the banner: the most serious condition wins */
     char banner[256] = "";
@@ -567,6 +614,14 @@ static void watchdog(ftm_client_session *s, int64_t now)
     } else if (s->rep && ftm_replay_state(s->rep) != FTM_WIRE_STATE_SYNCED) {
         snprintf(banner, sizeof banner, "%s...",
                  ftm_replay_state(s->rep) == FTM_WIRE_STATE_JOINING ? "JOINING" : "RESYNCING");
+        error = false;
+    } else if (id_late) {
+        snprintf(banner, sizeof banner,
+                 "THE SERVER HAS NOT CONFIRMED PARTICIPANT ID %u FOR THIS PROCESS (AN OLDER SERVER "
+                 "NEVER DOES): NO FORCE", s->cfg.id);
+    } else if (trainee && !s->id_held) {
+        snprintf(banner, sizeof banner,
+                 "WAITING FOR THE SERVER TO CONFIRM PARTICIPANT ID %u: NO FORCE YET", s->cfg.id);
         error = false;
     } else if (s->ann.paused) {
         /* no frames, so no force samples: the haptic loop fades to zero */
@@ -685,7 +740,7 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
             memset(p, 0, sizeof *p);
             p->participant = r->participant;
             p->probe = r->probe;
-            p->own = r->participant == s->cfg.id && !s->id_told.taken; /* else the other's */
+            p->own = r->participant == s->cfg.id && id_ours(s); /* else another's */
             p->force = r->force;
             p->push_limited = r->push_limited;
             p->contact = contact_centroid(x, t, r->group, &p->in_contact);
@@ -717,7 +772,7 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
     memcpy(v->parts, s->parts, (size_t)s->nparts * sizeof s->parts[0]);
     /* heard within the status deadline (statuses come every 0.5 s) */
     v->parts_unlisted = s->unlisted_ns && now - s->unlisted_ns < 2 * SEC;
-    const ftm_report_probe *own = s->id_told.taken ? NULL : live_probe0(s, s->cfg.id);
+    const ftm_report_probe *own = id_ours(s) ? live_probe0(s, s->cfg.id) : NULL;
     v->own_contact_ticks = own ? own->contact_ticks : 0;
     v->own_peak_force = own ? own->peak_force : 0.0;
     for (int32_t i = 0; i < v->nparts; i++) {

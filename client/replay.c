@@ -1018,3 +1018,15 @@ bool ftm_pending_expired(ftm_pending *p, int64_t now_ns, int64_t timeout_ns, cha
     pending_drop(p, 0);
     return true;
 }
+
+bool ftm_replay_id_held(const ftm_wire_status *server_status, uint32_t own_id,
+                        uint64_t own_origin)
+{
+    const ftm_wire_status *st = server_status;
+    if (st->role != FTM_WIRE_ROLE_SERVER)
+        return false;
+    for (int32_t i = 0; i < st->holder_count; i++)
+        if (st->holder_participant[i] == own_id)
+            return st->holder_origin[i] == own_origin; /* (each id at most once: the codec) */
+    return false;
+}

@@ -135,6 +135,16 @@ typedef struct ftm_id_told {
 ftm_id_claim ftm_replay_id_verdict(ftm_id_told *told, const ftm_wire_status *server_status,
                                    uint32_t own_id, uint64_t own_origin);
 
+/* Whether a status of the server lists us among the processes it listens
+ * to (ftm_wire_status.holder_*: our id with our origin): the positive
+ * confirmation that it hears this process under our id. Until the newest
+ * server status says so, a trainee sends no probe input and renders no
+ * force: before the server has heard us, the reaction under our id may be
+ * another process's, and "not listed as ignored" proves nothing. Servers
+ * before the list existed never confirm (docs/protocol.md). */
+bool ftm_replay_id_held(const ftm_wire_status *server_status, uint32_t own_id,
+                        uint64_t own_origin);
+
 /* A received tick frame (r->msg.kind == FTM_WIRE_TICK). Synced: applies it
  * (after stepping any ticks the server left out as idle), checks the hash;
  * a sequence gap or a mismatch switches to RESYNCING. Not synced: keeps it

@@ -11,6 +11,9 @@
 #       not declare it lost
 #   pause: an instructor pauses for 3 s (server timeout 1 s): the banner
 #       says paused, not silent
+#   idwait: no ftm-server; test_session's stand-in server puts a force
+#       under the trainee's id in every frame and confirms the id only after
+#       5 s: no force, no probe input, no figures of its own until then
 # Every process runs under timeout; no timing is asserted.
 set -u
 mode=${1:?mode}
@@ -24,10 +27,12 @@ domain=$(( 220 + $$ % 10 ))   # as tests/client_gl (RUN_SERIAL); the session nam
 session="client-session-$mode-$$"
 rate=${FTM_TEST_RATE:-500}
 fail() { echo "FAIL: $*"; for f in "$dir"/*.log "$dir"/*.err; do [ -f "$f" ] && { echo "== $f"; tail -n 30 "$f"; }; done; exit 1; }
-"$FTM_SERVER" --scene default --session "$session" --domain $domain --config "$FTM_CONFIG" \
-    --rate "$rate" --duration 60 --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
-server=$!
-wait_for "$dir/server.log" "session '$session'" "server did not start"
+if [ "$mode" != idwait ]; then # (idwait: test_session serves the session itself)
+    "$FTM_SERVER" --scene default --session "$session" --domain $domain --config "$FTM_CONFIG" \
+        --rate "$rate" --duration 60 --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
+    server=$!
+    wait_for "$dir/server.log" "session '$session'" "server did not start"
+fi
 run() { # seconds id script
     timeout 60 "$FTM_TEST_SESSION" "$mode" $domain "$session" "$FTM_CONFIG" "$2" "$3" "$1" \
         >"$dir/test.out" 2>"$dir/test.err" || fail "test_session $mode exited with $?"
@@ -43,7 +48,7 @@ run() { # seconds id script
     [ -n "$t1" ] && [ -n "$t2" ] && [ "$t2" -ge "$t1" ] && [ "$t2" -le $((t1 + 3 * rate)) ] ||
         fail "synced at tick '$t2', the replay synced at '$t1'"
     # (not with the id taken: the bot's own early input has that id)
-    [ "$mode" = idtaken ] || [ "$mode" = idback ] ||
+    [ "$mode" = idtaken ] || [ "$mode" = idback ] || [ "$mode" = idwait ] ||
         ! grep "probe input from participant $2 rejected" "$dir/server.log" ||
         fail "probe input went out before the server knew the client"
     cat "$dir/test.out"
@@ -73,6 +78,9 @@ slow)
     ;;
 pause)
     run 7 42 -
+    ;;
+idwait)
+    run 8 36 "$FTM_DATA/side.bot"
     ;;
 *) echo "unknown mode $mode"; exit 2 ;;
 esac

@@ -17,6 +17,16 @@
  *   pause    an instructor pauses the session for longer than the server
  *            timeout (1 s here): the banner says paused, not silent, and no
  *            "no tick frames" is logged; after the resume the banner goes.
+ *   idwait   no ftm-server: a stand-in in this process (fake_server) serves
+ *            the session, every frame carrying a reaction force under the
+ *            trainee's id that the trainee did not cause (as another process
+ *            with its id would get), and confirms the trainee's id in its
+ *            status only 5 s after it starts (as a server whose status was
+ *            lost, or one that never confirms, until then). Until then the
+ *            trainee must write no force, send no probe input, show no
+ *            figures of its own, say that it waits, and, past the 3 s bound,
+ *            say in red that the server has not confirmed; once confirmed,
+ *            force and probe input come on.
  *
  * on_force and take_hips are those of client/client_main.c. Exit 0 pass, 1
  * fail (saying why). */
@@ -24,6 +34,9 @@
 #include "device.h"
 #include "haptic.h"
 #include "haptic_wire.h"
+#include "replay.h"
+
+#include "ftm/sim.h"
 
 #include <inttypes.h>
 #include <math.h>
@@ -42,6 +55,10 @@ typedef struct tapp {
     double frame_sleep; /* [s] per frame handed to on_force (slow mode) */
     atomic_bool taken, back;
     atomic_int nonzero_after_taken;
+    atomic_bool confirmed;        /* idwait: the stand-in server has confirmed our id */
+    atomic_int nonzero_unconfirmed, nonzero_confirmed; /* idwait: forces written */
+    atomic_int valid_unconfirmed; /* idwait: on_force with a force to render, unconfirmed */
+    atomic_bool said_confirmed, said_late;
     atomic_int frames;
     atomic_int silent_logged, lost_logged;
     double t0;
@@ -67,6 +84,10 @@ static void on_log(void *user, ftm_log_level level, const char *msg)
         atomic_fetch_add(&a->silent_logged, 1);
     if (strstr(msg, "declared this client lost"))
         atomic_fetch_add(&a->lost_logged, 1);
+    if (strstr(msg, "is confirmed: the server hears this process"))
+        atomic_store(&a->said_confirmed, true);
+    if (strstr(msg, "has not confirmed participant id"))
+        atomic_store(&a->said_late, true);
 }
 
 /* the script device, with every force written counted */
@@ -79,8 +100,12 @@ static int w_read(void *self, double now, ftm_vec3 *hip)
 static void w_write(void *self, double now, ftm_vec3 f)
 {
     tapp *a = self;
-    if (atomic_load(&a->taken) && !atomic_load(&a->back) && (f.x != 0 || f.y != 0 || f.z != 0))
+    const bool nonzero = f.x != 0 || f.y != 0 || f.z != 0;
+    if (atomic_load(&a->taken) && !atomic_load(&a->back) && nonzero)
         atomic_fetch_add(&a->nonzero_after_taken, 1);
+    if (nonzero)
+        atomic_fetch_add(atomic_load(&a->confirmed) ? &a->nonzero_confirmed : &a->nonzero_unconfirmed,
+                         1);
 }
 
 static const ftm_device_ops wrap_ops = {.name = "test", .read = w_read, .write = w_write};
@@ -90,6 +115,9 @@ static void on_force(void *user, uint64_t tick, double tick_time, const ftm_wire
 {
     tapp *a = user;
     atomic_fetch_add(&a->frames, 1);
+    if (valid && r && (r->force.x != 0 || r->force.y != 0 || r->force.z != 0) &&
+        !atomic_load(&a->confirmed))
+        atomic_fetch_add(&a->valid_unconfirmed, 1);
     if (a->frame_sleep > 0)
         sleep_s(a->frame_sleep);
     if (!a->hap)
@@ -122,6 +150,197 @@ static int take_hips(void *user, ftm_wire_probe_sample *out, int max)
     return n;
 }
 
+/* ---- idwait: a stand-in server ----------------------------------------------------------
+ * Runs the scene at 200 Hz as ftm-server does with no contact (ftm_replay_step),
+ * so the trainee's replica syncs and stays synced, but adds to every tick
+ * frame a reaction force under the trainee's id: the force another process
+ * with that id would cause. Its status lists the trainee as the process it
+ * hears under that id (holder_*) only from confirm_after on. */
+#define FAKE_RATE 200
+#define FAKE_ID 1u
+
+typedef struct fake_server {
+    ftm_wire_transport *wire;
+    ftm_scene *scene;
+    ftm_sim *sim;
+    int32_t depth;
+    uint32_t victim;      /* the trainee's id */
+    uint64_t origin;      /* the trainee's process, from its status; 0: not heard yet */
+    double t0, confirm_after;
+    tapp *app;            /* its confirmed flag is set with the first confirming status */
+    atomic_bool stop;
+    atomic_int inputs_unconfirmed, inputs_confirmed; /* the trainee's probe input */
+    bool failed;
+    pthread_t thread;
+} fake_server;
+
+static void fake_publish(fake_server *f, ftm_wire_msg *m)
+{
+    ftm_error err = {0, ""};
+    if (ftm_wire_publish(f->wire, m, &err)) {
+        fprintf(stderr, "fake server: %s\n", err.message);
+        f->failed = true;
+    }
+}
+
+static void fake_announce(fake_server *f, uint64_t tick)
+{
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_ANNOUNCE;
+    ftm_wire_announce *a = &m.u.announce;
+    snprintf(a->scene_id, sizeof a->scene_id, "default");
+    ftm_replay_scene_digest(f->scene, a->digest);
+    a->digest_len = FTM_REPLAY_DIGEST_SIZE;
+    a->tick_rate_hz = FAKE_RATE;
+    a->time_step = ftm_replay_sim_def(f->scene).time_step;
+    a->depth = a->depth_min = a->depth_max = f->depth;
+    a->tissue = ftm_replay_scene_tissue(f->scene);
+    a->node_count = ftm_mesh_node_count(ftm_scene_mesh(f->scene));
+    a->tick = tick;
+    a->server_start_ns = 1;
+    a->arithmetic = ftm_arithmetic_revision();
+    fake_publish(f, &m);
+}
+
+static void fake_status(fake_server *f, uint64_t tick, bool confirm)
+{
+    ftm_wire_msg m;
+    memset(&m, 0, sizeof m);
+    m.kind = FTM_WIRE_STATUS;
+    ftm_wire_status *st = &m.u.status;
+    st->participant = FAKE_ID;
+    st->role = FTM_WIRE_ROLE_SERVER;
+    st->state = FTM_WIRE_STATE_SYNCED;
+    st->last_applied_tick = tick;
+    st->state_hash = ftm_sim_hash(f->sim);
+    snprintf(st->name, sizeof st->name, "stand-in server");
+    if (confirm) {
+        st->holder_count = 1;
+        st->holder_participant[0] = f->victim;
+        st->holder_origin[0] = f->origin;
+    }
+    fake_publish(f, &m);
+}
+
+static void *fake_main(void *arg)
+{
+    fake_server *f = arg;
+    ftm_error err = {0, ""};
+    ftm_wire_reaction re = {.group = 0, .participant = f->victim, .probe = 0,
+                            .force = {0.0, 0.0, 1.5}};
+    uint64_t tick = 0;
+    double next_tick = f->t0, next_status = f->t0, next_announce = f->t0;
+    bool keyframe_due = true;
+    fake_announce(f, tick);
+    while (!atomic_load(&f->stop) && !f->failed) {
+        const double now = ftm_haptic_clock();
+        ftm_wire_received rx;
+        while (ftm_wire_receive(f->wire, FTM_WIRE_STATUS, &rx, 0, NULL) == FTM_OK) {
+            if (!rx.gone && rx.sender == f->victim) {
+                if (rx.origin)
+                    f->origin = rx.origin;
+                if (rx.msg.u.status.state == FTM_WIRE_STATE_JOINING ||
+                    rx.msg.u.status.state == FTM_WIRE_STATE_RESYNCING)
+                    keyframe_due = true;
+            }
+            ftm_wire_received_free(&rx);
+        }
+        while (ftm_wire_receive(f->wire, FTM_WIRE_PROBE_INPUT, &rx, 0, NULL) == FTM_OK) {
+            if (rx.sender == f->victim)
+                atomic_fetch_add(atomic_load(&f->app->confirmed) ? &f->inputs_confirmed
+                                                                  : &f->inputs_unconfirmed, 1);
+            ftm_wire_received_free(&rx);
+        }
+        if (now >= next_tick) {
+            if (ftm_replay_step(f->sim, f->depth, NULL, 0, &err)) {
+                fprintf(stderr, "fake server: %s\n", err.message);
+                f->failed = true;
+                break;
+            }
+            tick++;
+            ftm_wire_msg m;
+            memset(&m, 0, sizeof m);
+            m.kind = FTM_WIRE_TICK;
+            m.u.tick.tick = tick;
+            m.u.tick.depth = f->depth;
+            m.u.tick.reaction_count = 1;
+            m.u.tick.reactions = &re;
+            m.u.tick.state_hash = ftm_sim_hash(f->sim);
+            fake_publish(f, &m);
+            if (keyframe_due) {
+                memset(&m, 0, sizeof m);
+                m.kind = FTM_WIRE_KEYFRAME;
+                if (ftm_replay_make_keyframe(f->sim, NULL, &m.u.keyframe, &err)) {
+                    fprintf(stderr, "fake server: %s\n", err.message);
+                    f->failed = true;
+                    break;
+                }
+                fake_publish(f, &m);
+                ftm_replay_keyframe_free(&m.u.keyframe);
+                keyframe_due = false;
+            }
+            next_tick += 1.0 / FAKE_RATE;
+        }
+        if (now >= next_announce) {
+            fake_announce(f, tick);
+            next_announce = now + 1.0;
+        }
+        if (now >= next_status) {
+            const bool confirm = f->origin && now - f->t0 >= f->confirm_after;
+            if (confirm && !atomic_load(&f->app->confirmed)) {
+                fprintf(stderr, "test_session [%7.3f] stand-in server: confirms id %u\n",
+                        now - f->app->t0, f->victim);
+                atomic_store(&f->app->confirmed, true); /* before the client can hear it */
+            }
+            fake_status(f, tick, confirm);
+            next_status = now + 0.1;
+        }
+        sleep_s(0.0005);
+    }
+    return NULL;
+}
+
+static int fake_start(fake_server *f, const ftm_client_config *cc, tapp *a, ftm_error *err)
+{
+    f->victim = cc->id;
+    f->app = a;
+    f->t0 = ftm_haptic_clock();
+    f->confirm_after = 5.0;
+    atomic_init(&f->stop, false);
+    if (ftm_wire_open_scene("default", &f->scene, NULL, 0, err))
+        return -1;
+    ftm_sim_def def = ftm_replay_sim_def(f->scene);
+    f->depth = def.depth;
+    if (ftm_sim_create(ftm_scene_mesh(f->scene), &def, &f->sim, err))
+        return -1;
+    ftm_wire_transport_def wd;
+    memset(&wd, 0, sizeof wd);
+    wd.config = cc->dds_config;
+    wd.domain_id = cc->domain;
+    wd.session = cc->session;
+    wd.participant_id = FAKE_ID;
+    wd.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE) | FTM_WIRE_KIND_BIT(FTM_WIRE_TICK) |
+                 FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME) | FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS);
+    wd.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT);
+    if (ftm_wire_transport_create(&wd, &f->wire, err))
+        return -1;
+    if (pthread_create(&f->thread, NULL, fake_main, f) != 0) {
+        snprintf(err->message, sizeof err->message, "cannot start the stand-in server's thread");
+        return -1;
+    }
+    return 0;
+}
+
+static void fake_stop(fake_server *f)
+{
+    atomic_store(&f->stop, true);
+    pthread_join(f->thread, NULL);
+    ftm_wire_transport_destroy(f->wire);
+    ftm_sim_destroy(f->sim);
+    ftm_scene_destroy(f->scene);
+}
+
 static int failures;
 #define CHECK(cond, ...)                                                                          \
     do {                                                                                          \
@@ -135,8 +354,8 @@ static int failures;
 int main(int argc, char **argv)
 {
     if (argc != 8) {
-        fprintf(stderr, "usage: test_session idtaken|idback|slow|pause DOMAIN SESSION CONFIG ID SCRIPT "
-                        "SECONDS\n");
+        fprintf(stderr, "usage: test_session idtaken|idback|slow|pause|idwait DOMAIN SESSION CONFIG ID "
+                        "SCRIPT SECONDS\n");
         return 2;
     }
     const char *mode = argv[1];
@@ -178,6 +397,12 @@ int main(int argc, char **argv)
     }
     if (strcmp(mode, "slow") == 0)
         a.frame_sleep = 3.0 / (double)(getenv("FTM_TEST_RATE") ? atoi(getenv("FTM_TEST_RATE")) : 500);
+    const bool idwait = strcmp(mode, "idwait") == 0;
+    static fake_server fk;
+    if (idwait && fake_start(&fk, &cc, &a, &err)) {
+        fprintf(stderr, "test_session: stand-in server: %s\n", err.message);
+        return 1;
+    }
     ftm_client_session *s;
     if (ftm_client_session_start(&cc, &s, &err)) {
         fprintf(stderr, "test_session: %s\n", err.message);
@@ -187,6 +412,7 @@ int main(int argc, char **argv)
     ftm_client_view v;
     memset(&v, 0, sizeof v);
     int others_seen = 0, bad_own = 0, paused_views = 0, silent_banners = 0, paused_banners = 0;
+    int wait_banners = 0, late_banners = 0, synced_unconfirmed = 0, own_unconfirmed = 0;
     double paused_since = -1, resumed_at = -1, taken_at = -1;
     bool sent_pause = false, sent_resume = false, banner_after_resume = false;
     bool pause_answered = false, resume_answered = false; /* the server's replies in the view */
@@ -211,6 +437,24 @@ int main(int argc, char **argv)
             if (v.own_force.x != 0 || v.own_force.y != 0 || v.own_force.z != 0 ||
                 v.own_contact_ticks != 0 || v.own_peak_force != 0 || v.force_valid)
                 bad_own++;
+        }
+        if (idwait && !atomic_load(&a.confirmed)) {
+            if (v.state == FTM_WIRE_STATE_SYNCED)
+                synced_unconfirmed++;
+            if (strstr(v.banner, "WAITING FOR THE SERVER TO CONFIRM PARTICIPANT ID") && !v.banner_error)
+                wait_banners++;
+            if (strstr(v.banner, "HAS NOT CONFIRMED PARTICIPANT ID") && v.banner_error)
+                late_banners++;
+            for (int32_t i = 0; i < v.nprobes; i++) {
+                if (v.probes[i].own)
+                    own_unconfirmed++;
+                if (v.probes[i].participant == cc.id &&
+                    (v.probes[i].force.x != 0 || v.probes[i].force.y != 0 || v.probes[i].force.z != 0))
+                    others_seen++; /* the force under our id: there to mistake */
+            }
+            if (v.own_force.x != 0 || v.own_force.y != 0 || v.own_force.z != 0 ||
+                v.own_contact_ticks != 0 || v.own_peak_force != 0 || v.force_valid)
+                own_unconfirmed++;
         }
         if (strcmp(mode, "pause") == 0) {
             ftm_wire_control c;
@@ -242,6 +486,8 @@ int main(int argc, char **argv)
         }
     }
     ftm_client_session_stop(s);
+    if (idwait)
+        fake_stop(&fk);
     ftm_haptic_destroy(a.hap);
     ftm_device_destroy(dev);
     ftm_device_destroy(a.inner);
@@ -262,6 +508,32 @@ int main(int argc, char **argv)
         CHECK(bad_own == 0, "%d views showed the other process's figures as our own while taken",
               bad_own);
         CHECK(v.force_valid, "the force did not come back with the id");
+    } else if (idwait) {
+        CHECK(!fk.failed, "the stand-in server failed");
+        CHECK(synced_unconfirmed > 0, "the replica never synced before the id was confirmed: the "
+                                      "test shows nothing");
+        CHECK(others_seen > 0, "no force under our id seen before the confirmation: the test "
+                               "shows nothing");
+        CHECK(atomic_load(&a.valid_unconfirmed) == 0,
+              "%d frames' forces handed to the haptic loop as ours before the server confirmed "
+              "the id", atomic_load(&a.valid_unconfirmed));
+        CHECK(atomic_load(&a.nonzero_unconfirmed) == 0,
+              "%d non-zero forces written to the device before the server confirmed the id",
+              atomic_load(&a.nonzero_unconfirmed));
+        CHECK(atomic_load(&fk.inputs_unconfirmed) == 0,
+              "%d probe inputs sent before the server confirmed the id",
+              atomic_load(&fk.inputs_unconfirmed));
+        CHECK(own_unconfirmed == 0, "%d views showed a probe or figures of our own before the "
+                                    "server confirmed the id", own_unconfirmed);
+        CHECK(wait_banners > 0, "no view said it waits for the server to confirm the id");
+        CHECK(late_banners > 0 && atomic_load(&a.said_late),
+              "past the bound, the view (%d) or the log did not say the server has not confirmed",
+              late_banners);
+        CHECK(atomic_load(&a.confirmed) && atomic_load(&a.said_confirmed),
+              "the client did not take the server's confirmation");
+        CHECK(atomic_load(&a.nonzero_confirmed) > 0 && v.force_valid,
+              "no force once the id was confirmed");
+        CHECK(atomic_load(&fk.inputs_confirmed) > 0, "no probe input once the id was confirmed");
     } else if (strcmp(mode, "slow") == 0) {
         CHECK(v.synced_once, "never synced");
         CHECK(atomic_load(&a.frames) > 100, "only %d frames applied", atomic_load(&a.frames));

@@ -784,10 +784,36 @@ static void test_announce_arithmetic(void **state)
     ftm_scene_destroy(sc);
 }
 
+/* Our id is held only when a server's status lists it with our origin
+ * among its holders: not from another role, not with another origin, not
+ * from a status without the list (a server from before it) and not from
+ * one that merely does not list us as ignored. */
+static void test_id_held(void **state)
+{
+    (void)state;
+    ftm_wire_status st;
+    memset(&st, 0, sizeof st);
+    st.participant = 1;
+    st.role = FTM_WIRE_ROLE_SERVER;
+    assert_false(ftm_replay_id_held(&st, 35, 0xabc)); /* no list at all */
+    st.holder_count = 2;
+    st.holder_participant[0] = 11;
+    st.holder_origin[0] = 0xabc;
+    st.holder_participant[1] = 35;
+    st.holder_origin[1] = 0xdef;
+    assert_false(ftm_replay_id_held(&st, 35, 0xabc)); /* another process holds 35 */
+    assert_true(ftm_replay_id_held(&st, 35, 0xdef));
+    assert_true(ftm_replay_id_held(&st, 11, 0xabc));
+    assert_false(ftm_replay_id_held(&st, 12, 0xabc));
+    st.role = FTM_WIRE_ROLE_TRAINEE; /* only the server's word counts */
+    assert_false(ftm_replay_id_held(&st, 35, 0xdef));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sha256),
+        cmocka_unit_test(test_id_held),
         cmocka_unit_test(test_announce_arithmetic),
         cmocka_unit_test(test_continue_in_contact),
         cmocka_unit_test(test_continue_relaxing),
