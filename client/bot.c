@@ -561,12 +561,11 @@ static void on_status(bot *b, const ftm_wire_received *rx)
             blog("participant id %u is ours again: the process that held it left", g_id);
         }
         const bool held = ftm_replay_id_held(st, g_id, ftm_wire_transport_origin(b->wire));
-        if (held && !b->id_held)
+        if (held && !b->id_held) {
             blog("participant id %u is confirmed: the server hears this process under it", g_id);
-        else if (!held && b->id_held)
+        } else if (!held && b->id_held) {
             blog("the server no longer confirms participant id %u as this process's: no probe "
                  "input until it does", g_id);
-        if (!held && b->id_held) {
             b->held_since_ns = mono_ns();
             b->held_late_told = false;
         }
@@ -740,9 +739,8 @@ int main(int argc, char **argv)
         }
         now = mono_ns();
         double t = (double)(now - g_t0) * 1e-9;
-        /* no probe input before the first sync: the server would not know
-         * us yet (our JOINING status travels on another topic) and warn */
-        /* nor before the server confirmed that it hears us under our id */
+        /* the wait for the server to confirm our id starts with its first
+         * announcement (or its restart, or the confirmation's loss) */
         if (!b->held_since_ns && b->server_id)
             b->held_since_ns = now;
         if (b->role == FTM_WIRE_ROLE_TRAINEE && !b->id_held && !b->id_told.taken &&
@@ -752,6 +750,9 @@ int main(int argc, char **argv)
                  "(a server older than this bot never does): no probe input",
                  b->server_id, g_id, (double)ID_CONFIRM_WAIT_NS * 1e-9);
         }
+        /* no probe input before the first sync: the server would not know
+         * us yet (our JOINING status travels on another topic) and warn;
+         * nor before it confirmed that it hears this process under our id */
         if (b->role == FTM_WIRE_ROLE_TRAINEE && now >= next_input && !b->id_told.taken &&
             b->id_held && b->ever_synced && !b->server_left) {
             send_probe(b, t);
