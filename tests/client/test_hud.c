@@ -40,6 +40,17 @@ static ftm_client_view sample_view(void)
     return v;
 }
 
+/* The participant table full and 16 probes in contact: the most a HUD
+ * has to fit. */
+static void crowd(ftm_client_view *v)
+{
+    for (uint32_t id = 100; v->nparts < FTM_CLIENT_MAX_PARTS; id++)
+        assert_non_null(ftm_parts_find(v->parts, &v->nparts, id, true));
+    v->nprobes = 16;
+    for (int i = 0; i < v->nprobes; i++)
+        v->probes[i] = (ftm_client_probe){.participant = 100 + (uint32_t)i, .in_contact = true};
+}
+
 static void test_instructor_sees_debriefing(void **state)
 {
     (void)state;
@@ -132,12 +143,8 @@ static void test_cut_list_says_so(void **state)
     n = ftm_hud_lines(&v, &in, lines);
     assert_true(find(n, "  ... more participants than the list holds") > find(n, "  13 observer"));
     v.parts_unlisted = false;
-    for (uint32_t id = 100; v.nparts < FTM_CLIENT_MAX_PARTS; id++)
-        assert_non_null(ftm_parts_find(v.parts, &v.nparts, id, true));
     /* many probes in contact take their lines first */
-    v.nprobes = 16;
-    for (int i = 0; i < v.nprobes; i++)
-        v.probes[i] = (ftm_client_probe){.participant = 100 + (uint32_t)i, .in_contact = true};
+    crowd(&v);
     n = ftm_hud_lines(&v, &in, lines);
     assert_true(n <= FTM_HUD_LINES);
     int more = find(n, "  ... more not shown");
@@ -209,11 +216,7 @@ static void test_command_outcome(void **state)
     assert_true(l > 0);
     assert_non_null(strstr(lines[l + 1], "64 substeps"));
     /* with the participant table full, the keys and the outcome still fit */
-    for (uint32_t id = 100; v.nparts < FTM_CLIENT_MAX_PARTS; id++)
-        assert_non_null(ftm_parts_find(v.parts, &v.nparts, id, true));
-    v.nprobes = 16;
-    for (int i = 0; i < v.nprobes; i++)
-        v.probes[i] = (ftm_client_probe){.participant = 100 + (uint32_t)i, .in_contact = true};
+    crowd(&v);
     n = ftm_hud_lines(&v, &in, lines);
     assert_true(n <= FTM_HUD_LINES);
     assert_true(find(n, "64 substeps") > find(n, "keys:"));
