@@ -204,6 +204,9 @@ typedef struct bot {
     FILE *csv;
     bool push_limited;  /* the last frame said the server limited our push */
     uint32_t server_id; /* 0 until known; frames from anyone else are ignored */
+    /* the server's process (ftm_wire_received.origin of its announcement):
+     * another process under the server's id is not the server (from_server) */
+    uint64_t server_origin;
     uint64_t foreign;   /* messages ignored: not from the server */
     bool server_left;
     bool server_gone; /* left by a `gone` event (lease expiry), not a LEAVING status */
@@ -515,29 +518,44 @@ static void expire_commands(bot *b)
         unanswered(b, text);
 }
 
-/* Announcements, tick frames, keyframes and server statuses are taken from
- * one sender only: the one whose announcement came first (DDS has no
- * authentication here; any participant can write on any topic, so a replica
- * must not step frames from whoever sends them). */
+/* Announcements, tick frames, keyframes, server statuses and control
+ * replies are taken from one process only: the one whose announcement came
+ * first, by its id and its origin (DDS has no authentication here; any
+ * participant can write on any topic under any id, so a replica must not
+ * step frames, and a trainee must not take its id's confirmation, from
+ * whoever sends them). A new process under the server's id is followed
+ * only once the one followed left or is gone (a restarted server), and
+ * only from its announcement. */
 static bool from_server(bot *b, const ftm_wire_received *rx)
 {
-    if (b->server_id == 0 && rx->msg.kind == FTM_WIRE_ANNOUNCE)
+    if (b->server_id == 0 && rx->msg.kind == FTM_WIRE_ANNOUNCE) {
         b->server_id = rx->sender;
-    if (rx->sender == b->server_id)
-        return true;
+        b->server_origin = rx->origin;
+    }
     if (b->server_id == 0)
         return false; /* no announcement yet: nothing to follow */
+    if (rx->sender == b->server_id) {
+        if (rx->origin && rx->origin == b->server_origin)
+            return true;
+        if (rx->origin && rx->msg.kind == FTM_WIRE_ANNOUNCE && b->server_left) {
+            b->server_origin = rx->origin; /* its successor: on_announce tells */
+            return true;
+        }
+    }
     b->foreign++;
     if (b->foreign <= 3 || (b->foreign & (b->foreign - 1)) == 0) /* 1, 2, 3, 4, 8, ... */
-        blog("%s from participant %u ignored (%" PRIu64 " so far): not from the server %u",
-             ftm_wire_kind_name((int)rx->msg.kind), rx->sender, b->foreign, b->server_id);
+        blog("%s from participant %u ignored (%" PRIu64 " so far): not from the server %u%s",
+             ftm_wire_kind_name((int)rx->msg.kind), rx->sender, b->foreign, b->server_id,
+             rx->sender == b->server_id ? "'s process: another process uses its id" : "");
     return false;
 }
 
 static void on_status(bot *b, const ftm_wire_received *rx)
 {
     if (rx->gone) {
-        if (rx->sender == b->server_id && !b->server_left) {
+        /* (origin 0: no longer known; gone only turns things off) */
+        if (rx->sender == b->server_id && (!rx->origin || rx->origin == b->server_origin) &&
+            !b->server_left) {
             blog("server %u gone", rx->sender);
             b->server_left = b->server_gone = true;
             b->need_announce = true;

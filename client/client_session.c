@@ -56,6 +56,9 @@ struct ftm_client_session {
     ftm_wire_announce ann;
     bool have_ann;
     uint32_t server_id; /* 0 until the first announcement */
+    /* the server's process (ftm_wire_received.origin of its announcement):
+     * another process under the server's id is not the server (from_server) */
+    uint64_t server_origin;
     uint64_t foreign;   /* messages ignored: not from the server */
     bool server_left;
     uint64_t server_start; /* the announced start of the server process we replay */
@@ -130,22 +133,34 @@ static void force_off(ftm_client_session *s, const char *why)
                         why);
 }
 
-/* Announcements, frames, keyframes and server statuses are taken from one
- * sender: the one whose announcement came first. Any participant can write
- * on any topic (DDS has no authentication here), so a replica must not step
- * frames from whoever sends them. */
+/* Announcements, frames, keyframes, server statuses and control replies
+ * are taken from one process: the one whose announcement came first, by id
+ * and origin. Any participant can write on any topic under any id (DDS has
+ * no authentication here), so a replica must not step frames, nor a trainee
+ * take its id's confirmation, from whoever sends them. A new process under
+ * the server's id is followed only from its announcement, once the one
+ * followed left or is gone (a restarted server). */
 static bool from_server(ftm_client_session *s, const ftm_wire_received *rx)
 {
-    if (s->server_id == 0 && rx->msg.kind == FTM_WIRE_ANNOUNCE)
+    if (s->server_id == 0 && rx->msg.kind == FTM_WIRE_ANNOUNCE) {
         s->server_id = rx->sender;
-    if (s->server_id != 0 && rx->sender == s->server_id)
-        return true;
+        s->server_origin = rx->origin;
+    }
     if (s->server_id == 0)
         return false;
+    if (rx->sender == s->server_id) {
+        if (rx->origin && rx->origin == s->server_origin)
+            return true;
+        if (rx->origin && rx->msg.kind == FTM_WIRE_ANNOUNCE && s->server_left) {
+            s->server_origin = rx->origin; /* its successor: on_announce tells */
+            return true;
+        }
+    }
     s->foreign++;
     if (s->foreign <= 3 || (s->foreign & (s->foreign - 1)) == 0)
-        slog(s, FTM_LOG_WARN, "%s from participant %u ignored (%" PRIu64 " so far): not from the server %u",
-             ftm_wire_kind_name((int)rx->msg.kind), rx->sender, s->foreign, s->server_id);
+        slog(s, FTM_LOG_WARN, "%s from participant %u ignored (%" PRIu64 " so far): not from the server %u%s",
+             ftm_wire_kind_name((int)rx->msg.kind), rx->sender, s->foreign, s->server_id,
+             rx->sender == s->server_id ? "'s process: another process uses its id" : "");
     return false;
 }
 
@@ -327,7 +342,9 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         /* one that touched the tissue stays listed, for the debriefing */
         const ftm_report_probe *q = live_probe0(s, rx->sender);
         ftm_parts_gone(s->parts, &s->nparts, rx->sender, q && q->contact_ticks > 0);
-        if (s->server_id != 0 && rx->sender == s->server_id)
+        /* (origin 0: no longer known; gone only turns the force off) */
+        if (s->server_id != 0 && rx->sender == s->server_id &&
+            (!rx->origin || rx->origin == s->server_origin))
             server_gone(s, "gone (lease expired or left)");
         return;
     }

@@ -14,6 +14,8 @@
 #   idwait: no ftm-server; test_session's stand-in server puts a force
 #       under the trainee's id in every frame and confirms the id only after
 #       5 s: no force, no probe input, no figures of its own until then
+#   idforge: as idwait, but only a forger under the stand-in's id (another
+#       process) confirms the id: never believed
 # Every process runs under timeout; no timing is asserted.
 set -u
 mode=${1:?mode}
@@ -27,7 +29,7 @@ domain=$(( 220 + $$ % 10 ))   # as tests/client_gl (RUN_SERIAL); the session nam
 session="client-session-$mode-$$"
 rate=${FTM_TEST_RATE:-500}
 fail() { echo "FAIL: $*"; for f in "$dir"/*.log "$dir"/*.err; do [ -f "$f" ] && { echo "== $f"; tail -n 30 "$f"; }; done; exit 1; }
-if [ "$mode" != idwait ]; then # (idwait: test_session serves the session itself)
+if [ "$mode" != idwait ] && [ "$mode" != idforge ]; then # (test_session serves the session itself)
     "$FTM_SERVER" --scene default --session "$session" --domain $domain --config "$FTM_CONFIG" \
         --rate "$rate" --duration 60 --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
     server=$!
@@ -48,7 +50,7 @@ run() { # seconds id script
     [ -n "$t1" ] && [ -n "$t2" ] && [ "$t2" -ge "$t1" ] && [ "$t2" -le $((t1 + 3 * rate)) ] ||
         fail "synced at tick '$t2', the replay synced at '$t1'"
     # (not with the id taken: the bot's own early input has that id)
-    [ "$mode" = idtaken ] || [ "$mode" = idback ] || [ "$mode" = idwait ] ||
+    [ "$mode" = idtaken ] || [ "$mode" = idback ] || [ "$mode" = idwait ] || [ "$mode" = idforge ] ||
         ! grep "probe input from participant $2 rejected" "$dir/server.log" ||
         fail "probe input went out before the server knew the client"
     cat "$dir/test.out"
@@ -81,6 +83,9 @@ pause)
     ;;
 idwait)
     run 8 36 "$FTM_DATA/side.bot"
+    ;;
+idforge)
+    run 6 37 "$FTM_DATA/side.bot"
     ;;
 *) echo "unknown mode $mode"; exit 2 ;;
 esac

@@ -27,6 +27,14 @@
  *            figures of its own, say that it waits, and, past the 3 s bound,
  *            say in red that the server has not confirmed; once confirmed,
  *            force and probe input come on.
+ *   idforge  as idwait, but the stand-in server never confirms, and a forger
+ *            (a DDS participant of its own, under the stand-in's id and
+ *            claiming role SERVER, as a copied --id would) confirms the
+ *            trainee's id and origin in server statuses of its own every
+ *            50 ms: the trainee must not believe it (no force, no probe
+ *            input, no figures of its own, never "confirmed"), and must log
+ *            that it ignores statuses from another process under the
+ *            server's id.
  *
  * on_force and take_hips are those of client/client_main.c. Exit 0 pass, 1
  * fail (saying why). */
@@ -58,7 +66,7 @@ typedef struct tapp {
     atomic_bool confirmed;        /* idwait: the stand-in server has confirmed our id */
     atomic_int nonzero_unconfirmed, nonzero_confirmed; /* idwait: forces written */
     atomic_int valid_unconfirmed; /* idwait: on_force with a force to render, unconfirmed */
-    atomic_bool said_confirmed, said_late;
+    atomic_bool said_confirmed, said_late, said_impostor;
     atomic_int frames;
     atomic_int silent_logged, lost_logged;
     double t0;
@@ -86,6 +94,9 @@ static void on_log(void *user, ftm_log_level level, const char *msg)
         atomic_fetch_add(&a->lost_logged, 1);
     if (strstr(msg, "is confirmed: the server hears this process"))
         atomic_store(&a->said_confirmed, true);
+    if (strstr(msg, "participant status from participant 1 ignored") &&
+        strstr(msg, "another process uses its id"))
+        atomic_store(&a->said_impostor, true);
     if (strstr(msg, "has not confirmed participant id"))
         atomic_store(&a->said_late, true);
 }
@@ -161,6 +172,7 @@ static int take_hips(void *user, ftm_wire_probe_sample *out, int max)
 
 typedef struct fake_server {
     ftm_wire_transport *wire;
+    ftm_wire_transport *forger; /* idforge: another process under FAKE_ID */
     ftm_scene *scene;
     ftm_sim *sim;
     int32_t depth;
@@ -203,7 +215,7 @@ static void fake_announce(fake_server *f, uint64_t tick)
     fake_publish(f, &m);
 }
 
-static void fake_status(fake_server *f, uint64_t tick, bool confirm)
+static void fake_status(fake_server *f, ftm_wire_transport *via, uint64_t tick, bool confirm)
 {
     ftm_wire_msg m;
     memset(&m, 0, sizeof m);
@@ -220,7 +232,11 @@ static void fake_status(fake_server *f, uint64_t tick, bool confirm)
         st->holder_participant[0] = f->victim;
         st->holder_origin[0] = f->origin;
     }
-    fake_publish(f, &m);
+    ftm_error err = {0, ""};
+    if (ftm_wire_publish(via, &m, &err)) {
+        fprintf(stderr, "fake server: %s\n", err.message);
+        f->failed = true;
+    }
 }
 
 static void *fake_main(void *arg)
@@ -230,7 +246,7 @@ static void *fake_main(void *arg)
     ftm_wire_reaction re = {.group = 0, .participant = f->victim, .probe = 0,
                             .force = {0.0, 0.0, 1.5}};
     uint64_t tick = 0;
-    double next_tick = f->t0, next_status = f->t0, next_announce = f->t0;
+    double next_tick = f->t0, next_status = f->t0, next_announce = f->t0, next_forged = f->t0;
     bool keyframe_due = true;
     fake_announce(f, tick);
     while (!atomic_load(&f->stop) && !f->failed) {
@@ -293,20 +309,25 @@ static void *fake_main(void *arg)
                         now - f->app->t0, f->victim);
                 atomic_store(&f->app->confirmed, true); /* before the client can hear it */
             }
-            fake_status(f, tick, confirm);
+            fake_status(f, f->wire, tick, confirm);
             next_status = now + 0.1;
+        }
+        if (f->forger && f->origin && now >= next_forged) {
+            fake_status(f, f->forger, tick, true);
+            next_forged = now + 0.05;
         }
         sleep_s(0.0005);
     }
     return NULL;
 }
 
-static int fake_start(fake_server *f, const ftm_client_config *cc, tapp *a, ftm_error *err)
+static int fake_start(fake_server *f, const ftm_client_config *cc, tapp *a, bool forge,
+                      ftm_error *err)
 {
     f->victim = cc->id;
     f->app = a;
     f->t0 = ftm_haptic_clock();
-    f->confirm_after = 5.0;
+    f->confirm_after = forge ? 1e9 : 5.0;
     atomic_init(&f->stop, false);
     if (ftm_wire_open_scene("default", &f->scene, NULL, 0, err))
         return -1;
@@ -325,6 +346,10 @@ static int fake_start(fake_server *f, const ftm_client_config *cc, tapp *a, ftm_
     wd.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT);
     if (ftm_wire_transport_create(&wd, &f->wire, err))
         return -1;
+    wd.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS);
+    wd.subscribe = 0;
+    if (forge && ftm_wire_transport_create(&wd, &f->forger, err))
+        return -1;
     if (pthread_create(&f->thread, NULL, fake_main, f) != 0) {
         snprintf(err->message, sizeof err->message, "cannot start the stand-in server's thread");
         return -1;
@@ -337,6 +362,7 @@ static void fake_stop(fake_server *f)
     atomic_store(&f->stop, true);
     pthread_join(f->thread, NULL);
     ftm_wire_transport_destroy(f->wire);
+    ftm_wire_transport_destroy(f->forger);
     ftm_sim_destroy(f->sim);
     ftm_scene_destroy(f->scene);
 }
@@ -354,7 +380,7 @@ static int failures;
 int main(int argc, char **argv)
 {
     if (argc != 8) {
-        fprintf(stderr, "usage: test_session idtaken|idback|slow|pause|idwait DOMAIN SESSION CONFIG ID "
+        fprintf(stderr, "usage: test_session idtaken|idback|slow|pause|idwait|idforge DOMAIN SESSION CONFIG ID "
                         "SCRIPT SECONDS\n");
         return 2;
     }
@@ -397,9 +423,10 @@ int main(int argc, char **argv)
     }
     if (strcmp(mode, "slow") == 0)
         a.frame_sleep = 3.0 / (double)(getenv("FTM_TEST_RATE") ? atoi(getenv("FTM_TEST_RATE")) : 500);
-    const bool idwait = strcmp(mode, "idwait") == 0;
+    const bool idforge = strcmp(mode, "idforge") == 0;
+    const bool idwait = strcmp(mode, "idwait") == 0 || idforge;
     static fake_server fk;
-    if (idwait && fake_start(&fk, &cc, &a, &err)) {
+    if (idwait && fake_start(&fk, &cc, &a, idforge, &err)) {
         fprintf(stderr, "test_session: stand-in server: %s\n", err.message);
         return 1;
     }
@@ -526,14 +553,20 @@ int main(int argc, char **argv)
         CHECK(own_unconfirmed == 0, "%d views showed a probe or figures of our own before the "
                                     "server confirmed the id", own_unconfirmed);
         CHECK(wait_banners > 0, "no view said it waits for the server to confirm the id");
-        CHECK(late_banners > 0 && atomic_load(&a.said_late),
-              "past the bound, the view (%d) or the log did not say the server has not confirmed",
-              late_banners);
-        CHECK(atomic_load(&a.confirmed) && atomic_load(&a.said_confirmed),
-              "the client did not take the server's confirmation");
-        CHECK(atomic_load(&a.nonzero_confirmed) > 0 && v.force_valid,
-              "no force once the id was confirmed");
-        CHECK(atomic_load(&fk.inputs_confirmed) > 0, "no probe input once the id was confirmed");
+        if (idforge) {
+            CHECK(!atomic_load(&a.said_confirmed), "the client took a forged confirmation of its id");
+            CHECK(atomic_load(&a.said_impostor), "the client did not say it ignores statuses from "
+                                                  "another process under the server's id");
+        } else {
+            CHECK(late_banners > 0 && atomic_load(&a.said_late),
+                  "past the bound, the view (%d) or the log did not say the server has not "
+                  "confirmed", late_banners);
+            CHECK(atomic_load(&a.confirmed) && atomic_load(&a.said_confirmed),
+                  "the client did not take the server's confirmation");
+            CHECK(atomic_load(&a.nonzero_confirmed) > 0 && v.force_valid,
+                  "no force once the id was confirmed");
+            CHECK(atomic_load(&fk.inputs_confirmed) > 0, "no probe input once the id was confirmed");
+        }
     } else if (strcmp(mode, "slow") == 0) {
         CHECK(v.synced_once, "never synced");
         CHECK(atomic_load(&a.frames) > 100, "only %d frames applied", atomic_load(&a.frames));

@@ -17,7 +17,9 @@
 #include <dds/dds.h>
 
 #include <errno.h>
+#include <inttypes.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -235,10 +237,147 @@ static void wrong_kind(uint32_t domain, const char *session, uint32_t id)
     dds_delete(pp);
 }
 
+/* --forge: a process that passes itself off as the server. Two DDS
+ * participants, one under the server's id (a copied --id) and one under
+ * id + 92 (nobody's), both claiming role SERVER, for `seconds`:
+ * - for every process heard under participant `taken` (the holder and the
+ *   one the server ignores), a server status listing that process as the
+ *   holder of the id: the ignored one must not believe it may press;
+ * - a server status listing `innocent`'s process as ignored: it must not
+ *   believe its id is taken;
+ * - for every SessionControl heard, an APPLIED ControlReply at once
+ *   (before the server's own): the issuer must not count it.
+ * Each kind is printed once on stdout (`rogue: forged ...`). */
+#define FORGE_ORIGINS 4
+static ftm_wire_transport *forger(const char *config, uint32_t domain, const char *session,
+                                  uint32_t id)
+{
+    ftm_wire_transport_def d;
+    memset(&d, 0, sizeof d);
+    d.config = config;
+    d.domain_id = domain;
+    d.session = session;
+    d.participant_id = id;
+    d.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL_REPLY);
+    d.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL);
+    ftm_wire_transport *t = NULL;
+    ftm_error err = {0, ""};
+    if (ftm_wire_transport_create(&d, &t, &err)) {
+        fprintf(stderr, "rogue: %s\n", err.message);
+        exit(3);
+    }
+    return t;
+}
+
+static int64_t now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
+}
+
+static int forge(const char *config, uint32_t domain, const char *session, uint32_t server_id,
+                 uint32_t taken, uint32_t innocent, double seconds)
+{
+    ftm_wire_transport *t[2] = {forger(config, domain, session, server_id),
+                                forger(config, domain, session, server_id + 92)};
+    uint64_t taken_origin[FORGE_ORIGINS] = {0}, innocent_origin = 0;
+    int ntaken = 0;
+    bool told_holder = false, told_ignored = false, told_reply = false;
+    uint64_t replies = 0, statuses = 0;
+    const int64_t end = now_ns() + (int64_t)(seconds * 1e9);
+    int64_t next_status = 0;
+    ftm_wire_msg m;
+    ftm_error err = {0, ""};
+    while (now_ns() < end) {
+        ftm_wire_received rx;
+        /* whose processes there are: what the statuses' origins say */
+        while (ftm_wire_receive(t[0], FTM_WIRE_STATUS, &rx, 0, NULL) == FTM_OK) {
+            if (!rx.gone && rx.origin && rx.msg.u.status.role == FTM_WIRE_ROLE_TRAINEE) {
+                if (rx.sender == innocent)
+                    innocent_origin = rx.origin;
+                bool known = false;
+                for (int i = 0; i < ntaken; i++)
+                    known |= taken_origin[i] == rx.origin;
+                if (rx.sender == taken && !known && ntaken < FORGE_ORIGINS)
+                    taken_origin[ntaken++] = rx.origin;
+            }
+            ftm_wire_received_free(&rx);
+        }
+        /* answer every command first, "applied", from both identities */
+        while (ftm_wire_receive(t[0], FTM_WIRE_CONTROL, &rx, 1000000, NULL) == FTM_OK) {
+            memset(&m, 0, sizeof m);
+            m.kind = FTM_WIRE_CONTROL_REPLY;
+            m.u.control_reply.issuer = rx.msg.u.control.issuer;
+            m.u.control_reply.command_id = rx.msg.u.control.command_id;
+            m.u.control_reply.outcome = FTM_WIRE_OUTCOME_APPLIED;
+            m.u.control_reply.tick = 1;
+            for (int k = 0; k < 2; k++)
+                if (ftm_wire_publish(t[k], &m, &err))
+                    fprintf(stderr, "rogue: control reply: %s\n", err.message);
+            replies++;
+            if (!told_reply) {
+                printf("rogue: forged an applied control reply (participant %u, command %" PRIu64
+                       ")\n", m.u.control_reply.issuer, m.u.control_reply.command_id);
+                fflush(stdout);
+                told_reply = true;
+            }
+            ftm_wire_received_free(&rx);
+        }
+        if (now_ns() < next_status)
+            continue;
+        next_status = now_ns() + 20000000; /* 50 Hz: between any two of the server's */
+        for (int i = 0; i <= ntaken; i++) {
+            memset(&m, 0, sizeof m);
+            m.kind = FTM_WIRE_STATUS;
+            ftm_wire_status *st = &m.u.status;
+            st->role = FTM_WIRE_ROLE_SERVER;
+            st->state = FTM_WIRE_STATE_SYNCED;
+            snprintf(st->name, sizeof st->name, "rogue server");
+            if (i < ntaken) {
+                st->holder_participant[0] = taken;
+                st->holder_origin[0] = taken_origin[i];
+                st->holder_count = 1;
+            }
+            if (innocent_origin) {
+                st->ignored_participant[0] = innocent;
+                st->ignored_origin[0] = innocent_origin;
+                st->ignored_count = 1;
+            }
+            if (!st->holder_count && !st->ignored_count)
+                continue;
+            for (int k = 0; k < 2; k++) {
+                st->participant = k ? server_id + 92 : server_id;
+                if (ftm_wire_publish(t[k], &m, &err))
+                    fprintf(stderr, "rogue: status: %s\n", err.message);
+            }
+            statuses++;
+        }
+        if (ntaken >= 2 && !told_holder) {
+            printf("rogue: forged server statuses confirming participant %u for each of its %d "
+                   "processes\n", taken, ntaken);
+            fflush(stdout);
+            told_holder = true;
+        }
+        if (innocent_origin && !told_ignored) {
+            printf("rogue: forged server status ignoring participant %u\n", innocent);
+            fflush(stdout);
+            told_ignored = true;
+        }
+    }
+    for (int k = 0; k < 2; k++) {
+        ftm_wire_flush(t[k], 1000000000LL, NULL);
+        ftm_wire_transport_destroy(t[k]);
+    }
+    printf("rogue: forge done: %" PRIu64 " statuses, %" PRIu64 " replies\n", statuses, replies);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     const char *config = NULL, *session = "ftm";
-    uint32_t domain = 0, id = 0, victim = 0;
+    uint32_t domain = 0, id = 0, victim = 0, taken = 0, innocent = 0;
+    double forge_s = 0;
     for (int i = 1; i + 1 < argc; i += 2) {
         const char *a = argv[i], *v = argv[i + 1];
         char *end = NULL;
@@ -253,6 +392,12 @@ int main(int argc, char **argv)
             id = (uint32_t)strtoul(v, &end, 10);
         else if (strcmp(a, "--victim") == 0)
             victim = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--taken") == 0)
+            taken = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--innocent") == 0)
+            innocent = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--forge") == 0)
+            forge_s = strtod(v, &end);
         else {
             fprintf(stderr, "rogue: unknown option %s\n", a);
             return 2;
@@ -262,9 +407,13 @@ int main(int argc, char **argv)
             return 2;
         }
     }
+    if (argc % 2 == 1 && forge_s > 0 && forge_s < 60 && id && taken && innocent)
+        return forge(config, domain, session, id, taken, innocent, forge_s);
     if (argc % 2 != 1 || id == 0 || victim == 0 || victim == id || victim == id + 1) {
         fprintf(stderr, "usage: ftm-rogue --id N --victim M [--config F] [--domain D] "
-                        "[--session S]   (uses ids N and N+1; M is a trainee to impersonate)\n");
+                        "[--session S]   (uses ids N and N+1; M is a trainee to impersonate)\n"
+                        "       ftm-rogue --forge SECONDS --id SERVER --taken T --innocent I "
+                        "[--config F] [--domain D] [--session S]\n");
         return 2;
     }
 
