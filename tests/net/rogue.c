@@ -7,6 +7,9 @@
  * that forge another participant's id. Each step is printed on stdout as
  * `rogue: STEP` so the test can match it with the server's logged reason.
  *
+ * With --forge it is instead a forger of the server (tests/net/net_forge.sh):
+ * server statuses and control replies of its own making, see forge().
+ *
  * The wrong-kind envelope needs a raw DDS writer (ftm_wire always writes a
  * kind on its own topic); everything else goes through ftm_wire, raw
  * payloads with ftm_wire_publish_raw. */
