@@ -57,20 +57,57 @@ void ftm_report_contact(ftm_report_probe *p, uint64_t tick, ftm_vec3 force, doub
         p->limited_ticks++;
 }
 
-/* A JSON string: printable ASCII kept, quotes and backslashes escaped, any
- * other byte (names come from the peers) as \u00XX. */
+/* Length of the well-formed UTF-8 sequence at c (RFC 3629: no overlong
+ * forms, no surrogates, at most U+10FFFF), or 0. */
+static int utf8_len(const unsigned char *c)
+{
+    if (c[0] >= 0xc2 && c[0] <= 0xdf)
+        return (c[1] & 0xc0) == 0x80 ? 2 : 0;
+    if (c[0] >= 0xe0 && c[0] <= 0xef) {
+        unsigned lo = c[0] == 0xe0 ? 0xa0 : 0x80, hi = c[0] == 0xed ? 0x9f : 0xbf;
+        return c[1] >= lo && c[1] <= hi && (c[2] & 0xc0) == 0x80 ? 3 : 0;
+    }
+    if (c[0] >= 0xf0 && c[0] <= 0xf4) {
+        unsigned lo = c[0] == 0xf0 ? 0x90 : 0x80, hi = c[0] == 0xf4 ? 0x8f : 0xbf;
+        return c[1] >= lo && c[1] <= hi && (c[2] & 0xc0) == 0x80 && (c[3] & 0xc0) == 0x80 ? 4
+                                                                                           : 0;
+    }
+    return 0;
+}
+
+/* A JSON string (names come from the peers): quotes and backslashes
+ * escaped, control characters as \u00XX, well-formed UTF-8 kept (escaping
+ * its bytes one by one, as \u00c3\u00a9 for an e-acute, would make a reader
+ * decode two Latin-1 characters), any other byte as U+FFFD: the file is
+ * valid UTF-8 JSON whatever was sent. */
 static void json_str(FILE *f, const char *s)
 {
     fputc('"', f);
     for (const unsigned char *c = (const unsigned char *)s; *c; c++) {
+        int n;
         if (*c == '"' || *c == '\\')
             fprintf(f, "\\%c", *c);
         else if (*c >= 0x20 && *c < 0x7f)
             fputc(*c, f);
-        else
+        else if (*c < 0x80)
             fprintf(f, "\\u%04x", *c);
+        else if ((n = utf8_len(c)) > 0) {
+            fwrite(c, 1, (size_t)n, f);
+            c += n - 1;
+        } else
+            fputs("\\ufffd", f);
     }
     fputc('"', f);
+}
+
+/* A JSON number: JSON has no NaN or infinity, so a figure that is not
+ * finite (none should be) is null rather than a file no reader accepts. */
+static const char *num(char buf[32], double v)
+{
+    if (!isfinite(v))
+        return "null";
+    snprintf(buf, 32, "%.17g", v);
+    return buf;
 }
 
 int ftm_report_write_json(const ftm_report *r, const ftm_report_session *s, FILE *f)
@@ -83,12 +120,14 @@ int ftm_report_write_json(const ftm_report *r, const ftm_report_session *s, FILE
     fprintf(f, ",\"scene_digest\":\"");
     for (int i = 0; i < s->digest_len; i++)
         fprintf(f, "%02x", s->digest[i]);
-    fprintf(f, "\",\"ticks\":%llu,\"tick_rate_hz\":%.17g,\"seconds\":%.17g,"
+    char b[5][32];
+    fprintf(f, "\",\"ticks\":%llu,\"tick_rate_hz\":%s,\"seconds\":%s,"
                "\"depth_min\":%d,\"depth_max\":%d,\"unstable_ticks\":%llu,"
                "\"tissue_changes\":%llu,\"participants_not_reported\":%llu,\"participants\":[",
-            (unsigned long long)s->ticks, s->tick_rate_hz, (double)s->ticks / rate,
-            (int)s->depth_min, (int)s->depth_max, (unsigned long long)s->unstable_ticks,
-            (unsigned long long)s->tissue_changes, (unsigned long long)r->dropped);
+            (unsigned long long)s->ticks, num(b[0], s->tick_rate_hz),
+            num(b[1], (double)s->ticks / rate), (int)s->depth_min, (int)s->depth_max,
+            (unsigned long long)s->unstable_ticks, (unsigned long long)s->tissue_changes,
+            (unsigned long long)r->dropped);
     for (int32_t i = 0; i < r->count; i++) {
         const ftm_report_part *p = &r->parts[i];
         fprintf(f, "%s\n {\"id\":%u,\"role\":", i ? "," : "", p->id);
@@ -104,14 +143,15 @@ int ftm_report_write_json(const ftm_report *r, const ftm_report_session *s, FILE
                 continue;
             fprintf(f,
                     "%s\n  {\"probe\":%d,\"touches\":%u,\"contact_ticks\":%llu,"
-                    "\"contact_seconds\":%.17g,\"peak_force_n\":%.17g,\"peak_force_tick\":%llu,"
-                    "\"mean_force_n\":%.17g,\"impulse_ns\":%.17g,\"max_push_m\":%.17g,"
+                    "\"contact_seconds\":%s,\"peak_force_n\":%s,\"peak_force_tick\":%llu,"
+                    "\"mean_force_n\":%s,\"impulse_ns\":%s,\"max_push_m\":%s,"
                     "\"push_limited_ticks\":%llu}",
                     n++ ? "," : "", k, q->touches, (unsigned long long)q->contact_ticks,
-                    (double)q->contact_ticks / rate, q->peak_force,
+                    num(b[0], (double)q->contact_ticks / rate), num(b[1], q->peak_force),
                     (unsigned long long)q->peak_tick,
-                    q->contact_ticks ? q->force_sum / (double)q->contact_ticks : 0.0,
-                    q->force_sum / rate, q->max_push, (unsigned long long)q->limited_ticks);
+                    num(b[2], q->contact_ticks ? q->force_sum / (double)q->contact_ticks : 0.0),
+                    num(b[3], q->force_sum / rate), num(b[4], q->max_push),
+                    (unsigned long long)q->limited_ticks);
         }
         fprintf(f, "]}");
     }

@@ -2,6 +2,7 @@
  * and JSON that stays valid whatever names the peers send. */
 #include "report.h"
 
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -70,7 +71,8 @@ static void test_json_escapes_names(void **state)
     assert_non_null(f);
     assert_int_equal(ftm_report_write_json(&r, &s, f), 0);
     fclose(f);
-    if (!strstr(buf, "\"name\":\"a\\\"b\\\\c\\u0001\\u000a\\u00c3\\u00a9\""))
+    /* UTF-8 kept as it is (not one \u00XX per byte: that decodes as "Ã©") */
+    if (!strstr(buf, "\"name\":\"a\\\"b\\\\c\\u0001\\u000a\xc3\xa9\""))
         fail_msg("name not escaped: %s", buf);
     assert_non_null(strstr(buf, "\"session\":\"ward \\\"3\\\"\""));
     assert_non_null(strstr(buf, "\"scene_digest\":\"ab01\""));
@@ -81,12 +83,59 @@ static void test_json_escapes_names(void **state)
     ftm_report_free(&r);
 }
 
+/* A name that is not UTF-8 (a peer may send any bytes): every ill-formed
+ * byte becomes U+FFFD, well-formed sequences are kept, the result is valid
+ * UTF-8; a figure that is not finite is null (JSON has no NaN). */
+static void test_json_not_utf8(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *name, *json;
+    } cases[] = {
+        {"\xe2\x82\xac \xf0\x9f\x98\x80", "\xe2\x82\xac \xf0\x9f\x98\x80"}, /* euro, emoji */
+        {"x\xff\xfey", "x\\ufffd\\ufffdy"},       /* never in UTF-8 */
+        {"\x80z", "\\ufffdz"},                      /* a lone continuation byte */
+        {"\xc0\xaf", "\\ufffd\\ufffd"},              /* overlong '/' */
+        {"\xed\xa0\x80", "\\ufffd\\ufffd\\ufffd"},    /* a surrogate, U+D800 */
+        {"\xf4\x90\x80\x80", "\\ufffd\\ufffd\\ufffd\\ufffd"}, /* above U+10FFFF */
+        {"ab\xe2\x82", "ab\\ufffd\\ufffd"},          /* cut at the end */
+        {"\x7f", "\\u007f"},                        /* DEL is a control character */
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        ftm_report r = {0};
+        int32_t k = ftm_report_seen(&r, 7, "trainee", cases[i].name, 0);
+        assert_int_equal(k, 0);
+        ftm_report_probe *q = &r.parts[k].probes[0];
+        q->touches = 1;
+        ftm_report_contact(q, 3, (ftm_vec3){0, 0, 2}, 0.001, false);
+        if (i == 0)
+            q->max_push = NAN;
+        ftm_report_session s = {"s", "default", NULL, 0, 10, 1000.0, 8, 8, 0, 0};
+        char *buf = NULL;
+        size_t len = 0;
+        FILE *f = open_memstream(&buf, &len);
+        assert_non_null(f);
+        assert_int_equal(ftm_report_write_json(&r, &s, f), 0);
+        fclose(f);
+        char want[128];
+        snprintf(want, sizeof want, "\"name\":\"%s\"", cases[i].json);
+        if (!strstr(buf, want))
+            fail_msg("case %zu: want %s in %s", i, want, buf);
+        if (i == 0 && !strstr(buf, "\"max_push_m\":null,"))
+            fail_msg("NaN written as a number: %s", buf);
+        assert_null(strstr(buf, "nan"));
+        free(buf);
+        ftm_report_free(&r);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_contact_stats),
         cmocka_unit_test(test_cap),
         cmocka_unit_test(test_json_escapes_names),
+        cmocka_unit_test(test_json_not_utf8),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
