@@ -181,6 +181,19 @@ int ftm_record_write(ftm_record_writer *w, const ftm_record_entry *e, ftm_error 
     return put_entry(w, &m, err);
 }
 
+int ftm_record_flush(ftm_record_writer *w, ftm_error *err)
+{
+    if (w->error)
+        return rec_err(err, w->error, "%s", w->message);
+    if (fflush(w->f) != 0) {
+        w->error = FTM_EIO;
+        snprintf(w->message, sizeof w->message, "recording %s: write failed: %s", w->path,
+                 strerror(errno));
+        return rec_err(err, FTM_EIO, "%s", w->message);
+    }
+    return FTM_OK;
+}
+
 uint64_t ftm_record_bytes(const ftm_record_writer *w) { return w ? w->bytes : 0; }
 
 int ftm_record_close(ftm_record_writer *w, ftm_error *err)

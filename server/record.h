@@ -51,6 +51,10 @@ int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_w
                       ftm_error *err);
 /* Appends one entry (e->payload/size, tick, kind, ...; index/offset unused). */
 int ftm_record_write(ftm_record_writer *w, const ftm_record_entry *e, ftm_error *err);
+/* Hands what is buffered to the kernel (one write), so that a server killed
+ * afterwards leaves a recording of whole entries up to here. A failure stops
+ * the writer as a failed ftm_record_write does. */
+int ftm_record_flush(ftm_record_writer *w, ftm_error *err);
 /* Bytes written so far. */
 uint64_t ftm_record_bytes(const ftm_record_writer *w);
 /* Flushes and closes; returns the first write error if any. NULL is fine. */

@@ -44,6 +44,7 @@ typedef struct rstate {
     uint64_t pending_hash;     /* that frame's hash */
     uint64_t final_status_tick, final_status_hash;
     bool have_final_status;
+    uint64_t last_index; /* the last entry read */
 } rstate;
 
 static int fail(const char *path, const ftm_record_entry *e, const char *fmt, ...)
@@ -228,6 +229,7 @@ int ftm_server_replay(const char *path, const char *scene_name)
         }
         if (got == 0)
             break;
+        s.last_index = e.index;
         if (e.gone || e.lost) { /* events without a payload */
             s.gone += e.gone;
             continue;
@@ -273,6 +275,12 @@ int ftm_server_replay(const char *path, const char *scene_name)
         rc = fail(path, NULL, "no tick frames recorded");
         goto done;
     }
+    if (!s.have_final_status) /* what is there replayed; say that it is not all */
+        fprintf(stderr,
+                "ftm-server --replay: %s: note: the recording ends at entry %" PRIu64
+                " without the server's final status: the server did not stop cleanly "
+                "(killed or crashed?); replayed to tick %" PRIu64 ", where it was cut\n",
+                path, s.last_index, tick);
     printf("replay %s: scene '%s', %" PRIu64 " tick frames and %" PRIu64
            " idle ticks replayed, every hash equal; %" PRIu64 " keyframes checked, %" PRIu64
            " resets; depth %d..%d (%" PRIu64 " changes); %" PRIu64 " tissue changes; inputs: %" PRIu64

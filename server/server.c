@@ -27,6 +27,7 @@
 #include <sys/stat.h>
 #include <pthread.h>
 #include <sched.h>
+#include <signal.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdarg.h>
@@ -154,6 +155,7 @@ typedef struct server {
     } ignored[FTM_WIRE_IGNORED_MAX];
     uint64_t told_ns; /* the last status published at once (tell_now) */
     bool displaced;            /* stopped: another server was serving this session first */
+    bool rec_failed;           /* the recording stopped on a write error */
     bool other_server_told;    /* a later server on this session was logged */
     char record_path[1024];    /* --record-dir: this run's recording */
     char scene_path[1024];     /* the file the scene came from (its name for a built-in) */
@@ -278,6 +280,16 @@ static void log_hook(void *user, ftm_log_level level, const char *message)
 
 /* ---- recording (record.h) ------------------------------------------------------------ */
 
+/* A write error stops the recording, not the session; the exit status says
+ * the recording is incomplete (3, as when closing it fails). */
+static void record_failed(server *s, const ftm_error *err)
+{
+    slog(s, "error", "%s; recording stopped", err->message);
+    ftm_record_close(s->rec, NULL);
+    s->rec = NULL;
+    s->rec_failed = true;
+}
+
 static void record_entry(server *s, bool incoming, int kind, uint32_t sender, const uint8_t *buf,
                          size_t size, bool gone, bool lost)
 {
@@ -287,11 +299,8 @@ static void record_entry(server *s, bool incoming, int kind, uint32_t sender, co
                           .gone = gone, .lost = lost, .time_ns = mono_ns() - s->t_start_ns,
                           .payload = buf, .size = size};
     ftm_error err = {0, ""};
-    if (ftm_record_write(s->rec, &e, &err)) {
-        slog(s, "error", "%s; recording stopped", err.message);
-        ftm_record_close(s->rec, NULL);
-        s->rec = NULL;
-    }
+    if (ftm_record_write(s->rec, &e, &err))
+        record_failed(s, &err);
 }
 
 static void record(server *s, bool incoming, int kind, uint32_t sender, const uint8_t *buf,
@@ -1327,6 +1336,12 @@ static void on_status_timer(uv_timer_t *h)
 {
     server *s = h->data;
     publish_status(s, FTM_WIRE_STATE_SYNCED);
+    /* the recording reaches the file at least every 0.5 s (not only per MiB,
+     * which an idle session fills in minutes): a server killed or crashed
+     * leaves whole entries up to about then */
+    ftm_error err = {0, ""};
+    if (s->rec && ftm_record_flush(s->rec, &err))
+        record_failed(s, &err);
     uint64_t now = mono_ns();
     for (int i = 0; i < MAX_PARTICIPANTS; i++) {
         participant *p = &s->parts[i];
@@ -1723,6 +1738,8 @@ static int replay_inputs(server *s)
     s->period_ns = 1e9 / s->o.rate;
     ftm_wire_limits lim = {0, 0, ftm_mesh_node_count(s->mesh)};
     uint64_t frames = 0, inputs = 0, end_tick = 0;
+    bool leaving = false; /* the recorded server's final status seen: it stopped cleanly */
+    uint64_t last_index = 0;
     int rc = 0;
     char why[FTM_ERROR_MESSAGE_MAX + 64] = "";
     ftm_record_entry e;
@@ -1735,6 +1752,7 @@ static int replay_inputs(server *s)
         }
         if (got == 0)
             break;
+        last_index = e.index;
         if (e.tick > end_tick && e.tick - end_tick > FTM_WIRE_MAX_TICK_GAP) {
             /* every tick between is run: a forged tick would take hours */
             snprintf(why, sizeof why,
@@ -1780,6 +1798,14 @@ static int replay_inputs(server *s)
             else if (e.kind == FTM_WIRE_PROBE_INPUT)
                 on_probe_input(s, &rx);
             ftm_wire_received_free(&rx);
+        } else if (e.kind == FTM_WIRE_STATUS && !leaving) {
+            ftm_wire_msg m;
+            if (ftm_wire_decode(e.kind, e.payload, e.size, &lim, &m, &err)) {
+                snprintf(why, sizeof why, "%s", err.message);
+                break;
+            }
+            leaving = m.u.status.state == FTM_WIRE_STATE_LEAVING;
+            ftm_wire_msg_free(&m);
         } else if (e.kind == FTM_WIRE_TICK && s->depth_from_frames) {
             ftm_wire_msg m;
             if (ftm_wire_decode(e.kind, e.payload, e.size, &lim, &m, &err)) {
@@ -1823,6 +1849,17 @@ static int replay_inputs(server *s)
     } else if (rc == 0 && s->o.inputs) {
         while (s->tick < end_tick) /* on to where the recorded session ended */
             run_tick(s);
+        if (s->rec) { /* it ends as a session does: the last tick's frame, LEAVING */
+            if (!s->published_any || s->pub_tick != s->tick)
+                publish_frame(s, 0, 0, true);
+            publish_status(s, FTM_WIRE_STATE_LEAVING);
+        }
+        if (!leaving)
+            fprintf(stderr,
+                    "ftm-server --inputs: %s: note: the recording ends at entry %" PRIu64
+                    " without the server's final status: the server did not stop cleanly "
+                    "(killed or crashed?); run to tick %" PRIu64 ", where it was cut\n",
+                    path, last_index, end_tick);
         log_limits(s);
         printf("inputs %s: %" PRIu64 " inputs through collision and the step; "
                "final tick %" PRIu64 " hash %016" PRIx64 "\n",
@@ -2016,12 +2053,31 @@ static int finish_report(server *s)
     ftm_report_session rs = {s->o.session, s->o.scene, s->digest, FTM_REPLAY_DIGEST_SIZE,
                              s->tick, s->o.rate, s->depth_lo, s->depth_hi, s->unstable,
                              s->tissue_changes};
-    FILE *f = fopen(path, "w");
+    /* written whole beside it, then renamed over it: a reader (a course's
+     * records, a watcher of the directory) never sees half a report, and a
+     * failure (a full disk, a crash) leaves the previous file or none */
+    char tmp[4096 + 32];
+    int len = snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
+    int fd = len > 0 && (size_t)len < sizeof tmp
+                 ? open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666)
+                 : (errno = ENAMETOOLONG, -1);
+    if (fd < 0 && errno == EEXIST && unlink(tmp) == 0) /* left by a killed run of this pid */
+        fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    FILE *f = fd >= 0 ? fdopen(fd, "w") : NULL;
+    if (fd >= 0 && !f)
+        close(fd);
     int rc = f ? ftm_report_write_json(&s->report, &rs, f) : -1;
+    if (f && (fflush(f) != 0 || fsync(fileno(f)) != 0))
+        rc = -1;
     if (f && fclose(f) != 0)
         rc = -1;
+    if (rc == 0 && rename(tmp, path) != 0)
+        rc = -1;
     if (rc) {
-        slog(s, "error", "report %s: cannot write: %s", path, strerror(errno));
+        int e = errno;
+        if (fd >= 0)
+            unlink(tmp);
+        slog(s, "error", "report %s: cannot write: %s", path, strerror(e));
         return 3;
     }
     slog(s, "info", "report: %s (%d participants)", path, (int)s->report.count);
@@ -2198,6 +2254,10 @@ int ftm_server_main(int argc, char **argv)
     static server srv;
     server *s = &srv;
     memset(s, 0, sizeof *s); /* called again by the fuzz target (tests/fuzz) */
+    /* over a file size limit (ulimit -f, systemd's LimitFSIZE=) a write must
+     * fail with EFBIG, which stops the recording or the report with a logged
+     * error, rather than SIGXFSZ killing the session */
+    signal(SIGXFSZ, SIG_IGN);
     if (parse(argc, argv, &s->o))
         return 2;
     int apart = outputs_apart_from_input(&s->o);
@@ -2317,6 +2377,8 @@ int ftm_server_main(int argc, char **argv)
             rc = s->o.offline_ticks > 0 ? run_offline(s) : replay_inputs(s);
         if (rc == 0)
             rc = finish_report(s);
+        if (rc == 0 && s->rec_failed)
+            rc = 3;
         if (s->rec && ftm_record_close(s->rec, &err)) {
             fprintf(stderr, "ftm-server: %s\n", err.message);
             rc = 3;
@@ -2472,7 +2534,7 @@ int ftm_server_main(int argc, char **argv)
          s->ctl.decreases, s->ctl.increases);
     log_limits(s);
     int rc = finish_report(s);
-    if (s->displaced)
+    if (s->displaced || s->rec_failed)
         rc = 3;
     if (s->rec) {
         uint64_t bytes = ftm_record_bytes(s->rec);
