@@ -287,10 +287,18 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
     int rc = FTM_OK;
     char magic[8];
     size_t sz = 0;
+    size_t nmagic = 0;
     r->f = fopen(path, "rb");
     if (!r->f)
         rc = rec_err(err, FTM_EIO, "%s: cannot open: %s", path, strerror(errno));
-    else if (fread(magic, 1, 8, r->f) != 8 || memcmp(magic, FTM_RECORD_MAGIC, 8) != 0)
+    else if ((nmagic = fread(magic, 1, 8, r->f)) != 8 && ferror(r->f)) /* a directory: EISDIR */
+        rc = rec_err(err, FTM_EIO, "%s: cannot read: %s", path, strerror(errno));
+    else if (nmagic == 0) /* what a server killed before its first write leaves */
+        rc = rec_err(err, FTM_EPARSE, "%s: empty file (0 bytes), not an FTM recording", path);
+    else if (nmagic < 8 && memcmp(magic, FTM_RECORD_MAGIC, nmagic) == 0)
+        rc = rec_err(err, FTM_EPARSE, "%s: truncated: the file ends inside the magic (%zu of 8 "
+                     "bytes)", path, nmagic);
+    else if (nmagic < 8 || memcmp(magic, FTM_RECORD_MAGIC, 8) != 0)
         rc = rec_err(err, FTM_EPARSE, "%s: not an FTM recording (no \"FTMREC1\" magic)", path);
     if (!rc) {
         r->offset = 8;
@@ -365,6 +373,12 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
     if (rc)
         return rc;
     const Ftm__V1__RecordEntry *m = r->cur;
+    if (m->has_kind && (m->kind < FTM_WIRE_KIND_MIN || m->kind > FTM_WIRE_KIND_MAX))
+        return rec_err(err, FTM_EPARSE,
+                       "%s: entry %llu at byte %llu: kind %d is unknown to this build (%d..%d): "
+                       "recorded by a newer ftm-server?",
+                       r->path, (unsigned long long)r->index, (unsigned long long)start,
+                       (int)m->kind, FTM_WIRE_KIND_MIN, FTM_WIRE_KIND_MAX);
     if (m->header || !m->has_tick || !m->has_kind || m->kind < FTM_WIRE_KIND_MIN ||
         m->kind > FTM_WIRE_KIND_MAX ||
         !m->has_sender || !m->has_incoming)
