@@ -2414,10 +2414,6 @@ int ftm_server_main(int argc, char **argv)
         teardown(s);
         return rc;
     }
-    if ((s->o.record || s->o.record_dir) && open_recording(s, &err)) {
-        slog(s, "error", "%s", err.message);
-        return 3;
-    }
     if (s->o.control_log) {
         if (!(s->control_csv = fopen(s->o.control_log, "w"))) {
             slog(s, "error", "cannot create %s: %s", s->o.control_log, strerror(errno));
@@ -2434,6 +2430,12 @@ int ftm_server_main(int argc, char **argv)
         char url[128];
         metrics_url(&s->o, url, sizeof url);
         slog(s, "info", "metrics on %s", url);
+    }
+    /* last of what may fail: a start that fails (a metrics port in use)
+     * leaves no recording of a session that never ran in --record-dir */
+    if ((s->o.record || s->o.record_dir) && open_recording(s, &err)) {
+        slog(s, "error", "%s", err.message);
+        return 3;
     }
     s->period_ns = 1e9 / s->o.rate;
     publish_announce(s);

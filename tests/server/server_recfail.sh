@@ -10,7 +10,9 @@
 #            logged error, the session goes on to its end and the server
 #            exits 3 — not killed by SIGXFSZ;
 #   report:  a report that cannot be written (ulimit -f 0) leaves the
-#            previous file as it was and no temporary file; status 3.
+#            previous file as it was and no temporary file; status 3;
+#   nostart: a server that cannot start (its metrics port taken) leaves
+#            no recording in its --record-dir.
 set -u
 : "${FTM_SERVER:?}" "${FTM_BOT:?}" "${FTM_CONFIG:?}"
 here=$(cd "$(dirname "$0")" && pwd)
@@ -86,4 +88,17 @@ cmp -s r.json r.orig || fail "the previous report was changed: '$(head -c 80 r.j
 timeout 30 "$FTM_SERVER" --offline 200 --trainee 11:0:t.bot --report r.json >r2.out 2>r2.err ||
     fail "the report could not replace the previous one"
 grep -q '"touches":1,' r.json || fail "the new report has no touch"
+# nostart: the port held by a listener of our own
+python3 -c 'import socket, time
+s = socket.socket(); s.bind(("127.0.0.1", 0)); s.listen()
+print(s.getsockname()[1], flush=True); time.sleep(30)' >port.txt &
+holder=$!
+wait_for port.txt "[0-9]" "no port held"
+mkdir recs
+timeout 30 "$FTM_SERVER" $common --record-dir recs --metrics-port "$(cat port.txt)" \
+    --duration 1 >ns.out 2>ns.err
+rc=$?
+kill $holder 2>/dev/null
+[ $rc -eq 3 ] && grep -q "metrics: cannot listen" ns.err || fail "metrics port taken: status $rc"
+[ -z "$(ls recs)" ] || fail "a server that did not start left $(ls recs)"
 echo "PASS recfail"
