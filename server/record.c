@@ -12,11 +12,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h> /* truncate */
 
 struct ftm_record_writer {
     FILE *f;
     char *path;
     uint64_t bytes;
+    uint64_t flushed; /* bytes known to be in the file: whole entries, up to the last flush */
     int error; /* first write error */
     char message[FTM_ERROR_MESSAGE_MAX];
     uint8_t *buf;
@@ -191,6 +193,7 @@ int ftm_record_flush(ftm_record_writer *w, ftm_error *err)
                  strerror(errno));
         return rec_err(err, FTM_EIO, "%s", w->message);
     }
+    w->flushed = w->bytes;
     return FTM_OK;
 }
 
@@ -206,8 +209,15 @@ int ftm_record_close(ftm_record_writer *w, ftm_error *err)
         snprintf(w->message, sizeof w->message, "recording %s: close failed: %s", w->path,
                  strerror(errno));
     }
-    if (rc)
+    if (rc) {
+        /* a failed write (a full disk) leaves part of an entry at the end:
+         * cut back to the last flush, so that the file ends on a whole entry
+         * and replays to there (best effort: truncating needs no space) */
+        if (truncate(w->path, (off_t)w->flushed) != 0)
+            fprintf(stderr, "recording %s: cannot cut back to its last whole entry: %s\n",
+                    w->path, strerror(errno));
         rec_err(err, rc, "%s", w->message);
+    }
     free(w->iobuf); /* only now: fclose flushed from it */
     free(w->buf);
     free(w->path);

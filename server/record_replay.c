@@ -278,8 +278,8 @@ int ftm_server_replay(const char *path, const char *scene_name)
     if (!s.have_final_status) /* what is there replayed; say that it is not all */
         fprintf(stderr,
                 "ftm-server --replay: %s: note: the recording ends at entry %" PRIu64
-                " without the server's final status: the server did not stop cleanly "
-                "(killed or crashed?); replayed to tick %" PRIu64 ", where it was cut\n",
+                " without the server's final status (killed, crashed, or its recording "
+                "stopped on a write error?); replayed to tick %" PRIu64 ", where it was cut\n",
                 path, s.last_index, tick);
     printf("replay %s: scene '%s', %" PRIu64 " tick frames and %" PRIu64
            " idle ticks replayed, every hash equal; %" PRIu64 " keyframes checked, %" PRIu64

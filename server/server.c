@@ -1857,8 +1857,8 @@ static int replay_inputs(server *s)
         if (!leaving)
             fprintf(stderr,
                     "ftm-server --inputs: %s: note: the recording ends at entry %" PRIu64
-                    " without the server's final status: the server did not stop cleanly "
-                    "(killed or crashed?); run to tick %" PRIu64 ", where it was cut\n",
+                    " without the server's final status (killed, crashed, or its recording "
+                    "stopped on a write error?); run to tick %" PRIu64 ", where it was cut\n",
                     path, last_index, end_tick);
         log_limits(s);
         printf("inputs %s: %" PRIu64 " inputs through collision and the step; "

@@ -8,7 +8,8 @@
 #   fsize:   a session under a file size limit (ulimit -f) smaller than its
 #            recording: the write fails (EFBIG), the recording stops with a
 #            logged error, the session goes on to its end and the server
-#            exits 3 — not killed by SIGXFSZ;
+#            exits 3 — not killed by SIGXFSZ; the file is cut back to its
+#            last flush and replays to there;
 #   report:  a report that cannot be written (ulimit -f 0) leaves the
 #            previous file as it was and no temporary file; status 3;
 #   nostart: a server that cannot start (its metrics port taken) leaves
@@ -54,10 +55,11 @@ timeout 60 "$FTM_SERVER" --inputs k.rec >inputs.out 2>inputs.err || fail "--inpu
 grep -q "note: the recording ends at entry" inputs.err || fail "--inputs did not say it was cut"
 echo "killed: $(wc -c <k.rec) bytes; $(sed -n 's/^ftm-server: //p' replay.out)"
 
-# fsize: 40 KiB allowed; the trainee's press passes it within about a second
-# (stderr through cat: a file under the limit would fail too)
-{ (ulimit -f 40; exec timeout 30 "$FTM_SERVER" --scene default $common --rate "$rate" \
-      --duration 5 --record f.rec); echo $? >f.rc; } 2>&1 | cat >f.err &
+# fsize: 150 KiB allowed, which the trainee's joining and press pass within
+# a few seconds, after flushes that succeeded (stderr through cat: a file
+# under the limit would fail too)
+{ (ulimit -f 150; exec timeout 30 "$FTM_SERVER" --scene default $common --rate "$rate" \
+      --duration 6 --record f.rec); echo $? >f.rc; } 2>&1 | cat >f.err &
 wait_for f.err "session 'srv-recfail" "server did not start (fsize)"
 timeout 60 "$FTM_BOT" --role trainee --script "$here/press-hold.bot" $common --id 12 \
     --duration 20 >bot2.out 2>bot2.err &
@@ -68,10 +70,12 @@ rc=$(cat f.rc)
 grep -q "error: recording f.rec: write failed: File too large; recording stopped" f.err ||
     fail "no error for the recording"
 grep -q "shutting down (duration reached)" f.err || fail "the session did not run to its end"
-[ "$(wc -c <f.rec)" -le 40960 ] || fail "the recording is over the limit"
-timeout 30 "$FTM_SERVER" --replay f.rec >fr.out 2>fr.err
-[ $? -eq 1 ] && grep -q "f.rec: truncated: entry [0-9]* at byte [0-9]*" fr.err ||
-    fail "the cut recording: no clear error"
+[ "$(wc -c <f.rec)" -le 153600 ] || fail "the recording is over the limit"
+# cut back to its last flush: whole entries, replayed to there with a note
+timeout 30 "$FTM_SERVER" --replay f.rec >fr.out 2>fr.err ||
+    fail "the recording stopped by the limit does not replay: $(grep -v info: fr.err | tail -1)"
+grep -q "note: the recording ends at entry [0-9]* without the server's final status" fr.err ||
+    fail "the replay did not say the recording was cut"
 echo "fsize: status 3, $(wc -c <f.rec) bytes recorded"
 
 # report: the previous one stays whole

@@ -5,12 +5,14 @@
 #include "record.h"
 
 #include <setjmp.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -271,6 +273,52 @@ static void one_write_per_mib(void **state)
     assert_int_equal(file_size(path), (long)bytes);
 }
 
+/* ftm_record_flush hands the buffer to the file; a write that fails later
+ * (here a file size limit, as a full disk) stops the writer, and closing it
+ * cuts the file back to the last flush: whole entries, readable to the end. */
+static void write_error_cuts_back(void **state)
+{
+    (void)state;
+    ftm_record_header h;
+    sample_header(&h);
+    ftm_record_writer *w = NULL;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_record_create(path, &h, &w, &err), FTM_OK);
+    static uint8_t payload[1000];
+    ftm_record_entry e = {.kind = 3, .sender = 1, .payload = payload, .size = sizeof payload};
+    for (int i = 0; i < 20; i++) {
+        e.tick = (uint64_t)i;
+        assert_int_equal(ftm_record_write(w, &e, &err), FTM_OK);
+    }
+    assert_int_equal(ftm_record_flush(w, &err), FTM_OK);
+    uint64_t flushed = ftm_record_bytes(w);
+    assert_int_equal(file_size(path), (long)flushed); /* on disk now, not at 1 MiB */
+    /* room for about 15 more entries: the write of the next 40 fails in one */
+    struct rlimit was, lim;
+    assert_int_equal(getrlimit(RLIMIT_FSIZE, &was), 0);
+    lim = was;
+    lim.rlim_cur = (rlim_t)flushed + 15500;
+    void (*old)(int) = signal(SIGXFSZ, SIG_IGN);
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &lim), 0);
+    int rc = FTM_OK;
+    for (int i = 20; i < 60 && rc == FTM_OK; i++) {
+        e.tick = (uint64_t)i;
+        rc = ftm_record_write(w, &e, &err);
+    }
+    if (rc == FTM_OK)
+        rc = ftm_record_flush(w, &err);
+    assert_int_equal(rc, FTM_EIO);
+    assert_non_null(strstr(err.message, "write failed: File too large"));
+    assert_int_equal(ftm_record_write(w, &e, &err), FTM_EIO); /* stopped */
+    assert_int_equal(ftm_record_close(w, &err), FTM_EIO);
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &was), 0);
+    signal(SIGXFSZ, old);
+    assert_int_equal(file_size(path), (long)flushed);
+    int entries = 0;
+    assert_int_equal(read_all(path, &entries, &err), 0);
+    assert_int_equal(entries, 20);
+}
+
 int main(void)
 {
     snprintf(path, sizeof path, "/tmp/ftm-test-record-%d.rec", (int)getpid());
@@ -281,6 +329,7 @@ int main(void)
         cmocka_unit_test(corrupted),
         cmocka_unit_test(depth_beyond_the_controller),
         cmocka_unit_test(one_write_per_mib),
+        cmocka_unit_test(write_error_cuts_back),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     unlink(path);
