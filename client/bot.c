@@ -102,7 +102,7 @@ static void usage(FILE *f)
             "  --domain N             DDS domain id (default 0)\n"
             "  --config FILE          Cyclone DDS configuration\n"
             "  --id N                 participant id (default: from pid and time)\n"
-            "  --name TEXT            display name\n"
+            "  --name TEXT            display name, 1..63 bytes, no control characters\n"
             "  --duration S           stop after S seconds, <= 1e9 (default 10; also when the server\n"
             "                         leaves)\n"
             "  --resync-timeout S     fail if not synced for S seconds (default 5)\n"
@@ -142,8 +142,10 @@ static int parse(int argc, char **argv, options *o)
             o->config = v;
         else if (strcmp(a, "--log") == 0)
             o->log_path = v;
-        else if (strcmp(a, "--name") == 0)
+        else if (strcmp(a, "--name") == 0) {
+            bad = ftm_option_name_arg("ftm-bot", v);
             o->name = v;
+        }
         else if (strcmp(a, "--domain") == 0) {
             bad = ftm_option_int_arg("ftm-bot", a, v, 0, MAX_DOMAIN, &n);
             o->domain = (uint32_t)n;

@@ -442,8 +442,10 @@ static int parse(int argc, char **argv, options *o)
             o->session = v;
         else if (strcmp(a, "--config") == 0)
             o->config = v;
-        else if (strcmp(a, "--name") == 0)
+        else if (strcmp(a, "--name") == 0) {
+            bad = ftm_option_name_arg("ftm-client", v);
             o->name = v;
+        }
         else if (strcmp(a, "--log") == 0)
             o->log_path = v;
         else if (strcmp(a, "--device") == 0)

@@ -267,6 +267,22 @@ int ftm_option_int_arg(const char *program, const char *opt, const char *v, long
     return -1;
 }
 
+int ftm_option_name_arg(const char *program, const char *v)
+{
+    const size_t n = strlen(v);
+    if (n == 0 || n > 63) {
+        fprintf(stderr, "%s: --name must be 1..63 bytes (got %zu)\n", program, n);
+        return -1;
+    }
+    for (size_t i = 0; i < n; i++)
+        if ((unsigned char)v[i] < 0x20 || (unsigned char)v[i] == 0x7f) {
+            fprintf(stderr, "%s: --name has control character 0x%02x at byte %zu\n", program,
+                    (unsigned char)v[i], i);
+            return -1;
+        }
+    return 0;
+}
+
 bool ftm_option_output_is_input(const ftm_option_path *in, int nin, const ftm_option_path *out,
                                 int nout, int *in_i, int *out_i)
 {

@@ -97,6 +97,10 @@ bool ftm_option_int(const char *v, size_t len, long long lo, long long hi, long 
 int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
                        long long hi, long long *out);
 #define FTM_OPTION_DOMAIN_MAX 4294967294LL
+/* A display name (--name) as the protocol carries it: 1..63 bytes, no
+ * control characters (the codec refuses them: they would reach others'
+ * terminals). If not, says "PROGRAM: --name ..." and returns -1. */
+int ftm_option_name_arg(const char *program, const char *v);
 /* A file a program reads or writes, with the option that names it. */
 typedef struct ftm_option_path {
     const char *opt, *path;

@@ -477,6 +477,24 @@ static int check_keyframe(const vctx *v, const Ftm__V1__Keyframe *m)
     return FTM_OK;
 }
 
+/* Text shown on a HUD and written to logs and terminals (a display name, a
+ * reason): shorter than cap bytes and no control bytes, so that a peer
+ * cannot put escape sequences or line breaks into anyone's terminal. */
+static int check_text(const vctx *v, const char *field, const char *text, size_t cap)
+{
+    const size_t n = text ? strlen(text) : 0;
+    if (n >= cap)
+        return wire_err(v->err, FTM_EINVAL, "%s: %s of %zu bytes (at most %zu)", v->what, field, n,
+                        cap - 1);
+    for (size_t i = 0; i < n; i++) {
+        const unsigned char c = (unsigned char)text[i];
+        if (c < 0x20 || c == 0x7f)
+            return wire_err(v->err, FTM_EINVAL, "%s: %s has control character 0x%02x at byte %zu",
+                            v->what, field, c, i);
+    }
+    return FTM_OK;
+}
+
 static int check_status(const vctx *v, const Ftm__V1__ParticipantStatus *m)
 {
     int rc = check_version(v, m->has_version, m->version);
@@ -505,9 +523,8 @@ static int check_status(const vctx *v, const Ftm__V1__ParticipantStatus *m)
         return rc;
     if (m->replay_ns_per_tick < 0 || m->replay_ns_max < 0)
         return wire_err(v->err, FTM_EINVAL, "%s: negative replay time", v->what);
-    if (m->name && strlen(m->name) >= FTM_WIRE_DISPLAY_MAX)
-        return wire_err(v->err, FTM_EINVAL, "%s: name of %zu bytes (at most %d)", v->what,
-                        strlen(m->name), FTM_WIRE_DISPLAY_MAX - 1);
+    if ((rc = check_text(v, "name", m->name, FTM_WIRE_DISPLAY_MAX)))
+        return rc;
     if (m->n_ignored_participant != m->n_ignored_origin)
         return wire_err(v->err, FTM_EINVAL, "%s: %zu ignored_participant but %zu ignored_origin",
                         v->what, m->n_ignored_participant, m->n_ignored_origin);
@@ -573,17 +590,9 @@ static int check_control_reply(const vctx *v, const Ftm__V1__ControlReply *m)
         return wire_err(v->err, FTM_EINVAL, "%s: unknown outcome %d", v->what, (int)m->outcome);
     if (!m->has_tick)
         return missing(v, "tick");
-    size_t n = m->reason ? strlen(m->reason) : 0;
-    if (n >= FTM_WIRE_REASON_MAX)
-        return wire_err(v->err, FTM_EINVAL, "%s: reason of %zu bytes (at most %d)", v->what, n,
-                        FTM_WIRE_REASON_MAX - 1);
-    for (size_t i = 0; i < n; i++) {
-        unsigned char c = (unsigned char)m->reason[i];
-        if (c < 0x20 || c == 0x7f)
-            return wire_err(v->err, FTM_EINVAL, "%s: reason has control character 0x%02x at byte %zu",
-                            v->what, c, i);
-    }
-    if (n == 0 && (int)m->outcome != FTM_WIRE_OUTCOME_APPLIED)
+    if ((rc = check_text(v, "reason", m->reason, FTM_WIRE_REASON_MAX)))
+        return rc;
+    if ((!m->reason || !m->reason[0]) && (int)m->outcome != FTM_WIRE_OUTCOME_APPLIED)
         return wire_err(v->err, FTM_EINVAL, "%s: a %s command needs a reason", v->what,
                         ftm_wire_outcome_name((ftm_wire_outcome)m->outcome));
     return FTM_OK;

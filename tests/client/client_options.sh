@@ -11,6 +11,10 @@ refused() { # expected-text options...
     shift
     refused_by "$want" "$FTM_CLIENT" --config $nodds "$@"
 }
+# a display name reaches others' HUDs and terminals: 1..63 bytes, no control bytes
+refused "--name has control character 0x1b at byte 1" --name "$(printf 'a\033[31mb')"
+refused "--name must be 1..63 bytes (got 64)" --name "$(printf '%064d' 0)"
+refused "--name must be 1..63 bytes (got 0)" --name ""
 # integers: range-checked, never cast to 32 bits nor read unsigned from a sign
 refused "--domain must be an integer in 0..4294967294 (got '-1')" --domain -1
 refused "--domain must be an integer in 0..4294967294 (got '4294967295')" --domain 4294967295

@@ -11,6 +11,10 @@ refused() { # expected-text options...
     shift
     refused_by "$want" "$FTM_BOT" --role observer --config $nodds "$@"
 }
+# a display name reaches others' HUDs and terminals: 1..63 bytes, no control bytes
+refused "--name has control character 0x1b at byte 1" --name "$(printf 'a\033[31mb')"
+refused "--name must be 1..63 bytes (got 64)" --name "$(printf '%064d' 0)"
+refused "--name must be 1..63 bytes (got 0)" --name ""
 # times that would wrap when cast to nanoseconds (1e300: stop at once)
 for v in 1e300 1e10 inf nan 0 -1; do
     refused "--duration and --resync-timeout must be in (0, 1e+09] seconds" --duration $v

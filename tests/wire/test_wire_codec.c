@@ -351,6 +351,24 @@ static void test_round_trip_status(void **state)
     assert_int_equal(r->holder_count, 0);
     ftm_wire_msg_free(&b);
 
+    /* a name reaches others' HUDs and terminals: no control characters
+     * (the encoder runs the decoder's checks, so both refuse it) */
+    uint8_t *buf = NULL;
+    size_t size = 0;
+    ftm_error err = {0, ""};
+    snprintf(s->name, sizeof s->name, "ann\x1b[2J");
+    assert_int_equal(ftm_wire_encode(&m, &buf, &size, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "name has control character 0x1b at byte 3"));
+    assert_null(buf);
+    snprintf(s->name, sizeof s->name, "two\nlines");
+    assert_int_equal(ftm_wire_encode(&m, &buf, &size, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "name has control character 0x0a at byte 3"));
+    snprintf(s->name, sizeof s->name, "Jos\xc3\xa9"); /* UTF-8 is fine */
+    round_trip(&m, &b);
+    assert_string_equal(b.u.status.name, "Jos\xc3\xa9");
+    ftm_wire_msg_free(&b);
+    snprintf(s->name, sizeof s->name, "trainee A");
+
     /* the server's status, with the processes it ignores (a full list) */
     s->participant = 1;
     s->role = FTM_WIRE_ROLE_SERVER;
@@ -383,9 +401,6 @@ static void test_round_trip_status(void **state)
     ftm_wire_msg_free(&b);
 
     /* only a server's status lists them, and at most FTM_WIRE_IGNORED_MAX */
-    uint8_t *buf = NULL;
-    size_t size = 0;
-    ftm_error err = {0, ""};
     s->role = FTM_WIRE_ROLE_TRAINEE;
     assert_int_equal(ftm_wire_encode(&m, &buf, &size, &err), FTM_EINVAL);
     assert_non_null(strstr(err.message, "ignored processes in a trainee's status"));
