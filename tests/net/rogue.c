@@ -151,8 +151,10 @@ static void status(ftm_wire_transport *t, uint32_t id, uint32_t named, ftm_wire_
         fprintf(stderr, "rogue: status: %s\n", err.message);
 }
 
-static ftm_wire_transport *join(const char *config, uint32_t domain, const char *session,
-                                uint32_t id, ftm_wire_role role)
+/* A participant of the session under id that publishes and subscribes to
+ * the kinds given (bit masks); exits 3 if DDS will not have it. */
+static ftm_wire_transport *transport(const char *config, uint32_t domain, const char *session,
+                                     uint32_t id, uint32_t publish, uint32_t subscribe)
 {
     ftm_wire_transport_def d;
     memset(&d, 0, sizeof d);
@@ -160,16 +162,27 @@ static ftm_wire_transport *join(const char *config, uint32_t domain, const char 
     d.domain_id = domain;
     d.session = session;
     d.participant_id = id;
-    d.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT) |
-                FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL) | FTM_WIRE_KIND_BIT(FTM_WIRE_TICK) |
-                FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME);
-    d.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE);
+    d.publish = publish;
+    d.subscribe = subscribe;
     ftm_wire_transport *t = NULL;
     ftm_error err = {0, ""};
     if (ftm_wire_transport_create(&d, &t, &err)) {
         fprintf(stderr, "rogue: %s\n", err.message);
         exit(3);
     }
+    return t;
+}
+
+static ftm_wire_transport *join(const char *config, uint32_t domain, const char *session,
+                                uint32_t id, ftm_wire_role role)
+{
+    ftm_wire_transport *t =
+        transport(config, domain, session, id,
+                  FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT) |
+                      FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL) | FTM_WIRE_KIND_BIT(FTM_WIRE_TICK) |
+                      FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME),
+                  FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE));
+    ftm_error err = {0, ""};
     /* the server's readers must see us before anything is sent */
     if (ftm_wire_wait_matched(t, FTM_WIRE_PROBE_INPUT, 1, 5000000000LL, &err) ||
         ftm_wire_wait_matched(t, FTM_WIRE_CONTROL, 1, 5000000000LL, &err)) {
@@ -255,21 +268,9 @@ static void wrong_kind(uint32_t domain, const char *session, uint32_t id)
 static ftm_wire_transport *forger(const char *config, uint32_t domain, const char *session,
                                   uint32_t id)
 {
-    ftm_wire_transport_def d;
-    memset(&d, 0, sizeof d);
-    d.config = config;
-    d.domain_id = domain;
-    d.session = session;
-    d.participant_id = id;
-    d.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL_REPLY);
-    d.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL);
-    ftm_wire_transport *t = NULL;
-    ftm_error err = {0, ""};
-    if (ftm_wire_transport_create(&d, &t, &err)) {
-        fprintf(stderr, "rogue: %s\n", err.message);
-        exit(3);
-    }
-    return t;
+    return transport(config, domain, session, id,
+                     FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL_REPLY),
+                     FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL));
 }
 
 static int64_t now_ns(void)
