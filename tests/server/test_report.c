@@ -13,6 +13,18 @@
 
 #include <cmocka.h>
 
+/* The report as ftm_report_write_json writes it (the caller frees it). */
+static char *json_of(const ftm_report *r, const ftm_report_session *s)
+{
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&buf, &len);
+    assert_non_null(f);
+    assert_int_equal(ftm_report_write_json(r, s, f), 0);
+    fclose(f);
+    return buf;
+}
+
 static void test_contact_stats(void **state)
 {
     (void)state;
@@ -65,12 +77,7 @@ static void test_json_escapes_names(void **state)
     ftm_report_contact(&p->probes[0], 3, (ftm_vec3){0, 0, 2}, 0.001, false);
     uint8_t digest[2] = {0xab, 0x01};
     ftm_report_session s = {"ward \"3\"", "default", digest, 2, 1000, 1000.0, 8, 8, 0, 0};
-    char *buf = NULL;
-    size_t len = 0;
-    FILE *f = open_memstream(&buf, &len);
-    assert_non_null(f);
-    assert_int_equal(ftm_report_write_json(&r, &s, f), 0);
-    fclose(f);
+    char *buf = json_of(&r, &s);
     /* UTF-8 kept as it is (not one \u00XX per byte: that decodes as "Ã©") */
     if (!strstr(buf, "\"name\":\"a\\\"b\\\\c\\u0001\\u000a\xc3\xa9\""))
         fail_msg("name not escaped: %s", buf);
@@ -111,12 +118,7 @@ static void test_json_not_utf8(void **state)
         if (i == 0)
             q->max_push = NAN;
         ftm_report_session s = {"s", "default", NULL, 0, 10, 1000.0, 8, 8, 0, 0};
-        char *buf = NULL;
-        size_t len = 0;
-        FILE *f = open_memstream(&buf, &len);
-        assert_non_null(f);
-        assert_int_equal(ftm_report_write_json(&r, &s, f), 0);
-        fclose(f);
+        char *buf = json_of(&r, &s);
         char want[128];
         snprintf(want, sizeof want, "\"name\":\"%s\"", cases[i].json);
         if (!strstr(buf, want))
