@@ -34,8 +34,6 @@
 /* The shortest --input-period: 10 kHz, ten times a 1 kHz haptic device.
  * Shorter ones only fill the publishing queue ("publishing queue full"). */
 #define MIN_INPUT_PERIOD 1e-4
-/* as ftm-client's: later than this, the server will not confirm our id */
-#define ID_CONFIRM_WAIT_NS (3 * SEC)
 #define MAX_DOMAIN FTM_OPTION_DOMAIN_MAX
 
 typedef struct options {
@@ -520,30 +518,14 @@ static void expire_commands(bot *b)
         unanswered(b, text);
 }
 
-/* Announcements, tick frames, keyframes, server statuses and control
- * replies are taken from one process only: the one whose announcement came
- * first, by its id and its origin (DDS has no authentication here; any
- * participant can write on any topic under any id, so a replica must not
- * step frames, and a trainee must not take its id's confirmation, from
- * whoever sends them). A new process under the server's id is followed
- * only once the one followed left or is gone (a restarted server), and
- * only from its announcement. */
+/* Whether rx is from the server process we follow (ftm_replay_from_server:
+ * the trust rule); anything else is counted and logged, rate-limited. */
 static bool from_server(bot *b, const ftm_wire_received *rx)
 {
-    if (b->server_id == 0 && rx->msg.kind == FTM_WIRE_ANNOUNCE) {
-        b->server_id = rx->sender;
-        b->server_origin = rx->origin;
-    }
+    if (ftm_replay_from_server(&b->server_id, &b->server_origin, rx, b->server_left))
+        return true;
     if (b->server_id == 0)
         return false; /* no announcement yet: nothing to follow */
-    if (rx->sender == b->server_id) {
-        if (rx->origin && rx->origin == b->server_origin)
-            return true;
-        if (rx->origin && rx->msg.kind == FTM_WIRE_ANNOUNCE && b->server_left) {
-            b->server_origin = rx->origin; /* its successor: on_announce tells */
-            return true;
-        }
-    }
     b->foreign++;
     if (b->foreign <= 3 || (b->foreign & (b->foreign - 1)) == 0) /* 1, 2, 3, 4, 8, ... */
         blog("%s from participant %u ignored (%" PRIu64 " so far): not from the server %u%s",
@@ -764,11 +746,11 @@ int main(int argc, char **argv)
         if (!b->held_since_ns && b->server_id)
             b->held_since_ns = now;
         if (b->role == FTM_WIRE_ROLE_TRAINEE && !b->id_held && !b->id_told.taken &&
-            !b->held_late_told && b->held_since_ns && now - b->held_since_ns > ID_CONFIRM_WAIT_NS) {
+            !b->held_late_told && b->held_since_ns && now - b->held_since_ns > FTM_ID_CONFIRM_WAIT_NS) {
             b->held_late_told = true;
             blog("the server %u has not confirmed participant id %u as this process's for %.0f s "
                  "(a server older than this bot never does): no probe input",
-                 b->server_id, g_id, (double)ID_CONFIRM_WAIT_NS * 1e-9);
+                 b->server_id, g_id, (double)FTM_ID_CONFIRM_WAIT_NS * 1e-9);
         }
         /* no probe input before the first sync: the server would not know
          * us yet (our JOINING status travels on another topic) and warn;

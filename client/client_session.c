@@ -24,12 +24,6 @@
  * is 2 s late as lost and releases its probes) */
 #define DRAIN_NS (10 * 1000000LL)
 #define SERVER_STATUS_DEADLINE_NS (2 * SEC) /* the server's (docs/protocol.md) */
-/* The server confirms our id in a status sent the moment it first hears us
- * (statuses are reliable, transient-local): on loopback it comes with the
- * sync, ~12 ms after the start. Without it for this long the server will
- * not confirm (one older than the confirmation) or does not hear us: said
- * in red */
-#define ID_CONFIRM_WAIT_NS (3 * SEC)
 
 typedef struct remote_hip {
     uint32_t participant;
@@ -133,29 +127,14 @@ static void force_off(ftm_client_session *s, const char *why)
                         why);
 }
 
-/* Announcements, frames, keyframes, server statuses and control replies
- * are taken from one process: the one whose announcement came first, by id
- * and origin. Any participant can write on any topic under any id (DDS has
- * no authentication here), so a replica must not step frames, nor a trainee
- * take its id's confirmation, from whoever sends them. A new process under
- * the server's id is followed only from its announcement, once the one
- * followed left or is gone (a restarted server). */
+/* Whether rx is from the server process we follow (ftm_replay_from_server:
+ * the trust rule); anything else is counted and logged, rate-limited. */
 static bool from_server(ftm_client_session *s, const ftm_wire_received *rx)
 {
-    if (s->server_id == 0 && rx->msg.kind == FTM_WIRE_ANNOUNCE) {
-        s->server_id = rx->sender;
-        s->server_origin = rx->origin;
-    }
+    if (ftm_replay_from_server(&s->server_id, &s->server_origin, rx, s->server_left))
+        return true;
     if (s->server_id == 0)
         return false;
-    if (rx->sender == s->server_id) {
-        if (rx->origin && rx->origin == s->server_origin)
-            return true;
-        if (rx->origin && rx->msg.kind == FTM_WIRE_ANNOUNCE && s->server_left) {
-            s->server_origin = rx->origin; /* its successor: on_announce tells */
-            return true;
-        }
-    }
     s->foreign++;
     if (s->foreign <= 3 || (s->foreign & (s->foreign - 1)) == 0)
         slog(s, FTM_LOG_WARN, "%s from participant %u ignored (%" PRIu64 " so far): not from the server %u%s",
@@ -599,13 +578,13 @@ static void watchdog(ftm_client_session *s, int64_t now)
         s->held_since_ns = now;
     const bool trainee = s->cfg.role == FTM_WIRE_ROLE_TRAINEE;
     const bool id_late = trainee && !s->id_held && !s->id_told.taken && s->held_since_ns &&
-                         now - s->held_since_ns > ID_CONFIRM_WAIT_NS;
+                         now - s->held_since_ns > FTM_ID_CONFIRM_WAIT_NS;
     if (id_late && !s->held_late_told) {
         s->held_late_told = true;
         slog(s, FTM_LOG_ERROR,
              "the server %u has not confirmed participant id %u as this process's for %.0f s (a "
              "server older than this client never does): no probe input, no force",
-             s->server_id, s->cfg.id, (double)ID_CONFIRM_WAIT_NS * 1e-9);
+             s->server_id, s->cfg.id, (double)FTM_ID_CONFIRM_WAIT_NS * 1e-9);
     }
 
     /* the banner: the most serious condition wins */

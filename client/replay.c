@@ -1030,3 +1030,21 @@ bool ftm_replay_id_held(const ftm_wire_status *server_status, uint32_t own_id,
             return st->holder_origin[i] == own_origin; /* (each id at most once: the codec) */
     return false;
 }
+
+bool ftm_replay_from_server(uint32_t *id, uint64_t *origin, const ftm_wire_received *rx,
+                            bool server_left)
+{
+    if (*id == 0 && rx->msg.kind == FTM_WIRE_ANNOUNCE) {
+        *id = rx->sender;
+        *origin = rx->origin;
+    }
+    if (*id == 0 || rx->sender != *id || !rx->origin)
+        return false;
+    if (rx->origin == *origin)
+        return true;
+    if (rx->msg.kind == FTM_WIRE_ANNOUNCE && server_left) {
+        *origin = rx->origin; /* its successor */
+        return true;
+    }
+    return false;
+}

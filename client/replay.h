@@ -145,6 +145,26 @@ ftm_id_claim ftm_replay_id_verdict(ftm_id_told *told, const ftm_wire_status *ser
 bool ftm_replay_id_held(const ftm_wire_status *server_status, uint32_t own_id,
                         uint64_t own_origin);
 
+/* The server confirms our id in a status sent the moment it first hears us
+ * (statuses are reliable, transient-local): on loopback it comes with the
+ * sync, ~12 ms after the start. Without it for this long [ns] the server
+ * will not confirm (one older than the confirmation) or does not hear us:
+ * ftm-client and ftm-bot say so. */
+#define FTM_ID_CONFIRM_WAIT_NS 3000000000LL
+
+/* Whether rx comes from the server process a client follows: *id and
+ * *origin (0 until the first announcement, which sets them) name it. Any
+ * participant can write on any topic under any id (DDS has no
+ * authentication here), so a replica must not step frames, nor a trainee
+ * take its id's confirmation, from whoever sends them: only the process
+ * whose announcement came first, by id and origin (the hash of its DDS
+ * participant GUID), counts. A new process under that id is followed from
+ * its announcement once the one followed has left or is gone (server_left:
+ * a restarted server); the caller's on_announce tells the two apart. */
+bool ftm_replay_from_server(uint32_t *id, uint64_t *origin, const ftm_wire_received *rx,
+                            bool server_left);
+
+
 /* A received tick frame (r->msg.kind == FTM_WIRE_TICK). Synced: applies it
  * (after stepping any ticks the server left out as idle), checks the hash;
  * a sequence gap or a mismatch switches to RESYNCING. Not synced: keeps it
