@@ -389,9 +389,7 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
                        "recorded by a newer ftm-server?",
                        r->path, (unsigned long long)r->index, (unsigned long long)start,
                        (int)m->kind, FTM_WIRE_KIND_MIN, FTM_WIRE_KIND_MAX);
-    if (m->header || !m->has_tick || !m->has_kind || m->kind < FTM_WIRE_KIND_MIN ||
-        m->kind > FTM_WIRE_KIND_MAX ||
-        !m->has_sender || !m->has_incoming)
+    if (m->header || !m->has_tick || !m->has_kind || !m->has_sender || !m->has_incoming)
         return rec_err(err, FTM_EPARSE,
                        "%s: entry %llu at byte %llu: %s", r->path, (unsigned long long)r->index,
                        (unsigned long long)start,
