@@ -79,9 +79,24 @@ ftm_vec3 ftm_camera_eye(const ftm_camera *c)
     return add(c->target, scale(f, -c->distance));
 }
 
-/* proj * view in double, column-major */
-static void matrix(const ftm_camera *c, double aspect, double m[16])
+double ftm_camera_view_height(int h, double top)
 {
+    double hh = h > 0 ? (double)h : 1.0;
+    if (!(top > 0)) /* NaN too */
+        top = 0;
+    if (top > 0.6 * hh)
+        top = 0.6 * hh;
+    return hh - top;
+}
+
+/* proj * view in double, column-major: the projection of a viewport of the
+ * free rows (w x hf), then its clip-space y squeezed into them:
+ * y' = y hf / h - w_clip top / h, which maps the free rows' top edge (y = w_clip)
+ * to NDC 1 - 2 top / h and their bottom edge to -1. */
+static void matrix(const ftm_camera *c, int w, int h, double top, double m[16])
+{
+    const double hh = h > 0 ? (double)h : 1.0, hf = ftm_camera_view_height(h, top);
+    const double aspect = (w > 0 ? (double)w : 1.0) / hf, sy = hf / hh, oy = (hf - hh) / hh;
     ftm_vec3 r, u, f;
     ftm_camera_basis(c, &r, &u, &f);
     ftm_vec3 e = ftm_camera_eye(c);
@@ -100,20 +115,23 @@ static void matrix(const ftm_camera *c, double aspect, double m[16])
                 s += proj[k * 4 + row] * view[col * 4 + k];
             m[col * 4 + row] = s;
         }
+    for (int col = 0; col < 4; col++)
+        m[col * 4 + 1] = sy * m[col * 4 + 1] + oy * m[col * 4 + 3];
 }
 
-void ftm_camera_matrix(const ftm_camera *c, double aspect, float out[16])
+void ftm_camera_matrix(const ftm_camera *c, int w, int h, double top, float out[16])
 {
     double m[16];
-    matrix(c, aspect, m);
+    matrix(c, w, h, top, m);
     for (int i = 0; i < 16; i++)
         out[i] = (float)m[i];
 }
 
-bool ftm_camera_project(const ftm_camera *c, int w, int h, ftm_vec3 p, double *px, double *py)
+bool ftm_camera_project(const ftm_camera *c, int w, int h, double top, ftm_vec3 p, double *px,
+                        double *py)
 {
     double m[16];
-    matrix(c, (double)w / (double)(h > 0 ? h : 1), m);
+    matrix(c, w, h, top, m);
     double x = m[0] * p.x + m[4] * p.y + m[8] * p.z + m[12];
     double y = m[1] * p.x + m[5] * p.y + m[9] * p.z + m[13];
     double ww = m[3] * p.x + m[7] * p.y + m[11] * p.z + m[15];

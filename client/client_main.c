@@ -72,6 +72,12 @@ typedef struct app {
     ftm_render *ren;
     ftm_camera cam;
     bool cam_set;
+    /* framebuffer rows at the top the view keeps clear for the HUD
+     * (frame_top): drawn now, held, held until; fb_h: framebuffer height */
+    double view_top, top_hold;
+    int64_t top_hold_until;
+    bool top_set;
+    int fb_h;
     const ftm_mesh *drawn_mesh;
     ftm_client_view view;
     ftm_render_opts ropts;
@@ -319,6 +325,14 @@ static void on_button(GLFWwindow *w, int button, int action, int mods)
         a->drag = 2;
 }
 
+/* The rows of a window fh pixels high (window coordinates) in which the
+ * view is framed, below what the HUD covers. */
+static double view_rows(const app *a, int fh)
+{
+    double top = a->fb_h > 0 ? a->view_top * fh / a->fb_h : 0.0;
+    return ftm_camera_view_height(fh, top);
+}
+
 static void on_cursor(GLFWwindow *w, double x, double y)
 {
     app *a = glfwGetWindowUserPointer(w);
@@ -330,7 +344,7 @@ static void on_cursor(GLFWwindow *w, double x, double y)
     if (a->drag == 1)
         ftm_camera_orbit(&a->cam, dx, dy);
     else if (a->drag == 2)
-        ftm_camera_pan(&a->cam, dx, dy, fh);
+        ftm_camera_pan(&a->cam, dx, dy, view_rows(a, fh));
     else if (a->drag == 3)
         ftm_mouse_motion(a->dev, x, y);
 }
@@ -661,6 +675,27 @@ static double quantile(double *v, size_t n, double q)
     return v[k];
 }
 
+#define TOP_HOLD_NS (5 * SEC) /* as long as a notice line stays on the HUD */
+#define TOP_EASE_S 0.15
+
+/* The rows the view keeps clear at the top (hud px, ftm_render_view_top),
+ * held at the largest of the last TOP_HOLD_NS so that a line that comes
+ * and goes does not move the tissue back and forth, and eased over
+ * ~TOP_EASE_S when it changes; at once with the HUD off. */
+static double frame_top(app *a, double hud, int64_t now, double dt)
+{
+    if (hud >= a->top_hold || hud <= 0 || now >= a->top_hold_until) {
+        a->top_hold = hud;
+        a->top_hold_until = now + TOP_HOLD_NS;
+    }
+    double k = dt / TOP_EASE_S;
+    if (!a->top_set || hud <= 0 || !(k < 1))
+        k = 1;
+    a->view_top += (a->top_hold - a->view_top) * k;
+    a->top_set = true;
+    return a->view_top;
+}
+
 static int save_screenshot(app *a, const ftm_client_view *v, int w, int h)
 {
     uint8_t *px = malloc((size_t)w * (size_t)h * 3);
@@ -683,15 +718,16 @@ static int save_screenshot(app *a, const ftm_client_view *v, int w, int h)
     for (int32_t i = 0; i < v->nprobes; i++) {
         double x, y;
         if (v->probes[i].in_contact &&
-            ftm_camera_project(&a->cam, w, h, v->probes[i].contact, &x, &y)) {
+            ftm_camera_project(&a->cam, w, h, a->view_top, v->probes[i].contact, &x, &y)) {
             snprintf(where, sizeof where, "contact %.0f %.0f", x, y);
             break;
         }
     }
-    printf("screenshot %s %dx%d tick %" PRIu64 " %s\n", a->o.screenshot, w, h, v->tick, where);
+    printf("screenshot %s %dx%d tick %" PRIu64 " view-top %.0f %s\n", a->o.screenshot, w, h,
+           v->tick, a->view_top, where);
     fflush(stdout);
-    alog(a, FTM_LOG_INFO, "screenshot %s: %dx%d, tick %" PRIu64 ", %s", a->o.screenshot, w, h,
-         v->tick, where);
+    alog(a, FTM_LOG_INFO, "screenshot %s: %dx%d, tick %" PRIu64 ", %s, view below row %.0f",
+         a->o.screenshot, w, h, v->tick, where, a->view_top);
     return 0;
 }
 
@@ -785,7 +821,7 @@ static int run(app *a)
             int ww, wh;
             glfwGetWindowSize(a->win, &ww, &wh);
             mv.width = ww > 0 ? ww : 1;
-            mv.height = wh > 0 ? wh : 1;
+            mv.height = view_rows(a, wh > 0 ? wh : 1);
             ftm_mouse_set_view(a->dev, &mv);
         }
         info.role = a->role;
@@ -805,7 +841,9 @@ static int run(app *a)
         int nhud = ftm_hud_lines(&draw, &info, lines);
         for (int i = 0; i < nhud; i++)
             hud[i] = lines[i];
-        ftm_render_draw(a->ren, &draw, &a->cam, w, h, &a->ropts, hud, nhud);
+        a->fb_h = h;
+        double top = frame_top(a, ftm_render_view_top(&a->ropts, nhud), now, dt);
+        ftm_render_draw(a->ren, &draw, &a->cam, w, h, top, &a->ropts, hud, nhud);
 
         if (a->o.screenshot) {
             double el = (double)(now - start) * 1e-9;

@@ -76,7 +76,10 @@ typedef struct ftm_mouse_view {
     ftm_vec3 eye;
     ftm_vec3 forward, right, up;
     double fov_y;       /* vertical field of view [rad], in (0, pi) */
-    double width, height; /* viewport [px], > 0 */
+    /* the rows the view is framed in [px], > 0 (ftm_camera_view_height:
+     * below the HUD; only cursor motion is unprojected, so where they start
+     * does not matter) */
+    double width, height;
 } ftm_mouse_view;
 
 /* A mouse probe whose HIP starts at hip0 [scene m]. scroll_step: metres the

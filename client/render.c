@@ -531,6 +531,28 @@ static int text_line(float *o, float x, float y, float px, const char *s, const 
     return n;
 }
 
+/* HUD pixels per font pixel, and the height of one HUD line */
+static float text_px(const ftm_render_opts *o)
+{
+    return (float)(o->text_scale > 0 ? o->text_scale : 1);
+}
+
+static float line_height(const ftm_render_opts *o)
+{
+    return (FTM_FONT_CELL_H + 2) * text_px(o);
+}
+
+double ftm_render_hud_height(const ftm_render_opts *o, int nhud)
+{
+    return o->hud && nhud > 0 ? 14.0 + nhud * (double)line_height(o) : 0.0;
+}
+
+double ftm_render_view_top(const ftm_render_opts *o, int nhud)
+{
+    const double step = 4.0 * line_height(o);
+    return ceil(ftm_render_hud_height(o, nhud) / step) * step;
+}
+
 static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
                       const ftm_render_opts *o, const char *const *hud, int nhud)
 {
@@ -540,8 +562,7 @@ static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
     float *buf = scratch(r, (chars + 4) * 6 * TEXT_FLOATS);
     if (!buf)
         return;
-    float px = (float)(o->text_scale > 0 ? o->text_scale : 1);
-    float lh = (FTM_FONT_CELL_H + 2) * px;
+    float px = text_px(o), lh = line_height(o);
     int n = 0;
     float hud_bottom = 0;
     if (o->hud && nhud > 0) {
@@ -551,7 +572,7 @@ static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
                 wmax = strlen(hud[i]);
         const float bg[4] = {0.05f, 0.06f, 0.08f, 0.70f}, fg[4] = {0.92f, 0.95f, 0.90f, 1.0f};
         n += text_box(buf, 6, 6, (float)wmax * FTM_FONT_CELL_W * px + 12, nhud * lh + 8, bg);
-        hud_bottom = 14 + nhud * lh;
+        hud_bottom = (float)ftm_render_hud_height(o, nhud);
         for (int i = 0; i < nhud; i++)
             n += text_line(buf + (size_t)n * TEXT_FLOATS, 12, 12 + i * lh, px, hud[i], fg);
     }
@@ -618,14 +639,14 @@ static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
 }
 
 void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *cam, int w, int h,
-                     const ftm_render_opts *o, const char *const *hud, int nhud)
+                     double top, const ftm_render_opts *o, const char *const *hud, int nhud)
 {
     glViewport(0, 0, w, h);
     glClearColor(0.11f, 0.12f, 0.15f, 1.0f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
     float mvp[16];
-    ftm_camera_matrix(cam, (double)w / (double)(h > 0 ? h : 1), mvp);
+    ftm_camera_matrix(cam, w, h, top, mvp);
     ftm_vec3 eye = ftm_camera_eye(cam);
     static const float identity[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     double full = o->colormap_full > 0 ? o->colormap_full : (r->link > 0 ? 0.5 * r->link : 1e-3);

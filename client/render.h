@@ -34,9 +34,17 @@ double ftm_render_link_length(const ftm_render *r);
 /* New positions: recomputes normals and displacements, uploads them. */
 void ftm_render_update(ftm_render *r, const ftm_client_view *v);
 
-/* One frame into the current framebuffer (w x h pixels): scene, then
- * hud lines at the top left and the banner (if any) at the top centre. */
+/* Pixel rows the HUD panel of nhud lines covers at the top (0 when off). */
+double ftm_render_hud_height(const ftm_render_opts *o, int nhud);
+/* The rows the view keeps clear for that HUD: its height rounded up to a
+ * whole number of 4-line steps, so that a line more or less (a reaction, a
+ * participant, a command's outcome) seldom moves the view. */
+double ftm_render_view_top(const ftm_render_opts *o, int nhud);
+
+/* One frame into the current framebuffer (w x h pixels): scene, framed in
+ * the rows below the top `top` ones (ftm_camera_matrix), then hud lines at
+ * the top left and the banner (if any) at the top centre. */
 void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *cam, int w, int h,
-                     const ftm_render_opts *o, const char *const *hud, int nhud);
+                     double top, const ftm_render_opts *o, const char *const *hud, int nhud);
 
 #endif

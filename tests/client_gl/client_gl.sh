@@ -67,8 +67,11 @@ screenshot)
         --duration 80 >"$dir/bot.out" 2>"$dir/bot.err" &
     client after --screenshot "$dir/after.png" --screenshot-contact 200 --screenshot-timeout 60 ||
         fail "client (deformed) exited with $?"
-    set -- $(sed -n 's/^screenshot .* contact \([0-9]*\) \([0-9]*\)$/\1 \2/p' "$dir/after.out")
-    [ $# -eq 2 ] || fail "no contact pixel in the client's screenshot line"
+    set -- $(sed -n 's/^screenshot .* view-top \([0-9]*\) contact \([0-9]*\) \([0-9]*\)$/\2 \3 \1/p' \
+        "$dir/after.out")
+    [ $# -eq 3 ] || fail "no contact pixel or view top in the client's screenshot line"
+    # the view is framed below the HUD: the contact is not drawn under it
+    [ "$3" -gt 0 ] && [ "$2" -gt "$3" ] || fail "contact at row $2, under the HUD (rows 0..$3)"
     "$FTM_PNG_CHECK" compare "$dir/before.png" "$dir/after.png" "$1" "$2" 40 || fail "png check"
     grep -q "synced at tick" "$dir/after.log" || fail "client never synced"
     [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
