@@ -10,6 +10,26 @@
 
 static double norm(ftm_vec3 f) { return sqrt(f.x * f.x + f.y * f.y + f.z * f.z); }
 
+/* The order the participants are listed in: by role (the server, then
+ * trainees, instructors, observers), then by id, so that a line stays
+ * where the instructor last read it whoever joins or leaves. */
+static int32_t listing_order(const ftm_client_view *v, int32_t order[FTM_CLIENT_MAX_PARTS])
+{
+    int32_t n = v->nparts < FTM_CLIENT_MAX_PARTS ? v->nparts : FTM_CLIENT_MAX_PARTS;
+    for (int32_t i = 0; i < n; i++) {
+        const ftm_client_part *p = &v->parts[i];
+        int32_t k = i;
+        for (; k > 0; k--) {
+            const ftm_client_part *q = &v->parts[order[k - 1]];
+            if (q->role < p->role || (q->role == p->role && q->id <= p->id))
+                break;
+            order[k] = order[k - 1];
+        }
+        order[k] = i;
+    }
+    return n;
+}
+
 int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
                   char lines[FTM_HUD_LINES][FTM_HUD_WIDTH])
 {
@@ -50,9 +70,9 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         LINE("tissue k %.4g N/m  d %.4g N s/m  m %.4g kg", v->tissue.stiffness,
              v->tissue.node_damping, v->tissue.node_mass);
         LINE("participants:");
-        int32_t i = 0;
-        for (; i < v->nparts && n < FTM_HUD_LINES - 7; i++) {
-            const ftm_client_part *p = &v->parts[i];
+        int32_t order[FTM_CLIENT_MAX_PARTS], nparts = listing_order(v, order), i = 0;
+        for (; i < nparts && n < FTM_HUD_LINES - 7; i++) {
+            const ftm_client_part *p = &v->parts[order[i]];
             if (p->contact_ticks > 0) /* a trainee that has touched: the figures to debrief */
                 LINE("  %u %s %s tick %" PRIu64 " %s  %.1f s in contact, peak %.2f N", p->id,
                      ftm_wire_role_name(p->role),
@@ -60,10 +80,10 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
                      (double)p->contact_ticks / (v->rate_hz ? v->rate_hz : 1), p->peak_force);
             else
                 LINE("  %u %s %s tick %" PRIu64 " %s", p->id, ftm_wire_role_name(p->role),
-                     ftm_wire_state_name(p->state), p->tick, p->name);
+                     p->left ? "left" : ftm_wire_state_name(p->state), p->tick, p->name);
         }
         /* say so rather than cut the list silently */
-        if (i < v->nparts || v->parts_unlisted)
+        if (i < nparts || v->parts_unlisted)
             LINE("  ... %s", v->parts_unlisted ? "more participants than the list holds"
                                                : "more not shown");
         LINE("keys: space pause/resume  backspace reset  +/- depth max  k/j stiffness");

@@ -152,6 +152,38 @@ static void test_cut_list_says_so(void **state)
     assert_true(find(n, "keys:") > more); /* the keys are still shown */
 }
 
+/* Participants are listed by role, the server first, then by id, however
+ * they joined; a participant that leaves keeps its place. */
+static void test_participant_order(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    v.nparts = 0;
+    const struct {
+        uint32_t id;
+        ftm_wire_role role;
+    } joined[] = {{13, FTM_WIRE_ROLE_OBSERVER}, {12, FTM_WIRE_ROLE_TRAINEE},
+                  {21, FTM_WIRE_ROLE_INSTRUCTOR}, {1, FTM_WIRE_ROLE_SERVER},
+                  {11, FTM_WIRE_ROLE_TRAINEE}};
+    for (size_t i = 0; i < sizeof joined / sizeof *joined; i++) {
+        ftm_client_part *p = ftm_parts_find(v.parts, &v.nparts, joined[i].id, true);
+        assert_non_null(p);
+        p->role = joined[i].role;
+        p->state = FTM_WIRE_STATE_SYNCED;
+    }
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_INSTRUCTOR, .id = 21};
+    const char *want[] = {"  1 server", "  11 trainee", "  12 trainee", "  21 instructor",
+                          "  13 observer"};
+    int n = ftm_hud_lines(&v, &in, lines), at = find(n, "participants:");
+    assert_true(at > 0);
+    for (int k = 0; k < 5; k++)
+        if (strncmp(lines[at + 1 + k], want[k], strlen(want[k])) != 0)
+            fail_msg("participant line %d: '%s', want '%s...'", k, lines[at + 1 + k], want[k]);
+    ftm_parts_find(v.parts, &v.nparts, 12, false)->left = true;
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_true(strncmp(lines[at + 3], "  12 trainee left", 17) == 0);
+}
+
 /* What became of a command: the server's reply, under the name the
  * client gave the command, on one or two lines; the full list still fits. */
 static void test_command_outcome(void **state)
@@ -273,6 +305,7 @@ int main(void)
         cmocka_unit_test(test_trainee_sees_own_figures),
         cmocka_unit_test(test_departed_trainee_kept),
         cmocka_unit_test(test_restart_forgets_departed),
+        cmocka_unit_test(test_participant_order),
         cmocka_unit_test(test_command_outcome),
         cmocka_unit_test(test_instructor_keys),
     };
