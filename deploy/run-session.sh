@@ -81,7 +81,8 @@ echo "  + trainee 11 (docs/sessions/trainee1.bot), trainee 12 (trainee2.bot), ob
 echo "    instructor 15 (instructor.bot: damping 0.3 -> 0.33 N s/m at 1.4 s, stiffness 50 -> 80 N/m at 1.5 s)"
 [ -n "$gui" ] && echo "  + instructor 14: ftm-client window (keys: docs/client.md)"
 timeout $((seconds + 20)) "$server" --scene default "${common[@]}" --duration "$seconds" \
-  --log "$dir/server.log" --report "$dir/report.json" >"$dir/server.out" 2>&1 &
+  --log "$dir/server.log" --report "$dir/report.json" --record "$dir/session.rec" \
+  >"$dir/server.out" 2>&1 &
 spid=$!
 for _ in $(seq 100); do
   grep -q "session '" "$dir/server.log" 2>/dev/null && break
@@ -138,6 +139,18 @@ peak=$(awk -F, 'NR > 1 { f = sqrt($7*$7 + $8*$8 + $9*$9); if (f > m) m = f } END
 echo "  trainee 11 peak reaction force: $peak N (as its bot received it)"
 echo "  debriefing, from the server's session report (--report; KEEP=1 keeps $dir/report.json):"
 sed -n 's/^\[ *[0-9.]*\] info: \(participant .* probe [0-9]*: [0-9]* touch.*\)$/    \1/p' "$dir/server.log"
+# the recording, replayed: the same ticks and hashes again, and the force
+# each trainee felt over time (--reactions) as a picture
+if "$server" --replay "$dir/session.rec" --reactions "$dir/forces.csv" >"$dir/replay.out" \
+     2>"$dir/replay.err"; then
+  echo "  recording replayed: $(sed -n 's/^replay [^:]*: \(.*every hash equal\).*/\1/p' "$dir/replay.out")"
+  if command -v gnuplot >/dev/null 2>&1 &&
+     deploy/ftm-plot-forces "$dir/forces.csv" "$dir/forces.png" "$dir/report.json" >/dev/null; then
+    echo "  force over time: $dir/forces.png (deploy/ftm-plot-forces; KEEP=1 keeps it)"
+  fi
+else
+  echo "  the recording did not replay:"; tail -3 "$dir/replay.err" | sed 's/^/    /'; status=1
+fi
 if [ -n "$gui" ]; then
   wait $p14; rc=$?
   if [ $rc -ne 0 ] && grep -q "cannot initialise GLFW\|cannot open an OpenGL" "$dir/client.out"; then

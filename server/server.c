@@ -195,7 +195,7 @@ typedef struct server {
 #define TICK_HIST_BINS 5000
     uint32_t period_hist[TICK_HIST_BINS], late_hist[TICK_HIST_BINS];
     uint64_t last_tick_ns;
-    FILE *reactions_csv; /* --offline: one line per probe reaction */
+    FILE *reactions_csv; /* --reactions (offline, replay): one line per probe reaction */
     /* adaptive depth (depth_ctl.h), metrics, recording: control_period() */
     ftm_depth_ctl ctl;
     uint64_t next_control_ns, floor_log_ns;
@@ -459,11 +459,6 @@ static void publish_frame(server *s, int32_t n, int32_t nreact, bool heartbeat)
     t->send_time_ns = real_ns();
     t->has_tissue = s->tissue_frame;
     t->tissue = ftm_replay_tissue_now(&s->mat);
-    if (s->reactions_csv)
-        for (int32_t r = 0; r < nreact; r++)
-            fprintf(s->reactions_csv, "%" PRIu64 ",%u,%d,%.17g,%.17g,%.17g\n", s->tick,
-                    s->reactions[r].participant, (int)s->reactions[r].probe,
-                    s->reactions[r].force.x, s->reactions[r].force.y, s->reactions[r].force.z);
     if (publish(s, &m, &s->bytes_frames) == FTM_OK) {
         s->frames++;
         s->heartbeats += heartbeat;
@@ -1126,12 +1121,16 @@ static void run_tick(server *s)
         if (re->has_plane)
             re->contact_normal = (ftm_vec3){pb->normal.x / nl, pb->normal.y / nl, pb->normal.z / nl};
         const participant *rp = &s->parts[re->group / MAX_PROBES];
+        const double push = sqrt(v_dot(pb->push, pb->push));
         if (rp->report >= 0) {
             ftm_report_part *part = &s->report.parts[rp->report];
-            ftm_report_contact(&part->probes[re->probe], s->tick, re->force,
-                               sqrt(v_dot(pb->push, pb->push)), pb->limited);
+            ftm_report_contact(&part->probes[re->probe], s->tick, re->force, push, pb->limited);
             part->last_tick = s->tick;
         }
+        if (s->reactions_csv) /* --reactions: what the frame carries, and the push */
+            fprintf(s->reactions_csv, "%" PRIu64 ",%u,%d,%.17g,%.17g,%.17g,%.17g,%.17g,%d\n",
+                    s->tick, re->participant, (int)re->probe, re->force.x, re->force.y,
+                    re->force.z, (double)s->tick / s->o.rate, push, pb->limited ? 1 : 0);
     }
     if (s->depth_lo == 0 || s->depth < s->depth_lo)
         s->depth_lo = s->depth;
@@ -1429,7 +1428,8 @@ static void usage(FILE *f)
             "  --offline N            run N ticks without DDS, trainees from --trainee scripts\n"
             "  --trainee ID:T0:FILE   (offline) trainee ID plays bot script FILE; tick k uses\n"
             "                         the HIP at script time T0 + k / rate (repeatable, <= 8)\n"
-            "  --reactions FILE       (offline) CSV tick,participant,probe,fx,fy,fz\n"
+            "  --reactions FILE       (offline, replay) CSV per probe in contact per tick:\n"
+            "                         tick,participant,probe,fx,fy,fz,time_s,push_m,push_limited\n"
             "  --max-penetration M    longest push a probe imposes on the tissue, in metres\n"
             "                         (default: the scene's size, the longest side of its rest surface's box)\n"
             "  --rt-priority N        SCHED_FIFO priority of the tick thread, the publishing\n"
@@ -1646,8 +1646,12 @@ static int parse(int argc, char **argv, options *o)
         return -1;
     }
     /* (--offline itself is at least 1: ftm_option_int_arg) */
-    if ((o->ntrainees || o->reactions_csv) && !o->offline_ticks) {
-        fprintf(stderr, "ftm-server: --trainee and --reactions go with --offline\n");
+    if (o->ntrainees && !o->offline_ticks) {
+        fprintf(stderr, "ftm-server: --trainee goes with --offline\n");
+        return -1;
+    }
+    if (o->reactions_csv && !o->offline_ticks && !o->replay && !o->inputs) {
+        fprintf(stderr, "ftm-server: --reactions goes with --offline, --replay or --inputs\n");
         return -1;
     }
     return 0;
@@ -1709,6 +1713,33 @@ static const output *output_dir(const output *out, int n)
     return NULL;
 }
 
+/* --reactions FILE (--offline, --replay, --inputs): one line per probe in
+ * contact per tick. Returns 0, or 3 after saying why it cannot be written. */
+static int open_reactions(server *s)
+{
+    if (!s->o.reactions_csv)
+        return 0;
+    if (!(s->reactions_csv = fopen(s->o.reactions_csv, "w"))) {
+        fprintf(stderr, "ftm-server: cannot open %s: %s\n", s->o.reactions_csv, strerror(errno));
+        return 3;
+    }
+    fprintf(s->reactions_csv, "tick,participant,probe,fx,fy,fz,time_s,push_m,push_limited\n");
+    return 0;
+}
+
+static int close_reactions(server *s)
+{
+    if (!s->reactions_csv)
+        return 0;
+    int bad = ferror(s->reactions_csv);
+    bad |= fclose(s->reactions_csv) != 0;
+    s->reactions_csv = NULL;
+    if (bad)
+        fprintf(stderr, "ftm-server: --reactions %s: write failed (disk full?)\n",
+                s->o.reactions_csv);
+    return bad ? 3 : 0;
+}
+
 /* --offline: the session's tick logic without DDS or the clock. Each
  * trainee is a participant slot (in the order given) whose probe 0 is at
  * its script's HIP for the tick; then run_tick does what it does online —
@@ -1733,6 +1764,10 @@ static int replay_inputs(server *s)
     if (ftm_record_open(path, &h, &rd, &err)) {
         fprintf(stderr, "ftm-server %s: %s\n", mode, err.message);
         return 1;
+    }
+    if (open_reactions(s)) {
+        ftm_record_close_reader(rd);
+        return 3;
     }
     s->replaying = true;
     s->period_ns = 1e9 / s->o.rate;
@@ -1870,6 +1905,8 @@ static int replay_inputs(server *s)
                s->o.replay, inputs, frames);
     }
     ftm_record_close_reader(rd);
+    if (close_reactions(s) && rc == 0)
+        rc = 3;
     return rc;
 }
 
@@ -1913,12 +1950,8 @@ static int run_offline(server *s)
         who[i]->state = FTM_WIRE_STATE_SYNCED;
         snprintf(who[i]->name, sizeof who[i]->name, "offline");
     }
-    if (s->o.reactions_csv && !(s->reactions_csv = fopen(s->o.reactions_csv, "w"))) {
-        fprintf(stderr, "ftm-server: cannot open %s: %s\n", s->o.reactions_csv, strerror(errno));
+    if (open_reactions(s))
         rc = 3;
-    }
-    if (s->reactions_csv)
-        fprintf(s->reactions_csv, "tick,participant,probe,fx,fy,fz\n");
     s->period_ns = 1e9 / s->o.rate;
     slog(s, "info", "offline: %" PRId64 " ticks at %.0f Hz, %d trainees, depth %d",
          s->o.offline_ticks, s->o.rate, n, (int)s->depth);
@@ -1942,9 +1975,8 @@ static int run_offline(server *s)
     if (rc == 0)
         printf("ftm-server: final tick %" PRIu64 " hash %016" PRIx64 "\n", s->tick,
                ftm_sim_hash(s->sim));
-    if (s->reactions_csv && fclose(s->reactions_csv) != 0)
+    if (close_reactions(s))
         rc = 3;
-    s->reactions_csv = NULL;
     for (int i = 0; i < n; i++)
         ftm_script_free(&sc[i]);
     return rc;

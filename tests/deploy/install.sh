@@ -28,7 +28,7 @@ fail() {
 }
 timeout 120 cmake --install "$FTM_BUILD" --prefix "$p" >"$dir/install.out" 2>&1 ||
     fail "cmake --install failed"
-for f in bin/ftm bin/ftm-server bin/ftm-bot include/ftm/ftm.h include/ftm/sim.h lib/libftm.a \
+for f in bin/ftm bin/ftm-server bin/ftm-bot bin/ftm-plot-forces include/ftm/ftm.h include/ftm/sim.h lib/libftm.a \
          lib/pkgconfig/ftm.pc share/ftm/scenes/default.scene share/ftm/scenes/membrane.scene \
          share/ftm/cyclonedds/cyclonedds-lan.xml share/ftm/cyclonedds/cyclonedds-loopback.xml \
          share/ftm/sessions/trainee1.bot share/ftm/ftm-server.conf.example \

@@ -199,8 +199,9 @@ record)
     grep -q "contact on triangle" "$dir/server.log" || fail "no probe contact on the server"
     grep -q "push limited to 0.002 m" "$dir/server.log" || fail "the push was not limited"
     grep -q "the server limits our push" "$dir/bot11.err" || fail "the trainee was not told its push was limited"
-    timeout 60 "$FTM_SERVER" --replay "$rec" --report "$dir/replay.json" >"$dir/replay.out" \
-        2>"$dir/replay.err" || fail "replay of the recording failed"
+    timeout 60 "$FTM_SERVER" --replay "$rec" --report "$dir/replay.json" \
+        --reactions "$dir/forces.csv" >"$dir/replay.out" 2>"$dir/replay.err" ||
+        fail "replay of the recording failed"
     # the session report: the replay's equals the live one; the trainee's
     # peak force is the one its bot received in that tick's frame
     report=$(timeout 30 python3 - "$dir/live.json" "$dir/replay.json" "$dir/bot11.csv" <<'EOF'
@@ -221,6 +222,49 @@ print("peak %.4g N at tick %d, %d contact ticks, %d limited" % (
     peak, pr["peak_force_tick"], pr["contact_ticks"], pr["push_limited_ticks"]))
 EOF
 ) || fail "session report: $report"
+    # the replay's force series (--reactions) is the report's and the frames':
+    # one row per contact tick, the peak, the limited ticks, the longest push,
+    # each row's force the one the bot received for that tick (at least 90 %
+    # of them: the bot may have joined from a keyframe after the first)
+    series=$(timeout 30 python3 - "$dir/replay.json" "$dir/forces.csv" "$dir/bot11.csv" <<'EOF'
+import csv, json, math, sys
+rep = json.load(open(sys.argv[1]))
+(pr,) = [p for p in rep["participants"] if p["id"] == 11][0]["probes"]
+rows = [r for r in csv.DictReader(open(sys.argv[2])) if r["participant"] == "11"]
+assert len(rows) == pr["contact_ticks"], (len(rows), pr["contact_ticks"])
+mag = {int(r["tick"]): math.sqrt(sum(float(r[c])**2 for c in ("fx", "fy", "fz"))) for r in rows}
+assert mag[pr["peak_force_tick"]] == max(mag.values()), pr
+assert abs(mag[pr["peak_force_tick"]] - pr["peak_force_n"]) <= 1e-12 * pr["peak_force_n"], pr
+assert sum(int(r["push_limited"]) for r in rows) == pr["push_limited_ticks"], pr
+assert abs(max(float(r["push_m"]) for r in rows) - pr["max_push_m"]) <= 1e-15, pr
+rate = rep["tick_rate_hz"]
+assert all(float(r["time_s"]) == int(r["tick"]) / rate for r in rows)
+bot = {int(r["tick"]): tuple(float(r[c]) for c in ("fx", "fy", "fz"))
+       for r in csv.DictReader(open(sys.argv[3]))}
+def received(r):  # the bot logs 9 significant digits
+    b = bot.get(int(r["tick"]))
+    return b is not None and all(abs(float(r[c]) - v) <= 1e-8 * mag[int(r["tick"])] + 1e-15
+                                 for c, v in zip(("fx", "fy", "fz"), b))
+same = [r for r in rows if received(r)]
+assert len(same) >= 0.9 * len(rows), "%d of %d rows as the bot received them" % (len(same), len(rows))
+print("%d rows, %d as the bot received them" % (len(rows), len(same)))
+EOF
+) || fail "--reactions on replay: $series"
+    # the debriefing picture from them, and its refusals
+    plot="$here/../../deploy/ftm-plot-forces"
+    sh "$plot" "$dir/forces.csv" "$dir/forces.png" "$dir/replay.json" >"$dir/plot.out" 2>&1 ||
+        fail "ftm-plot-forces failed: $(cat "$dir/plot.out")"
+    [ "$(head -c 8 "$dir/forces.png" | od -An -tx1 | tr -d ' \n')" = 89504e470d0a1a0a ] ||
+        fail "ftm-plot-forces wrote no PNG"
+    grep -q "wrote $dir/forces.png (1 probe(s))" "$dir/plot.out" || fail "plot: $(cat "$dir/plot.out")"
+    sh "$plot" "$dir/replay.json" "$dir/x.png" >"$dir/plot.out" 2>&1
+    [ $? -eq 2 ] && grep -q "line 1 is .*not the header of ftm-server --reactions" "$dir/plot.out" ||
+        fail "a file that is not --reactions was not refused: $(cat "$dir/plot.out")"
+    { head -n 2 "$dir/forces.csv"; echo "12,11,0,1,2,x,0.1,0,0"; } >"$dir/bad.csv"
+    sh "$plot" "$dir/bad.csv" "$dir/x.png" >"$dir/plot.out" 2>&1
+    [ $? -eq 2 ] && grep -q "bad.csv: line 3 is not 9 numbers" "$dir/plot.out" ||
+        fail "a malformed row was not refused: $(cat "$dir/plot.out")"
+    [ ! -e "$dir/x.png" ] || fail "a refused plot left a file"
     got=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/replay.out")
     [ "$got" = "$want" ] || fail "replay ends on '$got', the server on '$want'"
     grep -q "every hash equal" "$dir/replay.out" || fail "no replay summary"
@@ -370,7 +414,7 @@ EOF
         fail "a non-recording was accepted"
     fi
     grep -q "not an FTM recording" "$dir/junk.err" || fail "no clear error for a non-recording"
-    echo "PASS record: $want; report (live = replay): $report;" \
+    echo "PASS record: $want; report (live = replay): $report; --reactions: $series;" \
         "$(head -n 1 "$dir/replay.out" | sed 's/^replay [^:]*: //'); $size bytes;" \
         "rejected: $(cat "$dir/trunc.err" "$dir/bad.err" "$dir/inputs.err" | grep "replay:" | sed 's/^ftm-server --replay: [^:]*: //' | tr '\n' '|')"
     ;;
