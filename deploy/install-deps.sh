@@ -19,6 +19,8 @@ packages=(
   gnuplot-nox                                     # benchmark plots in docs/
   libsuitesparse-dev                              # FEM reference (CHOLMOD)
   cyclonedds-dev cyclonedds-tools                 # DDS transport, idlc, ddsperf
+  libddsc0debian                                  # DDS Security plugins (--security)
+  openssl libssl-dev                              # deploy/ftm-security; bundle checks in ftm_wire
   libprotobuf-c-dev protobuf-c-compiler           # wire protocol codec
   libuv1-dev                                      # ftm-server event loop
   libmicrohttpd-dev                               # ftm-server Prometheus metrics endpoint
