@@ -37,7 +37,7 @@
 #define MAX_DOMAIN FTM_OPTION_DOMAIN_MAX
 
 typedef struct options {
-    const char *role, *script, *scene, *session, *config, *log_path, *name;
+    const char *role, *script, *scene, *session, *config, *security, *log_path, *name;
     uint32_t domain, id;
     double duration, resync_timeout, input_period;
     double rejoin; /* after the server leaves, wait this long for it to restart [s] */
@@ -99,6 +99,8 @@ static void usage(FILE *f)
             "  --session NAME         session name (default: ftm)\n"
             "  --domain N             DDS domain id (default 0)\n"
             "  --config FILE          Cyclone DDS configuration\n"
+            "  --security DIR         DDS Security: this participant's identity and permissions\n"
+            "                         (deploy/ftm-security issue DIR NAME --role ROLE)\n"
             "  --id N                 participant id (default: from pid and time)\n"
             "  --name TEXT            display name, 1..63 bytes, no control characters\n"
             "  --duration S           stop after S seconds, <= 1e9 (default 10; also when the server\n"
@@ -138,6 +140,8 @@ static int parse(int argc, char **argv, options *o)
             o->session = v;
         else if (strcmp(a, "--config") == 0)
             o->config = v;
+        else if (strcmp(a, "--security") == 0)
+            o->security = v;
         else if (strcmp(a, "--log") == 0)
             o->log_path = v;
         else if (strcmp(a, "--name") == 0) {
@@ -644,6 +648,7 @@ int main(int argc, char **argv)
     ftm_wire_transport_def wd;
     memset(&wd, 0, sizeof wd);
     wd.config = b->o.config;
+    wd.security = b->o.security;
     wd.domain_id = b->o.domain;
     wd.session = b->o.session;
     wd.participant_id = b->o.id;

@@ -39,7 +39,7 @@
 #define MOUSE_MAX_DEPTH 0.2 /* the mouse probe's deepest push, as a part of the scene's size */
 
 typedef struct options {
-    const char *role, *scene, *session, *config, *name, *log_path, *device, *renderer;
+    const char *role, *scene, *session, *config, *security, *name, *log_path, *device, *renderer;
     const char *commands; /* instructor: timed session commands (bot script format) */
     bool device_given, renderer_given; /* (trainee options: said for another role, refused) */
     uint32_t domain, id;
@@ -373,6 +373,8 @@ static void usage(FILE *f)
             "  --session NAME           session name (default ftm)\n"
             "  --domain N               DDS domain (default 0)\n"
             "  --config FILE            Cyclone DDS configuration (deploy/cyclonedds-*.xml)\n"
+            "  --security DIR           DDS Security: this participant's identity and permissions\n"
+            "                           (deploy/ftm-security issue DIR NAME --role ROLE)\n"
             "  --scene NAME|FILE        local scene (default: the announced scene id)\n"
             "  --id N  --name TEXT      participant id (default: from pid and time), display name\n"
             "  --server-timeout S       no tick frames for S s (paused: no server status, sent\n"
@@ -456,6 +458,8 @@ static int parse(int argc, char **argv, options *o)
             o->session = v;
         else if (strcmp(a, "--config") == 0)
             o->config = v;
+        else if (strcmp(a, "--security") == 0)
+            o->security = v;
         else if (strcmp(a, "--name") == 0) {
             bad = ftm_option_name_arg("ftm-client", v);
             o->name = v;
@@ -1056,6 +1060,7 @@ int main(int argc, char **argv)
     cc.scene = a->o.scene;
     cc.session = a->o.session;
     cc.dds_config = a->o.config;
+    cc.dds_security = a->o.security;
     cc.domain = a->o.domain;
     cc.id = a->o.id;
     cc.name = a->o.name ? a->o.name : a->o.role;

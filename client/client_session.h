@@ -35,6 +35,7 @@ typedef struct ftm_client_config {
     const char *scene;   /* local scene override; NULL: the announced scene id */
     const char *session; /* default "ftm" */
     const char *dds_config;
+    const char *dds_security; /* DDS Security bundle directory; NULL: none */
     uint32_t domain, id;
     const char *name;
     double server_timeout; /* [s] without tick frames before the server counts as gone */

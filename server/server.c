@@ -54,6 +54,7 @@ typedef struct options {
     const char *scene;
     const char *session;
     const char *config;
+    const char *security; /* DDS Security bundle directory (--security) */
     const char *log_path;
     uint32_t domain;
     uint32_t id;
@@ -1402,6 +1403,8 @@ static void usage(FILE *f)
             "  --session NAME         session name (default: ftm)\n"
             "  --domain N             DDS domain id (default 0)\n"
             "  --config FILE          Cyclone DDS configuration (default: $CYCLONEDDS_URI)\n"
+            "  --security DIR         DDS Security: this server's identity and permissions\n"
+            "                         (made by deploy/ftm-security issue DIR NAME --role server)\n"
             "  --rate HZ              tick rate (default 1000)\n"
             "  --keyframe-every S     periodic keyframe interval in seconds (default 1)\n"
             "  --heartbeat S          idle heartbeat interval in seconds, <= 10 (default 0.1)\n"
@@ -1498,6 +1501,8 @@ static int parse(int argc, char **argv, options *o)
         }
         else if (strcmp(a, "--config") == 0)
             o->config = v;
+        else if (strcmp(a, "--security") == 0)
+            o->security = v;
         else if (strcmp(a, "--log") == 0)
             o->log_path = v;
         else if (strcmp(a, "--domain") == 0) {
@@ -2175,6 +2180,8 @@ static int check_setup(server *s)
            s->o.session, s->o.domain, s->o.id,
            s->o.config ? s->o.config : getenv("CYCLONEDDS_URI") ? getenv("CYCLONEDDS_URI")
                                                                 : "Cyclone's default");
+    if (s->o.security)
+        printf("security    DDS Security with the identity in %s (checked)\n", s->o.security);
     /* another server on this session says so within a status period */
     const uint64_t until = mono_ns() + 700000000u;
     for (uint64_t now = mono_ns(); now < until; now = mono_ns()) {
@@ -2423,6 +2430,7 @@ int ftm_server_main(int argc, char **argv)
     ftm_wire_transport_def wd;
     memset(&wd, 0, sizeof wd);
     wd.config = s->o.config;
+    wd.security = s->o.security;
     wd.domain_id = s->o.domain;
     wd.session = s->o.session;
     wd.participant_id = s->o.id;

@@ -19,6 +19,7 @@
 #include <dds/ddsc/dds_statistics.h>
 
 #include <errno.h>
+#include <limits.h>
 #include <pthread.h>
 #include <sched.h>
 #include <stdarg.h>
@@ -105,6 +106,8 @@ typedef struct kind_io {
 
 struct ftm_wire_transport {
     dds_entity_t participant;
+    /* DDS Security: the permissions file (absolute path); "" without */
+    char permissions[PATH_MAX + 32];
     uint64_t origin; /* ours, as others see it (origin_of_guid) */
     char session[64];
     uint32_t id;
@@ -385,35 +388,72 @@ int ftm_wire_flush(ftm_wire_transport *t, int64_t timeout_ns, ftm_error *err)
 
 /* ---- create / destroy ------------------------------------------------------ */
 
-static int make_domain(const ftm_wire_transport_def *def, ftm_error *err)
+/* Creates the domain with the configuration (a file, XML text or, if NULL,
+ * $CYCLONEDDS_URI) plus the security bundle's fragment. *created: the domain
+ * entity if this call made it, else 0 (another transport of this process
+ * made it: it is shared). */
+static int make_domain(const ftm_wire_transport_def *def, ftm_wire_transport *t,
+                       dds_entity_t *created, ftm_error *err)
 {
-    if (!def->config)
-        return FTM_OK; /* implicit domain: $CYCLONEDDS_URI or defaults */
-    const char *c = def->config;
-    while (*c == ' ' || *c == '\t' || *c == '\n' || *c == '\r')
-        c++;
-    char *uri = NULL;
-    if (*c != '<') {
-        FILE *f = fopen(def->config, "r");
-        if (!f)
-            return wire_err(err, FTM_EIO, "Cyclone DDS configuration %s: %s", def->config,
-                            strerror(errno));
-        fclose(f);
-        size_t n = strlen(def->config) + 8;
-        uri = malloc(n);
-        if (!uri)
-            return wire_err(err, FTM_ENOMEM, "out of memory");
-        snprintf(uri, n, "file://%s", def->config);
+    *created = 0;
+    char *sec = NULL;
+    if (def->security) {
+        int rc = wire_security_config(def->security, def->participant_id, &sec, t->permissions, sizeof t->permissions,
+                                      err);
+        if (rc)
+            return rc;
     }
-    dds_entity_t dom = dds_create_domain(def->domain_id, uri ? uri : c);
+    const char *c = def->config;
+    char *uri = NULL;
+    if (c) {
+        while (*c == ' ' || *c == '\t' || *c == '\n' || *c == '\r')
+            c++;
+        if (*c != '<') {
+            FILE *f = fopen(def->config, "r");
+            if (!f) {
+                free(sec);
+                return wire_err(err, FTM_EIO, "Cyclone DDS configuration %s: %s", def->config,
+                                strerror(errno));
+            }
+            fclose(f);
+            if (sec && strchr(def->config, ',')) {
+                free(sec);
+                return wire_err(err, FTM_EINVAL,
+                                "Cyclone DDS configuration %s: a path with a comma cannot be "
+                                "combined with DDS Security (Cyclone splits at commas)",
+                                def->config);
+            }
+        }
+    } else if (sec) {
+        c = getenv("CYCLONEDDS_URI"); /* what the implicit domain would have used */
+        if (c && !*c)
+            c = NULL;
+    }
+    if (!c && !sec)
+        return FTM_OK; /* implicit domain: $CYCLONEDDS_URI or defaults */
+    /* "file://PATH" or the XML text, then ",FRAGMENT": Cyclone reads a
+     * comma-separated list of configurations, later ones adding to earlier */
+    const bool file = c && *c != '<' && def->config;
+    size_t n = (c ? strlen(c) + 8 : 0) + (sec ? strlen(sec) + 1 : 0) + 1;
+    uri = malloc(n);
+    if (!uri) {
+        free(sec);
+        return wire_err(err, FTM_ENOMEM, "out of memory");
+    }
+    snprintf(uri, n, "%s%s%s%s", file ? "file://" : "", c ? c : "", c && sec ? "," : "",
+             sec ? sec : "");
+    free(sec);
+    dds_entity_t dom = dds_create_domain(def->domain_id, uri);
     free(uri);
     if (dom == DDS_RETCODE_PRECONDITION_NOT_MET)
         return FTM_OK; /* this process already has the domain: share it */
     if (dom < 0)
         return wire_err(err, FTM_EINVAL,
-                        "Cyclone DDS rejected the configuration %s for domain %u: %s",
-                        *c == '<' ? "(XML text)" : def->config, def->domain_id,
+                        "Cyclone DDS rejected the configuration %s%s for domain %u: %s",
+                        !def->config ? "$CYCLONEDDS_URI" : *c == '<' ? "(XML text)" : def->config,
+                        def->security ? " with DDS Security" : "", def->domain_id,
                         dds_strretcode(dom));
+    *created = dom;
     return FTM_OK;
 }
 
@@ -525,18 +565,33 @@ static void on_data_available(dds_entity_t reader, void *arg)
     }
 }
 
+/* A failed topic, writer or reader: a clear cause when DDS Security's
+ * permissions do not grant it. */
+static int endpoint_fail(const ftm_wire_transport *t, ftm_error *err, const char *call, int kind,
+                         const char *what, dds_return_t rc)
+{
+    if (rc == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY)
+        return wire_err(err, FTM_EACCESS,
+                        "not permitted by the DDS Security permissions in %s to %s topic %s (%s): "
+                        "this program's role needs an identity issued for that role",
+                        t->permissions[0] ? t->permissions : "(the configuration)", what,
+                        topic_names[kind], ftm_wire_kind_name(kind));
+    return wire_err(err, FTM_EDDS, "%s for %s failed: %s", call, topic_names[kind],
+                    dds_strretcode(rc));
+}
+
 static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_error *err)
 {
     kind_io *io = &t->io[k];
     io->topic = dds_create_topic(t->participant, &ftm_wire_Envelope_desc, topic_names[k], NULL, NULL);
     if (io->topic < 0)
-        return dds_fail(err, "dds_create_topic", io->topic);
+        return endpoint_fail(t, err, "dds_create_topic", k, pub ? "write" : "read", io->topic);
     if (pub) {
         dds_qos_t *q = kind_qos(k, true);
         io->writer = dds_create_writer(t->participant, io->topic, q, NULL);
         dds_delete_qos(q);
         if (io->writer < 0) {
-            int rc = dds_fail(err, "dds_create_writer", io->writer);
+            int rc = endpoint_fail(t, err, "dds_create_writer", k, "write", io->writer);
             io->writer = 0;
             return rc;
         }
@@ -554,7 +609,7 @@ static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_
         dds_delete_listener(l);
         dds_delete_qos(q);
         if (io->reader < 0) {
-            int rc = dds_fail(err, "dds_create_reader", io->reader);
+            int rc = endpoint_fail(t, err, "dds_create_reader", k, "read", io->reader);
             io->reader = 0;
             return rc;
         }
@@ -620,12 +675,22 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
     }
     pthread_condattr_destroy(&ca);
 
-    int rc = make_domain(def, err);
+    dds_entity_t created = 0;
+    int rc = make_domain(def, t, &created, err);
     if (rc == FTM_OK) {
         t->participant = dds_create_participant(def->domain_id, NULL, NULL);
         if (t->participant < 0) {
-            rc = dds_fail(err, "dds_create_participant", t->participant);
+            if (def->security)
+                rc = wire_err(err, FTM_EACCESS,
+                              "DDS Security refused the identity in %s (dds_create_participant: "
+                              "%s); Cyclone DDS gives the reason on standard error or in its "
+                              "trace (<Tracing><Verbosity>warning</Verbosity>)",
+                              def->security, dds_strretcode(t->participant));
+            else
+                rc = dds_fail(err, "dds_create_participant", t->participant);
             t->participant = 0;
+            if (created > 0)
+                dds_delete(created);
         } else {
             dds_guid_t g;
             dds_return_t r = dds_get_guid(t->participant, &g);

@@ -24,6 +24,7 @@ const char *ftm_wire_strerror(int code)
     case FTM_ETIMEDOUT: return "timed out";
     case FTM_EDDS: return "DDS error";
     case FTM_EAGAIN: return "queue full";
+    case FTM_EACCESS: return "not permitted by DDS Security";
     default: return ftm_strerror(code);
     }
 }

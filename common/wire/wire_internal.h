@@ -24,4 +24,11 @@ size_t wire_payload_cap(const ftm_wire_limits *limits, int kind);
 /* The protobuf-c descriptor of a kind's top-level message, NULL if none. */
 const ProtobufCMessageDescriptor *wire_descriptor(int kind);
 
+/* Checks the DDS Security bundle in directory dir (security.c), issued for
+ * participant id (if it says), and makes the Cyclone configuration fragment
+ * that enables it: *xml (malloc'ed), the permissions file's absolute path to
+ * permissions. Errors name the file and the cause. */
+int wire_security_config(const char *dir, uint32_t id, char **xml, char *permissions, size_t cap,
+                         ftm_error *err);
+
 #endif

@@ -33,6 +33,7 @@ enum {
     FTM_ETIMEDOUT = -23, /* nothing arrived / the peer did not show in time */
     FTM_EDDS = -24,      /* a DDS call failed (the message names it) */
     FTM_EAGAIN = -25,    /* the publishing queue is full; message dropped */
+    FTM_EACCESS = -26,   /* refused by DDS Security (identity or permissions) */
 };
 
 /* Like ftm_strerror, knowing the wire codes too; never NULL. */
@@ -303,6 +304,13 @@ typedef struct ftm_wire_transport_def {
      * an XML file (deploy/cyclonedds-*.xml). NULL: Cyclone's default,
      * i.e. $CYCLONEDDS_URI or built-in defaults. */
     const char *config;
+    /* DDS Security: the directory of this participant's identity and
+     * permissions (deploy/ftm-security issue: ca.pem, cert.pem, key.pem,
+     * governance.p7s, permissions.p7s), checked here and added to the
+     * configuration; NULL: no security (docs/deploy.md, "Securing a
+     * session"). Errors name the file and the cause; an endpoint the
+     * permissions do not grant fails with FTM_EACCESS. */
+    const char *security;
     uint32_t domain_id;      /* DDS domain, default 0 */
     const char *session;     /* session name, 1..63 bytes; the topic key */
     uint32_t participant_id; /* this participant's id (Envelope.sender), != 0 */

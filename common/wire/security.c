@@ -1,0 +1,363 @@
+/* DDS Security for a transport: a participant's bundle (the directory that
+ * deploy/ftm-security issue makes) checked with OpenSSL before Cyclone sees
+ * it, and turned into the <Security> part of the Cyclone configuration.
+ *
+ * Cyclone's security plugins reject a bad bundle too, but only as a failed
+ * dds_create_participant ("Error"), with the reason on standard error or in
+ * its trace. What is cheap to check here is checked here, so that a missing
+ * or unreadable file, a key that is not the certificate's, a certificate of
+ * another CA or out of its validity, and documents not signed by the CA are
+ * reported with the file and the cause. */
+#define _DEFAULT_SOURCE /* realpath */
+#include "wire_internal.h"
+
+#include <openssl/err.h>
+#include <openssl/pem.h>
+#include <openssl/pkcs7.h>
+#include <openssl/x509.h>
+#include <openssl/x509_vfy.h>
+
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#ifndef FTM_DDS_SECURITY_LIBDIR
+#define FTM_DDS_SECURITY_LIBDIR ""
+#endif
+
+/* The files of a bundle (docs/deploy.md, "Securing a session"). */
+#define CA_FILE "ca.pem"
+#define CERT_FILE "cert.pem"
+#define KEY_FILE "key.pem"
+#define GOVERNANCE_FILE "governance.p7s"
+#define PERMISSIONS_FILE "permissions.p7s"
+
+typedef struct bundle {
+    char dir[PATH_MAX];
+    X509 *ca, *cert;
+    EVP_PKEY *key;
+    X509_STORE *store; /* the CA, for verifying */
+} bundle;
+
+static void bundle_path(const bundle *b, const char *file, char *out, size_t cap)
+{
+    snprintf(out, cap, "%s/%s", b->dir, file);
+}
+
+/* The first OpenSSL error, for messages ("" if none). */
+static const char *ossl_reason(void)
+{
+    static _Thread_local char buf[160];
+    unsigned long e = ERR_peek_last_error();
+    buf[0] = 0;
+    if (e) {
+        const char *r = ERR_reason_error_string(e);
+        snprintf(buf, sizeof buf, ": %s", r ? r : "unknown OpenSSL error");
+    }
+    ERR_clear_error();
+    return buf;
+}
+
+static int open_file(const bundle *b, const char *file, FILE **f, ftm_error *err)
+{
+    char path[PATH_MAX + 32];
+    bundle_path(b, file, path, sizeof path);
+    *f = fopen(path, "r");
+    if (!*f)
+        return wire_err(err, FTM_EIO, "DDS Security: %s: %s", path, strerror(errno));
+    return FTM_OK;
+}
+
+static int load_cert(const bundle *b, const char *file, X509 **out, ftm_error *err)
+{
+    FILE *f;
+    int rc = open_file(b, file, &f, err);
+    if (rc)
+        return rc;
+    *out = PEM_read_X509(f, NULL, NULL, NULL);
+    fclose(f);
+    if (!*out)
+        return wire_err(err, FTM_EPARSE, "DDS Security: %s/%s is not a PEM certificate%s", b->dir,
+                        file, ossl_reason());
+    return FTM_OK;
+}
+
+static int load_key(bundle *b, ftm_error *err)
+{
+    char path[PATH_MAX + 32];
+    bundle_path(b, KEY_FILE, path, sizeof path);
+    struct stat st;
+    if (stat(path, &st) == 0 && (st.st_mode & 077))
+        return wire_err(err, FTM_EINVAL,
+                        "DDS Security: the private key %s may be read by others (mode %04o): "
+                        "chmod 600 it",
+                        path, (unsigned)(st.st_mode & 07777));
+    FILE *f;
+    int rc = open_file(b, KEY_FILE, &f, err);
+    if (rc)
+        return rc;
+    b->key = PEM_read_PrivateKey(f, NULL, NULL, NULL);
+    fclose(f);
+    if (!b->key)
+        return wire_err(err, FTM_EPARSE, "DDS Security: %s is not an unencrypted PEM private key%s",
+                        path, ossl_reason());
+    return FTM_OK;
+}
+
+static void asn1_time_text(const ASN1_TIME *t, char *out, size_t cap)
+{
+    out[0] = 0;
+    BIO *m = BIO_new(BIO_s_mem());
+    if (!m)
+        return;
+    if (ASN1_TIME_print(m, t)) {
+        int n = BIO_read(m, out, (int)cap - 1);
+        out[n > 0 ? n : 0] = 0;
+    }
+    BIO_free(m);
+}
+
+/* The certificate against the CA: signature, validity, the key. */
+static int check_cert(bundle *b, ftm_error *err)
+{
+    X509_STORE_CTX *ctx = X509_STORE_CTX_new();
+    if (!ctx || !X509_STORE_CTX_init(ctx, b->store, b->cert, NULL)) {
+        X509_STORE_CTX_free(ctx);
+        return wire_err(err, FTM_ENOMEM, "DDS Security: out of memory");
+    }
+    const int ok = X509_verify_cert(ctx);
+    const int e = X509_STORE_CTX_get_error(ctx);
+    X509 *bad = X509_STORE_CTX_get_current_cert(ctx);
+    const bool is_ca = bad && X509_cmp(bad, b->ca) == 0;
+    char when[64];
+    X509_STORE_CTX_free(ctx);
+    ERR_clear_error();
+    if (ok != 1) {
+        const char *which = is_ca ? CA_FILE : CERT_FILE;
+        switch (e) {
+        case X509_V_ERR_CERT_HAS_EXPIRED:
+            asn1_time_text(X509_get0_notAfter(is_ca ? b->ca : b->cert), when, sizeof when);
+            return wire_err(err, FTM_EINVAL,
+                            "DDS Security: the certificate %s/%s expired on %s: have a new one "
+                            "issued (deploy/ftm-security issue)",
+                            b->dir, which, when);
+        case X509_V_ERR_CERT_NOT_YET_VALID:
+            asn1_time_text(X509_get0_notBefore(is_ca ? b->ca : b->cert), when, sizeof when);
+            return wire_err(err, FTM_EINVAL,
+                            "DDS Security: the certificate %s/%s is not valid before %s (is this "
+                            "machine's clock right?)",
+                            b->dir, which, when);
+        case X509_V_ERR_UNABLE_TO_GET_ISSUER_CERT_LOCALLY:
+        case X509_V_ERR_UNABLE_TO_GET_ISSUER_CERT:
+        case X509_V_ERR_CERT_SIGNATURE_FAILURE:
+            return wire_err(err, FTM_EINVAL,
+                            "DDS Security: the certificate %s/%s is not signed by the CA in %s/%s "
+                            "(a certificate of another room?)",
+                            b->dir, CERT_FILE, b->dir, CA_FILE);
+        default:
+            return wire_err(err, FTM_EINVAL, "DDS Security: the certificate %s/%s: %s", b->dir,
+                            which, X509_verify_cert_error_string(e));
+        }
+    }
+    if (X509_check_private_key(b->cert, b->key) != 1) {
+        ERR_clear_error();
+        return wire_err(err, FTM_EINVAL, "DDS Security: %s/%s is not the key of the certificate %s/%s",
+                        b->dir, KEY_FILE, b->dir, CERT_FILE);
+    }
+    return FTM_OK;
+}
+
+/* A document signed by the CA (S/MIME, openssl smime -sign); its content
+ * (malloc'ed, NUL-terminated) to *text if text is not NULL. */
+static int check_signed(const bundle *b, const char *file, char **text, ftm_error *err)
+{
+    char path[PATH_MAX + 32];
+    bundle_path(b, file, path, sizeof path);
+    FILE *f;
+    int rc = open_file(b, file, &f, err);
+    if (rc)
+        return rc;
+    fclose(f);
+    BIO *in = BIO_new_file(path, "r"), *content = NULL, *out = BIO_new(BIO_s_mem());
+    PKCS7 *p7 = in ? SMIME_read_PKCS7(in, &content) : NULL;
+    if (!p7) {
+        rc = wire_err(err, FTM_EPARSE, "DDS Security: %s is not an S/MIME signed document%s", path,
+                      ossl_reason());
+    } else if (!out || PKCS7_verify(p7, NULL, b->store, content, out, PKCS7_TEXT) != 1) {
+        rc = wire_err(err, FTM_EINVAL,
+                      "DDS Security: %s is not signed by the CA in %s/%s (or was changed after "
+                      "signing)%s",
+                      path, b->dir, CA_FILE, ossl_reason());
+    } else if (text) {
+        char *data = NULL;
+        long n = BIO_get_mem_data(out, &data);
+        *text = malloc((size_t)(n > 0 ? n : 0) + 1);
+        if (!*text) {
+            rc = wire_err(err, FTM_ENOMEM, "DDS Security: out of memory");
+        } else {
+            if (n > 0)
+                memcpy(*text, data, (size_t)n);
+            (*text)[n > 0 ? n : 0] = 0;
+        }
+    }
+    ERR_clear_error();
+    PKCS7_free(p7);
+    BIO_free(content);
+    BIO_free(in);
+    BIO_free(out);
+    return rc;
+}
+
+/* The permissions must have a grant for the certificate's subject (written
+ * as DDS Security compares it, RFC 2253). */
+static int check_subject(const bundle *b, const char *permissions, ftm_error *err)
+{
+    char subject[512] = "";
+    BIO *m = BIO_new(BIO_s_mem());
+    if (m) {
+        X509_NAME_print_ex(m, X509_get_subject_name(b->cert), 0, XN_FLAG_RFC2253);
+        int n = BIO_read(m, subject, (int)sizeof subject - 1);
+        subject[n > 0 ? n : 0] = 0;
+        BIO_free(m);
+    }
+    static const char open_tag[] = "<subject_name>", close_tag[] = "</subject_name>";
+    for (const char *p = strstr(permissions, open_tag); p; p = strstr(p, open_tag)) {
+        p += sizeof open_tag - 1;
+        const char *q = strstr(p, close_tag);
+        if (!q)
+            break;
+        while (p < q && (*p == ' ' || *p == '\n' || *p == '\t' || *p == '\r'))
+            p++;
+        size_t n = (size_t)(q - p);
+        while (n && (p[n - 1] == ' ' || p[n - 1] == '\n' || p[n - 1] == '\t' || p[n - 1] == '\r'))
+            n--;
+        if (n == strlen(subject) && strncmp(p, subject, n) == 0)
+            return FTM_OK;
+    }
+    return wire_err(err, FTM_EINVAL,
+                    "DDS Security: the permissions %s/%s have no grant for '%s', the subject of "
+                    "%s/%s (documents of two participants mixed up?)",
+                    b->dir, PERMISSIONS_FILE, subject, b->dir, CERT_FILE);
+}
+
+static void bundle_free(bundle *b)
+{
+    X509_free(b->ca);
+    X509_free(b->cert);
+    EVP_PKEY_free(b->key);
+    X509_STORE_free(b->store);
+}
+
+static int check_bundle(bundle *b, ftm_error *err)
+{
+    int rc = load_cert(b, CA_FILE, &b->ca, err);
+    if (!rc)
+        rc = load_cert(b, CERT_FILE, &b->cert, err);
+    if (!rc)
+        rc = load_key(b, err);
+    if (rc)
+        return rc;
+    b->store = X509_STORE_new();
+    if (!b->store || X509_STORE_add_cert(b->store, b->ca) != 1)
+        return wire_err(err, FTM_ENOMEM, "DDS Security: out of memory");
+    rc = check_cert(b, err);
+    if (!rc)
+        rc = check_signed(b, GOVERNANCE_FILE, NULL, err);
+    char *permissions = NULL;
+    if (!rc)
+        rc = check_signed(b, PERMISSIONS_FILE, &permissions, err);
+    if (!rc)
+        rc = check_subject(b, permissions, err);
+    free(permissions);
+    return rc;
+}
+
+/* The participant id the bundle was issued for (its file "id", written by
+ * deploy/ftm-security issue --id) must be the one this transport uses: a
+ * mix-up caught at start (not a defence: a hostile program need not check). */
+static int check_id(const bundle *b, uint32_t id, ftm_error *err)
+{
+    char path[PATH_MAX + 32];
+    bundle_path(b, "id", path, sizeof path);
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return FTM_OK; /* issued without --id */
+    unsigned long want = 0;
+    const int n = fscanf(f, "%lu", &want);
+    fclose(f);
+    if (n != 1 || want == 0 || want > UINT32_MAX)
+        return wire_err(err, FTM_EPARSE, "DDS Security: %s: not a participant id", path);
+    if (want != id)
+        return wire_err(err, FTM_EINVAL,
+                        "DDS Security: the identity in %s was issued for participant id %lu, "
+                        "not %u (--id %lu)",
+                        b->dir, want, id, want);
+    return FTM_OK;
+}
+
+int wire_security_config(const char *dir, uint32_t id, char **xml, char *permissions, size_t cap,
+                         ftm_error *err)
+{
+    *xml = NULL;
+    if (!FTM_DDS_SECURITY_LIBDIR[0])
+        return wire_err(err, FTM_EINVAL,
+                        "DDS Security: this build found no Cyclone DDS security plugins "
+                        "(libdds_security_auth.so, Debian package libddsc0debian)");
+    bundle b;
+    memset(&b, 0, sizeof b);
+    struct stat st;
+    if (stat(dir, &st) != 0)
+        return wire_err(err, FTM_EIO, "DDS Security: %s: %s", dir, strerror(errno));
+    if (!S_ISDIR(st.st_mode))
+        return wire_err(err, FTM_EINVAL,
+                        "DDS Security: %s is not a directory (give the participant's directory "
+                        "made by deploy/ftm-security issue)",
+                        dir);
+    if (!realpath(dir, b.dir))
+        return wire_err(err, FTM_EIO, "DDS Security: %s: %s", dir, strerror(errno));
+    /* Cyclone splits its configuration at commas; XML text needs none of < & " */
+    if (strpbrk(b.dir, ",<>&\""))
+        return wire_err(err, FTM_EINVAL,
+                        "DDS Security: the path %s has a character Cyclone DDS cannot take in a "
+                        "configuration (one of , < > & \")",
+                        b.dir);
+    int rc = check_id(&b, id, err);
+    if (!rc)
+        rc = check_bundle(&b, err);
+    bundle_free(&b);
+    if (rc)
+        return rc;
+    snprintf(permissions, cap, "%s/%s", b.dir, PERMISSIONS_FILE);
+    const char *d = b.dir, *lib = FTM_DDS_SECURITY_LIBDIR;
+    const char *fmt =
+        "<CycloneDDS><Domain Id=\"any\"><Security>"
+        "<Authentication>"
+        "<Library path=\"%s/libdds_security_auth.so\" initFunction=\"init_authentication\" "
+        "finalizeFunction=\"finalize_authentication\"/>"
+        "<IdentityCA>file:%s/" CA_FILE "</IdentityCA>"
+        "<IdentityCertificate>file:%s/" CERT_FILE "</IdentityCertificate>"
+        "<PrivateKey>file:%s/" KEY_FILE "</PrivateKey>"
+        "</Authentication>"
+        "<AccessControl>"
+        "<Library path=\"%s/libdds_security_ac.so\" initFunction=\"init_access_control\" "
+        "finalizeFunction=\"finalize_access_control\"/>"
+        "<PermissionsCA>file:%s/" CA_FILE "</PermissionsCA>"
+        "<Governance>file:%s/" GOVERNANCE_FILE "</Governance>"
+        "<Permissions>file:%s/" PERMISSIONS_FILE "</Permissions>"
+        "</AccessControl>"
+        "<Cryptographic>"
+        "<Library path=\"%s/libdds_security_crypto.so\" initFunction=\"init_crypto\" "
+        "finalizeFunction=\"finalize_crypto\"/>"
+        "</Cryptographic>"
+        "</Security></Domain></CycloneDDS>";
+    int n = snprintf(NULL, 0, fmt, lib, d, d, d, lib, d, d, d, lib);
+    *xml = n > 0 ? malloc((size_t)n + 1) : NULL;
+    if (!*xml)
+        return wire_err(err, FTM_ENOMEM, "DDS Security: out of memory");
+    snprintf(*xml, (size_t)n + 1, fmt, lib, d, d, d, lib, d, d, d, lib);
+    return FTM_OK;
+}
