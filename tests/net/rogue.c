@@ -151,6 +151,10 @@ static void status(ftm_wire_transport *t, uint32_t id, uint32_t named, ftm_wire_
         fprintf(stderr, "rogue: status: %s\n", err.message);
 }
 
+/* --security DIR: the identity every transport of this process uses (a
+ * rogue with a certificate of another room); NULL: unsecured. */
+static const char *g_security;
+
 /* A participant of the session under id that publishes and subscribes to
  * the kinds given (bit masks); exits 3 if DDS will not have it. */
 static ftm_wire_transport *transport(const char *config, uint32_t domain, const char *session,
@@ -159,6 +163,7 @@ static ftm_wire_transport *transport(const char *config, uint32_t domain, const 
     ftm_wire_transport_def d;
     memset(&d, 0, sizeof d);
     d.config = config;
+    d.security = g_security;
     d.domain_id = domain;
     d.session = session;
     d.participant_id = id;
@@ -265,6 +270,7 @@ static void wrong_kind(uint32_t domain, const char *session, uint32_t id)
  *   (before the server's own): the issuer must not count it.
  * Each kind is printed once on stdout (`rogue: forged ...`). */
 #define FORGE_ORIGINS 4
+#define FORGE_HEARD 64
 static ftm_wire_transport *forger(const char *config, uint32_t domain, const char *session,
                                   uint32_t id)
 {
@@ -288,7 +294,9 @@ static int forge(const char *config, uint32_t domain, const char *session, uint3
     uint64_t taken_origin[FORGE_ORIGINS] = {0}, innocent_origin = 0;
     int ntaken = 0;
     bool told_holder = false, told_ignored = false, told_reply = false;
-    uint64_t replies = 0, statuses = 0;
+    uint64_t replies = 0, statuses = 0, heard_status = 0, heard_control = 0;
+    uint32_t heard[FORGE_HEARD];
+    int nheard = 0;
     const int64_t end = now_ns() + (int64_t)(seconds * 1e9);
     int64_t next_status = 0;
     ftm_wire_msg m;
@@ -297,6 +305,16 @@ static int forge(const char *config, uint32_t domain, const char *session, uint3
         ftm_wire_received rx;
         /* whose processes there are: what the statuses' origins say */
         while (ftm_wire_receive(t[0], FTM_WIRE_STATUS, &rx, 0, NULL) == FTM_OK) {
+            heard_status++;
+            /* who can be heard: one line per sender (net_secure.sh) */
+            bool seen = false;
+            for (int i = 0; i < nheard; i++)
+                seen |= heard[i] == rx.sender;
+            if (!seen && nheard < FORGE_HEARD) {
+                heard[nheard++] = rx.sender;
+                printf("rogue: heard participant %u\n", rx.sender);
+                fflush(stdout);
+            }
             if (!rx.gone && rx.origin && rx.msg.u.status.role == FTM_WIRE_ROLE_TRAINEE) {
                 if (rx.sender == innocent)
                     innocent_origin = rx.origin;
@@ -310,6 +328,7 @@ static int forge(const char *config, uint32_t domain, const char *session, uint3
         }
         /* answer every command first, "applied", from both identities */
         while (ftm_wire_receive(t[0], FTM_WIRE_CONTROL, &rx, 1000000, NULL) == FTM_OK) {
+            heard_control++;
             memset(&m, 0, sizeof m);
             m.kind = FTM_WIRE_CONTROL_REPLY;
             m.u.control_reply.issuer = rx.msg.u.control.issuer;
@@ -373,7 +392,9 @@ static int forge(const char *config, uint32_t domain, const char *session, uint3
         ftm_wire_flush(t[k], 1000000000LL, NULL);
         ftm_wire_transport_destroy(t[k]);
     }
-    printf("rogue: forge done: %" PRIu64 " statuses, %" PRIu64 " replies\n", statuses, replies);
+    printf("rogue: forge done: %" PRIu64 " statuses, %" PRIu64 " replies; heard %" PRIu64
+           " statuses, %" PRIu64 " commands\n",
+           statuses, replies, heard_status, heard_control);
     return 0;
 }
 
@@ -388,6 +409,8 @@ int main(int argc, char **argv)
         errno = 0;
         if (strcmp(a, "--config") == 0)
             config = v;
+        else if (strcmp(a, "--security") == 0)
+            g_security = v;
         else if (strcmp(a, "--session") == 0)
             session = v;
         else if (strcmp(a, "--domain") == 0)
@@ -414,10 +437,11 @@ int main(int argc, char **argv)
     if (argc % 2 == 1 && forge_s > 0 && forge_s < 60 && id && taken && innocent)
         return forge(config, domain, session, id, taken, innocent, forge_s);
     if (argc % 2 != 1 || id == 0 || victim == 0 || victim == id || victim == id + 1) {
-        fprintf(stderr, "usage: ftm-rogue --id N --victim M [--config F] [--domain D] "
-                        "[--session S]   (uses ids N and N+1; M is a trainee to impersonate)\n"
+        fprintf(stderr, "usage: ftm-rogue --id N --victim M [--config F] [--security DIR] "
+                        "[--domain D] [--session S]   (uses ids N and N+1; M is a trainee to "
+                        "impersonate)\n"
                         "       ftm-rogue --forge SECONDS --id SERVER --taken T --innocent I "
-                        "[--config F] [--domain D] [--session S]\n");
+                        "[--config F] [--security DIR] [--domain D] [--session S]\n");
         return 2;
     }
 
