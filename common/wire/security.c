@@ -108,17 +108,21 @@ static int load_key(bundle *b, ftm_error *err)
     return FTM_OK;
 }
 
-static void asn1_time_text(const ASN1_TIME *t, char *out, size_t cap)
+/* What print wrote to a memory BIO, as text in out ("" if it failed). */
+static void bio_text(BIO *m, int printed, char *out, size_t cap)
 {
     out[0] = 0;
-    BIO *m = BIO_new(BIO_s_mem());
-    if (!m)
-        return;
-    if (ASN1_TIME_print(m, t)) {
+    if (m && printed > 0) {
         int n = BIO_read(m, out, (int)cap - 1);
         out[n > 0 ? n : 0] = 0;
     }
     BIO_free(m);
+}
+
+static void asn1_time_text(const ASN1_TIME *t, char *out, size_t cap)
+{
+    BIO *m = BIO_new(BIO_s_mem());
+    bio_text(m, m ? ASN1_TIME_print(m, t) : 0, out, cap);
 }
 
 /* The certificate against the CA: signature, validity, the key. */
@@ -140,17 +144,16 @@ static int check_cert(bundle *b, ftm_error *err)
         const char *which = is_ca ? CA_FILE : CERT_FILE;
         switch (e) {
         case X509_V_ERR_CERT_HAS_EXPIRED:
-            asn1_time_text(X509_get0_notAfter(is_ca ? b->ca : b->cert), when, sizeof when);
-            return wire_err(err, FTM_EINVAL,
-                            "DDS Security: the certificate %s/%s expired on %s: have a new one "
-                            "issued (deploy/ftm-security issue)",
-                            b->dir, which, when);
-        case X509_V_ERR_CERT_NOT_YET_VALID:
-            asn1_time_text(X509_get0_notBefore(is_ca ? b->ca : b->cert), when, sizeof when);
-            return wire_err(err, FTM_EINVAL,
-                            "DDS Security: the certificate %s/%s is not valid before %s (is this "
-                            "machine's clock right?)",
-                            b->dir, which, when);
+        case X509_V_ERR_CERT_NOT_YET_VALID: {
+            const bool expired = e == X509_V_ERR_CERT_HAS_EXPIRED;
+            const X509 *c = is_ca ? b->ca : b->cert;
+            asn1_time_text(expired ? X509_get0_notAfter(c) : X509_get0_notBefore(c), when,
+                           sizeof when);
+            return wire_err(err, FTM_EINVAL, "DDS Security: the certificate %s/%s %s %s%s", b->dir,
+                            which, expired ? "expired on" : "is not valid before", when,
+                            expired ? ": have a new one issued (deploy/ftm-security issue)"
+                                    : " (is this machine's clock right?)");
+        }
         case X509_V_ERR_UNABLE_TO_GET_ISSUER_CERT_LOCALLY:
         case X509_V_ERR_UNABLE_TO_GET_ISSUER_CERT:
         case X509_V_ERR_CERT_SIGNATURE_FAILURE:
@@ -216,14 +219,10 @@ static int check_signed(const bundle *b, const char *file, char **text, ftm_erro
  * as DDS Security compares it, RFC 2253). */
 static int check_subject(const bundle *b, const char *permissions, ftm_error *err)
 {
-    char subject[512] = "";
+    char subject[512];
     BIO *m = BIO_new(BIO_s_mem());
-    if (m) {
-        X509_NAME_print_ex(m, X509_get_subject_name(b->cert), 0, XN_FLAG_RFC2253);
-        int n = BIO_read(m, subject, (int)sizeof subject - 1);
-        subject[n > 0 ? n : 0] = 0;
-        BIO_free(m);
-    }
+    bio_text(m, m ? X509_NAME_print_ex(m, X509_get_subject_name(b->cert), 0, XN_FLAG_RFC2253) : 0,
+             subject, sizeof subject);
     static const char open_tag[] = "<subject_name>", close_tag[] = "</subject_name>";
     for (const char *p = strstr(permissions, open_tag); p; p = strstr(p, open_tag)) {
         p += sizeof open_tag - 1;
