@@ -275,6 +275,52 @@ static int check_bundle(bundle *b, ftm_error *err)
     return rc;
 }
 
+bool wire_partition_identity(const char *name, ftm_wire_role *role, uint32_t *id)
+{
+    const size_t np = strlen(FTM_WIRE_PARTITION_PREFIX);
+    if (strncmp(name, FTM_WIRE_PARTITION_PREFIX, np) != 0)
+        return false;
+    name += np;
+    for (int r = FTM_WIRE_ROLE_SERVER; r <= FTM_WIRE_ROLE_OBSERVER; r++) {
+        const char *rn = ftm_wire_role_name((ftm_wire_role)r);
+        const size_t n = strlen(rn);
+        if (strncmp(name, rn, n) != 0 || name[n] != '.')
+            continue;
+        const char *d = name + n + 1;
+        char *end = NULL;
+        errno = 0;
+        const unsigned long v = strtoul(d, &end, 10);
+        if (*d < '1' || *d > '9' || *end || errno || v > UINT32_MAX)
+            return false;
+        *role = (ftm_wire_role)r;
+        *id = (uint32_t)v;
+        return true;
+    }
+    return false;
+}
+
+/* The role the bundle was issued for (its file "role"): the partition its
+ * writers publish in names it. */
+static int read_role(const bundle *b, char *role, size_t cap, ftm_error *err)
+{
+    char path[PATH_MAX + 32];
+    bundle_path(b, "role", path, sizeof path);
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return wire_err(err, FTM_EIO, "DDS Security: %s: %s (a bundle of deploy/ftm-security issue "
+                        "names its role there)", path, strerror(errno));
+    char buf[32] = "";
+    const int n = fscanf(f, "%31s", buf);
+    fclose(f);
+    for (int r = FTM_WIRE_ROLE_SERVER; n == 1 && r <= FTM_WIRE_ROLE_OBSERVER; r++)
+        if (strcmp(buf, ftm_wire_role_name((ftm_wire_role)r)) == 0) {
+            snprintf(role, cap, "%s", buf);
+            return FTM_OK;
+        }
+    return wire_err(err, FTM_EPARSE, "DDS Security: %s: not server, trainee, instructor or observer",
+                    path);
+}
+
 /* The participant id the bundle was issued for (its file "id", written by
  * deploy/ftm-security issue --id) must be the one this transport uses: a
  * mix-up caught at start (not a defence: a hostile program need not check). */
@@ -298,7 +344,7 @@ static int check_id(const bundle *b, uint32_t id, ftm_error *err)
     return FTM_OK;
 }
 
-int wire_security_config(const char *dir, uint32_t id, char **xml, char *permissions, size_t cap,
+int wire_security_config(const char *dir, uint32_t id, char **xml, wire_security *out,
                          ftm_error *err)
 {
     *xml = NULL;
@@ -324,13 +370,17 @@ int wire_security_config(const char *dir, uint32_t id, char **xml, char *permiss
                         "DDS Security: the path %s has a character Cyclone DDS cannot take in a "
                         "configuration (one of , < > & \")",
                         b.dir);
+    char role[32];
     int rc = check_id(&b, id, err);
+    if (!rc)
+        rc = read_role(&b, role, sizeof role, err);
     if (!rc)
         rc = check_bundle(&b, err);
     bundle_free(&b);
     if (rc)
         return rc;
-    snprintf(permissions, cap, "%s/%s", b.dir, PERMISSIONS_FILE);
+    snprintf(out->permissions, sizeof out->permissions, "%s/%s", b.dir, PERMISSIONS_FILE);
+    snprintf(out->partition, sizeof out->partition, "%s%s.%u", FTM_WIRE_PARTITION_PREFIX, role, id);
     const char *d = b.dir, *lib = FTM_DDS_SECURITY_LIBDIR;
     const char *fmt =
         "<CycloneDDS><Domain Id=\"any\"><Security>"

@@ -56,7 +56,10 @@ typedef struct rx_item {
     bool valid;             /* valid_data; else an instance-state change */
     bool alive;             /* instance_state == ALIVE */
     uint32_t sender;
-    uint64_t origin; /* the writer's process (origin_of) */
+    uint64_t origin; /* the writer's process (writer_of) */
+    /* secured: the role and id its writer's partition certifies (0: none) */
+    uint32_t cert_id;
+    uint8_t cert_role;
     uint8_t kind;
     uint64_t seq;
     size_t size;
@@ -97,17 +100,24 @@ typedef struct kind_io {
     sender_seq *senders;
     int nsenders, capsenders;
     ftm_wire_stats stats; /* counters under t->lock */
-    /* the listener's cache of writer -> DDS participant (origin_of) */
-    struct {
-        dds_instance_handle_t writer, origin;
+    /* the listener's cache of writer -> DDS participant and, secured, the
+     * identity its partition certifies (writer_of) */
+    struct writer_info {
+        dds_instance_handle_t writer;
+        uint64_t origin;
+        uint32_t cert_id;
+        ftm_wire_role cert_role;
     } origins[ORIGIN_CACHE];
     int next_origin;
 } kind_io;
 
 struct ftm_wire_transport {
     dds_entity_t participant;
-    /* DDS Security: the permissions file (absolute path); "" without */
-    char permissions[PATH_MAX + 32];
+    /* DDS Security: the permissions file and our writers' partition; ""
+     * without. Secured, writers and readers live in a publisher and a
+     * subscriber of their own, with the partitions. */
+    wire_security sec;
+    dds_entity_t publisher, subscriber;
     uint64_t origin; /* ours, as others see it (origin_of_guid) */
     char session[64];
     uint32_t id;
@@ -398,8 +408,7 @@ static int make_domain(const ftm_wire_transport_def *def, ftm_wire_transport *t,
     *created = 0;
     char *sec = NULL;
     if (def->security) {
-        int rc = wire_security_config(def->security, def->participant_id, &sec, t->permissions, sizeof t->permissions,
-                                      err);
+        int rc = wire_security_config(def->security, def->participant_id, &sec, &t->sec, err);
         if (rc)
             return rc;
     }
@@ -479,22 +488,34 @@ static uint64_t origin_of_guid(const dds_guid_t *g)
 
 /* The origin (origin_of_guid) of the writer of a sample: one process has a
  * writer per kind, so this is what tells two processes that give one
- * sender id apart. 0 if the writer is no longer matched (a sample that
- * reports it gone). Cached: asked once per writer. */
-static uint64_t origin_of(kind_io *io, dds_entity_t reader, dds_instance_handle_t writer)
+ * sender id apart; and the role and id its partition certifies (DDS
+ * Security: the permissions grant each identity its own partition only).
+ * Origin 0 if the writer is no longer matched (a sample that reports it
+ * gone). Cached: asked once per writer. */
+static struct writer_info writer_of(kind_io *io, dds_entity_t reader, dds_instance_handle_t writer)
 {
+    struct writer_info w = {writer, 0, 0, 0};
     for (int i = 0; i < ORIGIN_CACHE; i++)
         if (io->origins[i].writer == writer && writer != 0)
-            return io->origins[i].origin;
+            return io->origins[i];
     dds_builtintopic_endpoint_t *ep = dds_get_matched_publication_data(reader, writer);
     if (!ep)
-        return 0;
-    const uint64_t origin = origin_of_guid(&ep->participant_key);
+        return w;
+    w.origin = origin_of_guid(&ep->participant_key);
+    uint32_t n = 0;
+    char **ps = NULL;
+    if (ep->qos && dds_qget_partition(ep->qos, &n, &ps)) {
+        /* one partition, which names the identity; anything else certifies none */
+        if (n != 1 || !wire_partition_identity(ps[0], &w.cert_role, &w.cert_id))
+            w.cert_id = 0;
+        for (uint32_t i = 0; i < n; i++)
+            dds_free(ps[i]);
+        dds_free(ps);
+    }
     dds_builtintopic_free_endpoint(ep);
-    io->origins[io->next_origin].writer = writer;
-    io->origins[io->next_origin].origin = origin;
+    io->origins[io->next_origin] = w;
     io->next_origin = (io->next_origin + 1) % ORIGIN_CACHE;
-    return origin;
+    return w;
 }
 
 /* Cyclone's receive thread: take what arrived, queue it with its arrival
@@ -520,6 +541,7 @@ static void on_data_available(dds_entity_t reader, void *arg)
                 over = size;
                 size = 0;
             }
+            const struct writer_info w = writer_of(io, reader, info[i].publication_handle);
             rx_item *it = malloc(sizeof *it + size);
             if (!it) {
                 pthread_mutex_lock(&io->rx_lock);
@@ -532,7 +554,9 @@ static void on_data_available(dds_entity_t reader, void *arg)
                             .valid = info[i].valid_data,
                             .alive = info[i].instance_state == DDS_IST_ALIVE,
                             .sender = env->sender,
-                            .origin = origin_of(io, reader, info[i].publication_handle),
+                            .origin = w.origin,
+                            .cert_id = w.cert_id,
+                            .cert_role = (uint8_t)w.cert_role,
                             .kind = env->kind,
                             .seq = env->seq,
                             .size = size,
@@ -570,14 +594,40 @@ static void on_data_available(dds_entity_t reader, void *arg)
 static int endpoint_fail(const ftm_wire_transport *t, ftm_error *err, const char *call, int kind,
                          const char *what, dds_return_t rc)
 {
+    const bool pub_side = strcmp(what, "write") == 0;
     if (rc == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY)
         return wire_err(err, FTM_EACCESS,
-                        "not permitted by the DDS Security permissions in %s to %s topic %s (%s): "
-                        "this program's role needs an identity issued for that role",
-                        t->permissions[0] ? t->permissions : "(the configuration)", what,
-                        topic_names[kind], ftm_wire_kind_name(kind));
+                        "not permitted by the DDS Security permissions in %s to %s topic %s (%s) "
+                        "in partition %s: this program needs an identity issued for its role "
+                        "and id",
+                        t->sec.permissions[0] ? t->sec.permissions : "(the configuration)", what,
+                        topic_names[kind], ftm_wire_kind_name(kind),
+                        pub_side ? t->sec.partition : FTM_WIRE_PARTITION_PREFIX "*");
     return wire_err(err, FTM_EDDS, "%s for %s failed: %s", call, topic_names[kind],
                     dds_strretcode(rc));
+}
+
+/* Secured: a publisher in our own partition (the identity the permissions
+ * grant us) and a subscriber of every FTM partition. */
+static int make_partitions(ftm_wire_transport *t, ftm_error *err)
+{
+    dds_qos_t *q = dds_create_qos();
+    dds_qset_partition1(q, t->sec.partition);
+    t->publisher = dds_create_publisher(t->participant, q, NULL);
+    dds_qset_partition1(q, FTM_WIRE_PARTITION_PREFIX "*");
+    t->subscriber = t->publisher < 0 ? 0 : dds_create_subscriber(t->participant, q, NULL);
+    dds_delete_qos(q);
+    if (t->publisher < 0 || t->subscriber < 0) {
+        const dds_return_t r = t->publisher < 0 ? t->publisher : t->subscriber;
+        t->publisher = t->subscriber = 0;
+        if (r == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY)
+            return wire_err(err, FTM_EACCESS,
+                            "not permitted by the DDS Security permissions in %s to use partition "
+                            "%s (an identity of another role or id)",
+                            t->sec.permissions, t->sec.partition);
+        return dds_fail(err, "dds_create_publisher/subscriber", r);
+    }
+    return FTM_OK;
 }
 
 static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_error *err)
@@ -588,7 +638,8 @@ static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_
         return endpoint_fail(t, err, "dds_create_topic", k, pub ? "write" : "read", io->topic);
     if (pub) {
         dds_qos_t *q = kind_qos(k, true);
-        io->writer = dds_create_writer(t->participant, io->topic, q, NULL);
+        io->writer = dds_create_writer(t->publisher ? t->publisher : t->participant, io->topic, q,
+                                       NULL);
         dds_delete_qos(q);
         if (io->writer < 0) {
             int rc = endpoint_fail(t, err, "dds_create_writer", k, "write", io->writer);
@@ -605,7 +656,8 @@ static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_
             return wire_err(err, FTM_ENOMEM, "transport: out of memory for a listener");
         }
         dds_lset_data_available(l, on_data_available);
-        io->reader = dds_create_reader(t->participant, io->topic, q, l);
+        io->reader = dds_create_reader(t->subscriber ? t->subscriber : t->participant, io->topic, q,
+                                       l);
         dds_delete_listener(l);
         dds_delete_qos(q);
         if (io->reader < 0) {
@@ -700,6 +752,8 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
                 t->origin = origin_of_guid(&g);
         }
     }
+    if (rc == FTM_OK && def->security)
+        rc = make_partitions(t, err);
     for (int k = FTM_WIRE_KIND_MIN; rc == FTM_OK && k <= FTM_WIRE_KIND_MAX; k++) {
         bool pub = def->publish & FTM_WIRE_KIND_BIT(k), sub = def->subscribe & FTM_WIRE_KIND_BIT(k);
         if (pub || sub)
@@ -857,11 +911,53 @@ static void reject(ftm_wire_transport *t, int kind, const char *fmt, ...)
     wire_log(t, FTM_LOG_WARN, "wire: rejected %s", buf);
 }
 
+/* Secured: the sender id, and the id and role a message names, must be
+ * those its writer's partition certifies. NULL if so, else why not. */
+static const char *uncertified(const rx_item *it, int kind, const ftm_wire_msg *msg, char *why,
+                               size_t cap)
+{
+    const ftm_wire_role role = (ftm_wire_role)it->cert_role;
+    uint32_t named = it->sender;
+    bool role_ok = true;
+    if (msg) {
+        switch (kind) {
+        case FTM_WIRE_STATUS:
+            named = msg->u.status.participant;
+            role_ok = msg->u.status.role == role;
+            break;
+        case FTM_WIRE_PROBE_INPUT: named = msg->u.probe_input.participant; break;
+        case FTM_WIRE_CONTROL: named = msg->u.control.issuer; break;
+        default: role_ok = role == FTM_WIRE_ROLE_SERVER; /* only a server writes the others */
+        }
+    }
+    if (!it->cert_id)
+        snprintf(why, cap, "its writer has no certified identity (partition)");
+    else if (it->sender != it->cert_id || named != it->cert_id)
+        snprintf(why, cap, "its writer is certified as %s %u, not participant %u",
+                 ftm_wire_role_name(role), it->cert_id, named != it->cert_id ? named : it->sender);
+    else if (!role_ok)
+        snprintf(why, cap, "its writer is certified as %s %u, not as a %s", ftm_wire_role_name(role),
+                 it->cert_id,
+                 kind == FTM_WIRE_STATUS ? ftm_wire_role_name(msg->u.status.role) : "server");
+    else
+        return NULL;
+    return why;
+}
+
 /* Handles one queued sample: 1 if *out now holds a message, 0 if skipped. */
 static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm_wire_received *out)
 {
     kind_io *io = &t->io[kind];
+    const bool secured = t->sec.partition[0] != 0;
+    char why[160];
     if (!it->valid) {
+        /* a gone status: checked while its writer is known (one that
+         * disposes another's instance); a lost writer's is Cyclone's own */
+        if (secured && it->origin && uncertified(it, kind, NULL, why, sizeof why)) {
+            reject(t, kind, "%s gone from participant %u: %s", ftm_wire_kind_name(kind),
+                   it->sender, why);
+            return 0;
+        }
         if (kind == FTM_WIRE_STATUS && !it->alive) {
             memset(out, 0, sizeof *out);
             out->msg.kind = FTM_WIRE_STATUS;
@@ -894,6 +990,12 @@ static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm
     if (rc) {
         reject(t, kind, "message from participant %u seq %llu: %s", it->sender,
                (unsigned long long)it->seq, e.message);
+        return 0;
+    }
+    if (secured && uncertified(it, kind, &msg, why, sizeof why)) {
+        reject(t, kind, "%s from participant %u seq %llu: %s", what, it->sender,
+               (unsigned long long)it->seq, why);
+        ftm_wire_msg_free(&msg);
         return 0;
     }
     memset(out, 0, sizeof *out);

@@ -6,6 +6,9 @@
 
 #include <protobuf-c/protobuf-c.h>
 
+#include <limits.h>
+#include <stdbool.h>
+
 /* Sets err (if any) and returns code. */
 int wire_err(ftm_error *err, int code, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
@@ -24,11 +27,22 @@ size_t wire_payload_cap(const ftm_wire_limits *limits, int kind);
 /* The protobuf-c descriptor of a kind's top-level message, NULL if none. */
 const ProtobufCMessageDescriptor *wire_descriptor(int kind);
 
+/* What a transport keeps of its DDS Security bundle. */
+typedef struct wire_security {
+    char permissions[PATH_MAX + 32]; /* the permissions file, absolute path */
+    /* the partition this participant's writers publish in, which its
+     * permissions grant it alone: FTM_WIRE_PARTITION_PREFIX ROLE "." ID */
+    char partition[64];
+} wire_security;
+
 /* Checks the DDS Security bundle in directory dir (security.c), issued for
  * participant id (if it says), and makes the Cyclone configuration fragment
- * that enables it: *xml (malloc'ed), the permissions file's absolute path to
- * permissions. Errors name the file and the cause. */
-int wire_security_config(const char *dir, uint32_t id, char **xml, char *permissions, size_t cap,
+ * that enables it: *xml (malloc'ed). Errors name the file and the cause. */
+int wire_security_config(const char *dir, uint32_t id, char **xml, wire_security *out,
                          ftm_error *err);
+
+/* The role and id a writer's partition certifies ("ftm.trainee.11"): true
+ * if name is such a partition. */
+bool wire_partition_identity(const char *name, ftm_wire_role *role, uint32_t *id);
 
 #endif

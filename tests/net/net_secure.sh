@@ -12,7 +12,9 @@
 #            intruders run: ftm-rogue --forge without security and with a
 #            certificate of another CA hear nothing and forge nothing, a rogue
 #            trainee's writers are never matched by the server, an unsecured
-#            observer receives no frame; the bots end on the server's hash,
+#            observer receives no frame, and a certified trainee's statuses
+#            claiming role server or another's id and its probe input under
+#            another's id are rejected; the bots end on the server's hash,
 #            the instructor counts the server's replies only, and the
 #            server's recording replays bit-identically.
 # Every process runs under `timeout`; the test itself has a CTest TIMEOUT.
@@ -81,16 +83,20 @@ if [ "$mode" = script ]; then
     grants() { # bundle -> "publish: ... subscribe: ..."
         openssl smime -verify -in "$r/$1/permissions.p7s" -CAfile "$r/ca.pem" 2>/dev/null |
             sed -n 's/.*<publish>\(.*\)<\/publish>.*/publish:\1/p; s/.*<subscribe>\(.*\)<\/subscribe>.*/subscribe:\1/p' |
-            sed 's/<topics>//g; s/<\/topics>//g; s/<topic>ftm_v1_/ /g; s/<\/topic>//g' | tr '\n' ' '
+            sed 's/<topics>//g; s/<\/topics>//g; s/<topic>ftm_v1_/ /g; s/<\/topic>//g' |
+            sed 's/<partitions><partition>/ in /; s/<\/partition><\/partitions>//' | tr '\n' ' '
     }
-    want_s="publish: scene_announce tick_frame keyframe participant_status control_reply subscribe: participant_status probe_input session_control "
-    want_t="publish: participant_status probe_input subscribe: scene_announce tick_frame keyframe participant_status probe_input "
-    want_i="publish: participant_status session_control subscribe: scene_announce tick_frame keyframe participant_status probe_input control_reply "
-    want_o="publish: participant_status subscribe: scene_announce tick_frame keyframe participant_status probe_input "
+    # each writes in its own partition only (ftm.ROLE.ID), reads all of FTM's
+    want_s="publish: scene_announce tick_frame keyframe participant_status control_reply in ftm.server.7 subscribe: participant_status probe_input session_control in ftm.* "
+    want_t="publish: participant_status probe_input in ftm.trainee.7 subscribe: scene_announce tick_frame keyframe participant_status probe_input in ftm.* "
+    want_i="publish: participant_status session_control in ftm.instructor.7 subscribe: scene_announce tick_frame keyframe participant_status probe_input control_reply in ftm.* "
+    want_o="publish: participant_status in ftm.observer.7 subscribe: scene_announce tick_frame keyframe participant_status probe_input in ftm.* "
     [ "$(grants server-1)" = "$want_s" ] || fail "server grants: $(grants server-1)"
     [ "$(grants trainee-1)" = "$want_t" ] || fail "trainee grants: $(grants trainee-1)"
     [ "$(grants instructor-1)" = "$want_i" ] || fail "instructor grants: $(grants instructor-1)"
     [ "$(grants observer-1)" = "$want_o" ] || fail "observer grants: $(grants observer-1)"
+    sec issue "$r" anyid --role trainee
+    [ ! -e "$r/anyid/id" ] && grants anyid | grep -q "probe_input in ftm.trainee.\* " || fail "no --id: $(grants anyid)"
     echo "PASS secure script"
     exit 0
 fi
@@ -106,6 +112,7 @@ sec issue "$r" server --role server --id 1
 sec issue "$r" t11 --role trainee --id 11
 sec issue "$r" i15 --role instructor --id 15
 sec issue "$r" o13 --role observer --id 13
+sec issue "$r" t12 --role trainee --id 12
 
 if [ "$mode" = refused ]; then
     # an identity its role may not use: refused by DDS Security's permissions
@@ -155,6 +162,11 @@ if [ "$mode" = refused ]; then
         "$FTM_BOT" --role observer $common --id 11 --security "$dir/open" --duration 2
     expect 3 "the identity in $r/t11 was issued for participant id 11, not 12" \
         "$FTM_BOT" --role observer $common --id 12 --security "$r/t11" --duration 2
+    # the bundle's id file removed: its permissions still bind it to id 11
+    cp -r "$r/t11" "$dir/noid"
+    rm "$dir/noid/id"
+    expect 3 "to write topic ftm_v1_participant_status (participant status) in partition ftm.trainee.12" \
+        "$FTM_BOT" --role observer $common --id 12 --security "$dir/noid" --duration 2
     expect 3 "DDS Security: $dir/none: No such file or directory" \
         "$FTM_SERVER" --scene default $common --security "$dir/none" --duration 2
     echo "PASS secure refused"
@@ -191,8 +203,15 @@ b13=$!
 timeout 30 "$FTM_BOT" --role instructor --script "$here/../server/control-instructor.bot" $common \
     --id 15 --security "$r/i15" --duration 15 >"$dir/bot15.out" 2>"$dir/bot15.err" &
 b15=$!
+# a certified trainee (12) writing what its certificate does not cover
+wait_for "$dir/bot11.err" "participant id 11 is confirmed" "trainee 11 was never confirmed"
+timeout 30 "$FTM_ROGUE" $common --id 12 --impersonate 11 --for 2 --security "$r/t12" \
+    >"$dir/imp.out" 2>"$dir/imp.err" &
+imp=$!
 
-wait $server || fail "server exited with $?"
+wait $server || fail "server exited with $? (displaced by a status claiming role server?)"
+wait $imp || fail "the impersonating trainee exited with $?"
+grep -q "rogue: impersonated" "$dir/imp.out" || fail "the impersonating trainee sent nothing"
 for b in 11 13; do
     eval "pid=\$b$b"
     wait "$pid" || fail "bot $b exited with $?"
@@ -228,7 +247,17 @@ done
     fail "the unsecured rogue trainee was matched by the server (exit $rcr)"
 [ $rc14 -ne 0 ] && grep -q "NOT synced, 0 frames received" "$dir/bot14.err" ||
     fail "the unsecured observer received the session (exit $rc14)"
-! grep -q "participant 9[1-2]\|rogue" "$dir/server.log" || fail "the server heard a rogue"
+! grep -v "rejected .* from participant 12 seq\|participant 12 gone" "$dir/server.log" |
+    grep -q "participant 9[1-2]\|participant 12\|rogue" ||
+    fail "the server heard a rogue"
+# the certified trainee's claims were set aside: its certificate is trainee 12's
+grep -q "rejected participant status from participant 12 seq [0-9]*: its writer is certified as trainee 12, not as a server" \
+    "$dir/server.log" || fail "the server did not reject a trainee's status claiming role server"
+grep -q "rejected participant status from participant 12 seq [0-9]*: its writer is certified as trainee 12, not participant 11" \
+    "$dir/server.log" || fail "the server did not reject a status naming participant 11"
+grep -q "rejected probe input from participant 12 seq [0-9]*: its writer is certified as trainee 12, not participant 11" \
+    "$dir/server.log" || fail "the server did not reject probe input naming participant 11"
+! grep -q "no longer confirms\|is taken" "$dir/bot11.err" || fail "trainee 11 lost its id"
 # the session replays bit-identically from its recording
 timeout 30 "$FTM_SERVER" --replay "$dir/session.rec" >"$dir/replay.out" 2>&1 ||
     fail "the recording does not replay: $(tail -n 3 "$dir/replay.out")"

@@ -8,7 +8,10 @@
  * `rogue: STEP` so the test can match it with the server's logged reason.
  *
  * With --forge it is instead a forger of the server (tests/net/net_forge.sh):
- * server statuses and control replies of its own making, see forge().
+ * server statuses and control replies of its own making, see forge(). With
+ * --impersonate it is a certified participant of a secured session that
+ * writes, in its own name, messages naming another participant or the
+ * server's role (tests/net/net_secure.sh), see impersonate().
  *
  * The wrong-kind envelope needs a raw DDS writer (ftm_wire always writes a
  * kind on its own topic); everything else goes through ftm_wire, raw
@@ -398,11 +401,63 @@ static int forge(const char *config, uint32_t domain, const char *session, uint3
     return 0;
 }
 
+/* --impersonate VICTIM: joins as trainee `id` (its own, certified identity
+ * in a secured session) and for `seconds` writes what a payload may claim
+ * but its writer's certificate does not: a status under role SERVER with a
+ * tick far ahead (would stop the server: the later of two servers stops), a
+ * status and probe input naming VICTIM. */
+static int impersonate(const char *config, uint32_t domain, const char *session, uint32_t id,
+                       uint32_t victim, double seconds)
+{
+    ftm_wire_transport *t =
+        transport(config, domain, session, id,
+                  FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT),
+                  FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE));
+    ftm_error err = {0, ""};
+    if (ftm_wire_wait_matched(t, FTM_WIRE_PROBE_INPUT, 1, 5000000000LL, &err)) {
+        fprintf(stderr, "rogue: %s\n", err.message);
+        exit(3);
+    }
+    ftm_wire_probe_sample smp = {.probe = 0, .device_time_ns = 1, .position = {0, 0, 0.2}};
+    const int64_t end = now_ns() + (int64_t)(seconds * 1e9);
+    uint64_t sent = 0;
+    while (now_ns() < end) {
+        ftm_wire_msg m;
+        memset(&m, 0, sizeof m);
+        m.kind = FTM_WIRE_STATUS;
+        m.u.status.participant = id;
+        m.u.status.role = FTM_WIRE_ROLE_SERVER;
+        m.u.status.state = FTM_WIRE_STATE_SYNCED;
+        m.u.status.last_applied_tick = 1000000000u;
+        snprintf(m.u.status.name, sizeof m.u.status.name, "rogue server");
+        int rc = ftm_wire_publish(t, &m, &err);
+        m.u.status.participant = victim;
+        m.u.status.role = FTM_WIRE_ROLE_TRAINEE;
+        m.u.status.last_applied_tick = 0;
+        rc |= ftm_wire_publish(t, &m, &err);
+        memset(&m, 0, sizeof m);
+        m.kind = FTM_WIRE_PROBE_INPUT;
+        m.u.probe_input.participant = victim;
+        m.u.probe_input.sample_count = 1;
+        m.u.probe_input.samples = &smp;
+        rc |= ftm_wire_publish(t, &m, &err);
+        if (rc)
+            fprintf(stderr, "rogue: %s\n", err.message);
+        sent++;
+        pause_ms(50);
+    }
+    printf("rogue: impersonated the server and participant %u (%" PRIu64 " rounds)\n", victim,
+           sent);
+    ftm_wire_flush(t, 1000000000LL, NULL);
+    ftm_wire_transport_destroy(t);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     const char *config = NULL, *session = "ftm";
-    uint32_t domain = 0, id = 0, victim = 0, taken = 0, innocent = 0;
-    double forge_s = 0;
+    uint32_t domain = 0, id = 0, victim = 0, taken = 0, innocent = 0, impersonated = 0;
+    double forge_s = 0, impersonate_s = 0;
     for (int i = 1; i + 1 < argc; i += 2) {
         const char *a = argv[i], *v = argv[i + 1];
         char *end = NULL;
@@ -425,6 +480,10 @@ int main(int argc, char **argv)
             innocent = (uint32_t)strtoul(v, &end, 10);
         else if (strcmp(a, "--forge") == 0)
             forge_s = strtod(v, &end);
+        else if (strcmp(a, "--impersonate") == 0)
+            impersonated = (uint32_t)strtoul(v, &end, 10);
+        else if (strcmp(a, "--for") == 0)
+            impersonate_s = strtod(v, &end);
         else {
             fprintf(stderr, "rogue: unknown option %s\n", a);
             return 2;
@@ -436,11 +495,16 @@ int main(int argc, char **argv)
     }
     if (argc % 2 == 1 && forge_s > 0 && forge_s < 60 && id && taken && innocent)
         return forge(config, domain, session, id, taken, innocent, forge_s);
+    if (argc % 2 == 1 && impersonated && impersonate_s > 0 && impersonate_s < 60 && id &&
+        impersonated != id)
+        return impersonate(config, domain, session, id, impersonated, impersonate_s);
     if (argc % 2 != 1 || id == 0 || victim == 0 || victim == id || victim == id + 1) {
         fprintf(stderr, "usage: ftm-rogue --id N --victim M [--config F] [--security DIR] "
                         "[--domain D] [--session S]   (uses ids N and N+1; M is a trainee to "
                         "impersonate)\n"
                         "       ftm-rogue --forge SECONDS --id SERVER --taken T --innocent I "
+                        "[--config F] [--security DIR] [--domain D] [--session S]\n"
+                        "       ftm-rogue --impersonate VICTIM --for SECONDS --id N "
                         "[--config F] [--security DIR] [--domain D] [--session S]\n");
         return 2;
     }

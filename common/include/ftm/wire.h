@@ -419,6 +419,13 @@ typedef struct ftm_wire_stats {
 
 int ftm_wire_get_stats(ftm_wire_transport *t, int kind, ftm_wire_stats *stats, ftm_error *err);
 
+/* With DDS Security, every writer publishes in the partition
+ * FTM_WIRE_PARTITION_PREFIX ROLE "." ID (e.g. "ftm.trainee.11"), which the
+ * permissions grant that identity alone (deploy/ftm-security), and readers
+ * read FTM_WIRE_PARTITION_PREFIX "*": a message whose sender id or role
+ * disagrees with its writer's partition is rejected (docs/protocol.md). */
+#define FTM_WIRE_PARTITION_PREFIX "ftm."
+
 /* The DDS topic name of a kind, e.g. "ftm_v1_tick_frame"; NULL if unknown. */
 const char *ftm_wire_topic_name(int kind);
 
