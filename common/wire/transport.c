@@ -936,7 +936,7 @@ static const char *uncertified(const rx_item *it, int kind, const ftm_wire_msg *
         snprintf(why, cap, "its writer is certified as %s %u, not participant %u",
                  ftm_wire_role_name(role), it->cert_id, named != it->cert_id ? named : it->sender);
     else if (!role_ok)
-        snprintf(why, cap, "its writer is certified as %s %u, not as a %s", ftm_wire_role_name(role),
+        snprintf(why, cap, "its writer is certified as %s %u, not as role %s", ftm_wire_role_name(role),
                  it->cert_id,
                  kind == FTM_WIRE_STATUS ? ftm_wire_role_name(msg->u.status.role) : "server");
     else

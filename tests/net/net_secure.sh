@@ -251,7 +251,7 @@ done
     grep -q "participant 9[1-2]\|participant 12\|rogue" ||
     fail "the server heard a rogue"
 # the certified trainee's claims were set aside: its certificate is trainee 12's
-grep -q "rejected participant status from participant 12 seq [0-9]*: its writer is certified as trainee 12, not as a server" \
+grep -q "rejected participant status from participant 12 seq [0-9]*: its writer is certified as trainee 12, not as role server" \
     "$dir/server.log" || fail "the server did not reject a trainee's status claiming role server"
 grep -q "rejected participant status from participant 12 seq [0-9]*: its writer is certified as trainee 12, not participant 11" \
     "$dir/server.log" || fail "the server did not reject a status naming participant 11"
