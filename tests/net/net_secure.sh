@@ -7,7 +7,8 @@
 #            trainee's as server or instructor, an observer's as trainee), an
 #            expired certificate, one of another CA, permissions not signed by
 #            the CA or changed, a key others may read, a missing bundle: each
-#            exits 3 at once, naming the file and the cause.
+#            exits 3 at once, naming the file and the cause (ftm-server,
+#            ftm-bot, and ftm-client under Xvfb).
 #   session: a secured session (server, trainee, instructor, observer) while
 #            intruders run: ftm-rogue --forge without security and with a
 #            certificate of another CA hear nothing and forge nothing, a rogue
@@ -171,6 +172,16 @@ if [ "$mode" = refused ]; then
         "$FTM_BOT" --role observer $common --id 12 --security "$dir/noid" --duration 2
     expect 3 "DDS Security: $dir/none: No such file or directory" \
         "$FTM_SERVER" --scene default $common --security "$dir/none" --duration 2
+    # ftm-client takes it too (where it can open a window: under Xvfb)
+    if [ -n "${FTM_CLIENT:-}" ] && command -v xvfb-run >/dev/null 2>&1 && command -v Xvfb >/dev/null 2>&1; then
+        : >"$dir/x.xauth"
+        ASAN_OPTIONS=${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0 expect 3 \
+            "permissions in $r/o13/permissions.p7s to write topic ftm_v1_probe_input (probe input) in partition ftm.observer.13" \
+            xvfb-run -a -f "$dir/x.xauth" -s "-screen 0 640x480x24" "$FTM_CLIENT" --role trainee \
+            $common --id 13 --security "$r/o13" --size 320x200
+    else
+        echo "(ftm-client not checked: no FTM_CLIENT or no xvfb-run)"
+    fi
     echo "PASS secure refused"
     exit 0
 fi
