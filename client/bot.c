@@ -649,6 +649,7 @@ int main(int argc, char **argv)
     memset(&wd, 0, sizeof wd);
     wd.config = b->o.config;
     wd.security = b->o.security;
+    wd.role = b->role;
     wd.domain_id = b->o.domain;
     wd.session = b->o.session;
     wd.participant_id = b->o.id;

@@ -920,6 +920,7 @@ int ftm_client_session_start(const ftm_client_config *cfg, ftm_client_session **
     memset(&wd, 0, sizeof wd);
     wd.config = s->cfg.dds_config;
     wd.security = s->cfg.dds_security;
+    wd.role = s->cfg.role;
     wd.domain_id = s->cfg.domain;
     wd.session = s->cfg.session;
     wd.participant_id = s->cfg.id;

@@ -2431,6 +2431,7 @@ int ftm_server_main(int argc, char **argv)
     memset(&wd, 0, sizeof wd);
     wd.config = s->o.config;
     wd.security = s->o.security;
+    wd.role = FTM_WIRE_ROLE_SERVER;
     wd.domain_id = s->o.domain;
     wd.session = s->o.session;
     wd.participant_id = s->o.id;

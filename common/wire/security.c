@@ -301,7 +301,7 @@ bool wire_partition_identity(const char *name, ftm_wire_role *role, uint32_t *id
 
 /* The role the bundle was issued for (its file "role"): the partition its
  * writers publish in names it. */
-static int read_role(const bundle *b, char *role, size_t cap, ftm_error *err)
+static int read_role(const bundle *b, ftm_wire_role *role, ftm_error *err)
 {
     char path[PATH_MAX + 32];
     bundle_path(b, "role", path, sizeof path);
@@ -314,7 +314,7 @@ static int read_role(const bundle *b, char *role, size_t cap, ftm_error *err)
     fclose(f);
     for (int r = FTM_WIRE_ROLE_SERVER; n == 1 && r <= FTM_WIRE_ROLE_OBSERVER; r++)
         if (strcmp(buf, ftm_wire_role_name((ftm_wire_role)r)) == 0) {
-            snprintf(role, cap, "%s", buf);
+            *role = (ftm_wire_role)r;
             return FTM_OK;
         }
     return wire_err(err, FTM_EPARSE, "DDS Security: %s: not server, trainee, instructor or observer",
@@ -370,17 +370,17 @@ int wire_security_config(const char *dir, uint32_t id, char **xml, wire_security
                         "DDS Security: the path %s has a character Cyclone DDS cannot take in a "
                         "configuration (one of , < > & \")",
                         b.dir);
-    char role[32];
     int rc = check_id(&b, id, err);
     if (!rc)
-        rc = read_role(&b, role, sizeof role, err);
+        rc = read_role(&b, &out->role, err);
     if (!rc)
         rc = check_bundle(&b, err);
     bundle_free(&b);
     if (rc)
         return rc;
     snprintf(out->permissions, sizeof out->permissions, "%s/%s", b.dir, PERMISSIONS_FILE);
-    snprintf(out->partition, sizeof out->partition, "%s%s.%u", FTM_WIRE_PARTITION_PREFIX, role, id);
+    snprintf(out->partition, sizeof out->partition, "%s%s.%u", FTM_WIRE_PARTITION_PREFIX,
+             ftm_wire_role_name(out->role), id);
     const char *d = b.dir, *lib = FTM_DDS_SECURITY_LIBDIR;
     const char *fmt =
         "<CycloneDDS><Domain Id=\"any\"><Security>"

@@ -759,6 +759,15 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
         if (pub || sub)
             rc = make_endpoints(t, k, pub, sub, err);
     }
+    /* after the endpoints: an identity whose grants fall short is named by
+     * the permission refused; one of a wider role is refused here */
+    if (rc == FTM_OK && def->security && def->role && def->role != t->sec.role)
+        rc = wire_err(err, FTM_EACCESS,
+                      "DDS Security: the identity in %s was issued for role %s, and this program "
+                      "runs as %s: the others would reject its statuses; use an identity issued "
+                      "for %s",
+                      def->security, ftm_wire_role_name(t->sec.role), ftm_wire_role_name(def->role),
+                      ftm_wire_role_name(def->role));
     if (rc == FTM_OK) {
         if (pthread_create(&t->thread, NULL, publisher_main, t) != 0) {
             rc = wire_err(err, FTM_ENOMEM, "transport: cannot start the publishing thread");

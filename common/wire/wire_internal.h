@@ -33,6 +33,7 @@ typedef struct wire_security {
     /* the partition this participant's writers publish in, which its
      * permissions grant it alone: FTM_WIRE_PARTITION_PREFIX ROLE "." ID */
     char partition[64];
+    ftm_wire_role role; /* the role it was issued for */
 } wire_security;
 
 /* Checks the DDS Security bundle in directory dir (security.c), issued for

@@ -127,6 +127,9 @@ if [ "$mode" = refused ]; then
     expect 3 "to write topic ftm_v1_probe_input" \
         "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 13 \
         --security "$r/o13" --duration 2
+    # an identity of a wider role than the program's: its grants would do
+    expect 3 "the identity in $r/t11 was issued for role trainee, and this program runs as observer" \
+        "$FTM_BOT" --role observer $common --id 11 --security "$r/t11" --duration 2
     # an expired certificate (openssl ca can backdate; ftm-security cannot)
     cp -r "$r/t11" "$dir/expired"
     openssl req -new -key "$dir/expired/key.pem" -subj "/O=FTM/OU=trainee/CN=t11" -out "$dir/t.csr" 2>/dev/null

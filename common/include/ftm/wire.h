@@ -311,6 +311,10 @@ typedef struct ftm_wire_transport_def {
      * session"). Errors name the file and the cause; an endpoint the
      * permissions do not grant fails with FTM_EACCESS. */
     const char *security;
+    /* secured: the role this program runs as (0: not checked); an identity
+     * issued for another role is refused even where its grants would do,
+     * since the others reject statuses whose role is not the certificate's */
+    ftm_wire_role role;
     uint32_t domain_id;      /* DDS domain, default 0 */
     const char *session;     /* session name, 1..63 bytes; the topic key */
     uint32_t participant_id; /* this participant's id (Envelope.sender), != 0 */
