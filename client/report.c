@@ -1,6 +1,7 @@
 #include "report.h"
 
 #include <math.h>
+#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -55,6 +56,34 @@ void ftm_report_contact(ftm_report_probe *p, uint64_t tick, ftm_vec3 force, doub
         p->max_push = push;
     if (limited)
         p->limited_ticks++;
+}
+
+void ftm_report_event_add(ftm_report *r, uint64_t tick, uint32_t by, const char *what,
+                          const char *fmt, ...)
+{
+    if (r->nevents == FTM_REPORT_MAX_EVENTS) {
+        r->events_dropped++;
+        return;
+    }
+    if (r->nevents == r->events_cap) {
+        int32_t cap = r->events_cap ? 2 * r->events_cap : 16;
+        ftm_report_event *e = realloc(r->events, (size_t)cap * sizeof *e);
+        if (!e) {
+            r->events_dropped++;
+            return;
+        }
+        r->events = e;
+        r->events_cap = cap;
+    }
+    ftm_report_event *e = &r->events[r->nevents++];
+    memset(e, 0, sizeof *e);
+    e->tick = tick;
+    e->by = by;
+    snprintf(e->what, sizeof e->what, "%s", what);
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(e->detail, sizeof e->detail, fmt, ap);
+    va_end(ap);
 }
 
 /* Length of the well-formed UTF-8 sequence at c (RFC 3629: no overlong
@@ -155,6 +184,18 @@ int ftm_report_write_json(const ftm_report *r, const ftm_report_session *s, FILE
         }
         fprintf(f, "]}");
     }
+    /* what the instructors changed, for the debriefing's timeline */
+    fprintf(f, "\n],\"events_not_reported\":%llu,\"events\":[",
+            (unsigned long long)r->events_dropped);
+    for (int32_t i = 0; i < r->nevents; i++) {
+        const ftm_report_event *e = &r->events[i];
+        fprintf(f, "%s\n {\"tick\":%llu,\"seconds\":%s,\"by\":%u,\"what\":", i ? "," : "",
+                (unsigned long long)e->tick, num(b[0], (double)e->tick / rate), e->by);
+        json_str(f, e->what);
+        fprintf(f, ",\"detail\":");
+        json_str(f, e->detail);
+        fputc('}', f);
+    }
     fprintf(f, "\n]}\n");
     return ferror(f) ? -1 : 0;
 }
@@ -162,5 +203,6 @@ int ftm_report_write_json(const ftm_report *r, const ftm_report_session *s, FILE
 void ftm_report_free(ftm_report *r)
 {
     free(r->parts);
+    free(r->events);
     memset(r, 0, sizeof *r);
 }

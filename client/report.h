@@ -35,10 +35,24 @@ typedef struct ftm_report_part {
     ftm_report_probe probes[FTM_REPORT_PROBES];
 } ftm_report_part;
 
+#define FTM_REPORT_MAX_EVENTS 4096 /* kept; more are counted */
+
+/* What an instructor changed: handled after tick `tick` (in force from the
+ * next), by instructor `by`. */
+typedef struct ftm_report_event {
+    uint64_t tick;
+    uint32_t by;
+    char what[16];    /* pause, resume, reset, tissue, depth limits */
+    char detail[112]; /* "stiffness 80 N/m (was 50), ..." */
+} ftm_report_event;
+
 typedef struct ftm_report {
     ftm_report_part *parts; /* in order of first appearance */
     int32_t count, cap;
     uint64_t dropped; /* statuses from ids beyond FTM_REPORT_MAX_PARTICIPANTS */
+    ftm_report_event *events; /* in the order they were handled */
+    int32_t nevents, events_cap;
+    uint64_t events_dropped; /* beyond FTM_REPORT_MAX_EVENTS, or out of memory */
 } ftm_report;
 
 /* What the report says of the session as a whole. */
@@ -64,6 +78,9 @@ int32_t ftm_report_index(const ftm_report *r, uint32_t id);
 /* A tick of contact on a probe: its reaction force, the length of its push. */
 void ftm_report_contact(ftm_report_probe *p, uint64_t tick, ftm_vec3 force, double push,
                         bool limited);
+/* An instructor's change (ftm_report_event), detail printf-style. */
+void ftm_report_event_add(ftm_report *r, uint64_t tick, uint32_t by, const char *what,
+                          const char *fmt, ...) __attribute__((format(printf, 5, 6)));
 /* The report as JSON (one object); returns 0 or the stdio error. */
 int ftm_report_write_json(const ftm_report *r, const ftm_report_session *s, FILE *f);
 void ftm_report_free(ftm_report *r);

@@ -728,6 +728,36 @@ static void refuse(server *s, participant *p, const ftm_wire_received *rx, const
     reply(s, rx->sender, rx->msg.u.control.command_id, FTM_WIRE_OUTCOME_REFUSED, "%s", why);
 }
 
+/* What a tissue change changes, for the report's timeline: "stiffness 80
+ * N/m (was 50), damping ..." for the parameters that differ only. */
+static void tissue_change_text(const ftm_wire_tissue *was, const ftm_wire_tissue *now, char *out,
+                               size_t cap)
+{
+    size_t n = 0;
+#define CHANGED(cond, ...)                                                                     \
+    do {                                                                                       \
+        if ((cond) && n < cap) {                                                               \
+            int w = snprintf(out + n, cap - n, "%s", n ? ", " : "");                           \
+            n += w > 0 ? (size_t)w : 0;                                                        \
+            if (n < cap) {                                                                     \
+                w = snprintf(out + n, cap - n, __VA_ARGS__);                                   \
+                n += w > 0 ? (size_t)w : 0;                                                    \
+            }                                                                                  \
+        }                                                                                      \
+    } while (0)
+    out[0] = 0;
+    CHANGED(now->stiffness != was->stiffness, "stiffness %g N/m (was %g)", now->stiffness,
+            was->stiffness);
+    CHANGED(now->node_damping != was->node_damping, "damping %g N s/m (was %g)",
+            now->node_damping, was->node_damping);
+    CHANGED(now->node_mass != was->node_mass, "node mass %g kg (was %g)", now->node_mass,
+            was->node_mass);
+    CHANGED(now->axis_scale.x != was->axis_scale.x || now->axis_scale.y != was->axis_scale.y ||
+                now->axis_scale.z != was->axis_scale.z,
+            "axis scale %g %g %g", now->axis_scale.x, now->axis_scale.y, now->axis_scale.z);
+#undef CHANGED
+}
+
 /* Between ticks: the simulation switches material now, so the next tick is
  * stepped with it, and that tick's frame carries the parameters for the
  * replicas to switch at the same tick (docs/protocol.md, "Tissue parameters").
@@ -765,6 +795,9 @@ static void set_tissue(server *s, participant *p, const ftm_wire_received *rx)
          t->node_mass, before.node_mass, t->axis_scale.x, t->axis_scale.y, t->axis_scale.z, ms);
     s->tissue_frame = true;
     s->tissue_changes++;
+    char what[128] = ""; /* (the event keeps what fits its detail) */
+    tissue_change_text(&before, t, what, sizeof what);
+    ftm_report_event_add(&s->report, s->tick, sender, "tissue", "%s", what);
     publish_announce(s);
     reply(s, sender, id, FTM_WIRE_OUTCOME_APPLIED, "%s", "");
 }
@@ -782,6 +815,7 @@ static void on_control(server *s, ftm_wire_received *rx)
         if (!s->paused) {
             s->paused = true;
             slog(s, "info", "paused at tick %" PRIu64 " by instructor %u", s->tick, rx->sender);
+            ftm_report_event_add(&s->report, s->tick, rx->sender, "pause", "%s", "");
             publish_announce(s);
             reply(s, rx->sender, c->command_id, FTM_WIRE_OUTCOME_APPLIED, "%s", "");
         } else {
@@ -794,6 +828,7 @@ static void on_control(server *s, ftm_wire_received *rx)
             s->base_ns = mono_ns();
             s->base_tick = s->tick;
             slog(s, "info", "resumed at tick %" PRIu64 " by instructor %u", s->tick, rx->sender);
+            ftm_report_event_add(&s->report, s->tick, rx->sender, "resume", "%s", "");
             publish_announce(s);
             reply(s, rx->sender, c->command_id, FTM_WIRE_OUTCOME_APPLIED, "%s", "");
         } else {
@@ -815,12 +850,15 @@ static void on_control(server *s, ftm_wire_received *rx)
             slog(s, "info", "depth %s (tick %" PRIu64 ")", why, s->tick);
             s->depth = s->ctl.depth;
         }
+        ftm_report_event_add(&s->report, s->tick, rx->sender, "depth limits", "[%d, %d], depth %d",
+                             (int)c->depth_min, (int)c->depth_max, (int)s->depth);
         publish_announce(s);
         reply(s, rx->sender, c->command_id, FTM_WIRE_OUTCOME_APPLIED, "depth now %d", (int)s->depth);
         break;
     }
     case FTM_WIRE_CMD_RESET:
         slog(s, "info", "reset at tick %" PRIu64 " by instructor %u", s->tick, rx->sender);
+        ftm_report_event_add(&s->report, s->tick, rx->sender, "reset", "%s", "");
         do_reset(s, true);
         reply(s, rx->sender, c->command_id, FTM_WIRE_OUTCOME_APPLIED, "%s", "");
         break;

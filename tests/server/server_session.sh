@@ -519,7 +519,7 @@ restart)
         "with another scene, ending on its $want"
     ;;
 control)
-    start_server --duration 4 --record "$dir/control.rec"
+    start_server --duration 4 --record "$dir/control.rec" --report "$dir/live.json"
     timeout 60 "$FTM_BOT" --role instructor --script "$here/control-instructor.bot" $common \
         --id 12 --duration 30 >"$dir/bot12.out" 2>"$dir/bot12.err"
     rc=$?
@@ -536,11 +536,33 @@ control)
         fail "the summary does not count the refusal"
     grep -q "tissue parameters from participant 12 rejected" "$dir/server.log" ||
         fail "the server did not log the refusal"
-    timeout 60 "$FTM_SERVER" --replay "$dir/control.rec" >"$dir/replay.out" 2>"$dir/replay.err" ||
+    timeout 60 "$FTM_SERVER" --replay "$dir/control.rec" --report "$dir/replay.json" \
+        >"$dir/replay.out" 2>"$dir/replay.err" ||
         fail "replay of the session failed: $(tail -3 "$dir/replay.err")"
     grep -q "every hash equal; .* 3 control replies (1 refused)" "$dir/replay.out" ||
         fail "the recording lacks the 3 replies"
-    echo "PASS control: $(grep -c '] command ' "$dir/bot12.err") outcomes reported, exit status 4"
+    # the report's timeline: the two applied commands, at the ticks the
+    # bot was told, by instructor 12; the refused one is not an event; the
+    # replay's report is the live one
+    events=$(timeout 30 python3 - "$dir/live.json" "$dir/replay.json" "$dir/bot12.err" <<'EOF'
+import json, re, sys
+live, rep = (json.load(open(p)) for p in sys.argv[1:3])
+assert live == rep, "replay report differs:\n%s\n%s" % (live, rep)
+ev = live["events"]
+assert live["events_not_reported"] == 0, live
+assert [e["what"] for e in ev] == ["tissue", "depth limits"], ev
+assert all(e["by"] == 12 for e in ev), ev
+assert ev[0]["detail"] == "stiffness 80 N/m (was 50)", ev  # what changed only
+assert ev[1]["detail"] == "[2, 6], depth 6", ev
+log = open(sys.argv[3]).read()
+told = [int(t) for t in re.findall(r"command (?:stiffness 80 N/m|depth limits 2..6): applied after tick (\d+)", log)]
+assert [e["tick"] for e in ev] == told, (ev, told)
+assert all(e["seconds"] == e["tick"] / live["tick_rate_hz"] for e in ev), ev
+print("; ".join("%s after tick %d" % (e["what"], e["tick"]) for e in ev))
+EOF
+) || fail "the report's events: $events"
+    echo "PASS control: $(grep -c '] command ' "$dir/bot12.err") outcomes reported, exit status 4;" \
+        "report events: $events"
     ;;
 lesson)
     start_server --duration 30

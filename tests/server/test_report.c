@@ -90,6 +90,38 @@ static void test_json_escapes_names(void **state)
     ftm_report_free(&r);
 }
 
+/* The instructors' changes: in order, with the tick they were handled
+ * after and its time, kept up to the bound and counted beyond it. */
+static void test_events(void **state)
+{
+    (void)state;
+    ftm_report r = {0};
+    ftm_report_event_add(&r, 1447, 15, "tissue", "stiffness %g N/m (was %g)", 80.0, 50.0);
+    ftm_report_event_add(&r, 2000, 15, "pause", "%s", "");
+    ftm_report_event_add(&r, 2500, 16, "depth limits", "[%d, %d], depth %d", 2, 6, 6);
+    assert_int_equal(r.nevents, 3);
+    ftm_report_session s = {"ward3", "default", NULL, 0, 3000, 1000.0, 8, 8, 0, 1};
+    char *buf = json_of(&r, &s);
+    const char *want = "\"events_not_reported\":0,\"events\":[\n"
+                       " {\"tick\":1447,\"seconds\":1.4470000000000001,\"by\":15,\"what\":\"tissue\","
+                       "\"detail\":\"stiffness 80 N/m (was 50)\"},\n"
+                       " {\"tick\":2000,\"seconds\":2,\"by\":15,\"what\":\"pause\",\"detail\":\"\"},\n"
+                       " {\"tick\":2500,\"seconds\":2.5,\"by\":16,\"what\":\"depth limits\","
+                       "\"detail\":\"[2, 6], depth 6\"}\n]}\n";
+    if (!strstr(buf, want))
+        fail_msg("events: %s", buf);
+    free(buf);
+    for (int i = 3; i < FTM_REPORT_MAX_EVENTS + 5; i++)
+        ftm_report_event_add(&r, (uint64_t)i, 15, "reset", "%s", "");
+    assert_int_equal(r.nevents, FTM_REPORT_MAX_EVENTS);
+    assert_int_equal(r.events_dropped, 5);
+    buf = json_of(&r, &s);
+    assert_non_null(strstr(buf, "\"events_not_reported\":5,"));
+    free(buf);
+    ftm_report_free(&r);
+    assert_null(r.events);
+}
+
 /* A name that is not UTF-8 (a peer may send any bytes): every ill-formed
  * byte becomes U+FFFD, well-formed sequences are kept, the result is valid
  * UTF-8; a figure that is not finite is null (JSON has no NaN). */
@@ -138,6 +170,7 @@ int main(void)
         cmocka_unit_test(test_cap),
         cmocka_unit_test(test_json_escapes_names),
         cmocka_unit_test(test_json_not_utf8),
+        cmocka_unit_test(test_events),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
