@@ -229,6 +229,7 @@ typedef struct bot {
     double lat_sum_us, lat_max_us;
     uint64_t lat_n;
     bool ever_synced;
+    uint64_t keyframes_heard; /* keyframes from the server, loaded or not */
     /* what the server said of our id (on_status); id_told.taken: it hears
      * another process with our id, not us */
     ftm_id_told id_told;
@@ -433,6 +434,7 @@ static void on_tick(bot *b, const ftm_wire_received *rx)
 
 static void on_keyframe(bot *b, const ftm_wire_keyframe *k)
 {
+    b->keyframes_heard++;
     if (!b->rep)
         return;
     ftm_wire_state before = ftm_replay_state(b->rep);
@@ -440,6 +442,26 @@ static void on_keyframe(bot *b, const ftm_wire_keyframe *k)
         blog("replay: out of memory");
     if (ftm_replay_state(b->rep) != before)
         publish_state(b);
+}
+
+/* why a bot that never synced did not: what it heard of the server (the
+ * usual causes across a network, docs/deploy.md "Network") */
+static const char *never_synced_why(const bot *b)
+{
+    ftm_replay_stats rs;
+    memset(&rs, 0, sizeof rs);
+    if (b->rep)
+        ftm_replay_get_stats(b->rep, &rs);
+    if (!b->server_id)
+        return "no server heard: check that the server runs with the same --session, --domain "
+               "and a --config that reaches this host (multicast, or Peers listing both hosts)";
+    if (!b->keyframes_heard)
+        return rs.frames_received
+                   ? "tick frames arrived but no keyframe: keyframes are tens of kB, sent as DDS "
+                     "messages of up to the configuration's MaxMessageSize; check that datagrams "
+                     "of that size or their IP fragments cross the network (path MTU)"
+                   : "the server was heard but neither tick frames nor keyframes arrived";
+    return "keyframes arrived but did not load (see above)";
 }
 
 static void send_probe(bot *b, double t)
@@ -780,8 +802,9 @@ int main(int argc, char **argv)
             b->ever_synced = true;
             b->unsynced_since = now;
         } else if (now - b->unsynced_since > (int64_t)(b->o.resync_timeout * 1e9)) {
-            blog("not synced for %.1f s (%s): giving up", b->o.resync_timeout,
-                 b->ever_synced ? "hash mismatch or gap did not recover" : "never synced");
+            blog("not synced for %.1f s (%s%s): giving up", b->o.resync_timeout,
+                 b->ever_synced ? "hash mismatch or gap did not recover" : "never synced: ",
+                 b->ever_synced ? "" : never_synced_why(b));
             rc_exit = 1;
             why = "resync timeout";
             break;
@@ -851,6 +874,8 @@ int main(int argc, char **argv)
          rs.keyframes_loaded, b->lat_n ? b->lat_sum_us / (double)b->lat_n : 0.0, b->lat_max_us,
          rs.frames_applied ? rs.replay_ns_total / (double)(rs.frames_applied + rs.idle_ticks) * 1e-3
                            : 0.0);
+    if (st != FTM_WIRE_STATE_SYNCED && !b->ever_synced && strcmp(why, "resync timeout") != 0)
+        blog("never synced: %s", never_synced_why(b));
     if (b->role == FTM_WIRE_ROLE_INSTRUCTOR)
         blog("commands: %" PRIu64 " sent, %" PRIu64 " applied, %" PRIu64 " changed, %" PRIu64
              " refused, %" PRIu64 " unanswered", b->command_id, b->applied, b->changed, b->refused,
