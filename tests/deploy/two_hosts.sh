@@ -23,13 +23,18 @@
 #           configuration: the observer exits 1 saying that tick frames
 #           arrived but no keyframe (and the path MTU); a bot with nobody on
 #           its domain says it heard no server.
+#   iface:  a station host with another interface before the one facing the
+#           server (a second NIC, a container bridge), in a second pair of
+#           namespaces: with cyclonedds-lan.xml unchanged Cyclone picks that
+#           one, silently, and a trainee hears no server; with the interface
+#           named in the file, as docs/deploy.md says, the session works.
 # Each must end with every bot on the server's final tick and hash, every
 # process' exit status 0 (a trainee's failed expectation is status 4, a bot
 # that never synced 1), the trainees' expectations held and the observer
 # synced from a keyframe. Each session prints its figures: the observer's
 # time from joining to its first sync, the bots' frame latency mean/max, the
 # server's retransmitted bytes and what crossed the station's link.
-#   sh two_hosts.sh [lan|wan|secure|blackhole]...   (default: all four)
+#   sh two_hosts.sh [lan|wan|secure|blackhole|iface]...   (default: all)
 # FTM_TWO_HOSTS_FAULT breaks the link to show that the test fails:
 #   blackhole: the station's link has an MTU of 1280 (a tunnel on the way
 #          whose ICMP "too big" never comes back): datagrams and IP fragments
@@ -46,7 +51,7 @@ set -u
 : "${FTM_SERVER:?}" "${FTM_BOT:?}" "${FTM_SECURITY:?}" "${FTM_DEPLOY:?}" "${FTM_SCRIPTS:?}"
 here=$(cd "$(dirname "$0")" && pwd)
 . "$here/../wait_for.sh"
-sessions=${*:-lan wan secure blackhole}
+sessions=${*:-lan wan secure blackhole iface}
 fault=${FTM_TWO_HOSTS_FAULT:-}
 case $fault in '' | blackhole | peer) ;; *) echo "FTM_TWO_HOSTS_FAULT: blackhole or peer, not '$fault'"; exit 2 ;; esac
 skip() { echo "SKIP: $*"; exit 77; }
@@ -56,6 +61,8 @@ command -v ip >/dev/null 2>&1 || skip "no 'ip' command (iproute2) to make networ
 tag=ftm2h-$$
 srv=$tag-s  # the server host
 sta=$tag-c  # the station host
+srv2=$tag-t # (iface) another server host
+sta2=$tag-u # (iface) a station host with two interfaces
 dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-two-hosts.XXXXXX")
 watchdog=
 # stop_ns NS...: every process in the namespaces (this test's), TERM then,
@@ -79,10 +86,11 @@ cleanup() {
     trap - EXIT INT TERM HUP PIPE
     [ -z "$watchdog" ] || kill -TERM "$watchdog" 2>/dev/null
     # (the `ip netns exec` processes end with the programs they run)
-    stop_ns "$sta" "$srv"
+    stop_ns "$sta" "$srv" "$sta2" "$srv2"
     wait
-    ip netns del "$srv" 2>/dev/null # (and the veth pair with it)
-    ip netns del "$sta" 2>/dev/null
+    for n in "$srv" "$sta" "$srv2" "$sta2"; do
+        ip netns del "$n" 2>/dev/null # (and the veth pairs with them)
+    done
     rm -rf "$dir"
 }
 trap cleanup EXIT
@@ -106,7 +114,7 @@ fail() {
 watchdog=$!
 # namespaces of earlier runs that were killed outright (their pid is gone),
 # with whatever still runs in them
-for ns in $(ip netns list 2>/dev/null | sed -n 's/^\(ftm2h-[0-9]*-[sc]\)\( .*\)\{0,1\}$/\1/p'); do
+for ns in $(ip netns list 2>/dev/null | sed -n 's/^\(ftm2h-[0-9]*-[a-z]\)\( .*\)\{0,1\}$/\1/p'); do
     p=${ns#ftm2h-}
     p=${p%-?}
     kill -0 "$p" 2>/dev/null && continue
@@ -249,7 +257,54 @@ for s in $sessions; do
         ip -n "$sta" link set "f2h$$b" mtu "$sta_mtu" || fail "cannot set the MTU"
         echo "PASS blackhole: $(sed -n 's/^ftm-bot 13 \[ *[0-9.]*\] \(never synced: [^:]*\):.*/\1/p' "$dir/bot13.err"); alone: $(sed -n 's/^ftm-bot 14 \[ *[0-9.]*\] \(never synced: [^:]*\):.*/\1/p' "$dir/bot14.err")"
         ;;
-    *) echo "two_hosts: lan, wan, secure or blackhole, not '$s'"; exit 2 ;;
+    iface)
+        rm -f "$dir"/*.out "$dir"/*.err "$dir"/*.log
+        ip netns add "$srv2" && ip netns add "$sta2" &&
+            ip link add "f2h$$d" netns "$sta2" type veth peer name "f2h$$e" netns "$sta2" &&
+            ip -n "$sta2" addr add 10.78.0.2/24 dev "f2h$$d" &&
+            ip -n "$sta2" link set "f2h$$d" up && ip -n "$sta2" link set "f2h$$e" up &&
+            ip link add "f2h$$f" netns "$srv2" type veth peer name "f2h$$g" netns "$sta2" &&
+            ip -n "$srv2" addr add 10.77.0.1/24 dev "f2h$$f" && ip -n "$sta2" addr add 10.77.0.2/24 dev "f2h$$g" &&
+            ip -n "$srv2" link set "f2h$$f" up && ip -n "$sta2" link set "f2h$$g" up &&
+            ip -n "$srv2" link set lo up && ip -n "$sta2" link set lo up || fail "iface: cannot set up the hosts"
+        # the edit docs/deploy.md asks for on a host with several interfaces
+        sed "s|<NetworkInterface autodetermine=\"true\"/>|<NetworkInterface name=\"f2h$$g\"/>|" \
+            "$FTM_DEPLOY/cyclonedds-lan.xml" >"$dir/lan-named.xml"
+        grep -q "name=\"f2h$$g\"" "$dir/lan-named.xml" || fail "iface: the interface was not named"
+        # (the server host has one interface: its file stays as shipped)
+        for c in auto named; do
+            d=$domain
+            [ $c = named ] && d=$((domain + 1))
+            common="--session two-hosts-$c-$$ --domain $d --config $FTM_DEPLOY/cyclonedds-lan.xml"
+            on "$srv2" timeout -k 5 40 "$FTM_SERVER" --scene default $common --rate "$rate" --duration 3.5 \
+                --log "$dir/server-$c.log" >"$dir/server-$c.out" 2>"$dir/server-$c.err" &
+            iface_pids="${iface_pids:-} $!"
+        done
+        wait_for "$dir/server-auto.log" "session 'two-hosts-auto-$$'" "iface: the server did not start"
+        wait_for "$dir/server-named.log" "session 'two-hosts-named-$$'" "iface: the server did not start"
+        for c in auto named; do
+            cfg=$FTM_DEPLOY/cyclonedds-lan.xml
+            [ $c = named ] && cfg=$dir/lan-named.xml
+            d=$domain
+            [ $c = named ] && d=$((domain + 1))
+            on "$sta2" timeout -k 5 40 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" \
+                --session "two-hosts-$c-$$" --domain $d --config "$cfg" --id 11 --duration 20 \
+                >"$dir/bot-$c.out" 2>"$dir/bot-$c.err" &
+            iface_pids="$iface_pids $!"
+        done
+        # shellcheck disable=SC2086
+        wait $iface_pids
+        grep -q "never synced: no server heard" "$dir/bot-auto.err" ||
+            fail "iface: with two interfaces and autodetermine the trainee heard the server: Cyclone no longer picks the first interface, update docs/deploy.md (Network)"
+        want=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/server-named.out")
+        got=$(sed -n 's/^ftm-bot 11: \(final tick .*\) synced$/\1/p' "$dir/bot-named.out")
+        [ -n "$want" ] && [ "$got" = "$want" ] ||
+            fail "iface: with the interface named the trainee ended on '$got', the server on '$want'"
+        grep -q "^ftm-bot 11 .* 0 of [1-9][0-9]* expectations failed" "$dir/bot-named.err" ||
+            fail "iface: with the interface named the trainee's expectations failed"
+        echo "PASS iface: autodetermine with another interface first: never synced: no server heard; interface named: trainee on $want"
+        ;;
+    *) echo "two_hosts: lan, wan, secure, blackhole or iface, not '$s'"; exit 2 ;;
     esac
 done
 exit 0
