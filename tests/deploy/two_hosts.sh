@@ -3,7 +3,7 @@
 # two network namespaces made here, a server host (10.77.0.1) and a station
 # host (10.77.0.2), joined by a veth pair with a 1500-byte MTU, as an
 # Ethernet LAN. In the server host ftm-server (default scene, 1728 nodes:
-# keyframes of about 40 KB, so fragmented on the way); in the station host
+# keyframes of 26..43 kB when pressed, so fragmented); in the station host
 # trainees 11 and 12 (docs/sessions/trainee1.bot, trainee2.bot) and an
 # observer 13 that joins 2.5 s in and so must start from a keyframe.
 #   lan:    deploy/cyclonedds-lan.xml unchanged. It lists no peers: that the
