@@ -26,6 +26,8 @@ packages=(
   libmicrohttpd-dev                               # ftm-server Prometheus metrics endpoint
   libglfw3-dev libgl-dev libgl1-mesa-dri libpng-dev  # ftm-client: window, OpenGL 3.3, screenshots
   xvfb xauth                                      # headless X server for client tests
+  python3                                         # test scripts' checks, ftm-plot-forces' names
+  iproute2                                        # test_two_hosts: network namespaces, veth
 )
 
 missing=()
