@@ -802,9 +802,8 @@ int main(int argc, char **argv)
             b->ever_synced = true;
             b->unsynced_since = now;
         } else if (now - b->unsynced_since > (int64_t)(b->o.resync_timeout * 1e9)) {
-            blog("not synced for %.1f s (%s%s): giving up", b->o.resync_timeout,
-                 b->ever_synced ? "hash mismatch or gap did not recover" : "never synced: ",
-                 b->ever_synced ? "" : never_synced_why(b));
+            blog("not synced for %.1f s (%s): giving up", b->o.resync_timeout,
+                 b->ever_synced ? "hash mismatch or gap did not recover" : "never synced");
             rc_exit = 1;
             why = "resync timeout";
             break;
@@ -874,7 +873,7 @@ int main(int argc, char **argv)
          rs.keyframes_loaded, b->lat_n ? b->lat_sum_us / (double)b->lat_n : 0.0, b->lat_max_us,
          rs.frames_applied ? rs.replay_ns_total / (double)(rs.frames_applied + rs.idle_ticks) * 1e-3
                            : 0.0);
-    if (st != FTM_WIRE_STATE_SYNCED && !b->ever_synced && strcmp(why, "resync timeout") != 0)
+    if (st != FTM_WIRE_STATE_SYNCED && !b->ever_synced)
         blog("never synced: %s", never_synced_why(b));
     if (b->role == FTM_WIRE_ROLE_INSTRUCTOR)
         blog("commands: %" PRIu64 " sent, %" PRIu64 " applied, %" PRIu64 " changed, %" PRIu64

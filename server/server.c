@@ -728,34 +728,41 @@ static void refuse(server *s, participant *p, const ftm_wire_received *rx, const
     reply(s, rx->sender, rx->msg.u.control.command_id, FTM_WIRE_OUTCOME_REFUSED, "%s", why);
 }
 
+/* Appends ", " (unless first) and the formatted text to out[0..cap), *n
+ * bytes used; cut at the end of out. */
+static void add_change(char *out, size_t cap, size_t *n, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+static void add_change(char *out, size_t cap, size_t *n, const char *fmt, ...)
+{
+    if (*n + 3 > cap)
+        return;
+    if (*n)
+        *n += (size_t)snprintf(out + *n, cap - *n, ", ");
+    va_list ap;
+    va_start(ap, fmt);
+    int w = vsnprintf(out + *n, cap - *n, fmt, ap);
+    va_end(ap);
+    *n = w < 0 ? *n : *n + (size_t)w < cap ? *n + (size_t)w : cap - 1;
+}
+
 /* What a tissue change changes, for the report's timeline: "stiffness 80
  * N/m (was 50), damping ..." for the parameters that differ only. */
 static void tissue_change_text(const ftm_wire_tissue *was, const ftm_wire_tissue *now, char *out,
                                size_t cap)
 {
     size_t n = 0;
-#define CHANGED(cond, ...)                                                                     \
-    do {                                                                                       \
-        if ((cond) && n < cap) {                                                               \
-            int w = snprintf(out + n, cap - n, "%s", n ? ", " : "");                           \
-            n += w > 0 ? (size_t)w : 0;                                                        \
-            if (n < cap) {                                                                     \
-                w = snprintf(out + n, cap - n, __VA_ARGS__);                                   \
-                n += w > 0 ? (size_t)w : 0;                                                    \
-            }                                                                                  \
-        }                                                                                      \
-    } while (0)
     out[0] = 0;
-    CHANGED(now->stiffness != was->stiffness, "stiffness %g N/m (was %g)", now->stiffness,
-            was->stiffness);
-    CHANGED(now->node_damping != was->node_damping, "damping %g N s/m (was %g)",
-            now->node_damping, was->node_damping);
-    CHANGED(now->node_mass != was->node_mass, "node mass %g kg (was %g)", now->node_mass,
-            was->node_mass);
-    CHANGED(now->axis_scale.x != was->axis_scale.x || now->axis_scale.y != was->axis_scale.y ||
-                now->axis_scale.z != was->axis_scale.z,
-            "axis scale %g %g %g", now->axis_scale.x, now->axis_scale.y, now->axis_scale.z);
-#undef CHANGED
+    if (now->stiffness != was->stiffness)
+        add_change(out, cap, &n, "stiffness %g N/m (was %g)", now->stiffness, was->stiffness);
+    if (now->node_damping != was->node_damping)
+        add_change(out, cap, &n, "damping %g N s/m (was %g)", now->node_damping,
+                   was->node_damping);
+    if (now->node_mass != was->node_mass)
+        add_change(out, cap, &n, "node mass %g kg (was %g)", now->node_mass, was->node_mass);
+    if (now->axis_scale.x != was->axis_scale.x || now->axis_scale.y != was->axis_scale.y ||
+        now->axis_scale.z != was->axis_scale.z)
+        add_change(out, cap, &n, "axis scale %g %g %g", now->axis_scale.x, now->axis_scale.y,
+                   now->axis_scale.z);
 }
 
 /* Between ticks: the simulation switches material now, so the next tick is

@@ -592,17 +592,16 @@ static void on_data_available(dds_entity_t reader, void *arg)
 /* A failed topic, writer or reader: a clear cause when DDS Security's
  * permissions do not grant it. */
 static int endpoint_fail(const ftm_wire_transport *t, ftm_error *err, const char *call, int kind,
-                         const char *what, dds_return_t rc)
+                         bool write, dds_return_t rc)
 {
-    const bool pub_side = strcmp(what, "write") == 0;
     if (rc == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY)
         return wire_err(err, FTM_EACCESS,
                         "not permitted by the DDS Security permissions in %s to %s topic %s (%s) "
                         "in partition %s: this program needs an identity issued for its role "
                         "and id",
-                        t->sec.permissions[0] ? t->sec.permissions : "(the configuration)", what,
-                        topic_names[kind], ftm_wire_kind_name(kind),
-                        pub_side ? t->sec.partition : FTM_WIRE_PARTITION_PREFIX "*");
+                        t->sec.permissions[0] ? t->sec.permissions : "(the configuration)",
+                        write ? "write" : "read", topic_names[kind], ftm_wire_kind_name(kind),
+                        write ? t->sec.partition : FTM_WIRE_PARTITION_PREFIX "*");
     return wire_err(err, FTM_EDDS, "%s for %s failed: %s", call, topic_names[kind],
                     dds_strretcode(rc));
 }
@@ -635,14 +634,14 @@ static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_
     kind_io *io = &t->io[k];
     io->topic = dds_create_topic(t->participant, &ftm_wire_Envelope_desc, topic_names[k], NULL, NULL);
     if (io->topic < 0)
-        return endpoint_fail(t, err, "dds_create_topic", k, pub ? "write" : "read", io->topic);
+        return endpoint_fail(t, err, "dds_create_topic", k, pub, io->topic);
     if (pub) {
         dds_qos_t *q = kind_qos(k, true);
         io->writer = dds_create_writer(t->publisher ? t->publisher : t->participant, io->topic, q,
                                        NULL);
         dds_delete_qos(q);
         if (io->writer < 0) {
-            int rc = endpoint_fail(t, err, "dds_create_writer", k, "write", io->writer);
+            int rc = endpoint_fail(t, err, "dds_create_writer", k, true, io->writer);
             io->writer = 0;
             return rc;
         }
@@ -661,7 +660,7 @@ static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_
         dds_delete_listener(l);
         dds_delete_qos(q);
         if (io->reader < 0) {
-            int rc = endpoint_fail(t, err, "dds_create_reader", k, "read", io->reader);
+            int rc = endpoint_fail(t, err, "dds_create_reader", k, false, io->reader);
             io->reader = 0;
             return rc;
         }
