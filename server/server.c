@@ -893,6 +893,12 @@ static void other_server(server *s, const ftm_wire_status *st)
              "tick %" PRIu64 "; this one at %" PRIu64 "): stopping this one",
              s->o.session, s->o.domain, st->name, st->last_applied_tick, s->tick);
         s->displaced = true;
+        /* the other server is there, but may not have matched our status
+         * writer yet (we heard it within a millisecond of starting): wait
+         * for that, so that our LEAVING status tells it someone tried */
+        ftm_error err = {0, ""};
+        if (ftm_wire_wait_matched(s->wire, FTM_WIRE_STATUS, 1, 1000000000LL, &err))
+            slog(s, "warn", "the other server did not match our status in 1 s: %s", err.message);
         shutdown_server(s, "another server serves the session");
     } else if (!s->other_server_told) {
         slog(s, "error",
