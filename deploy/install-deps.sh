@@ -16,6 +16,7 @@ packages=(
   clang                                           # second compiler: determinism check
   libclang-rt-14-dev                              # libFuzzer + sanitizers for clang (tests/fuzz)
   libcmocka-dev                                   # unit tests
+  zlib1g-dev                                      # libftm: .nii.gz volumes (optional)
   gnuplot-nox                                     # benchmark plots in docs/
   libsuitesparse-dev                              # FEM reference (CHOLMOD)
   cyclonedds-dev cyclonedds-tools                 # DDS transport, idlc, ddsperf

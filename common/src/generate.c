@@ -2,6 +2,7 @@
 #include "ftm/generate.h"
 
 #include "error.h"
+#include "lattice.h"
 #include "material.h"
 
 #include <math.h>
@@ -29,21 +30,60 @@ ftm_lattice3d_def ftm_default_lattice3d_def(void)
 #define FTM_MAX_LATTICE_NODES (64 * 1024 * 1024)
 
 /* Stiffness of a link along direction (dx, dy, dz), scaled per axis. */
-static double axis_stiffness(const ftm_material_def *m, double dx, double dy, double dz)
+double ftm_lattice_axis_stiffness(const ftm_material_def *m, double dx, double dy, double dz)
 {
     double l2 = dx * dx + dy * dy + dz * dz;
     return m->stiffness *
            (m->axis_scale.x * dx * dx + m->axis_scale.y * dy * dy + m->axis_scale.z * dz * dz) / l2;
 }
 
-static int add_nodes_failed(int32_t r, const char *who, ftm_error *err)
+const int8_t ftm_lattice_offsets[13][3] = {
+    {1, 0, 0}, {0, 1, 0}, {0, 0, 1},                                  /* edges */
+    {1, 1, 0}, {1, -1, 0}, {1, 0, 1}, {1, 0, -1}, {0, 1, 1}, {0, 1, -1}, /* face diagonals */
+    {1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {1, -1, -1}};                    /* body diagonals */
+
+const int8_t ftm_lattice_hex_corners[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                              {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+
+int ftm_lattice_offset_count(ftm_stencil stencil)
+{
+    return stencil == FTM_STENCIL_6 ? 3 : stencil == FTM_STENCIL_18 ? 9
+                                      : stencil == FTM_STENCIL_26 ? 13
+                                                                  : 0;
+}
+
+bool ftm_lattice_on_faces(uint32_t f, const int32_t i[3], const int32_t dims[3])
+{
+    for (int a = 0; a < 3; a++)
+        if (((f & (FTM_FACE_XMIN << 2 * a)) && i[a] == 0) ||
+            ((f & (FTM_FACE_XMAX << 2 * a)) && i[a] == dims[a] - 1))
+            return true;
+    return false;
+}
+
+int ftm_lattice_add_quad(ftm_mesh_builder *b, const int32_t id[4], bool hi)
+{
+    int rc;
+    if (hi) {
+        rc = ftm_mesh_builder_add_triangle(b, id[0], id[1], id[2]);
+        if (!rc)
+            rc = ftm_mesh_builder_add_triangle(b, id[0], id[2], id[3]);
+    } else {
+        rc = ftm_mesh_builder_add_triangle(b, id[0], id[2], id[1]);
+        if (!rc)
+            rc = ftm_mesh_builder_add_triangle(b, id[0], id[3], id[2]);
+    }
+    return rc;
+}
+
+int ftm_lattice_node_failed(int32_t r, const char *who, ftm_error *err)
 {
     return ftm_error_set(err, r, "%s: cannot add node: %s", who, ftm_strerror(r));
 }
 
 /* A link the builder refused: with an extreme spacing (squares that
  * underflow or overflow) its length is zero or not finite, so name that. */
-static int link_failed(int32_t r, const char *who, double smin, double smax, ftm_error *err)
+int ftm_lattice_link_failed(int32_t r, const char *who, double smin, double smax, ftm_error *err)
 {
     if (r != FTM_EINVAL)
         return ftm_error_set(err, r, "%s: cannot add link: %s", who, ftm_strerror(r));
@@ -80,7 +120,7 @@ int ftm_generate_lattice2d(ftm_mesh_builder *b, const ftm_lattice2d_def *def, ft
                                .fixed = fixed};
             int32_t r = ftm_mesh_builder_add_node(b, &nd);
             if (r < 0)
-                return add_nodes_failed(r, who, err);
+                return ftm_lattice_node_failed(r, who, err);
         }
     /* forward half of the 6-neighbour stencil: right, and the two nodes of the
      * next row that touch this one (which depend on the row's parity) */
@@ -95,11 +135,12 @@ int ftm_generate_lattice2d(ftm_mesh_builder *b, const ftm_lattice2d_def *def, ft
                 double dy = (nby[k] - iy) * sqrt(3.0) / 2.0;
                 ftm_link_def ld = {.a = base + ix + def->nx * iy,
                                    .b = base + nbx[k] + def->nx * nby[k],
-                                   .stiffness = axis_stiffness(&def->material, dx, dy, 0.0),
+                                   .stiffness =
+                                       ftm_lattice_axis_stiffness(&def->material, dx, dy, 0.0),
                                    .rest_length = -1.0}; /* = the rest positions' distance */
                 rc = ftm_mesh_builder_add_link(b, &ld);
                 if (rc)
-                    return link_failed(rc, who, def->spacing, def->spacing, err);
+                    return ftm_lattice_link_failed(rc, who, def->spacing, def->spacing, err);
             }
         }
     /* surface triangles, counter-clockwise seen from +z: two per cell between rows */
@@ -154,24 +195,19 @@ int ftm_generate_lattice3d(ftm_mesh_builder *b, const ftm_lattice3d_def *def, ft
     for (int32_t iz = 0; iz < nz; iz++)
         for (int32_t iy = 0; iy < ny; iy++)
             for (int32_t ix = 0; ix < nx; ix++) {
-                uint32_t f = def->fixed_faces;
-                bool fixed = ((f & FTM_FACE_XMIN) && ix == 0) || ((f & FTM_FACE_XMAX) && ix == nx - 1) ||
-                             ((f & FTM_FACE_YMIN) && iy == 0) || ((f & FTM_FACE_YMAX) && iy == ny - 1) ||
-                             ((f & FTM_FACE_ZMIN) && iz == 0) || ((f & FTM_FACE_ZMAX) && iz == nz - 1);
+                const int32_t at[3] = {ix, iy, iz}, dims[3] = {nx, ny, nz};
+                bool fixed = ftm_lattice_on_faces(def->fixed_faces, at, dims);
                 ftm_node_def nd = {.position = {ix * sp[0], iy * sp[1], iz * sp[2]},
                                    .mass = def->material.node_mass,
                                    .damping = def->material.node_damping,
                                    .fixed = fixed};
                 int32_t r = ftm_mesh_builder_add_node(b, &nd);
                 if (r < 0)
-                    return add_nodes_failed(r, who, err);
+                    return ftm_lattice_node_failed(r, who, err);
             }
     /* forward half-stencil: each undirected link once */
-    static const int8_t off[13][3] = {
-        {1, 0, 0}, {0, 1, 0}, {0, 0, 1},                                  /* edges */
-        {1, 1, 0}, {1, -1, 0}, {1, 0, 1}, {1, 0, -1}, {0, 1, 1}, {0, 1, -1}, /* face diagonals */
-        {1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {1, -1, -1}};                    /* body diagonals */
-    int noff = def->stencil == FTM_STENCIL_6 ? 3 : def->stencil == FTM_STENCIL_18 ? 9 : 13;
+    const int8_t(*off)[3] = ftm_lattice_offsets;
+    int noff = ftm_lattice_offset_count(def->stencil);
     for (int32_t iz = 0; iz < nz; iz++)
         for (int32_t iy = 0; iy < ny; iy++)
             for (int32_t ix = 0; ix < nx; ix++)
@@ -185,12 +221,13 @@ int ftm_generate_lattice3d(ftm_mesh_builder *b, const ftm_lattice3d_def *def, ft
                     ftm_link_def ld = {
                         .a = base + ix + nx * (iy + ny * iz),
                         .b = base + jx + nx * (jy + ny * jz),
-                        .stiffness = def->class_scale[cls] * axis_stiffness(&def->material, dx, dy, dz),
+                        .stiffness = def->class_scale[cls] *
+                                     ftm_lattice_axis_stiffness(&def->material, dx, dy, dz),
                         .rest_length = -1.0}; /* = the rest positions' distance */
                     rc = ftm_mesh_builder_add_link(b, &ld);
                     if (rc) {
                         const ftm_vec3 s = def->spacing;
-                        return link_failed(rc, who, fmin(s.x, fmin(s.y, s.z)),
+                        return ftm_lattice_link_failed(rc, who, fmin(s.x, fmin(s.y, s.z)),
                                            fmax(s.x, fmax(s.y, s.z)), err);
                     }
                 }
@@ -224,15 +261,7 @@ int ftm_generate_lattice3d(ftm_mesh_builder *b, const ftm_lattice3d_def *def, ft
                     id[t] = base + c[t][0] + nx * (c[t][1] + ny * c[t][2]);
                 }
                 /* counter-clockwise seen from outside: (u, v) order on the max side */
-                if (hi) {
-                    rc = ftm_mesh_builder_add_triangle(b, id[0], id[1], id[2]);
-                    if (!rc)
-                        rc = ftm_mesh_builder_add_triangle(b, id[0], id[2], id[3]);
-                } else {
-                    rc = ftm_mesh_builder_add_triangle(b, id[0], id[2], id[1]);
-                    if (!rc)
-                        rc = ftm_mesh_builder_add_triangle(b, id[0], id[3], id[2]);
-                }
+                rc = ftm_lattice_add_quad(b, id, hi);
                 if (rc)
                     return ftm_error_set(err, rc, "%s: cannot add triangle: %s", who,
                                          ftm_strerror(rc));

@@ -5,8 +5,9 @@
  * FTM_EUNSTABLE, leave no NaN in the state, leave the state unchanged when
  * a step is refused, and run twice to the same hash.
  *
- * Kept out: lattices over 40 nodes a side (the parser's own limits are unit
- * tested; big meshes only make the fuzzer slow) and paths into /dev, /proc
+ * Kept out: lattices over 40 nodes a side and phantoms over 64 voxels a side
+ * (the parser's own limits are unit tested; big meshes only make the fuzzer
+ * slow) and paths into /dev, /proc
  * or /sys (a scene may name any readable file, and /dev/stdin would block). */
 #include "fuzz.h"
 
@@ -28,8 +29,39 @@ static int contains(const char *text, size_t size, const char *word)
     return 0;
 }
 
+/* Whether a number above limit follows `key` on a line it starts
+ * ([volume]'s "nodes = 10 10 10", "voxels = 64"). */
+static int key_over(const char *text, size_t size, const char *key, long limit)
+{
+    size_t n = strlen(key);
+    for (size_t i = 0; i + n <= size; i++) {
+        if (memcmp(text + i, key, n) != 0)
+            continue;
+        size_t b = i; /* the key starts its line (fixed_nodes is another key) */
+        while (b > 0 && (text[b - 1] == ' ' || text[b - 1] == '\t'))
+            b--;
+        if (b > 0 && text[b - 1] != '\n')
+            continue;
+        long v = 0;
+        size_t digits = 0;
+        for (size_t j = i + n; j < size && text[j] != '\n'; j++) {
+            if (text[j] >= '0' && text[j] <= '9') {
+                v = 10 * v + (text[j] - '0');
+                if (++digits >= 8 || v > limit)
+                    return 1;
+            } else {
+                v = 0;
+                digits = 0;
+            }
+        }
+    }
+    return 0;
+}
+
 static int too_big(const char *text, size_t size)
 {
+    if (key_over(text, size, "nodes", 40) || key_over(text, size, "voxels", 64))
+        return 1;
     if (contains(text, size, "/dev") || contains(text, size, "/proc") ||
         contains(text, size, "/sys"))
         return 1;

@@ -8,6 +8,7 @@
 #include "ftm/mesh.h"
 #include "ftm/scene.h"
 #include "ftm/sim.h"
+#include "ftm/volume.h"
 
 #define FTM_VERSION_MAJOR 0
 #define FTM_VERSION_MINOR 1

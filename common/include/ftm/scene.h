@@ -7,6 +7,7 @@
 
 #include "ftm/generate.h"
 #include "ftm/sim.h"
+#include "ftm/volume.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -66,6 +67,12 @@ const ftm_scene_load *ftm_scene_loads(const ftm_scene *scene);
  * the scene has no [fem] section. Any pointer may be NULL. */
 bool ftm_scene_fem_material(const ftm_scene *scene, double *young, double *poisson,
                             double *density);
+
+/* The scene's [volume] (paper section 4.2): the image, and its embedding in
+ * the scene's mesh, which is then the volume's control lattice
+ * (docs/scene-format.md). NULL both for a scene without one. */
+const ftm_volume *ftm_scene_volume(const ftm_scene *scene);
+const ftm_ffd *ftm_scene_ffd(const ftm_scene *scene);
 
 /* The contacts the script prescribes at simulation time t [s]: writes at most
  * capacity entries and returns how many are active (loads not yet started or
