@@ -53,7 +53,7 @@ typedef struct options {
     double shot_timeout;
     double bench;
     bool json;
-    bool colormap, region, hud, verbose;
+    bool colormap, region, hud, volume, cut, verbose;
     double colormap_full;
 } options;
 
@@ -261,6 +261,8 @@ static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
         ftm_client_session_want_region(a->sess, a->ropts.region);
         break;
     case GLFW_KEY_H: a->ropts.hud = !a->ropts.hud; break;
+    case GLFW_KEY_V: a->ropts.volume = !a->ropts.volume; break;
+    case GLFW_KEY_X: a->ropts.cut = !a->ropts.cut; break;
     case GLFW_KEY_LEFT_BRACKET: a->ropts.colormap_full /= 1.5; break;
     case GLFW_KEY_RIGHT_BRACKET: a->ropts.colormap_full *= 1.5; break;
     case GLFW_KEY_HOME: a->cam_set = false; break;
@@ -389,6 +391,8 @@ static void usage(FILE *f)
             "view:\n"
             "  --size WxH               window size (default 1280x800)\n"
             "  --no-colormap --region --no-hud   initial display toggles (keys c, b, h)\n"
+            "  --no-volume              a scene's surface, not its volume (key v)\n"
+            "  --cut                    the volume cut away through its middle (key x)\n"
             "  --colormap-full MM       displacement at the top of the colour map\n"
             "  --swap-interval N        0: no vsync (default 1)\n"
             "  --msaa N                 multisample anti-aliasing samples (default 0; 4 looks\n"
@@ -417,7 +421,7 @@ static int parse(int argc, char **argv, options *o)
     o->swap_interval = 1;
     o->shot_contact = -1;
     o->shot_timeout = 60.0;
-    o->colormap = o->hud = true;
+    o->colormap = o->hud = o->volume = true;
     o->device = "mouse";
     o->renderer = "model";
     for (int i = 1; i < argc; i++) {
@@ -433,6 +437,10 @@ static int parse(int argc, char **argv, options *o)
             o->region = true;
         else if (strcmp(a, "--no-hud") == 0)
             o->hud = false;
+        else if (strcmp(a, "--no-volume") == 0)
+            o->volume = false;
+        else if (strcmp(a, "--cut") == 0)
+            o->cut = true;
         else if (strcmp(a, "--json") == 0)
             o->json = true;
         else if (strcmp(a, "--verbose") == 0)
@@ -646,11 +654,18 @@ static void new_mesh(app *a)
     ftm_error err = {0, ""};
     if (ftm_render_set_mesh(a->ren, a->view.mesh, &err))
         alog(a, FTM_LOG_ERROR, "%s", err.message);
+    if (ftm_render_set_volume(a->ren, a->view.volume, a->view.ffd, &err))
+        alog(a, FTM_LOG_ERROR, "%s", err.message);
     a->drawn_mesh = a->view.mesh;
     a->cam_set = false;
     if (!a->view.mesh)
         return;
     alog(a, FTM_LOG_INFO, "drawing %d surface triangles", (int)ftm_render_triangle_count(a->ren));
+    if (ftm_render_has_volume(a->ren)) {
+        ftm_volume_info vi = ftm_volume_get_info(a->view.volume);
+        alog(a, FTM_LOG_INFO, "drawing the scene's volume (%dx%dx%d voxels) as slices%s",
+             (int)vi.nx, (int)vi.ny, (int)vi.nz, a->ropts.volume ? "" : " (off: key v)");
+    }
     if (mouse_probe(a)) { /* the probe starts above the middle of the top */
         ftm_vec3 lo, hi;
         mesh_box(a->view.mesh, &lo, &hi);
@@ -835,6 +850,8 @@ static int run(app *a)
         info.triangles = ftm_render_triangle_count(a->ren);
         info.colormap = a->ropts.colormap;
         info.region = a->ropts.region;
+        info.volume = ftm_render_has_volume(a->ren) ? (a->ropts.volume ? 1 : -1) : 0;
+        info.volume_slices = ftm_render_volume_slices(a->ren);
         info.colormap_full =
             a->ropts.colormap_full > 0 ? a->ropts.colormap_full : 0.5 * ftm_render_link_length(a->ren);
         info.last_command = a->last_cmd[0] ? a->last_cmd : NULL;
@@ -1002,6 +1019,8 @@ int main(int argc, char **argv)
     a->ropts.colormap = a->o.colormap;
     a->ropts.region = a->o.region;
     a->ropts.hud = a->o.hud;
+    a->ropts.volume = a->o.volume;
+    a->ropts.cut = a->o.cut;
     a->ropts.colormap_full = a->o.colormap_full;
     int rc = 3;
     ftm_error err = {0, ""};

@@ -258,6 +258,8 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         const ftm_mesh *m = ftm_scene_mesh(s->scene);
         pthread_mutex_lock(&s->lock);
         s->shared.mesh = m;
+        s->shared.volume = ftm_scene_volume(s->scene);
+        s->shared.ffd = ftm_scene_ffd(s->scene);
         snprintf(s->shared.scene_name, sizeof s->shared.scene_name, "%s", name);
         pthread_mutex_unlock(&s->lock);
         publish_status(s, FTM_WIRE_STATE_JOINING); /* ask for a fresh keyframe */

@@ -78,6 +78,9 @@ typedef struct ftm_client_part {
 typedef struct ftm_client_view {
     uint64_t version;      /* changes whenever anything below does */
     const ftm_mesh *mesh;  /* NULL until the scene is loaded; lives as long as the session */
+    /* the scene's volume and its embedding in mesh (NULL: none; as long) */
+    const ftm_volume *volume;
+    const ftm_ffd *ffd;
     char scene_name[FTM_WIRE_NAME_MAX];
     int32_t node_count;
     double *pos; /* 3 * node_count, the replica's positions */

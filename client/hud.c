@@ -40,7 +40,11 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
     LINE("tick %" PRIu64 "%s  depth %d [%d..%d]  lag %" PRId64 " ticks (%.1f ms)", v->tick,
          v->paused ? " paused" : "", (int)v->depth, (int)v->depth_min, (int)v->depth_max,
          v->lag_ticks, v->latency_ms);
-    LINE("fps %.1f (%.1f ms)  %d triangles", in->fps, in->frame_ms, (int)in->triangles);
+    if (in->volume > 0)
+        LINE("fps %.1f (%.1f ms)  volume: %d slices, %d-triangle lattice", in->fps, in->frame_ms,
+             (int)in->volume_slices, (int)in->triangles);
+    else
+        LINE("fps %.1f (%.1f ms)  %d triangles", in->fps, in->frame_ms, (int)in->triangles);
     if (in->haptic) {
         const char *why = "";
         if (in->haptic_flags & (FTM_HAPTIC_DISCONNECTED | FTM_HAPTIC_DEVICE_LOST))
@@ -104,8 +108,13 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
                 LINE("%s%s", mark[0] ? "   " : "", t + cut + (t[cut] == ' '));
         }
     }
-    LINE("map %s (full %.1f mm)  region %s   c/b/h [ ] home", in->colormap ? "on" : "off",
-         in->colormap_full * 1e3, in->region ? "on" : "off");
+    if (in->volume)
+        LINE("map %s (full %.1f mm)  region %s  volume %s   c/b/h/v/x [ ] home",
+             in->colormap ? "on" : "off", in->colormap_full * 1e3, in->region ? "on" : "off",
+             in->volume > 0 ? "on" : "off");
+    else
+        LINE("map %s (full %.1f mm)  region %s   c/b/h [ ] home", in->colormap ? "on" : "off",
+             in->colormap_full * 1e3, in->region ? "on" : "off");
 #undef LINE
     return n;
 }

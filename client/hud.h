@@ -17,6 +17,8 @@ typedef struct ftm_hud_info {
     int haptic_flags;     /* FTM_HAPTIC_* */
     const char *renderer; /* "extrapolate" / "model" */
     bool colormap, region;
+    int volume;            /* the scene's volume: 1 drawn, -1 not (its surface is), 0 none */
+    int32_t volume_slices; /* drawn in the last frame */
     double colormap_full; /* [m] */
     const char *last_command; /* instructor: what was sent last; may be NULL */
     /* instructor: what became of a command, shown for a few seconds ("stiffness

@@ -1,11 +1,10 @@
 /* OpenGL 3.3 core drawing; see render.h. Mesa provides the entry points
  * directly (GL_GLEXT_PROTOTYPES), so no loader is needed. */
-#define GL_GLEXT_PROTOTYPES 1
-#include <GL/glcorearb.h>
-
 #include "render.h"
+#include "render_gl.h"
 
 #include "font.h"
+#include "volume_render.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -37,11 +36,17 @@ struct ftm_render {
 
     float *scratch; /* dynamic vertices */
     size_t scratch_cap;
+
+    ftm_volume_render *vol;
+    /* the control lattice's cage over a volume: the surface's edges but
+     * each triangle's longest (a quad's diagonal), as lines */
+    GLuint cage_vao, cage_ibo;
+    GLsizei cage_count;
 };
 
 ftm_render_opts ftm_render_default_opts(void)
 {
-    return (ftm_render_opts){true, 0.0, false, true, 2};
+    return (ftm_render_opts){true, 0.0, false, true, 2, true, false};
 }
 
 /* ---- shaders --------------------------------------------------------------------------- */
@@ -67,14 +72,7 @@ static const char *lit_fs =
     "in vec3 v_pos; in vec3 v_nrm; in float v_disp;\n"
     "uniform vec3 u_eye; uniform vec3 u_color; uniform int u_usemap; uniform float u_full;\n"
     "out vec4 o_color;\n"
-    "vec3 ramp(float t) {\n"
-    "  t = clamp(t, 0.0, 1.0);\n"
-    "  vec3 c0 = vec3(0.22,0.33,0.72), c1 = vec3(0.16,0.66,0.62), c2 = vec3(0.95,0.84,0.25),\n"
-    "       c3 = vec3(0.86,0.14,0.10);\n"
-    "  if (t < 1.0/3.0) return mix(c0, c1, t * 3.0);\n"
-    "  if (t < 2.0/3.0) return mix(c1, c2, t * 3.0 - 1.0);\n"
-    "  return mix(c2, c3, t * 3.0 - 2.0);\n"
-    "}\n"
+    FTM_GL_RAMP_GLSL
     "void main() {\n"
     "  vec3 n = normalize(v_nrm);\n"
     "  vec3 v = normalize(u_eye - v_pos);\n"
@@ -115,7 +113,7 @@ static const char *text_fs =
     "in vec2 v_uv; in vec4 v_color; uniform sampler2D u_tex; out vec4 o_color;\n"
     "void main() { float a = texture(u_tex, v_uv).r; o_color = vec4(v_color.rgb, v_color.a * a); }\n";
 
-static int gl_fail(ftm_error *err, const char *what, const char *log)
+int ftm_gl_fail(ftm_error *err, const char *what, const char *log)
 {
     if (err) {
         err->code = FTM_EINVAL;
@@ -134,14 +132,14 @@ static GLuint shader(GLenum type, const char *src, const char *what, ftm_error *
     if (!ok) {
         char log[400];
         glGetShaderInfoLog(s, sizeof log, NULL, log);
-        gl_fail(err, what, log);
+        ftm_gl_fail(err, what, log);
         glDeleteShader(s);
         return 0;
     }
     return s;
 }
 
-static GLuint program(const char *vs, const char *fs, const char *what, ftm_error *err)
+GLuint ftm_gl_program(const char *vs, const char *fs, const char *what, ftm_error *err)
 {
     GLuint v = shader(GL_VERTEX_SHADER, vs, what, err);
     if (!v)
@@ -162,7 +160,7 @@ static GLuint program(const char *vs, const char *fs, const char *what, ftm_erro
     if (!ok) {
         char log[400];
         glGetProgramInfoLog(p, sizeof log, NULL, log);
-        gl_fail(err, what, log);
+        ftm_gl_fail(err, what, log);
         glDeleteProgram(p);
         return 0;
     }
@@ -233,8 +231,19 @@ static void make_sphere(ftm_render *r)
     free(idx);
 }
 
-static void lit_layout(void)
+void ftm_gl_texture_params(GLenum target, GLint filter)
 {
+    glTexParameteri(target, GL_TEXTURE_MIN_FILTER, filter);
+    glTexParameteri(target, GL_TEXTURE_MAG_FILTER, filter);
+    glTexParameteri(target, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(target, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    if (target == GL_TEXTURE_3D)
+        glTexParameteri(target, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+}
+
+void ftm_gl_layout_331(void)
+{
+    _Static_assert(VERT_FLOATS == 7, "the surface's vertices are laid out 3, 3, 1");
     GLsizei stride = VERT_FLOATS * sizeof(float);
     glEnableVertexAttribArray(0);
     glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, (void *)0);
@@ -248,11 +257,11 @@ int ftm_render_create(ftm_render **out, ftm_error *err)
 {
     ftm_render *r = calloc(1, sizeof *r);
     if (!r)
-        return gl_fail(err, "render", "out of memory");
-    r->lit = program(lit_vs, lit_fs, "surface shader", err);
-    r->flat = r->lit ? program(flat_vs, flat_fs, "line shader", err) : 0;
-    r->text = r->flat ? program(text_vs, text_fs, "text shader", err) : 0;
-    if (!r->text) {
+        return ftm_gl_fail(err, "render", "out of memory");
+    r->lit = ftm_gl_program(lit_vs, lit_fs, "surface shader", err);
+    r->flat = r->lit ? ftm_gl_program(flat_vs, flat_fs, "line shader", err) : 0;
+    r->text = r->flat ? ftm_gl_program(text_vs, text_fs, "text shader", err) : 0;
+    if (!r->text || ftm_volume_render_create(&r->vol, err)) {
         ftm_render_destroy(r);
         return FTM_EINVAL;
     }
@@ -274,14 +283,14 @@ int ftm_render_create(ftm_render **out, ftm_error *err)
     glBindVertexArray(r->surf_vao);
     glBindBuffer(GL_ARRAY_BUFFER, r->surf_vbo);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->surf_ibo);
-    lit_layout();
+    ftm_gl_layout_331();
 
     glGenVertexArrays(1, &r->sph_vao);
     glGenBuffers(1, &r->sph_vbo);
     glGenBuffers(1, &r->sph_ibo);
     glBindVertexArray(r->sph_vao);
     glBindBuffer(GL_ARRAY_BUFFER, r->sph_vbo);
-    lit_layout();
+    ftm_gl_layout_331();
     make_sphere(r);
 
     glGenVertexArrays(1, &r->dyn_vao);
@@ -311,16 +320,13 @@ int ftm_render_create(ftm_render **out, ftm_error *err)
     glBindTexture(GL_TEXTURE_2D, r->font_tex);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_R8, AW, AH, 0, GL_RED, GL_UNSIGNED_BYTE, atlas);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    ftm_gl_texture_params(GL_TEXTURE_2D, GL_NEAREST);
     GLenum e = glGetError();
     if (e != GL_NO_ERROR) {
         char msg[64];
         snprintf(msg, sizeof msg, "GL error 0x%x", e);
         ftm_render_destroy(r);
-        return gl_fail(err, "set-up", msg);
+        return ftm_gl_fail(err, "set-up", msg);
     }
     *out = r;
     return FTM_OK;
@@ -344,6 +350,9 @@ void ftm_render_destroy(ftm_render *r)
         return;
     free_mesh(r);
     free(r->scratch);
+    ftm_volume_render_destroy(r->vol);
+    glDeleteBuffers(1, &r->cage_ibo);
+    glDeleteVertexArrays(1, &r->cage_vao);
     GLuint bufs[] = {r->surf_vbo, r->surf_ibo, r->sph_vbo, r->sph_ibo, r->dyn_vbo, r->text_vbo};
     glDeleteBuffers(6, bufs);
     GLuint vaos[] = {r->surf_vao, r->sph_vao, r->dyn_vao, r->text_vao};
@@ -368,7 +377,7 @@ int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, ftm_error *err)
     if (!map || !r->tri || !r->node) {
         free(map);
         free_mesh(r);
-        return gl_fail(err, "mesh", "out of memory");
+        return ftm_gl_fail(err, "mesh", "out of memory");
     }
     /* only surface nodes are drawn: compact them to render vertices */
     for (int32_t i = 0; i < n; i++)
@@ -387,7 +396,7 @@ int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, ftm_error *err)
     r->verts = malloc(((size_t)nv * VERT_FLOATS + 1) * sizeof *r->verts);
     if (!r->rest || !r->verts) {
         free_mesh(r);
-        return gl_fail(err, "mesh", "out of memory");
+        return ftm_gl_fail(err, "mesh", "out of memory");
     }
     for (int32_t i = 0; i < nv; i++) {
         ftm_vec3 p = ftm_mesh_rest_position(mesh, r->node[i]);
@@ -411,6 +420,81 @@ int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, ftm_error *err)
     return FTM_OK;
 }
 
+static int cmp_u64(const void *x, const void *y)
+{
+    uint64_t a = *(const uint64_t *)x, b = *(const uint64_t *)y;
+    return a < b ? -1 : a > b;
+}
+
+/* The cage's lines: each triangle's two shorter edges at rest, once each. */
+static int make_cage(ftm_render *r)
+{
+    r->cage_count = 0;
+    if (!r->ntri)
+        return 0;
+    uint64_t *e = malloc((size_t)r->ntri * 2 * sizeof *e);
+    if (!e)
+        return -1;
+    size_t n = 0;
+    for (int32_t t = 0; t < r->ntri; t++) {
+        const int32_t *v = r->tri + 3 * t;
+        double len[3];
+        for (int k = 0; k < 3; k++) {
+            const float *p = r->rest + 3 * v[k], *q = r->rest + 3 * v[(k + 1) % 3];
+            len[k] = (double)(p[0] - q[0]) * (p[0] - q[0]) + (double)(p[1] - q[1]) * (p[1] - q[1]) +
+                     (double)(p[2] - q[2]) * (p[2] - q[2]);
+        }
+        int longest = len[0] >= len[1] && len[0] >= len[2] ? 0 : len[1] >= len[2] ? 1 : 2;
+        for (int k = 0; k < 3; k++) {
+            if (k == longest)
+                continue;
+            uint32_t a = (uint32_t)v[k], b = (uint32_t)v[(k + 1) % 3];
+            e[n++] = a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a;
+        }
+    }
+    qsort(e, n, sizeof *e, cmp_u64);
+    GLuint *idx = malloc(2 * n * sizeof *idx + 1);
+    if (!idx) {
+        free(e);
+        return -1;
+    }
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        if (i == 0 || e[i] != e[i - 1]) {
+            idx[m++] = (GLuint)(e[i] >> 32);
+            idx[m++] = (GLuint)(e[i] & 0xffffffffu);
+        }
+    free(e);
+    if (!r->cage_vao) {
+        glGenVertexArrays(1, &r->cage_vao);
+        glGenBuffers(1, &r->cage_ibo);
+    }
+    glBindVertexArray(r->cage_vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->surf_vbo);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, VERT_FLOATS * sizeof(float), (void *)0);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->cage_ibo);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(m * sizeof *idx), idx, GL_STATIC_DRAW);
+    glBindVertexArray(0);
+    free(idx);
+    r->cage_count = (GLsizei)m;
+    return 0;
+}
+
+int ftm_render_set_volume(ftm_render *r, const ftm_volume *volume, const ftm_ffd *ffd,
+                          ftm_error *err)
+{
+    r->cage_count = 0;
+    int rc = ftm_volume_render_set(r->vol, volume, ffd, r->mesh ? ftm_mesh_node_count(r->mesh) : 0,
+                                   err);
+    if (rc == FTM_OK && ftm_volume_render_active(r->vol) && make_cage(r))
+        return ftm_gl_fail(err, "volume", "out of memory");
+    return rc;
+}
+
+bool ftm_render_has_volume(const ftm_render *r) { return ftm_volume_render_active(r->vol); }
+int32_t ftm_render_volume_slices(const ftm_render *r) { return ftm_volume_render_slices(r->vol); }
+
 int32_t ftm_render_triangle_count(const ftm_render *r) { return r->ntri; }
 double ftm_render_link_length(const ftm_render *r) { return r->link; }
 
@@ -418,6 +502,7 @@ void ftm_render_update(ftm_render *r, const ftm_client_view *v)
 {
     if (!r->mesh)
         return;
+    ftm_volume_render_update(r->vol, v->pos, v->node_count);
     bool have = v->pos && v->node_count == ftm_mesh_node_count(r->mesh);
     float *o = r->verts;
     for (int32_t i = 0; i < r->nvert; i++) {
@@ -651,11 +736,13 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
     static const float identity[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     double full = o->colormap_full > 0 ? o->colormap_full : (r->link > 0 ? 0.5 * r->link : 1e-3);
 
+    /* the volume, when drawn, stands for the surface */
+    bool volume = o->volume && ftm_volume_render_active(r->vol);
     glUseProgram(r->lit);
     glUniformMatrix4fv(r->lit_mvp, 1, GL_FALSE, mvp);
     glUniform3f(r->lit_eye, (float)eye.x, (float)eye.y, (float)eye.z);
     glUniform1f(r->lit_full, (float)full);
-    if (r->mesh && r->ntri > 0) {
+    if (r->mesh && r->ntri > 0 && !volume) {
         glUniformMatrix4fv(r->lit_model, 1, GL_FALSE, identity);
         glUniform3f(r->lit_color, 0.86f, 0.56f, 0.52f);
         glUniform1i(r->lit_usemap, o->colormap ? 1 : 0);
@@ -684,7 +771,11 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
             nl++;
     size_t npts = o->region && v->pos ? (size_t)v->region_count : 0;
     float *buf = scratch(r, (nl * 2 + npts + 1) * 3);
-    if (buf && (nl || npts)) {
+    if (!buf)
+        nl = npts = 0;
+    glUseProgram(r->flat);
+    glUniformMatrix4fv(r->flat_mvp, 1, GL_FALSE, mvp);
+    if (nl || npts) {
         size_t k = 0;
         for (int32_t i = 0; i < v->nprobes; i++) {
             const ftm_client_probe *p = &v->probes[i];
@@ -701,8 +792,6 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
             buf[k++] = (float)q[1];
             buf[k++] = (float)q[2];
         }
-        glUseProgram(r->flat);
-        glUniformMatrix4fv(r->flat_mvp, 1, GL_FALSE, mvp);
         glBindVertexArray(r->dyn_vao);
         glBindBuffer(GL_ARRAY_BUFFER, r->dyn_vbo);
         glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(k * sizeof(float)), buf, GL_STREAM_DRAW);
@@ -710,15 +799,33 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
             glUniform4f(r->flat_color, 1.0f, 1.0f, 1.0f, 1.0f);
             glDrawArrays(GL_LINES, 0, (GLsizei)(2 * nl));
         }
-        if (npts) {
-            /* the region shows through the surface: it is mostly inside */
-            glDisable(GL_DEPTH_TEST);
-            glEnable(GL_PROGRAM_POINT_SIZE);
-            glUniform1f(r->flat_size, 4.0f);
-            glUniform4f(r->flat_color, 1.0f, 0.92f, 0.2f, 1.0f);
-            glDrawArrays(GL_POINTS, (GLint)(2 * nl), (GLsizei)npts);
-            glEnable(GL_DEPTH_TEST);
+    }
+    if (volume) {
+        /* after everything opaque: the slices, back to front, then the
+         * control lattice's surface as a faint cage over them */
+        ftm_volume_render_draw(r->vol, mvp, eye, o->colormap, o->cut, full, w, h);
+        if (r->mesh && r->cage_count > 0) {
+            glUseProgram(r->flat);
+            glEnable(GL_BLEND);
+            glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+            glDepthMask(GL_FALSE);
+            glUniform4f(r->flat_color, 0.75f, 0.85f, 1.0f, 0.14f);
+            glBindVertexArray(r->cage_vao);
+            glDrawElements(GL_LINES, r->cage_count, GL_UNSIGNED_INT, (void *)0);
+            glDepthMask(GL_TRUE);
+            glDisable(GL_BLEND);
         }
+    }
+    if (npts) {
+        /* the region shows through the surface: it is mostly inside */
+        glUseProgram(r->flat);
+        glBindVertexArray(r->dyn_vao);
+        glDisable(GL_DEPTH_TEST);
+        glEnable(GL_PROGRAM_POINT_SIZE);
+        glUniform1f(r->flat_size, 4.0f);
+        glUniform4f(r->flat_color, 1.0f, 0.92f, 0.2f, 1.0f);
+        glDrawArrays(GL_POINTS, (GLint)(2 * nl), (GLsizei)npts);
+        glEnable(GL_DEPTH_TEST);
     }
     glBindVertexArray(0);
     draw_text(r, v, w, h, o, hud, nhud);

@@ -1,7 +1,8 @@
 /* OpenGL 3.3 core drawing of the client: the deformed surface (normals
  * recomputed from the replayed positions), an optional colour map of the
  * displacement magnitude, the probes (HIPs) and their contacts, the active
- * BFS region, and the HUD text. Runs on the render thread only, with the
+ * BFS region, the HUD text, and a scene's embedded volume (volume_render.h)
+ * in place of the surface, which is then a light wireframe. Runs on the render thread only, with the
  * context current. */
 #ifndef FTM_CLIENT_RENDER_H
 #define FTM_CLIENT_RENDER_H
@@ -17,6 +18,8 @@ typedef struct ftm_render_opts {
     bool region;          /* draw the BFS region's nodes */
     bool hud;
     int text_scale;       /* HUD pixels per font pixel */
+    bool volume;          /* the scene's volume, if it has one, rather than its surface */
+    bool cut;             /* the volume's half nearer the eye left out: its inside shows */
 } ftm_render_opts;
 
 ftm_render_opts ftm_render_default_opts(void);
@@ -30,6 +33,14 @@ int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, ftm_error *err);
 int32_t ftm_render_triangle_count(const ftm_render *r);
 /* Mean link length of the mesh set (0 without one): sizes the probe markers. */
 double ftm_render_link_length(const ftm_render *r);
+
+/* The scene's volume and its embedding in the mesh set (both NULL: none);
+ * uploads the image. */
+int ftm_render_set_volume(ftm_render *r, const ftm_volume *volume, const ftm_ffd *ffd,
+                          ftm_error *err);
+bool ftm_render_has_volume(const ftm_render *r);
+/* Slices of the volume along the axis drawn last (0: no volume). */
+int32_t ftm_render_volume_slices(const ftm_render *r);
 
 /* New positions: recomputes normals and displacements, uploads them. */
 void ftm_render_update(ftm_render *r, const ftm_client_view *v);

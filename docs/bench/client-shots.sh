@@ -57,4 +57,18 @@ for i in 1 2; do
     pids="$pids $!"
 done
 shot docs/img/client-instructor.png --role instructor --screenshot-contact 300
-echo "wrote docs/img/client-press.png docs/img/client-region.png docs/img/client-instructor.png"
+kill $pids 2>/dev/null || true
+pids=
+sleep 1
+
+# 4. the built-in head scene: a volume embedded in its control lattice (paper
+#    4.2), drawn as deformed slices, a trainee pressing the top of the head
+session_start volume head
+"$B/client/ftm-bot" --role trainee --script tests/client_gl/head.bot $common --id 11 \
+    --duration 50 >/dev/null 2>&1 &
+pids="$pids $!"
+shot docs/img/client-volume.png --role observer --screenshot-contact 300
+# 5. the same, cut away through the middle (key x): the section
+shot docs/img/client-volume-cut.png --role observer --cut --screenshot-contact 300
+echo "wrote docs/img/client-press.png docs/img/client-region.png docs/img/client-instructor.png" \
+    "docs/img/client-volume.png docs/img/client-volume-cut.png"

@@ -15,6 +15,12 @@
 #       banner (checked in its screenshot) and keeps running. Then a
 #       server restarted (a new process on the session): the client rejoins;
 #       and restarted with another scene: the client loads and draws it.
+#   volume: the built-in `head` scene (a head phantom embedded in a 10x10x10
+#       control lattice, paper 4.2): the client draws the volume (the middle
+#       of the view drawn, the corners background; unlike its --no-volume
+#       surface), and once a scripted trainee (head.bot) has pressed the top
+#       for 200 ticks, the pixels around the contact changed; cut away
+#       (--cut, key x) it shows something other than the whole volume.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
 set -u
 mode=${1:?mode}
@@ -198,6 +204,39 @@ badinput)
          END { exit !ok }' "$dir/restart.log" || fail "the client did not sync on the new scene"
     grep -q "screenshot .* tick [0-9]*, contact none" "$dir/restart.log" || fail "no screenshot"
     echo "PASS badinput"
+    ;;
+volume)
+    start_server --scene head
+    client before --screenshot "$dir/before.png" --screenshot-timeout 40 ||
+        fail "client (undeformed) exited with $?"
+    grep -q "drawing the scene's volume" "$dir/before.log" || fail "the client drew no volume"
+    client surface --no-volume --screenshot "$dir/surface.png" --screenshot-timeout 40 ||
+        fail "client (surface) exited with $?"
+    # the view's middle: the target (the head's centre) is drawn at the
+    # centre of the rows below the HUD
+    set -- $(sed -n 's/^screenshot .* \([0-9]*\)x\([0-9]*\) tick .* view-top \([0-9]*\) .*/\1 \2 \3/p' \
+        "$dir/before.out")
+    [ $# -eq 3 ] || fail "no size or view top in the client's screenshot line"
+    cx=$(( $1 / 2 )) cy=$(( $3 + ($2 - $3) / 2 ))
+    "$FTM_PNG_CHECK" drawn "$dir/before.png" $cx $cy 60 || fail "png check: volume not drawn"
+    "$FTM_PNG_CHECK" compare "$dir/surface.png" "$dir/before.png" $cx $cy 60 ||
+        fail "png check: the volume looks like the surface"
+    timeout 100 "$FTM_BOT" --role trainee --script "$FTM_DATA/head.bot" $common --id 11 \
+        --duration 80 >"$dir/bot.out" 2>"$dir/bot.err" &
+    client after --screenshot "$dir/after.png" --screenshot-contact 200 --screenshot-timeout 60 ||
+        fail "client (deformed) exited with $?"
+    set -- $(sed -n 's/^screenshot .* contact \([0-9]*\) \([0-9]*\)$/\1 \2/p' "$dir/after.out")
+    [ $# -eq 2 ] || fail "no contact pixel in the client's screenshot line"
+    "$FTM_PNG_CHECK" compare "$dir/before.png" "$dir/after.png" "$1" "$2" 40 ||
+        fail "png check: the volume did not change at the contact"
+    # the cut-away (key x): the section through the middle, not the outside
+    client cut --cut --screenshot "$dir/cut.png" --screenshot-contact 200 \
+        --screenshot-timeout 60 || fail "client (cut away) exited with $?"
+    "$FTM_PNG_CHECK" drawn "$dir/cut.png" $cx $cy 60 || fail "png check: cut-away not drawn"
+    "$FTM_PNG_CHECK" compare "$dir/after.png" "$dir/cut.png" $cx $cy 60 ||
+        fail "png check: the cut-away looks like the whole volume"
+    [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
+    echo "PASS volume: $(cat "$dir/after.out")"
     ;;
 *)
     echo "unknown mode $mode"; exit 2 ;;

@@ -7,6 +7,11 @@
  *   client-png-check banner IMAGE.png
  *       the image shows text and the red error banner (a band of
  *       banner-red pixels near the top, where ftm-client draws it).
+ *   client-png-check drawn IMAGE.png X Y R
+ *       something is drawn around (X, Y) (the middle of the view: a volume):
+ *       at least 90% of the pixels within R of it differ from the
+ *       background (the colour of the bottom corners, which must agree), and
+ *       the image's corners below its top quarter are background.
  * Exit 0 pass, 1 fail (with the reason), 2 usage or unreadable file. */
 #include <math.h>
 #include <png.h>
@@ -188,13 +193,68 @@ static int banner(const char *path)
     return 0;
 }
 
+static int dist3(const unsigned char *p, const unsigned char *q)
+{
+    return abs(p[0] - q[0]) + abs(p[1] - q[1]) + abs(p[2] - q[2]);
+}
+
+static int drawn(const char *path, int cx, int cy, int r)
+{
+    image a;
+    if (load(path, &a))
+        return 2;
+    int rc = 1;
+    const unsigned char *bg = a.rgb + (size_t)(a.h - 1) * a.w * 3;
+    const unsigned char *bg2 = bg + (size_t)(a.w - 1) * 3;
+    long inside = 0, differ = 0, corner = 0, corner_differ = 0;
+    const int c = 40; /* corner patches, c x c pixels */
+    if (not_blank(path, &a, 20))
+        goto out;
+    if (dist3(bg, bg2) > 6) {
+        printf("FAIL: the bottom corners differ (%d %d %d vs %d %d %d): no background there\n",
+               bg[0], bg[1], bg[2], bg2[0], bg2[1], bg2[2]);
+        goto out;
+    }
+    for (int y = 0; y < a.h; y++)
+        for (int x = 0; x < a.w; x++) {
+            const unsigned char *p = a.rgb + ((size_t)y * a.w + x) * 3;
+            long dx = x - cx, dy = y - cy;
+            if (dx * dx + dy * dy <= (long)r * r) {
+                inside++;
+                differ += dist3(p, bg) > 30;
+            }
+            if (y >= a.h / 4 && (y < a.h / 4 + c || y >= a.h - c) && (x < c || x >= a.w - c)) {
+                corner++;
+                corner_differ += dist3(p, bg) > 6;
+            }
+        }
+    printf("%s: background %d %d %d; within %d of (%d, %d): %ld of %ld pixels drawn (%.1f%%); "
+           "corners: %ld of %ld not background\n",
+           path, bg[0], bg[1], bg[2], r, cx, cy, differ, inside,
+           inside ? 100.0 * differ / inside : 0.0, corner_differ, corner);
+    if (!inside || differ < 0.9 * inside)
+        printf("FAIL: the middle of the view is not drawn\n");
+    else if (corner_differ > corner / 100)
+        printf("FAIL: something is drawn in the corners\n");
+    else {
+        printf("PASS\n");
+        rc = 0;
+    }
+out:
+    free(a.rgb);
+    return rc;
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 7 && strcmp(argv[1], "compare") == 0)
         return compare(argv[2], argv[3], atoi(argv[4]), atoi(argv[5]), atoi(argv[6]));
     if (argc == 3 && strcmp(argv[1], "banner") == 0)
         return banner(argv[2]);
+    if (argc == 6 && strcmp(argv[1], "drawn") == 0)
+        return drawn(argv[2], atoi(argv[3]), atoi(argv[4]), atoi(argv[5]));
     fprintf(stderr, "usage: client-png-check compare BEFORE.png AFTER.png X Y R\n"
-                    "       client-png-check banner IMAGE.png\n");
+                    "       client-png-check banner IMAGE.png\n"
+                    "       client-png-check drawn IMAGE.png X Y R\n");
     return 2;
 }
