@@ -9,34 +9,8 @@ set -eu
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/ftm_test_cli.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT INT TERM
 
-passed=0
-failed=0
-
-ok() {
-    passed=$((passed + 1))
-    echo "ok   $1"
-}
-
-not_ok() {
-    failed=$((failed + 1))
-    echo "FAIL $1" >&2
-    if [ -s "$tmp/err" ]; then
-        sed 's/^/     stderr: /' "$tmp/err" >&2
-    fi
-}
-
-# run ARGS...: runs ftm, stdout in $tmp/out, stderr in $tmp/err, status in $rc.
-run() {
-    rc=0
-    "$FTM" "$@" >"$tmp/out" 2>"$tmp/err" || rc=$?
-}
-
-# check NAME CONDITION...: passes if the condition command succeeds.
-check() {
-    name=$1
-    shift
-    if "$@"; then ok "$name"; else not_ok "$name"; fi
-}
+# run, check, check_summary
+. "$(cd "$(dirname "$0")" && pwd)/check.sh"
 
 # same A B / differ A B: both non-empty and equal / different.
 same() { [ -n "$1" ] && [ "$1" = "$2" ]; }
@@ -96,7 +70,7 @@ short=$(hash_of "$tmp/out")
 check "--steps changes the run" differ "$short" "$first"
 
 # The built-ins must run stably: no step rolled back by the stability guard.
-for name in default table3 membrane; do
+for name in default table3 membrane head; do
     run sim "$name"
     check "$name runs without guard events" grep -q '^guard  *0 events' "$tmp/out"
 done
@@ -128,7 +102,7 @@ done
 
 # The documented copies of the built-ins must stay identical to them.
 docs="$FTM_TEST_DATA/../../docs/scenes"
-for name in default table3 membrane; do
+for name in default table3 membrane head; do
     if [ -f "$docs/$name.scene" ]; then
         run sim "$name" --steps 300 --quiet
         builtin_hash=$(hash_of "$tmp/out")
@@ -327,5 +301,4 @@ if "$FTM" help | grep -q '^  fit '; then
     check "fit takes the largest seed" [ "$rc" -eq 0 ]
 fi
 
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+check_summary

@@ -20,10 +20,14 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "usage: ftm experiment NAME [--csv-dir DIR] [--json] [--quick] [--observe T]\n\n"
-            "experiments (Choi, Sun, Heng 2004, section 4.1):\n"
+            "experiments (Choi, Sun, Heng 2004, sections 4.1, 4.2 and 4.4):\n"
             "  depth       optimum penetration depth by calibration, k = 0.5, 2, 5 (Figs. 9-10)\n"
             "  tissue      creep, hysteresis, load-deformation for three dampings (Fig. 11)\n"
-            "  anisotropy  transversely isotropic lattices A, B and an isotropic control (Fig. 12)\n\n"
+            "  anisotropy  transversely isotropic lattices A, B and an isotropic control (Fig. 12)\n"
+            "  volume      a volume deformed through its control lattice (section 4.2; its own\n"
+            "              options: ftm experiment volume --help)\n"
+            "  organs      surface organs pressed by a probe (section 4.4; its own options:\n"
+            "              ftm experiment organs --help)\n\n"
             "options:\n"
             "  --csv-dir DIR    write the experiment's CSV files into DIR\n"
             "  --json           print the results as one JSON object\n"
@@ -67,10 +71,7 @@ static int close_csv(const exp_opts *o, const char *name, FILE *f)
 
 static void jnum(double v)
 {
-    if (isfinite(v))
-        printf("%.6g", v);
-    else
-        printf("null");
+    ftm_json_number(stdout, v, 6);
 }
 
 /* ---- depth ---- */
@@ -408,6 +409,14 @@ int ftm_cmd_experiment(int argc, char **argv)
             fprintf(stderr, "ftm experiment: unknown option '%s'\n", a);
             usage(stderr);
             return 2;
+        } else if (!name && (strcmp(a, "volume") == 0 || strcmp(a, "organs") == 0)) {
+            if (o.csv_dir || o.quick || o.observe_time >= 0) {
+                fprintf(stderr, "ftm experiment: %s takes its own options after its name "
+                                "(ftm experiment %s --help)\n", a, a);
+                return 2;
+            }
+            return a[0] == 'v' ? ftm_experiment_volume(argc - i, argv + i, o.json)
+                               : ftm_experiment_organs(argc - i, argv + i, o.json);
         } else if (!name) {
             name = a;
         } else {

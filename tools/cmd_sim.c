@@ -264,13 +264,10 @@ static void json_string(FILE *out, const char *s)
     fputc('"', out);
 }
 
-/* A JSON number, or null for a non-finite value (JSON has no infinity). */
+/* A JSON number that reads back exactly, or null (commands.h). */
 static void json_number(FILE *out, double v)
 {
-    if (isfinite(v))
-        fprintf(out, "%.17g", v);
-    else
-        fputs("null", out);
+    ftm_json_number(out, v, 17);
 }
 
 /* Whether a group still had a displacement contact in the last step. */

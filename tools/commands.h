@@ -14,6 +14,10 @@
  * -1; else 0. */
 int ftm_close_output(FILE *f, const char *who, const char *path);
 
+/* A JSON number with that many significant digits, or null for a
+ * non-finite value (JSON has no infinity or NaN). */
+void ftm_json_number(FILE *f, double v, int digits);
+
 /* Option values: all of s one finite number (strtod's syntax), or one
  * whole decimal integer in [lo, hi]; false (and *out untouched) if not. */
 bool ftm_cli_double(const char *s, double *out);
@@ -24,6 +28,11 @@ int ftm_cmd_bench(int argc, char **argv);
 int ftm_cmd_fem(int argc, char **argv); /* only with FTM_HAVE_FEM (ftm_fem linked) */
 int ftm_cmd_fit(int argc, char **argv); /* only with FTM_HAVE_FEM: parameter identification */
 int ftm_cmd_experiment(int argc, char **argv);
+/* `ftm experiment volume` (exp_volume.c): argv[0] is "volume"; json when
+ * --json came before the name. */
+int ftm_experiment_volume(int argc, char **argv, bool json);
+/* `ftm experiment organs` (exp_organs.c), the same way. */
+int ftm_experiment_organs(int argc, char **argv, bool json);
 int ftm_cmd_stability(int argc, char **argv);
 
 #endif

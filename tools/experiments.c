@@ -77,7 +77,7 @@ static int set_force(ftm_sim *sim, const int32_t *nodes, int count, ftm_vec3 eac
     return ftm_sim_set_contacts(sim, c, count, NULL);
 }
 
-static double max_displacement(const ftm_sim *sim, const ftm_mesh *mesh)
+double ftm_exp_max_displacement(const ftm_sim *sim, const ftm_mesh *mesh)
 {
     const double *x = ftm_sim_positions(sim);
     double best = 0.0;
@@ -92,10 +92,7 @@ static double max_displacement(const ftm_sim *sim, const ftm_mesh *mesh)
     return sqrt(best);
 }
 
-/* Runs until no node moves more than tol * (largest displacement) over an
- * interval of `every` steps, or max_steps. Returns the steps taken, or a
- * negative code if a step failed. */
-static int run_to_rest(ftm_sim *sim, const ftm_mesh *mesh, double tol, int every, int max_steps)
+int ftm_exp_run_to_rest(ftm_sim *sim, const ftm_mesh *mesh, double tol, int every, int max_steps)
 {
     int32_t n = ftm_mesh_node_count(mesh);
     double *snap = malloc((size_t)n * 3 * sizeof *snap);
@@ -112,12 +109,29 @@ static int run_to_rest(ftm_sim *sim, const ftm_mesh *mesh, double tol, int every
         double moved = 0.0;
         for (int32_t i = 0; i < 3 * n; i++)
             moved = fmax(moved, fabs(x[i] - snap[i]));
-        double u = max_displacement(sim, mesh);
+        double u = ftm_exp_max_displacement(sim, mesh);
         if (moved <= tol * u)
             break;
     }
     free(snap);
     return rc ? rc : steps;
+}
+
+double ftm_exp_shape_change(const ftm_mesh *mesh, const double *prev, const double *cur,
+                            double *max_disp)
+{
+    int32_t nn = ftm_mesh_node_count(mesh);
+    double u = 0.0, d = 0.0;
+    for (int32_t i = 0; i < nn; i++) {
+        ftm_vec3 X = ftm_mesh_rest_position(mesh, i);
+        u = fmax(u, hypot(hypot(cur[3 * i] - X.x, cur[3 * i + 1] - X.y), cur[3 * i + 2] - X.z));
+        if (prev)
+            d = fmax(d, hypot(hypot(cur[3 * i] - prev[3 * i], cur[3 * i + 1] - prev[3 * i + 1]),
+                              cur[3 * i + 2] - prev[3 * i + 2]));
+    }
+    if (max_disp)
+        *max_disp = u;
+    return u > 0 ? d / u : 0.0;
 }
 
 static int32_t node_of(const ftm_mesh *mesh, int input)
@@ -161,7 +175,7 @@ static int depth_run(const ftm_exp_depth_def *def, const ftm_mesh *mesh, int dep
         if (def->observe_time > 0) {
             rc = ftm_sim_run(sim, (int32_t)lround(def->observe_time / def->time_step));
         } else {
-            int s = run_to_rest(sim, mesh, def->rest_tol, 100, 400000);
+            int s = ftm_exp_run_to_rest(sim, mesh, def->rest_tol, 100, 400000);
             rc = s < 0 ? s : FTM_OK;
         }
     }
@@ -211,19 +225,12 @@ int ftm_exp_depth(const ftm_exp_depth_def *def, ftm_exp_depth_result *r)
             rc = depth_run(def, mesh, n, cur, prof);
             if (rc)
                 break;
-            double u = 0.0;
-            for (int32_t i = 0; i < nn; i++) {
-                ftm_vec3 X = ftm_mesh_rest_position(mesh, i);
-                u = fmax(u, hypot(hypot(cur[3 * i] - X.x, cur[3 * i + 1] - X.y), cur[3 * i + 2] - X.z));
-            }
+            double u;
+            double change = ftm_exp_shape_change(mesh, n >= 2 ? prev : NULL, cur, &u);
             if (n <= def->max_depth)
                 r->max_disp[k][n] = u;
             if (n >= 2) {
-                double d = 0.0;
-                for (int32_t i = 0; i < nn; i++)
-                    d = fmax(d, hypot(hypot(cur[3 * i] - prev[3 * i], cur[3 * i + 1] - prev[3 * i + 1]),
-                                      cur[3 * i + 2] - prev[3 * i + 2]));
-                r->change[k][n - 1] = u > 0 ? d / u : 0.0;
+                r->change[k][n - 1] = change;
                 if (r->calibrated[k] < 0 && r->change[k][n - 1] < def->threshold)
                     r->calibrated[k] = n - 1;
             }
@@ -369,7 +376,7 @@ static int tissue_static(const ftm_exp_tissue_def *def, const tissue_setup *t, d
         return FTM_EINVAL;
     int rc = set_force(sim, t->top, t->ntop, (ftm_vec3){0, F / t->ntop, 0});
     if (!rc) {
-        int s = run_to_rest(sim, t->mesh, 1e-9, 200, 1000000);
+        int s = ftm_exp_run_to_rest(sim, t->mesh, 1e-9, 200, 1000000);
         rc = s < 0 ? s : FTM_OK;
     }
     if (!rc)
@@ -553,7 +560,7 @@ int ftm_exp_aniso(const ftm_exp_aniso_def *def, ftm_exp_aniso_result *r)
             ftm_vec3 f = l == FTM_EXP_VERTICAL ? (ftm_vec3){0, 0, -def->force}
                                                : (ftm_vec3){def->force, 0, 0};
             int rc = set_force(sim, &load, 1, f);
-            int steps = rc ? rc : run_to_rest(sim, mesh, def->rest_tol, 200, 2000000);
+            int steps = rc ? rc : ftm_exp_run_to_rest(sim, mesh, def->rest_tol, 200, 2000000);
             if (steps < 0) {
                 ftm_sim_destroy(sim);
                 ftm_mesh_destroy(mesh);
@@ -868,7 +875,7 @@ static int stab_once(const ftm_stab_def *def, const ftm_stab_config *c, const ft
             rc = st;
             break;
         }
-        double u = max_displacement(sim, mesh);
+        double u = ftm_exp_max_displacement(sim, mesh);
         if (!isfinite(u)) {
             out->nan_seen = true;
             blown = true;

@@ -9,6 +9,27 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+struct ftm_sim;
+struct ftm_mesh;
+
+/* ---- helpers shared with `ftm experiment volume` (exp_volume.c) ---------- */
+
+/* Largest |x_i - X_i| over the mesh's nodes [m] (NaN if a position is). */
+double ftm_exp_max_displacement(const struct ftm_sim *sim, const struct ftm_mesh *mesh);
+/* Runs until no node moves more than tol * (largest displacement) over an
+ * interval of `every` steps, or max_steps. Returns the steps taken, or a
+ * negative code if a step failed. */
+int ftm_exp_run_to_rest(struct ftm_sim *sim, const struct ftm_mesh *mesh, double tol, int every,
+                        int max_steps);
+
+/* The optimum-depth rule's measure (paper 3.1.3): the largest nodal position
+ * change from the shape prev (depth n) to cur (depth n+1, 3 doubles a node),
+ * relative to cur's largest displacement from rest (*max_disp, may be NULL;
+ * prev NULL: change 0). The optimum depth is the smallest n whose change is
+ * below a threshold. */
+double ftm_exp_shape_change(const struct ftm_mesh *mesh, const double *prev, const double *cur,
+                            double *max_disp);
+
 #define FTM_EXP_MAX_K 8
 #define FTM_EXP_MAX_DEPTH 48
 #define FTM_EXP_MAX_NX 101

@@ -86,6 +86,14 @@ static int run(int argc, char **argv)
     return c->run(argc - 1, argv + 1);
 }
 
+void ftm_json_number(FILE *f, double v, int digits)
+{
+    if (isfinite(v))
+        fprintf(f, "%.*g", digits, v);
+    else
+        fputs("null", f);
+}
+
 int ftm_close_output(FILE *f, const char *who, const char *path)
 {
     bool failed = ferror(f) != 0;

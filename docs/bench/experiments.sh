@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Reproduces docs/experiments.md and docs/stability.md: runs the paper's
 # experiments and the stability sweep, keeps their tables and CSV under
-# docs/bench/experiments/, and draws docs/img/{depth,tissue,anisotropy,stability}.png.
+# docs/bench/experiments/, and draws docs/img/{depth,tissue,anisotropy,stability}.png;
+# docs/bench/volume.sh does the volume experiment (docs/img/volume-*.png).
 #   docs/bench/experiments.sh [path/to/ftm] [--quick]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -111,4 +112,6 @@ GP
 
 # the stability sweep and its plot
 docs/bench/stability.sh "$ftm" "$@"
-echo "wrote $out/* docs/img/depth.png docs/img/tissue.png docs/img/anisotropy.png docs/img/stability.png"
+# the volume in its control lattice (paper 4.2): the phantom, and the MRI if at hand
+docs/bench/volume.sh "$ftm"
+echo "wrote $out/* docs/img/depth.png docs/img/tissue.png docs/img/anisotropy.png docs/img/stability.png docs/img/volume-*.png"

@@ -10,32 +10,8 @@ set -eu
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/ftm_test_fem_cli.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT INT TERM
 
-passed=0
-failed=0
-
-ok() {
-    passed=$((passed + 1))
-    echo "ok   $1"
-}
-
-not_ok() {
-    failed=$((failed + 1))
-    echo "FAIL $1" >&2
-    if [ -s "$tmp/err" ]; then
-        sed 's/^/     stderr: /' "$tmp/err" >&2
-    fi
-}
-
-run() {
-    rc=0
-    "$FTM" "$@" >"$tmp/out" 2>"$tmp/err" || rc=$?
-}
-
-check() {
-    name=$1
-    shift
-    if "$@"; then ok "$name"; else not_ok "$name"; fi
-}
+# run, check, check_summary
+. "$(cd "$(dirname "$0")" && pwd)/../check.sh"
 
 # awk_true FILE PROGRAM: the awk program's exit status (0 = condition held)
 awk_true() {
@@ -177,5 +153,4 @@ run fem "$tmp/flat.scene"
 check "2D lattice exits 2" [ "$rc" -eq 2 ]
 check "2D lattice is explained" grep -q 'no hexahedra or tetrahedra' "$tmp/err"
 
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+check_summary
