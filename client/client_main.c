@@ -54,6 +54,7 @@ typedef struct options {
     double bench;
     bool json;
     bool colormap, region, hud, volume, cut, verbose;
+    int volume_step;
     double colormap_full;
 } options;
 
@@ -263,6 +264,12 @@ static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
     case GLFW_KEY_H: a->ropts.hud = !a->ropts.hud; break;
     case GLFW_KEY_V: a->ropts.volume = !a->ropts.volume; break;
     case GLFW_KEY_X: a->ropts.cut = !a->ropts.cut; break;
+    case GLFW_KEY_N: /* fewer slices, then all again: 1, 2, 5, 10 */
+        a->ropts.volume_step = a->ropts.volume_step == 1   ? 2
+                               : a->ropts.volume_step == 2 ? 5
+                               : a->ropts.volume_step == 5 ? 10
+                                                           : 1;
+        break;
     case GLFW_KEY_LEFT_BRACKET: a->ropts.colormap_full /= 1.5; break;
     case GLFW_KEY_RIGHT_BRACKET: a->ropts.colormap_full *= 1.5; break;
     case GLFW_KEY_HOME: a->cam_set = false; break;
@@ -393,6 +400,8 @@ static void usage(FILE *f)
             "  --no-colormap --region --no-hud   initial display toggles (keys c, b, h)\n"
             "  --no-volume              a scene's surface, not its volume (key v)\n"
             "  --cut                    the volume cut away through its middle (key x)\n"
+            "  --volume-step N          draw every Nth slice of a volume: 1 (default, 9 between\n"
+            "                           node planes, as the paper), 2, 5, 10 (key n)\n"
             "  --colormap-full MM       displacement at the top of the colour map\n"
             "  --swap-interval N        0: no vsync (default 1)\n"
             "  --msaa N                 multisample anti-aliasing samples (default 0; 4 looks\n"
@@ -422,6 +431,7 @@ static int parse(int argc, char **argv, options *o)
     o->shot_contact = -1;
     o->shot_timeout = 60.0;
     o->colormap = o->hud = o->volume = true;
+    o->volume_step = 1;
     o->device = "mouse";
     o->renderer = "model";
     for (int i = 1; i < argc; i++) {
@@ -507,7 +517,15 @@ static int parse(int argc, char **argv, options *o)
             o->bench = strtod(v, &end);
         else if (strcmp(a, "--colormap-full") == 0)
             o->colormap_full = strtod(v, &end) * 1e-3;
-        else if (strcmp(a, "--msaa") == 0) {
+        else if (strcmp(a, "--volume-step") == 0) {
+            bad = ftm_option_int_arg("ftm-client", a, v, 1, 10, &n);
+            if (!bad && n != 1 && n != 2 && n != 5 && n != 10) {
+                fprintf(stderr, "ftm-client: --volume-step: 1, 2, 5 or 10 (a divisor of the 10 "
+                                "slices per lattice cell), got %lld\n", n);
+                return -1;
+            }
+            o->volume_step = (int)n;
+        } else if (strcmp(a, "--msaa") == 0) {
             bad = ftm_option_int_arg("ftm-client", a, v, 0, 16, &n);
             o->msaa = (int)n;
         } else if (strcmp(a, "--swap-interval") == 0) {
@@ -1021,6 +1039,7 @@ int main(int argc, char **argv)
     a->ropts.hud = a->o.hud;
     a->ropts.volume = a->o.volume;
     a->ropts.cut = a->o.cut;
+    a->ropts.volume_step = a->o.volume_step;
     a->ropts.colormap_full = a->o.colormap_full;
     int rc = 3;
     ftm_error err = {0, ""};

@@ -109,7 +109,7 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         }
     }
     if (in->volume)
-        LINE("map %s (full %.1f mm)  region %s  volume %s   c/b/h/v/x [ ] home",
+        LINE("map %s (full %.1f mm)  region %s  volume %s   c/b/h/v/x/n [ ] home",
              in->colormap ? "on" : "off", in->colormap_full * 1e3, in->region ? "on" : "off",
              in->volume > 0 ? "on" : "off");
     else

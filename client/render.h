@@ -20,6 +20,8 @@ typedef struct ftm_render_opts {
     int text_scale;       /* HUD pixels per font pixel */
     bool volume;          /* the scene's volume, if it has one, rather than its surface */
     bool cut;             /* the volume's half nearer the eye left out: its inside shows */
+    int volume_step;      /* draw every step-th slice: 1 (the paper's 9 between node
+                           * planes), 2, 5 or 10 (the node planes only) */
 } ftm_render_opts;
 
 ftm_render_opts ftm_render_default_opts(void);

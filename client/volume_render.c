@@ -562,7 +562,7 @@ static bool framebuffer(ftm_volume_render *vr, int fw, int fh)
 }
 
 void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3 eye, bool colormap,
-                            bool cut, double full, int w, int h)
+                            bool cut, int step, double full, int w, int h)
 {
     if (!ftm_volume_render_active(vr))
         return;
@@ -587,7 +587,10 @@ void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3
         vr->dirty = false;
     }
     const slice_axis *x = &vr->ax[a];
-    vr->slices = x->ns;
+    /* a divisor of the slices per cell, so that the node planes stay */
+    if (step != 2 && step != 5 && step != 10)
+        step = 1;
+    vr->slices = (x->ns - 1) / step + 1;
     /* back to front: slices farther from the eye along the axis first */
     /* (insertion sort: the slices come nearly in order, one way or the other) */
     for (int32_t s = 0; s < x->ns; s++) {
@@ -607,7 +610,7 @@ void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3
         /* a cut-away keeps the middle slice and those beyond it (by the
          * slice's place at rest, so that the cut stays with the tissue) */
         const double at = vr->lo[a] + (vr->hi[a] - vr->lo[a]) * s / (x->ns - 1);
-        if (!x->count[s] || s == face ||
+        if (!x->count[s] || s == face || s % step != 0 ||
             (cut && (at - mid) * (e[a] - mid) > 1e-9 * (vr->hi[a] - vr->lo[a])))
             continue;
         vr->dcount[nd] = x->count[s];
@@ -615,12 +618,12 @@ void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3
         nd++;
     }
     /* the path through one slice, in voxels, along the view */
-    double step = (vr->hi[a] - vr->lo[a]) / (x->ns - 1) / vr->voxel[a];
+    double path = step * (vr->hi[a] - vr->lo[a]) / (x->ns - 1) / vr->voxel[a];
     double cosv = len > 0 ? fabs(dir[a]) / len : 1;
     glUseProgram(vr->prog);
     glUniformMatrix4fv(vr->u_mvp, 1, GL_FALSE, mvp);
     glUniform1f(vr->u_air, (float)AIR);
-    glUniform1f(vr->u_density, (float)(step / (cosv > 0.2 ? cosv : 0.2)));
+    glUniform1f(vr->u_density, (float)(path / (cosv > 0.2 ? cosv : 0.2)));
     glUniform1i(vr->u_usemap, colormap ? 1 : 0);
     glUniform1f(vr->u_full, (float)(full > 0 ? full : 1e-3));
     glUniform3f(vr->u_eye, (float)eye.x, (float)eye.y, (float)eye.z);

@@ -39,8 +39,11 @@ void ftm_volume_render_update(ftm_volume_render *vr, const double *pos, int32_t 
  * resolution, blended over the window). colormap: tint by displacement
  * magnitude, full [m] at the top of the map. cut: the slices on the eye's
  * side of the box's middle plane are left out, so the section through the
- * middle faces the eye (a cut-away: the inside of a head shows). */
+ * middle faces the eye (a cut-away: the inside of a head shows). step:
+ * every step-th slice is drawn (1, 2, 5 or 10; 10: the node planes only;
+ * anything else is taken as 1), opacities corrected for the wider spacing:
+ * fewer slices for a renderer without a GPU. */
 void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3 eye,
-                            bool colormap, bool cut, double full, int w, int h);
+                            bool colormap, bool cut, int step, double full, int w, int h);
 
 #endif

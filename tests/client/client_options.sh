@@ -23,6 +23,9 @@ refused "--id must be an integer in 0..4294967295 (got '4294967297')" --id 42949
 refused "--msaa must be an integer in 0..16 (got '17')" --msaa 17
 refused "--msaa must be an integer in 0..16 (got '4x')" --msaa 4x
 refused "--swap-interval must be an integer in -1..8 (got '4294967297')" --swap-interval 4294967297
+refused "--volume-step: 1, 2, 5 or 10 (a divisor of the 10 slices per lattice cell), got 3" \
+    --volume-step 3
+refused "--volume-step must be an integer in 1..10 (got '20')" --volume-step 20
 refused "--screenshot-contact must be an integer in 0..9223372036854775807 (got '-5')" \
     --screenshot-contact -5
 refused "--screenshot-tick must be an integer in 0..9223372036854775807 (got ' 7')" \

@@ -20,7 +20,8 @@
 #       of the view drawn, the corners background; unlike its --no-volume
 #       surface), and once a scripted trainee (head.bot) has pressed the top
 #       for 200 ticks, the pixels around the contact changed; cut away
-#       (--cut, key x) it shows something other than the whole volume.
+#       (--cut, key x) it shows something other than the whole volume, and
+#       its node planes alone (--volume-step 10, key n) are drawn.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
 set -u
 mode=${1:?mode}
@@ -235,6 +236,11 @@ volume)
     "$FTM_PNG_CHECK" drawn "$dir/cut.png" $cx $cy 60 || fail "png check: cut-away not drawn"
     "$FTM_PNG_CHECK" compare "$dir/after.png" "$dir/cut.png" $cx $cy 60 ||
         fail "png check: the cut-away looks like the whole volume"
+    # every 10th slice only (the node planes, --volume-step 10, key n): still drawn
+    client coarse --volume-step 10 --screenshot "$dir/coarse.png" --screenshot-timeout 40 ||
+        fail "client (--volume-step 10) exited with $?"
+    "$FTM_PNG_CHECK" drawn "$dir/coarse.png" $cx $cy 60 ||
+        fail "png check: the volume's node planes not drawn"
     [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
     echo "PASS volume: $(cat "$dir/after.out")"
     ;;
