@@ -35,7 +35,7 @@ enum { EXIT_FAILED = 1, EXIT_USAGE = 2 };
 static const int ramp_steps = 100;     /* the press rises linearly over these */
 static const double rest_tol = 1e-5;   /* equilibrium: see ftm_exp_run_to_rest */
 static const int rest_every = 100;
-static const int max_steps = 200000, quick_max_steps = 20000; /* to equilibrium */
+static const int max_steps = 200000, quick_max_steps = 3000; /* to equilibrium */
 static const int warm_steps = 200;     /* untimed steps before the timed ones */
 static const double haptic_budget_us = 500.0; /* half the 1 kHz haptic period */
 
