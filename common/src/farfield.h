@@ -15,11 +15,9 @@
  * Dirichlet problem with the true boundary values, so at equilibrium its
  * displacements and the contact forces are the whole body's, whatever the
  * depth, for linear forces exactly; the cost of a step stays set by the
- * region (ring times contacts). G's columns for the surface nodes (where a
- * probe touches) are computed once, at creation, from a profile LDL^T
- * factorisation of K in reverse Cuthill-McKee order; any other loaded node's
- * when first loaded. Only + - * / are used, in fixed orders: every machine
- * computes the same bits, so a replica needs nothing from its server. */
+ * region (ring times contacts). G is the compliance.h object; only
+ * + - * / in fixed orders are used, so a replica computes the same bits as
+ * its server and needs nothing from it. */
 #ifndef FTM_SRC_FARFIELD_H
 #define FTM_SRC_FARFIELD_H
 
@@ -27,10 +25,10 @@
 
 typedef struct ftm_far ftm_far;
 
-/* Factorises the body's stiffness and computes the surface nodes' Green's
- * columns (logging progress when it takes long). Refuses a body that is not
- * held (singular stiffness) or a precomputation over FTM_FAR_MAX_BYTES,
- * naming the sizes. Called by ftm_sim_create after the element forces. */
+/* Acquires the body's compliance (compliance.h: computed, shared or read
+ * from the cache). Refuses a body that is not held or a precomputation too
+ * large, naming the sizes. Called by ftm_sim_create after the element
+ * forces. */
 int ftm_far_create(ftm_sim *sim, ftm_error *err);
 void ftm_far_free(ftm_far *f);
 
@@ -60,9 +58,5 @@ void ftm_far_impose(ftm_sim *sim);
  * stiffness is the old one times one factor, the columns are rescaled;
  * otherwise recomputed. */
 int ftm_far_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err);
-
-/* Precomputation larger than this (the factor and the Green's columns) is
- * refused. */
-#define FTM_FAR_MAX_BYTES ((size_t)3 << 30)
 
 #endif

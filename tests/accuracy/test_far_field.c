@@ -377,20 +377,47 @@ static void test_scaled_stiffness(void **state)
     ftm_mesh_destroy(m);
 }
 
+/* Makes and drops simulations of two other bodies: the process keeps only
+ * the two most recent unused compliances, so the next simulation of an
+ * earlier body reads the cache file (or computes). */
+static void evict(void)
+{
+    for (int n = 3; n <= 4; n++) {
+        ftm_mesh *m = cube(n, false, true, 2.0);
+        ftm_sim_destroy(spring_sim(m, 1));
+        ftm_mesh_destroy(m);
+    }
+}
+
+static unsigned char *read_all(const char *path, long *size)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    assert_int_equal(fseek(f, 0, SEEK_END), 0);
+    *size = ftell(f);
+    rewind(f);
+    unsigned char *b = malloc((size_t)*size + 1);
+    assert_int_equal(fread(b, 1, (size_t)*size, f), (size_t)*size);
+    fclose(f);
+    return b;
+}
+
 /* The cache: written once, read back with the same result; a damaged file
- * is ignored (and replaced). */
+ * is ignored and replaced by the right one. */
 static void test_cache(void **state)
 {
     (void)state;
     char dir[] = "/tmp/ftm-far-cache-XXXXXX";
     assert_non_null(mkdtemp(dir));
     setenv("FTM_CACHE_DIR", dir, 1);
-    const int n = 6;
+    const int n = 5;
     ftm_mesh *m = cube(n, false, true, 2.0);
     ftm_contact c[4];
     int nc = top_press(m, n, 1e-3, c);
     uint64_t hash[3];
     char path[512] = "";
+    unsigned char *good = NULL;
+    long size = 0;
     for (int k = 0; k < 3; k++) {
         ftm_sim *sim = spring_sim(m, 1);
         ftm_error err;
@@ -398,7 +425,7 @@ static void test_cache(void **state)
         assert_int_equal(ftm_sim_run(sim, 50), FTM_OK);
         hash[k] = ftm_sim_hash(sim);
         ftm_sim_destroy(sim);
-        if (k == 0) { /* one file, which we damage */
+        if (k == 0) { /* one file */
             char cmd[600];
             snprintf(cmd, sizeof cmd, "ls %s/far-*.bin", dir);
             FILE *p = popen(cmd, "r");
@@ -406,18 +433,30 @@ static void test_cache(void **state)
             assert_non_null(fgets(path, sizeof path, p));
             pclose(p);
             path[strcspn(path, "\n")] = '\0';
+            good = read_all(path, &size);
+            assert_true(size > 4096);
+        }
+        if (k == 1) { /* read back; now damaged */
             FILE *f = fopen(path, "r+b");
             assert_non_null(f);
             assert_int_equal(fseek(f, 4096, SEEK_SET), 0);
-            int ch = fgetc(f);
-            assert_int_equal(fseek(f, 4096, SEEK_SET), 0);
-            fputc(ch ^ 0x40, f);
+            fputc(good[4096] ^ 0x40, f);
             fclose(f);
         }
+        evict();
     }
     assert_true(hash[0] == hash[1] && hash[1] == hash[2]);
-    remove(path);
-    rmdir(dir);
+    long again = 0;
+    unsigned char *now = read_all(path, &again);
+    assert_int_equal(again, size);
+    assert_memory_equal(now, good, (size_t)size); /* rewritten */
+    free(now);
+    free(good);
+    /* the two evicting bodies' files and ours */
+    char cmd[600];
+    snprintf(cmd, sizeof cmd, "rm -f %s/far-*.bin", dir);
+    assert_int_equal(system(cmd), 0);
+    assert_int_equal(rmdir(dir), 0);
     setenv("FTM_CACHE_DIR", "", 1);
     ftm_mesh_destroy(m);
 }
