@@ -7,11 +7,13 @@
 #include "sim_elem.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
@@ -30,6 +32,13 @@ struct ftm_compliance {
     /* Green's columns: col[c] (NULL until computed) holds for every node j
      * the 3x3 block G_jc row-major (response of j to a unit force at c) */
     float **col;
+    uint8_t *own; /* own[c]: col[c] was allocated here (not in the mapped file) */
+    /* slot[c] > 0: col[c] is the mapped file's column slot[c] - 1, whose
+     * checksum colsum[slot[c] - 1] is checked at its first use; then 0 */
+    int32_t *slot;
+    const uint64_t *colsum;
+    void *map;     /* the cache file mapped (columns of the surface nodes point into it) */
+    size_t map_len;
     int32_t refs;  /* simulations using it; kept a while at 0 (registry) */
     struct ftm_compliance *next;
 };
@@ -289,6 +298,7 @@ static int compute_columns(ftm_compliance *g, const int32_t *nodes, int32_t coun
                                                  (size_t)(3 * q + t)];
             }
             g->col[nodes[s + q]] = col;
+            g->own[nodes[s + q]] = 1;
         }
         const double t = now_s();
         if (progress && t - told > 1.0) {
@@ -312,7 +322,7 @@ static int compute_columns(ftm_compliance *g, const int32_t *nodes, int32_t coun
  * profile and the surface nodes; it holds their Green's columns and a
  * checksum. A file that does not match is ignored and rewritten. */
 
-#define CACHE_MAGIC "FTMFAR01"
+#define CACHE_MAGIC "FTMFAR03"
 
 static uint64_t mix(uint64_t h, uint64_t v)
 {
@@ -325,18 +335,64 @@ static uint64_t mix(uint64_t h, uint64_t v)
     return h;
 }
 
-static uint64_t hash_bytes(uint64_t h, const void *p, size_t n)
+/* A streaming 64-bit hash of bytes: four independent lanes over 32-byte
+ * chunks (fast: it reads tens of megabytes at every start), mixed at the
+ * end. For a file's integrity and a cache key, not against an adversary. */
+typedef struct hasher {
+    uint64_t lane[4];
+    unsigned char buf[32];
+    size_t fill;
+    uint64_t total;
+} hasher;
+
+static void hasher_init(hasher *h, uint64_t seed)
 {
-    const unsigned char *b = p;
-    size_t k = 0;
-    for (; k + 8 <= n; k += 8) {
+    memset(h, 0, sizeof *h);
+    for (int k = 0; k < 4; k++)
+        h->lane[k] = mix(seed, (uint64_t)k);
+}
+
+static inline void hasher_chunk(uint64_t lane[4], const unsigned char *p)
+{
+    for (int k = 0; k < 4; k++) {
         uint64_t v;
-        memcpy(&v, b + k, 8);
-        h = mix(h, v);
+        memcpy(&v, p + 8 * k, 8);
+        uint64_t x = (lane[k] ^ v) * 0x9fb21c651e98df25ULL;
+        lane[k] = (x << 29) | (x >> 35);
     }
-    uint64_t v = 0;
-    memcpy(&v, b + k, n - k);
-    return mix(h, v ^ (uint64_t)n);
+}
+
+static void hasher_update(hasher *h, const void *data, size_t n)
+{
+    const unsigned char *p = data;
+    h->total += n;
+    if (h->fill) {
+        size_t take = 32 - h->fill < n ? 32 - h->fill : n;
+        memcpy(h->buf + h->fill, p, take);
+        h->fill += take;
+        p += take;
+        n -= take;
+        if (h->fill < 32)
+            return;
+        hasher_chunk(h->lane, h->buf);
+        h->fill = 0;
+    }
+    for (; n >= 32; p += 32, n -= 32)
+        hasher_chunk(h->lane, p);
+    memcpy(h->buf, p, n);
+    h->fill = n;
+}
+
+static uint64_t hasher_final(const hasher *h)
+{
+    unsigned char tail[32] = {0};
+    memcpy(tail, h->buf, h->fill);
+    uint64_t lane[4] = {h->lane[0], h->lane[1], h->lane[2], h->lane[3]};
+    hasher_chunk(lane, tail);
+    uint64_t r = mix(h->total, lane[0]);
+    for (int k = 1; k < 4; k++)
+        r = mix(r, lane[k]);
+    return r;
 }
 
 static bool cache_dir(char *out, size_t cap)
@@ -370,48 +426,74 @@ typedef struct cache_head {
     int32_t nsurf, pad;
 } cache_head;
 
+/* The file: the head, the surface nodes (int32, padded to 8 bytes), a
+ * checksum per column, a checksum of all that, then the columns (float,
+ * n x 9 each). Mapped, not read: the columns are used in place, the
+ * processes of a machine share the pages, and a column's checksum is
+ * checked when it is first used (ftm_compliance_ensure), so that opening
+ * costs nothing however large the body. */
+static size_t cache_index_size(int32_t ns)
+{
+    size_t surf = ((size_t)ns * sizeof(int32_t) + 7) & ~(size_t)7;
+    return sizeof(cache_head) + surf + (size_t)ns * sizeof(uint64_t) + sizeof(uint64_t);
+}
+
+static size_t cache_size(int32_t n, int32_t ns)
+{
+    return cache_index_size(ns) + (size_t)ns * (size_t)n * 9 * sizeof(float);
+}
+
+static uint64_t column_sum(const float *col, int32_t n)
+{
+    hasher hs;
+    hasher_init(&hs, 0x434f4c);
+    hasher_update(&hs, col, (size_t)n * 9 * sizeof *col);
+    return hasher_final(&hs);
+}
+
 static bool cache_load(ftm_compliance *g, const int32_t *surf, int32_t ns)
 {
     char path[1100];
     if (!cache_path(g, path, sizeof path))
         return false;
-    FILE *in = fopen(path, "rb");
-    if (!in)
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
         return false;
+    const size_t want = cache_size(g->n, ns), index = cache_index_size(ns);
+    struct stat st;
+    void *map = MAP_FAILED;
+    if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && (uint64_t)st.st_size == (uint64_t)want)
+        map = mmap(NULL, want, PROT_READ, MAP_PRIVATE, fd, 0);
+    close(fd);
+    if (map == MAP_FAILED)
+        return false;
+    const unsigned char *b = map;
     cache_head h;
-    bool ok = fread(&h, sizeof h, 1, in) == 1 && memcmp(h.magic, CACHE_MAGIC, 8) == 0 &&
-              h.revision == FTM_ARITHMETIC_REVISION && h.n == (uint32_t)g->n && h.key == g->key &&
-              h.nsurf == ns;
-    uint64_t sum = hash_bytes(0, &h, sizeof h);
-    int32_t *got = NULL;
-    const size_t per = (size_t)g->n * 9;
+    memcpy(&h, b, sizeof h);
+    bool ok = memcmp(h.magic, CACHE_MAGIC, 8) == 0 && h.revision == FTM_ARITHMETIC_REVISION &&
+              h.n == (uint32_t)g->n && h.key == g->key && h.nsurf == ns &&
+              memcmp(b + sizeof h, surf, (size_t)ns * sizeof *surf) == 0;
     if (ok) {
-        got = malloc(((size_t)ns + 1) * sizeof *got);
-        ok = got && fread(got, sizeof *got, (size_t)ns, in) == (size_t)ns &&
-             memcmp(got, surf, (size_t)ns * sizeof *got) == 0;
-        if (ok)
-            sum = hash_bytes(sum, got, (size_t)ns * sizeof *got);
+        hasher hs;
+        hasher_init(&hs, 0);
+        hasher_update(&hs, b, index - sizeof(uint64_t));
+        uint64_t sum;
+        memcpy(&sum, b + index - sizeof sum, sizeof sum);
+        ok = sum == hasher_final(&hs);
     }
-    for (int32_t s = 0; ok && s < ns; s++) {
-        float *col = malloc(per * sizeof *col);
-        ok = col && fread(col, sizeof *col, per, in) == per;
-        if (ok) {
-            sum = hash_bytes(sum, col, per * sizeof *col);
-            g->col[surf[s]] = col;
-        } else {
-            free(col);
-        }
+    if (!ok) { /* anything else is no cache */
+        munmap(map, want);
+        return false;
     }
-    uint64_t want = 0;
-    ok = ok && fread(&want, sizeof want, 1, in) == 1 && want == sum && fgetc(in) == EOF;
-    fclose(in);
-    free(got);
-    if (!ok) /* anything else is no cache: drop what was read */
-        for (int32_t s = 0; s < ns; s++) {
-            free(g->col[surf[s]]);
-            g->col[surf[s]] = NULL;
-        }
-    return ok;
+    const float *cols = (const float *)(b + index);
+    g->colsum = (const uint64_t *)(b + index - sizeof(uint64_t) - (size_t)ns * sizeof(uint64_t));
+    for (int32_t k = 0; k < ns; k++) {
+        g->col[surf[k]] = (float *)(cols + (size_t)k * (size_t)g->n * 9);
+        g->slot[surf[k]] = k + 1; /* mapped, its checksum not yet checked */
+    }
+    g->map = map;
+    g->map_len = want;
+    return true;
 }
 
 /* Best effort: written to a temporary file and renamed, so a reader sees a
@@ -443,16 +525,30 @@ static void cache_save(const ftm_compliance *g, const int32_t *surf, int32_t ns,
     h.n = (uint32_t)g->n;
     h.key = g->key;
     h.nsurf = ns;
-    bool ok = fwrite(&h, sizeof h, 1, out) == 1;
-    uint64_t sum = hash_bytes(0, &h, sizeof h);
-    ok = ok && fwrite(surf, sizeof *surf, (size_t)ns, out) == (size_t)ns;
-    sum = hash_bytes(sum, surf, (size_t)ns * sizeof *surf);
-    const size_t per = (size_t)g->n * 9;
-    for (int32_t s = 0; ok && s < ns; s++) {
-        ok = fwrite(g->col[surf[s]], sizeof(float), per, out) == per;
-        sum = hash_bytes(sum, g->col[surf[s]], per * sizeof(float));
+    const size_t index = cache_index_size(ns);
+    unsigned char *head = calloc(index, 1);
+    if (!head) {
+        fclose(out);
+        remove(tmp);
+        return;
     }
-    ok = ok && fwrite(&sum, sizeof sum, 1, out) == 1;
+    memcpy(head, &h, sizeof h);
+    memcpy(head + sizeof h, surf, (size_t)ns * sizeof *surf);
+    unsigned char *sums = head + index - sizeof(uint64_t) - (size_t)ns * sizeof(uint64_t);
+    for (int32_t k = 0; k < ns; k++) {
+        uint64_t cs = column_sum(g->col[surf[k]], g->n);
+        memcpy(sums + (size_t)k * sizeof cs, &cs, sizeof cs);
+    }
+    hasher hs;
+    hasher_init(&hs, 0);
+    hasher_update(&hs, head, index - sizeof(uint64_t));
+    uint64_t sum = hasher_final(&hs);
+    memcpy(head + index - sizeof sum, &sum, sizeof sum);
+    bool ok = fwrite(head, 1, index, out) == index;
+    free(head);
+    const size_t per = (size_t)g->n * 9;
+    for (int32_t k = 0; ok && k < ns; k++)
+        ok = fwrite(g->col[surf[k]], sizeof(float), per, out) == per;
     ok = fclose(out) == 0 && ok;
     if (ok && rename(tmp, path) == 0) {
         ftm_logf(log, log_user, FTM_LOG_INFO, "far field: cached in %s", path);
@@ -532,11 +628,14 @@ static int assemble(const ftm_sim *sim, const ftm_mesh *m, ftm_compliance *g, in
     }
     for_each_block(sim, m, g, add_block, g);
     /* the cache's key: the stiffness and the nodes whose columns it holds */
-    uint64_t key = mix(0x46544d4641520001ULL, (uint64_t)g->ndof);
-    key = hash_bytes(key, g->dof, (size_t)n * sizeof *g->dof);
-    key = hash_bytes(key, g->first, (size_t)g->ndof * sizeof *g->first);
-    key = hash_bytes(key, g->val, entries * sizeof *g->val);
-    g->key = hash_bytes(key, surf, (size_t)ns * sizeof *surf);
+    hasher h;
+    hasher_init(&h, 0x46544d4641520002ULL);
+    hasher_update(&h, &g->ndof, sizeof g->ndof);
+    hasher_update(&h, g->dof, (size_t)n * sizeof *g->dof);
+    hasher_update(&h, g->first, (size_t)g->ndof * sizeof *g->first);
+    hasher_update(&h, g->val, entries * sizeof *g->val);
+    hasher_update(&h, surf, (size_t)ns * sizeof *surf);
+    g->key = hasher_final(&h);
     *surf_out = surf;
     *ns_out = ns;
     return FTM_OK;
@@ -554,9 +653,14 @@ static void compliance_free(ftm_compliance *g)
 {
     if (!g)
         return;
-    if (g->col)
+    if (g->col && g->own)
         for (int32_t i = 0; i < g->n; i++)
-            free(g->col[i]);
+            if (g->own[i])
+                free(g->col[i]);
+    free(g->own);
+    free(g->slot);
+    if (g->map)
+        munmap(g->map, g->map_len);
     free(g->col);
     free(g->dof);
     free(g->first);
@@ -590,7 +694,9 @@ int ftm_compliance_acquire(const ftm_sim *sim, const ftm_mesh *m, ftm_compliance
     g->n = n;
     g->dof = malloc(((size_t)n + 1) * sizeof *g->dof);
     g->col = calloc((size_t)n + 1, sizeof *g->col);
-    if (!g->dof || !g->col) {
+    g->own = calloc((size_t)n + 1, sizeof *g->own);
+    g->slot = calloc((size_t)n + 1, sizeof *g->slot);
+    if (!g->dof || !g->col || !g->own || !g->slot) {
         compliance_free(g);
         return ftm_error_set(err, FTM_ENOMEM, "far_field = elastic: out of memory");
     }
@@ -656,6 +762,16 @@ int ftm_compliance_ensure(ftm_compliance *g, int32_t node, ftm_log_fn log, void 
 {
     pthread_mutex_lock(&registry_lock);
     int rc = FTM_OK;
+    if (g->slot[node] > 0) { /* from the cache file: checked at its first use */
+        const int32_t k = g->slot[node] - 1;
+        g->slot[node] = 0;
+        if (column_sum(g->col[node], g->n) != g->colsum[k]) {
+            ftm_logf(log, log_user, FTM_LOG_WARN,
+                     "far field: the cached column of node %d is damaged: computed again",
+                     (int)node);
+            g->col[node] = NULL;
+        }
+    }
     if (!g->col[node]) {
         /* (a held body: a cached file was made from a factor that exists) */
         rc = ensure_factored(g, NULL, log, log_user, NULL);

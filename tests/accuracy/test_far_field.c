@@ -389,21 +389,17 @@ static void evict(void)
     }
 }
 
-static unsigned char *read_all(const char *path, long *size)
+static int damaged_said;
+static void log_damage(void *user, ftm_log_level level, const char *msg)
 {
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    assert_int_equal(fseek(f, 0, SEEK_END), 0);
-    *size = ftell(f);
-    rewind(f);
-    unsigned char *b = malloc((size_t)*size + 1);
-    assert_int_equal(fread(b, 1, (size_t)*size, f), (size_t)*size);
-    fclose(f);
-    return b;
+    (void)user;
+    if (level == FTM_LOG_WARN && strstr(msg, "cached column") && strstr(msg, "damaged"))
+        damaged_said++;
 }
 
-/* The cache: written once, read back with the same result; a damaged file
- * is ignored and replaced by the right one. */
+/* The cache: written once and read back with the same result; a column
+ * damaged in the file is noticed when it is first used and computed again,
+ * with the same result. */
 static void test_cache(void **state)
 {
     (void)state;
@@ -416,11 +412,16 @@ static void test_cache(void **state)
     int nc = top_press(m, n, 1e-3, c);
     uint64_t hash[3];
     char path[512] = "";
-    unsigned char *good = NULL;
-    long size = 0;
+    damaged_said = 0;
     for (int k = 0; k < 3; k++) {
-        ftm_sim *sim = spring_sim(m, 1);
+        ftm_sim_def d = ftm_default_sim_def();
+        d.time_step = 2e-4;
+        d.depth = 1;
+        d.far_field = FTM_FAR_FIELD_ELASTIC;
+        d.log = log_damage;
+        ftm_sim *sim = NULL;
         ftm_error err;
+        assert_int_equal(ftm_sim_create(m, &d, &sim, &err), FTM_OK);
         assert_int_equal(ftm_sim_set_contacts(sim, c, nc, &err), FTM_OK);
         assert_int_equal(ftm_sim_run(sim, 50), FTM_OK);
         hash[k] = ftm_sim_hash(sim);
@@ -433,25 +434,34 @@ static void test_cache(void **state)
             assert_non_null(fgets(path, sizeof path, p));
             pclose(p);
             path[strcspn(path, "\n")] = '\0';
-            good = read_all(path, &size);
-            assert_true(size > 4096);
         }
-        if (k == 1) { /* read back; now damaged */
+        if (k == 1) { /* read back; now the first contact's column is damaged */
+            assert_int_equal(damaged_said, 0);
             FILE *f = fopen(path, "r+b");
             assert_non_null(f);
-            assert_int_equal(fseek(f, 4096, SEEK_SET), 0);
-            fputc(good[4096] ^ 0x40, f);
+            int32_t head[8], ns;
+            assert_int_equal(fread(head, sizeof head, 1, f), 1);
+            ns = head[6]; /* (magic 2, revision, n, key 2, nsurf) */
+            int32_t *surf = malloc(sizeof(int32_t) * (size_t)ns);
+            assert_int_equal(fread(surf, sizeof(int32_t), (size_t)ns, f), (size_t)ns);
+            int32_t slot = -1;
+            for (int32_t q = 0; q < ns; q++)
+                if (surf[q] == c[0].node)
+                    slot = q;
+            assert_true(slot >= 0);
+            free(surf);
+            long index = 32 + (((long)ns * 4 + 7) & ~7L) + 8L * ns + 8;
+            long at = index + (long)slot * ftm_mesh_node_count(m) * 36 + 100;
+            assert_int_equal(fseek(f, at, SEEK_SET), 0);
+            int ch = fgetc(f);
+            assert_int_equal(fseek(f, at, SEEK_SET), 0);
+            fputc(ch ^ 0x40, f);
             fclose(f);
         }
         evict();
     }
     assert_true(hash[0] == hash[1] && hash[1] == hash[2]);
-    long again = 0;
-    unsigned char *now = read_all(path, &again);
-    assert_int_equal(again, size);
-    assert_memory_equal(now, good, (size_t)size); /* rewritten */
-    free(now);
-    free(good);
+    assert_int_equal(damaged_said, 1);
     /* the two evicting bodies' files and ours */
     char cmd[600];
     snprintf(cmd, sizeof cmd, "rm -f %s/far-*.bin", dir);
