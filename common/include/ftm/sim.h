@@ -52,6 +52,12 @@ typedef enum ftm_forces {
     FTM_FORCES_SPRINGS = 0,    /* Voigt links (Eq. 6), the default */
     FTM_FORCES_LINEAR_FEM = 1, /* f_e = K_e (x_e - X_e): small displacements */
     FTM_FORCES_COROT_FEM = 2,  /* co-rotational f_e = R K_e (R^T x_e - X_e): large rotations */
+    /* compressible neo-Hookean, W = mu/2 (J^(-2/3) I1 - 3) + kappa/2 (J - 1)^2
+     * (CalculiX's *HYPERELASTIC, NEO HOOKE with C10 = mu/2, D1 = 2/kappa,
+     * mu and kappa from young and poisson): large strains. An element
+     * inverted at a quadrature point (J <= 0) fails the step: it is undone
+     * and substepped, guard or not, and FTM_EUNSTABLE if that cannot help */
+    FTM_FORCES_NEO_HOOKEAN = 3,
 } ftm_forces;
 
 /* The range of ftm_sim_def.time_step [s]: below it the Eq. 8 coefficients
@@ -242,7 +248,9 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
 
 /* The critical time step of the simulation's forces: ftm_mesh_critical_time_step
  * for springs; for element forces the Gershgorin bound on M^-1 K with the
- * assembled element stiffness and the simulation's (lumped) masses. */
+ * assembled element stiffness and the simulation's (lumped) masses. For
+ * neo-Hookean forces K is their tangent at rest (the linear K): a deformed
+ * body's tangent differs, and the guard substeps if that needs it. */
 double ftm_sim_critical_time_step(const ftm_sim *sim);
 
 /* Node masses the simulation uses (lumped element masses when set), 1 per node. */
@@ -252,7 +260,8 @@ const double *ftm_sim_masses(const ftm_sim *sim);
  * node): the spring forces sum_j f_ij, or the element forces, as the
  * integrator computes them (co-rotational: rotations from x). A node at
  * equilibrium has f = external force. Fixed nodes get their reactions'
- * negatives like any other node. FTM_ENOMEM possible. */
+ * negatives like any other node. FTM_ENOMEM possible; neo-Hookean:
+ * FTM_EINVAL (f_out untouched) if an element is inverted at x. */
 int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f_out);
 
 /* ---- contact stiffness (for haptic force models, docs/haptics.md) ---- */
