@@ -46,8 +46,9 @@ typedef enum ftm_order {
 } ftm_order;
 
 /* Internal forces of the integrator. The paper's model is springs; the
- * element forces use the mesh's hexahedra and tetrahedra with the linear
- * elastic element stiffness of the FEM reference (docs/accuracy.md). */
+ * element forces use the mesh's hexahedra and tetrahedra: the linear elastic
+ * element stiffness of the FEM reference, or the neo-Hookean solid
+ * (docs/accuracy.md, docs/calculix.md). */
 typedef enum ftm_forces {
     FTM_FORCES_SPRINGS = 0,    /* Voigt links (Eq. 6), the default */
     FTM_FORCES_LINEAR_FEM = 1, /* f_e = K_e (x_e - X_e): small displacements */
@@ -100,9 +101,10 @@ typedef struct ftm_sim_def {
     void *log_user;
     /* Internal forces (default FTM_FORCES_SPRINGS). With element forces a
      * node's force is the sum of its elements' rows of K_e (x_e - X_e) (or the
-     * co-rotated form), links only shape the layers and the guard; young > 0
-     * and -1 < poisson < 0.5 are required, and density > 0 [kg/m^3] replaces
-     * the mesh's node masses by lumped element masses (0 keeps them). */
+     * co-rotated form, or the neo-Hookean nodal forces), links only shape the
+     * layers and the guard; young > 0 and -1 < poisson < 0.5 are required,
+     * and density > 0 [kg/m^3] replaces the mesh's node masses by lumped
+     * element masses (0 keeps them). */
     ftm_forces forces;
     double young, poisson, density;
 } ftm_sim_def;
