@@ -452,7 +452,7 @@ int ftm_cmd_sim(int argc, char **argv)
     s.links = ftm_mesh_link_count(mesh);
     s.triangles = ftm_mesh_triangle_count(mesh);
     s.h = def.time_step;
-    s.h_crit = ftm_mesh_critical_time_step(mesh);
+    s.h_crit = ftm_sim_critical_time_step(sim); /* the springs' or the elements' */
     s.depth = def.depth;
     s.order = def.order;
     s.steps = o.steps >= 0 ? (int32_t)o.steps : ftm_scene_steps(scene);
@@ -482,8 +482,9 @@ int ftm_cmd_sim(int argc, char **argv)
         rc = ftm_sim_step(sim);
         if (rc == FTM_EUNSTABLE) {
             fprintf(stderr,
-                    "ftm sim: %s: step %d (t = %.6g s): the integration diverged even with "
-                    "%d substeps; use a smaller time_step (critical %.6g s)\n",
+                    "ftm sim: %s: step %d (t = %.6g s): the integration diverged (or an "
+                    "element inverted) even with %d substeps; use a smaller time_step "
+                    "(critical %.6g s) or a gentler load\n",
                     s.scene, (int)step, t, (int)def.max_substeps, s.h_crit);
             status = EXIT_UNSTABLE;
             goto done;
