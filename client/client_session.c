@@ -55,6 +55,10 @@ struct ftm_client_session {
     uint64_t server_origin;
     uint64_t foreign;   /* messages ignored: not from the server */
     bool server_left;
+    /* server_left by a `gone` event (its lease expired: a stall or a cut
+     * link on either side), not by its LEAVING status: whatever the same
+     * process sends afterwards brings it back (server_heard) */
+    bool server_gone;
     uint64_t server_start; /* the announced start of the server process we replay */
     int64_t last_frame_ns, last_status_ns, last_input_ns, last_publish_ns;
     uint64_t newest_rx_tick;
@@ -201,7 +205,7 @@ static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
         bool same = ftm_replay_check_announce(s->rep, a, NULL) == FTM_OK;
         ftm_replay_destroy(s->rep);
         s->rep = NULL;
-        s->server_left = s->silent_reported = false;
+        s->server_left = s->server_gone = s->silent_reported = false;
         s->ever_synced = false; /* no probe input before it knows us (send_probe) */
         /* which process holds our id is the new server's to say */
         s->id_told = (ftm_id_told){0};
@@ -307,13 +311,32 @@ static const ftm_report_probe *live_probe0(const ftm_client_session *s, uint32_t
     return k >= 0 ? &s->live.parts[k].probes[0] : NULL;
 }
 
-static void server_gone(ftm_client_session *s, const char *why)
+static void server_gone(ftm_client_session *s, bool lease, const char *why)
 {
-    if (s->server_left)
-        return;
+    if (s->server_left && !(s->server_gone && !lease))
+        return; /* (a LEAVING status after a lease expiry still says it left) */
     s->server_left = true;
+    s->server_gone = lease;
     slog(s, FTM_LOG_WARN, "server %u %s", s->server_id, why);
     force_off(s, "server gone");
+}
+
+/* A message from the server's own process (from_server). After a `gone`
+ * event it is alive after all: a lease expires when either side stalls
+ * (SIGSTOP, a loaded machine) or the link is cut for longer than the lease,
+ * and the same process is heard again afterwards. Force and probe input
+ * come back with the next frame once the replica is synced and the server
+ * confirms our id again (after_frames, send_probe). */
+static void server_heard(ftm_client_session *s)
+{
+    if (!s->server_left || !s->server_gone)
+        return;
+    slog(s, FTM_LOG_INFO, "server %u is back (its lease had expired): rejoining", s->server_id);
+    s->server_left = s->server_gone = false;
+    s->last_frame_ns = mono_ns();
+    if (!s->id_held)
+        s->held_since_ns = s->last_frame_ns; /* the wait for our id starts again */
+    s->dirty = true;
 }
 
 static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
@@ -326,7 +349,7 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
         /* (origin 0: no longer known; gone only turns the force off) */
         if (s->server_id != 0 && rx->sender == s->server_id &&
             (!rx->origin || rx->origin == s->server_origin))
-            server_gone(s, "gone (lease expired or left)");
+            server_gone(s, true, "gone (lease expired or left)");
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
@@ -362,8 +385,10 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
             s->held_late_told = false;
         }
         s->id_held = held;
+        if (st->state != FTM_WIRE_STATE_LEAVING)
+            server_heard(s);
         if (st->state == FTM_WIRE_STATE_LEAVING) {
-            server_gone(s, "leaving");
+            server_gone(s, false, "leaving");
         } else if (s->have_ann && s->ann.paused) {
             /* a paused server sends no frames: its statuses (every 0.5 s)
              * are what says it is alive */
@@ -448,6 +473,7 @@ static void after_frames(ftm_client_session *s)
 
 static void on_tick(ftm_client_session *s, const ftm_wire_received *rx)
 {
+    server_heard(s);
     s->last_frame_ns = mono_ns();
     if (s->silent_reported) {
         slog(s, FTM_LOG_INFO, "tick frames again from the server");

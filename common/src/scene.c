@@ -93,6 +93,7 @@ typedef enum key {
     K_GUARD_MOTION,
     K_MAX_SUBSTEPS,
     K_FORCES,
+    K_FAR_FIELD,
     K_YOUNG,
     K_POISSON,
     K_DENSITY,
@@ -153,6 +154,7 @@ static const struct {
     [K_GUARD_MOTION] = {SEC_SIM, "guard_motion", false},
     [K_MAX_SUBSTEPS] = {SEC_SIM, "max_substeps", false},
     [K_FORCES] = {SEC_SIM, "forces", false},
+    [K_FAR_FIELD] = {SEC_SIM, "far_field", false},
     [K_YOUNG] = {SEC_FEM, "young", false},
     [K_POISSON] = {SEC_FEM, "poisson", false},
     [K_DENSITY] = {SEC_FEM, "density", false},
@@ -767,6 +769,15 @@ static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
                        &f)) != FTM_OK)
             return rc;
         s->sim.forces = values[f];
+        return FTM_OK;
+    }
+    case K_FAR_FIELD: { /* elastic needs a held body: checked when the simulation is made */
+        static const char *const names[] = {"fixed", "elastic", NULL};
+        static const ftm_far_field values[] = {FTM_FAR_FIELD_FIXED, FTM_FAR_FIELD_ELASTIC};
+        int f;
+        if ((rc = word(p, kn, v, vlen, names, "fixed or elastic", &f)) != FTM_OK)
+            return rc;
+        s->sim.far_field = values[f];
         return FTM_OK;
     }
     case K_YOUNG:

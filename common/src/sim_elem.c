@@ -77,6 +77,14 @@ struct ftm_elem {
 const double *ftm_elem_masses(const ftm_elem *el) { return el->mass; }
 double ftm_elem_critical_step(const ftm_elem *el) { return el->h_crit; }
 
+void ftm_elem_rows(const ftm_elem *el, const int32_t **start, const int32_t **node,
+                   const double **k)
+{
+    *start = el->row_start;
+    *node = el->row_node;
+    *k = el->row_k;
+}
+
 void ftm_elem_free(ftm_elem *el)
 {
     if (!el)

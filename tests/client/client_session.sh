@@ -14,6 +14,12 @@
 #   idwait: no ftm-server; test_session's stand-in server puts a force
 #       under the trainee's id in every frame and confirms the id only after
 #       5 s: no force, no probe input, no figures of its own until then
+#   stall: a trainee pressing and holding is stopped (SIGSTOP) for 6 s,
+#       past the DDS lease (2 s) and the server's status deadline, then
+#       continued: the server's lease expired on its side while the same
+#       server process went on; force and probe input must come back by
+#       themselves (test_session checks the force; this script that the
+#       server heard its contact again after the stall)
 #   idforge: as idwait, but only a forger under the stand-in's id (another
 #       process) confirms the id: never believed
 # Every process runs under timeout; no timing is asserted.
@@ -86,6 +92,23 @@ idwait)
     ;;
 idforge)
     run 6 37 "$FTM_DATA/side.bot"
+    ;;
+stall)
+    # (not under timeout: the signals go to test_session itself; it ends by
+    # itself after 16 s, and CTest's limit covers a hang)
+    "$FTM_TEST_SESSION" stall $domain "$session" "$FTM_CONFIG" 38 "$FTM_DATA/hold-press.bot" 16 \
+        >"$dir/test.out" 2>"$dir/test.err" &
+    ts=$!
+    wait_for "$dir/server.log" "participant 38 probe 0: contact" "the trainee did not press" 600
+    kill -STOP $ts
+    sleep 6
+    kill -CONT $ts
+    wait $ts || fail "test_session stall exited with $?"
+    # the contact was released when the server declared the trainee lost;
+    # the same trainee pressing again after the stall makes a new one
+    [ "$(grep -c "participant 38 probe 0: contact" "$dir/server.log")" -ge 2 ] ||
+        fail "the server never heard the trainee press again after the stall"
+    cat "$dir/test.out"
     ;;
 *) echo "unknown mode $mode"; exit 2 ;;
 esac

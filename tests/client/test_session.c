@@ -27,6 +27,15 @@
  *            figures of its own, say that it waits, and, past the 3 s bound,
  *            say in red that the server has not confirmed; once confirmed,
  *            force and probe input come on.
+ *   stall    a trainee pressing and holding (device: SCRIPT) is stopped by
+ *            client_session.sh (SIGSTOP) for longer than the DDS lease and
+ *            the server's status deadline, then continued (SIGCONT): the
+ *            server's lease expires on this side ("server gone") while the
+ *            same server process goes on. After the stall (seen here as a
+ *            jump of the clock) force and probe input must come back by
+ *            themselves: a non-zero force written to the device, the force
+ *            valid in the view, no "SERVER LEFT" banner (the script checks
+ *            that the server heard the trainee's contact again).
  *   idforge  as idwait, but the stand-in server never confirms, and a forger
  *            (a DDS participant of its own, under the stand-in's id and
  *            claiming role SERVER, as a copied --id would) confirms the
@@ -69,6 +78,8 @@ typedef struct tapp {
     atomic_bool said_confirmed, said_late, said_impostor;
     atomic_int frames;
     atomic_int silent_logged, lost_logged;
+    atomic_bool stalled;            /* stall: the stall is over (a clock jump seen) */
+    atomic_int gone_logged, back_logged, nonzero_after_stall;
     double t0;
 } tapp;
 
@@ -99,6 +110,10 @@ static void on_log(void *user, ftm_log_level level, const char *msg)
         atomic_store(&a->said_impostor, true);
     if (strstr(msg, "has not confirmed participant id"))
         atomic_store(&a->said_late, true);
+    if (strstr(msg, "gone (lease expired or left)"))
+        atomic_fetch_add(&a->gone_logged, 1);
+    if (strstr(msg, "is back (its lease had expired)"))
+        atomic_fetch_add(&a->back_logged, 1);
 }
 
 /* the script device, with every force written counted */
@@ -117,6 +132,8 @@ static void w_write(void *self, double now, ftm_vec3 f)
     if (nonzero)
         atomic_fetch_add(atomic_load(&a->confirmed) ? &a->nonzero_confirmed : &a->nonzero_unconfirmed,
                          1);
+    if (nonzero && atomic_load(&a->stalled))
+        atomic_fetch_add(&a->nonzero_after_stall, 1);
 }
 
 static const ftm_device_ops wrap_ops = {.name = "test", .read = w_read, .write = w_write};
@@ -380,7 +397,7 @@ static int failures;
 int main(int argc, char **argv)
 {
     if (argc != 8) {
-        fprintf(stderr, "usage: test_session idtaken|idback|slow|pause|idwait|idforge DOMAIN SESSION CONFIG ID "
+        fprintf(stderr, "usage: test_session idtaken|idback|slow|pause|idwait|idforge|stall DOMAIN SESSION CONFIG ID "
                         "SCRIPT SECONDS\n");
         return 2;
     }
@@ -441,11 +458,27 @@ int main(int argc, char **argv)
     int others_seen = 0, bad_own = 0, paused_views = 0, silent_banners = 0, paused_banners = 0;
     int wait_banners = 0, late_banners = 0, synced_unconfirmed = 0, own_unconfirmed = 0;
     double paused_since = -1, resumed_at = -1, taken_at = -1;
+    double last_t = 0, stall_end = -1, stall_len = 0;
+    int left_banners_late = 0, valid_views_after = 0;
     bool sent_pause = false, sent_resume = false, banner_after_resume = false;
     bool pause_answered = false, resume_answered = false; /* the server's replies in the view */
     for (double t = 0; t < secs; t = ftm_haptic_clock() - a.t0) {
         sleep_s(0.02);
         ftm_client_session_snapshot(s, &v);
+        if (t - last_t > 2.0 && stall_end < 0) { /* stopped and continued */
+            stall_end = t;
+            stall_len = t - last_t;
+            fprintf(stderr, "test_session [%7.3f] stall of %.1f s seen\n", t, stall_len);
+            atomic_store(&a.stalled, true);
+        }
+        last_t = t;
+        if (stall_end >= 0 && t - stall_end > 3.0) {
+            /* (the lease expiry and the way back take a moment after the stall) */
+            if (strstr(v.banner, "SERVER LEFT"))
+                left_banners_late++;
+            if (v.force_valid)
+                valid_views_after++;
+        }
         if (strstr(v.banner, "SILENT"))
             silent_banners++;
         if (taken_at < 0 && atomic_load(&a.taken))
@@ -567,6 +600,16 @@ int main(int argc, char **argv)
                   "no force once the id was confirmed");
             CHECK(atomic_load(&fk.inputs_confirmed) > 0, "no probe input once the id was confirmed");
         }
+    } else if (strcmp(mode, "stall") == 0) {
+        CHECK(stall_end >= 0, "no stall seen: the script did not stop this process");
+        CHECK(atomic_load(&a.gone_logged) > 0, "the server's lease did not expire during the "
+                                               "%.1f s stall: the test shows nothing", stall_len);
+        CHECK(atomic_load(&a.back_logged) > 0, "the client never said the server is back");
+        CHECK(atomic_load(&a.nonzero_after_stall) > 0,
+              "no force written to the device after the stall: the trainee stays cut off");
+        CHECK(valid_views_after > 0 && v.force_valid, "the view's force did not come back");
+        CHECK(left_banners_late == 0, "%d views still said SERVER LEFT more than 3 s after the "
+                                      "stall (banner '%s')", left_banners_late, v.banner);
     } else if (strcmp(mode, "slow") == 0) {
         CHECK(v.synced_once, "never synced");
         CHECK(atomic_load(&a.frames) > 100, "only %d frames applied", atomic_load(&a.frames));
