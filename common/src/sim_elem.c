@@ -31,6 +31,7 @@
 #include "sim_elem.h"
 
 #include "error.h"
+#include "farfield.h"
 #include "hyperelastic.h"
 
 #include <math.h>
@@ -360,11 +361,15 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
 {
     ftm_elem *el = sim->elem;
     schedule *s = &sim->s;
-    if (el->carry) /* the last step's end: all but what impose_displacements moved */
+    if (el->carry) { /* the last step's end: all but what was placed since */
         for (int32_t k = 0; k < sim->ndisp; k++)
             forget_node(el, sim->disp[k]);
-    else
+        const int32_t nring = ftm_far_ring_count(sim->far); /* ftm_far_impose */
+        for (int32_t k = 0; k < nring; k++)
+            forget_node(el, ftm_far_ring_nodes(sim->far)[k]);
+    } else {
         next_generation(el);
+    }
     el->carry = false;
     bool ok = true;
     double mm = *max_m2;
@@ -454,6 +459,9 @@ bool ftm_elem_intact(ftm_sim *sim, bool last, bool region_ran)
             ok = evaluate_node(el, m, sim->x, sim->s.node[k]);
         for (int32_t k = 0; ok && region_ran && k < sim->ndisp; k++)
             ok = evaluate_node(el, m, sim->x, sim->disp[k]);
+        const int32_t nring = region_ran ? ftm_far_ring_count(sim->far) : 0;
+        for (int32_t k = 0; ok && k < nring; k++)
+            ok = evaluate_node(el, m, sim->x, ftm_far_ring_nodes(sim->far)[k]);
         for (int32_t k = 0; ok && k < sim->nrelax; k++)
             ok = evaluate_node(el, m, sim->x, sim->relax[k]);
         el->carry = ok;
@@ -896,8 +904,11 @@ int ftm_elem_create(ftm_sim *sim, ftm_error *err)
     if (el->kind == FTM_FORCES_NEO_HOOKEAN) { /* the linear matrices have served */
         free(el->k);
         free(el->grad);
-        free(el->row_k);
-        el->k = el->grad = el->row_k = NULL;
+        el->k = el->grad = NULL;
+        if (d->far_field != FTM_FAR_FIELD_ELASTIC) { /* its compliance needs the rows */
+            free(el->row_k);
+            el->row_k = NULL;
+        }
     }
     sim->elem = el;
     return FTM_OK;

@@ -28,8 +28,9 @@ void ftm_elem_reactions(ftm_sim *sim);
 
 /* Neo-Hookean: false if an element had J <= 0 at a quadrature point in this
  * substep's sweeps or, after the step's last substep (last), has it in the
- * positions the step leaves (the elements of the scheduled nodes when
- * region_ran, of the displacement contacts and of the relaxing nodes): their
+ * positions the step leaves (the elements of the scheduled nodes, the
+ * displacement contacts and the far field's ring when region_ran, and of
+ * the relaxing nodes): their
  * forces, evaluated for that check, are what the next step starts from.
  * Clears the record for the next substep. Other forces: true. */
 bool ftm_elem_intact(ftm_sim *sim, bool last, bool region_ran);

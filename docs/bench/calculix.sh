@@ -31,4 +31,14 @@ sed -e 's/^stiffness = 50 .*/stiffness = 2615.8/' -e 's/^mass = 0.001 .*/mass = 
     "$cmp" sim "$1" "$2" --forces "$3" 2>&1
     "$cmp" sim "$1" "$2" --forces "$3" --json >>"$out.json" 2>/dev/null
   done
+  # neo-Hookean at shallow depths: the paper's fixed far field and the elastic one
+  for ff in elastic fixed; do
+    for depth in 2 4 6; do
+      echo
+      echo "## elastin-cube-10mm against elastin-cube-10mm.neo, neo-hookean, depth $depth, far field $ff"
+      "$cmp" sim elastin-cube-10mm.scene ref/elastin-cube-10mm.neo.dat --depth "$depth" --far-field "$ff" 2>&1
+      "$cmp" sim elastin-cube-10mm.scene ref/elastin-cube-10mm.neo.dat --depth "$depth" --far-field "$ff" \
+        --json >>"$out.json" 2>/dev/null
+    done
+  done
 } | tee "$out.txt"

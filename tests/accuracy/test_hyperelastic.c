@@ -329,10 +329,10 @@ static void test_rigid_rotation(void **state)
 /* The same press in the three orders: the same bits (each element is
  * evaluated at the substep's start, whatever the order), and a loaded
  * keyframe every step continues with the same bits (nothing the state
- * does not hold carries over). */
-static void test_orders_and_keyframes(void **state)
+ * does not hold carries over), with either far field (the elastic one
+ * places its ring outside the sweeps). */
+static void orders_and_keyframes(ftm_far_field far)
 {
-    (void)state;
     ftm_mesh *m = block(5, 0.5);
     static const ftm_order orders[] = {FTM_ORDER_LAYER_COLORED, FTM_ORDER_BFS,
                                        FTM_ORDER_LAYER_JACOBI};
@@ -343,7 +343,8 @@ static void test_orders_and_keyframes(void **state)
         ftm_error err;
         ftm_sim_def d = neo_def();
         d.order = orders[o];
-        d.depth = 3;
+        d.depth = far == FTM_FAR_FIELD_ELASTIC ? 1 : 3;
+        d.far_field = far;
         ftm_sim *sim = NULL, *copy = NULL;
         assert_int_equal(ftm_sim_create(m, &d, &sim, &err), FTM_OK);
         assert_int_equal(ftm_sim_create(m, &d, &copy, &err), FTM_OK);
@@ -403,6 +404,13 @@ static void test_orders_and_keyframes(void **state)
     assert_true(hash[0] == hash[1]);
     assert_true(hash[0] == hash[2]);
     ftm_mesh_destroy(m);
+}
+
+static void test_orders_and_keyframes(void **state)
+{
+    (void)state;
+    orders_and_keyframes(FTM_FAR_FIELD_FIXED);
+    orders_and_keyframes(FTM_FAR_FIELD_ELASTIC);
 }
 
 /* Without damping, at half the critical step, a press and release stays
