@@ -486,8 +486,9 @@ int ftm_cmd_sim(int argc, char **argv)
         rc = ftm_sim_step(sim);
         if (rc == FTM_EUNSTABLE) {
             fprintf(stderr,
-                    "ftm sim: %s: step %d (t = %.6g s): the integration diverged even with "
-                    "%d substeps; use a smaller time_step (critical %.6g s)\n",
+                    "ftm sim: %s: step %d (t = %.6g s): the integration diverged (or an "
+                    "element inverted) even with %d substeps; use a smaller time_step "
+                    "(critical %.6g s) or a gentler load\n",
                     s.scene, (int)step, t, (int)def.max_substeps, s.h_crit);
             status = EXIT_UNSTABLE;
             goto done;

@@ -760,11 +760,13 @@ static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
         s->sim.max_substeps = (int32_t)iv;
         return FTM_OK;
     case K_FORCES: { /* element forces take the [fem] material (checked later) */
-        static const char *const names[] = {"springs", "linear-fem", "corot-fem", NULL};
+        static const char *const names[] = {"springs", "linear-fem", "corot-fem", "neo-hookean",
+                                            NULL};
         static const ftm_forces values[] = {FTM_FORCES_SPRINGS, FTM_FORCES_LINEAR_FEM,
-                                            FTM_FORCES_COROT_FEM};
+                                            FTM_FORCES_COROT_FEM, FTM_FORCES_NEO_HOOKEAN};
         int f;
-        if ((rc = word(p, kn, v, vlen, names, "springs, linear-fem or corot-fem", &f)) != FTM_OK)
+        if ((rc = word(p, kn, v, vlen, names, "springs, linear-fem, corot-fem or neo-hookean",
+                       &f)) != FTM_OK)
             return rc;
         s->sim.forces = values[f];
         return FTM_OK;

@@ -664,9 +664,11 @@ static double work_end(const ftm_sim *sim)
     return w;
 }
 
-/* One attempt at a full step with the current substeps. */
-static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
+/* One attempt at a full step with the current substeps. *inverted: it
+ * failed for an inverted element (neo-Hookean forces). */
+static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2, bool *inverted)
 {
+    *inverted = false;
     bool ok = true;
     schedule *s = &sim->s;
     *region_m2 = 0.0;
@@ -699,6 +701,11 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
         ok &= sim->elem ? ftm_elem_sweep_relax(sim) : ftm_sweep_relax(sim);
         if (!sim->def.guard)
             ok = true;
+        /* an inverted element has no stress: the step fails, guard or not */
+        if (sim->elem && !ftm_elem_intact(sim, sub + 1 == sim->substeps, region_active)) {
+            *inverted = true;
+            ok = false;
+        }
         if (!ok)
             return false;
     }
@@ -720,6 +727,7 @@ static void sleep_relaxed(ftm_sim *sim)
         if (rest) {
             memcpy(xi, X, 3 * sizeof(double));
             memcpy(pi, X, 3 * sizeof(double));
+            ftm_elem_node_moved(sim, i);
         } else {
             sim->relax[w++] = i;
         }
@@ -795,7 +803,8 @@ int ftm_sim_step(ftm_sim *sim)
         }
         if (echeck)
             work_begin(sim);
-        bool ok = attempt_step(sim, region_active, &region_m2), energy_fail = false;
+        bool inverted;
+        bool ok = attempt_step(sim, region_active, &region_m2, &inverted), energy_fail = false;
         double work = 0.0;
         if (ok && echeck && sim->budget >= 0.0) {
             work = work_end(sim);
@@ -816,6 +825,7 @@ int ftm_sim_step(ftm_sim *sim)
             break;
         }
         restore_state(sim, full, region_active);
+        ftm_elem_forget(sim); /* the attempt's element values are not the restored state's */
         free(full);
         sim->st.guard_events++;
         if (energy_fail) {
@@ -825,11 +835,21 @@ int ftm_sim_step(ftm_sim *sim)
             /* the excess built up over many steps: start the account again from here */
             sim->budget = fmax(sim->budget, sim->energy_prev);
         }
+        char what[160] = "";
+        double det = 0.0;
+        if (inverted)
+            ftm_elem_inversion(sim, what, sizeof what, &det);
         if (sim->substeps * 2 > sim->def.max_substeps) {
             sim->st.unstable_steps++;
-            ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_ERROR,
-                     "step %llu diverged even with %d substeps; state kept as before the step",
-                     (unsigned long long)sim->st.step, (int)sim->substeps);
+            if (inverted)
+                ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_ERROR,
+                         "step %llu: %s inverted (J = det F = %g at a quadrature "
+                         "point) even with %d substeps; state kept as before the step",
+                         (unsigned long long)sim->st.step, what, det, (int)sim->substeps);
+            else
+                ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_ERROR,
+                         "step %llu diverged even with %d substeps; state kept as before the step",
+                         (unsigned long long)sim->st.step, (int)sim->substeps);
             give_back(sim, &origin);
             return FTM_EUNSTABLE;
         }
@@ -842,10 +862,16 @@ int ftm_sim_step(ftm_sim *sim)
             memcpy(origin.xp, sim->xp, (size_t)sim->n * 3 * sizeof *origin.xp);
         }
         change_substeps(sim, sim->substeps * 2);
-        ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
-                 "step %llu unstable (a node moved more than %g of its shortest link): rolled "
-                 "back, now %d substeps per step",
-                 (unsigned long long)sim->st.step, sim->def.guard_motion, (int)sim->substeps);
+        if (inverted)
+            ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
+                     "step %llu: %s inverted (J = det F = %g at a quadrature point): "
+                     "rolled back, now %d substeps per step",
+                     (unsigned long long)sim->st.step, what, det, (int)sim->substeps);
+        else
+            ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
+                     "step %llu unstable (a node moved more than %g of its shortest link): "
+                     "rolled back, now %d substeps per step",
+                     (unsigned long long)sim->st.step, sim->def.guard_motion, (int)sim->substeps);
     }
     sim->st.updated_nodes = (region_active ? sim->s.count : 0) + sim->nrelax;
     sim->st.updated_nodes *= sim->substeps;
@@ -1011,6 +1037,7 @@ uint32_t ftm_arithmetic_revision(void)
 
 void ftm_sim_reset(ftm_sim *sim)
 {
+    ftm_elem_forget(sim);
     memcpy(sim->x, sim->m->rest, (size_t)sim->n * 3 * sizeof(double));
     memcpy(sim->xp, sim->m->rest, (size_t)sim->n * 3 * sizeof(double));
     ftm_sim_set_contacts(sim, NULL, 0, NULL);
@@ -1093,6 +1120,7 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
     if (rc)
         return rc;
     size_t n = (size_t)sim->n;
+    ftm_elem_forget(sim);
     memcpy(sim->x, sim->m->rest, n * 3 * sizeof(double));
     memcpy(sim->xp, sim->m->rest, n * 3 * sizeof(double));
     for (int32_t k = 0; k < count; k++) {

@@ -367,7 +367,7 @@ static void test_scene_forces(void **state)
                               "spacing = 1\n[material]\nmass = 1\nstiffness = 1\n"
                               "[sim]\nforces = fem\n";
     assert_int_equal(ftm_scene_parse(bad, sizeof bad - 1, "bad", &sc, &err), FTM_EPARSE);
-    assert_contains(err.message, "springs, linear-fem or corot-fem");
+    assert_contains(err.message, "springs, linear-fem, corot-fem or neo-hookean");
 }
 
 int main(void)

@@ -46,12 +46,19 @@ typedef enum ftm_order {
 } ftm_order;
 
 /* Internal forces of the integrator. The paper's model is springs; the
- * element forces use the mesh's hexahedra and tetrahedra with the linear
- * elastic element stiffness of the FEM reference (docs/accuracy.md). */
+ * element forces use the mesh's hexahedra and tetrahedra: the linear elastic
+ * element stiffness of the FEM reference, or the neo-Hookean solid
+ * (docs/accuracy.md, docs/calculix.md). */
 typedef enum ftm_forces {
     FTM_FORCES_SPRINGS = 0,    /* Voigt links (Eq. 6), the default */
     FTM_FORCES_LINEAR_FEM = 1, /* f_e = K_e (x_e - X_e): small displacements */
     FTM_FORCES_COROT_FEM = 2,  /* co-rotational f_e = R K_e (R^T x_e - X_e): large rotations */
+    /* compressible neo-Hookean, W = mu/2 (J^(-2/3) I1 - 3) + kappa/2 (J - 1)^2
+     * (CalculiX's *HYPERELASTIC, NEO HOOKE with C10 = mu/2, D1 = 2/kappa,
+     * mu and kappa from young and poisson): large strains. An element
+     * inverted at a quadrature point (J <= 0) fails the step: it is undone
+     * and substepped, guard or not, and FTM_EUNSTABLE if that cannot help */
+    FTM_FORCES_NEO_HOOKEAN = 3,
 } ftm_forces;
 
 /* What holds the contact region at its edge. The paper holds every node
@@ -108,9 +115,10 @@ typedef struct ftm_sim_def {
     void *log_user;
     /* Internal forces (default FTM_FORCES_SPRINGS). With element forces a
      * node's force is the sum of its elements' rows of K_e (x_e - X_e) (or the
-     * co-rotated form), links only shape the layers and the guard; young > 0
-     * and -1 < poisson < 0.5 are required, and density > 0 [kg/m^3] replaces
-     * the mesh's node masses by lumped element masses (0 keeps them). */
+     * co-rotated form, or the neo-Hookean nodal forces), links only shape the
+     * layers and the guard; young > 0 and -1 < poisson < 0.5 are required,
+     * and density > 0 [kg/m^3] replaces the mesh's node masses by lumped
+     * element masses (0 keeps them). */
     ftm_forces forces;
     double young, poisson, density;
     ftm_far_field far_field; /* default FTM_FAR_FIELD_FIXED */
@@ -258,7 +266,9 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
 
 /* The critical time step of the simulation's forces: ftm_mesh_critical_time_step
  * for springs; for element forces the Gershgorin bound on M^-1 K with the
- * assembled element stiffness and the simulation's (lumped) masses. */
+ * assembled element stiffness and the simulation's (lumped) masses. For
+ * neo-Hookean forces K is their tangent at rest (the linear K): a deformed
+ * body's tangent differs, and the guard substeps if that needs it. */
 double ftm_sim_critical_time_step(const ftm_sim *sim);
 
 /* Node masses the simulation uses (lumped element masses when set), 1 per node. */
@@ -268,7 +278,8 @@ const double *ftm_sim_masses(const ftm_sim *sim);
  * node): the spring forces sum_j f_ij, or the element forces, as the
  * integrator computes them (co-rotational: rotations from x). A node at
  * equilibrium has f = external force. Fixed nodes get their reactions'
- * negatives like any other node. FTM_ENOMEM possible. */
+ * negatives like any other node. FTM_ENOMEM possible; neo-Hookean:
+ * FTM_EINVAL (f_out untouched) if an element is inverted at x. */
 int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f_out);
 
 /* ---- contact stiffness (for haptic force models, docs/haptics.md) ---- */
