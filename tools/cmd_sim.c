@@ -153,8 +153,11 @@ static int parse_options(int argc, char **argv, sim_options *o)
 static void log_to_stderr(void *user, ftm_log_level level, const char *message)
 {
     (void)user;
-    if (level >= FTM_LOG_WARN)
-        fprintf(stderr, "ftm: %s: %s\n", level >= FTM_LOG_ERROR ? "error" : "warning", message);
+    /* (the core's info: the far field's precomputation, its progress and cache) */
+    if (level >= FTM_LOG_INFO)
+        fprintf(stderr, "ftm: %s: %s\n",
+                level >= FTM_LOG_ERROR ? "error" : level >= FTM_LOG_WARN ? "warning" : "info",
+                message);
 }
 
 static const char *order_name(ftm_order order)

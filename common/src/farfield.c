@@ -21,6 +21,7 @@ struct ftm_far {
     int32_t *ring;
     int32_t nring, ring_cap;
     double *u;
+    uint8_t *moves; /* moves[k]: this step places ring node k elsewhere than it is */
     uint32_t *mark; /* mark[i] == gen: i is in the ring */
     uint32_t gen;
 
@@ -39,6 +40,7 @@ void ftm_far_free(ftm_far *f)
     ftm_compliance_release(f->g);
     free(f->ring);
     free(f->u);
+    free(f->moves);
     free(f->mark);
     free(f->dd);
     free(f->rhs);
@@ -70,6 +72,7 @@ int ftm_far_create(ftm_sim *sim, ftm_error *err)
 /* ---- the ring ---- */
 
 int32_t ftm_far_ring_count(const ftm_far *f) { return f ? f->nring : 0; }
+bool ftm_far_ring_moves(const ftm_far *f, int32_t k) { return f->moves[k] != 0; }
 const int32_t *ftm_far_ring_nodes(const ftm_far *f) { return f->ring; }
 bool ftm_far_in_ring(const ftm_far *f, int32_t node) { return f && f->mark[node] == f->gen; }
 void ftm_far_contacts_changed(ftm_far *f)
@@ -90,6 +93,10 @@ static int ring_push(ftm_far *f, int32_t i)
         if (!u)
             return FTM_ENOMEM;
         f->u = u;
+        uint8_t *mv = realloc(f->moves, (size_t)cap);
+        if (!mv)
+            return FTM_ENOMEM;
+        f->moves = mv;
         f->ring_cap = cap;
     }
     f->ring[f->nring++] = i;
@@ -305,6 +312,8 @@ int ftm_far_prepare(ftm_sim *sim)
                         (double)g[3 * p + 2] * F[2];
         }
         memcpy(f->u + 3 * k, u, sizeof u);
+        const double *X = sim->m->rest + 3 * j, *x = sim->x + 3 * j;
+        f->moves[k] = X[0] + u[0] != x[0] || X[1] + u[1] != x[1] || X[2] + u[2] != x[2];
     }
     return FTM_OK;
 }

@@ -42,6 +42,9 @@ int32_t ftm_far_rebuild_ring(ftm_sim *sim, int32_t *cand);
 int32_t ftm_far_ring_count(const ftm_far *f);
 const int32_t *ftm_far_ring_nodes(const ftm_far *f);
 bool ftm_far_in_ring(const ftm_far *f, int32_t node);
+/* Whether this step (ftm_far_prepare) moves ring node k (its index in
+ * ftm_far_ring_nodes): under unchanged contacts none does. */
+bool ftm_far_ring_moves(const ftm_far *f, int32_t k);
 
 /* Marks the contact solve stale (the contact node set or kinds changed). */
 void ftm_far_contacts_changed(ftm_far *f);

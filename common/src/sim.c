@@ -619,10 +619,12 @@ static void work_begin(ftm_sim *sim)
         else
             ftm_sim_spring_force(sim, i, sim->work_mark + 3 * c);
     }
+    /* (a ring node this step does not move does no work) */
     const int32_t nring = ftm_far_ring_count(sim->far);
     for (int32_t r = 0; r < nring; r++)
-        ftm_sim_spring_force(sim, ftm_far_ring_nodes(sim->far)[r],
-                             sim->work_mark + 3 * (sim->ncontacts + r));
+        if (ftm_far_ring_moves(sim->far, r))
+            ftm_sim_spring_force(sim, ftm_far_ring_nodes(sim->far)[r],
+                                 sim->work_mark + 3 * (sim->ncontacts + r));
 }
 
 /* The work of a held node (displacement contact, ring node) moved from x0
@@ -659,8 +661,9 @@ static double work_end(const ftm_sim *sim)
     const int32_t nring = ftm_far_ring_count(sim->far);
     const double *ring_save = sim->relax_save + 6 * ((size_t)sim->ndisp + (size_t)sim->nrelax);
     for (int32_t k = 0; k < nring; k++)
-        w += held_work(sim, ftm_far_ring_nodes(sim->far)[k],
-                       sim->work_mark + 3 * (sim->ncontacts + k), ring_save + 6 * k);
+        if (ftm_far_ring_moves(sim->far, k))
+            w += held_work(sim, ftm_far_ring_nodes(sim->far)[k],
+                           sim->work_mark + 3 * (sim->ncontacts + k), ring_save + 6 * k);
     return w;
 }
 

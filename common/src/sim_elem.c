@@ -357,16 +357,27 @@ static inline bool update_node(ftm_sim *sim, int32_t i, double *save, int stride
     return m2 <= ftm_sim_lim2(sim, i); /* false for NaN too */
 }
 
+/* A held node (displacement contact, far-field ring) was just placed, its
+ * old position in x_prev: the elements evaluated at the last step's end
+ * still hold unless it moved (a probe held still, or a ring under
+ * unchanged contacts, keeps them). */
+static inline void forget_moved(ftm_elem *el, const ftm_sim *sim, int32_t i)
+{
+    const double *x = sim->x + 3 * i, *xp = sim->xp + 3 * i;
+    if (x[0] != xp[0] || x[1] != xp[1] || x[2] != xp[2])
+        forget_node(el, i);
+}
+
 bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
 {
     ftm_elem *el = sim->elem;
     schedule *s = &sim->s;
     if (el->carry) { /* the last step's end: all but what was placed since */
         for (int32_t k = 0; k < sim->ndisp; k++)
-            forget_node(el, sim->disp[k]);
+            forget_moved(el, sim, sim->disp[k]);
         const int32_t nring = ftm_far_ring_count(sim->far); /* ftm_far_impose */
         for (int32_t k = 0; k < nring; k++)
-            forget_node(el, ftm_far_ring_nodes(sim->far)[k]);
+            forget_moved(el, sim, ftm_far_ring_nodes(sim->far)[k]);
     } else {
         next_generation(el);
     }
@@ -459,9 +470,8 @@ bool ftm_elem_intact(ftm_sim *sim, bool last, bool region_ran)
             ok = evaluate_node(el, m, sim->x, sim->s.node[k]);
         for (int32_t k = 0; ok && region_ran && k < sim->ndisp; k++)
             ok = evaluate_node(el, m, sim->x, sim->disp[k]);
-        const int32_t nring = region_ran ? ftm_far_ring_count(sim->far) : 0;
-        for (int32_t k = 0; ok && k < nring; k++)
-            ok = evaluate_node(el, m, sim->x, ftm_far_ring_nodes(sim->far)[k]);
+        /* (the ring's elements that hold a region node are evaluated above;
+         * the others give no scheduled node a force) */
         for (int32_t k = 0; ok && k < sim->nrelax; k++)
             ok = evaluate_node(el, m, sim->x, sim->relax[k]);
         el->carry = ok;
