@@ -104,7 +104,7 @@ typedef struct vctx {
 
 static int missing(const vctx *v, const char *field)
 {
-    return wire_err(v->err, FTM_EPARSE, "%s: missing field %s", v->what, field);
+    return ftm_error_set(v->err, FTM_EPARSE, "%s: missing field %s", v->what, field);
 }
 
 static int check_version(const vctx *v, protobuf_c_boolean has, uint32_t version)
@@ -112,16 +112,16 @@ static int check_version(const vctx *v, protobuf_c_boolean has, uint32_t version
     if (!has)
         return missing(v, "version");
     if (version != FTM_WIRE_VERSION)
-        return wire_err(v->err, FTM_EVERSION,
-                        "%s: protocol version %u, this side speaks version %u (ftm.v%u)", v->what,
-                        version, FTM_WIRE_VERSION, FTM_WIRE_VERSION);
+        return ftm_error_set(v->err, FTM_EVERSION,
+                             "%s: protocol version %u, this side speaks version %u (ftm.v%u)",
+                             v->what, version, FTM_WIRE_VERSION, FTM_WIRE_VERSION);
     return FTM_OK;
 }
 
 static int check_finite(const vctx *v, const char *field, double x)
 {
     if (!isfinite(x))
-        return wire_err(v->err, FTM_EINVAL, "%s: %s is not finite (%g)", v->what, field, x);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: %s is not finite (%g)", v->what, field, x);
     return FTM_OK;
 }
 
@@ -147,8 +147,8 @@ static int check_vec3(const vctx *v, const char *field, const Ftm__V1__Vec3 *p)
 static int check_depth(const vctx *v, const char *field, uint32_t depth)
 {
     if (depth > DEPTH_MAX)
-        return wire_err(v->err, FTM_ERANGE, "%s: %s %u out of range (0..%u)", v->what, field, depth,
-                        DEPTH_MAX);
+        return ftm_error_set(v->err, FTM_ERANGE, "%s: %s %u out of range (0..%u)", v->what, field,
+                             depth, DEPTH_MAX);
     return FTM_OK;
 }
 
@@ -173,15 +173,15 @@ static int check_tissue(const vctx *v, const char *field, const Ftm__V1__TissueP
         if (rc)
             return rc;
         if (f[i].value < 0 || (f[i].value == 0 && !f[i].zero_ok))
-            return wire_err(v->err, FTM_EINVAL, "%s: %s must be %s (got %g)", v->what, name,
-                            f[i].zero_ok ? ">= 0" : "> 0", f[i].value);
+            return ftm_error_set(v->err, FTM_EINVAL, "%s: %s must be %s (got %g)", v->what, name,
+                                 f[i].zero_ok ? ">= 0" : "> 0", f[i].value);
     }
     snprintf(name, sizeof name, "%s.axis_scale", field);
     int rc = check_vec3(v, name, t->axis_scale);
     if (rc)
         return rc;
     if (!(t->axis_scale->x > 0 && t->axis_scale->y > 0 && t->axis_scale->z > 0))
-        return wire_err(v->err, FTM_EINVAL, "%s: %s must be > 0 in every axis", v->what, name);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: %s must be > 0 in every axis", v->what, name);
     return FTM_OK;
 }
 
@@ -199,8 +199,8 @@ static int check_limits(const vctx *v, const char *field, const Ftm__V1__DepthLi
     if (rc)
         return rc;
     if (d->min > d->max)
-        return wire_err(v->err, FTM_EINVAL, "%s: %s.min %u above max %u", v->what, field, d->min,
-                        d->max);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: %s.min %u above max %u", v->what, field,
+                             d->min, d->max);
     return FTM_OK;
 }
 
@@ -212,24 +212,24 @@ static int check_announce(const vctx *v, const Ftm__V1__SceneAnnounce *m)
     if (!m->scene_id || !m->scene_id[0])
         return missing(v, "scene_id");
     if (strlen(m->scene_id) >= FTM_WIRE_NAME_MAX)
-        return wire_err(v->err, FTM_EINVAL, "%s: scene_id of %zu bytes (at most %d)", v->what,
-                        strlen(m->scene_id), FTM_WIRE_NAME_MAX - 1);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: scene_id of %zu bytes (at most %d)", v->what,
+                             strlen(m->scene_id), FTM_WIRE_NAME_MAX - 1);
     if (!m->has_content_digest || m->content_digest.len == 0)
         return missing(v, "content_digest");
     if (m->content_digest.len > FTM_WIRE_DIGEST_MAX)
-        return wire_err(v->err, FTM_EINVAL, "%s: content_digest of %zu bytes (at most %d)",
-                        v->what, m->content_digest.len, FTM_WIRE_DIGEST_MAX);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: content_digest of %zu bytes (at most %d)",
+                             v->what, m->content_digest.len, FTM_WIRE_DIGEST_MAX);
     if (!m->has_tick_rate_hz)
         return missing(v, "tick_rate_hz");
     if (m->tick_rate_hz == 0)
-        return wire_err(v->err, FTM_EINVAL, "%s: tick_rate_hz must be > 0", v->what);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: tick_rate_hz must be > 0", v->what);
     if (!m->has_time_step)
         return missing(v, "time_step");
     if ((rc = check_finite(v, "time_step", m->time_step)))
         return rc;
     if (!(m->time_step > 0))
-        return wire_err(v->err, FTM_EINVAL, "%s: time_step must be > 0 (got %g)", v->what,
-                        m->time_step);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: time_step must be > 0 (got %g)", v->what,
+                             m->time_step);
     if (!m->has_depth)
         return missing(v, "depth");
     if ((rc = check_depth(v, "depth", m->depth)))
@@ -241,8 +241,8 @@ static int check_announce(const vctx *v, const Ftm__V1__SceneAnnounce *m)
     if (!m->has_node_count)
         return missing(v, "node_count");
     if (m->node_count == 0 || m->node_count > INT32_MAX)
-        return wire_err(v->err, FTM_ERANGE, "%s: node_count %u out of range (1..%d)", v->what,
-                        m->node_count, INT32_MAX);
+        return ftm_error_set(v->err, FTM_ERANGE, "%s: node_count %u out of range (1..%d)", v->what,
+                             m->node_count, INT32_MAX);
     if (!m->has_tick)
         return missing(v, "tick");
     if (!m->has_paused)
@@ -260,8 +260,8 @@ static int check_probe_input(const vctx *v, const Ftm__V1__ProbeInput *m)
     if (!m->has_last_tick_seen)
         return missing(v, "last_tick_seen");
     if (m->n_samples > FTM_WIRE_SAMPLES_MAX)
-        return wire_err(v->err, FTM_ERANGE, "%s: %zu samples (at most %d)", v->what, m->n_samples,
-                        FTM_WIRE_SAMPLES_MAX);
+        return ftm_error_set(v->err, FTM_ERANGE, "%s: %zu samples (at most %d)", v->what,
+                             m->n_samples, FTM_WIRE_SAMPLES_MAX);
     for (size_t i = 0; i < m->n_samples; i++) {
         const Ftm__V1__ProbeSample *s = m->samples[i];
         char name[64];
@@ -270,8 +270,8 @@ static int check_probe_input(const vctx *v, const Ftm__V1__ProbeInput *m)
             return missing(v, name);
         }
         if (s->probe > INT32_MAX)
-            return wire_err(v->err, FTM_ERANGE, "%s: samples[%zu].probe %u out of range", v->what,
-                            i, s->probe);
+            return ftm_error_set(v->err, FTM_ERANGE, "%s: samples[%zu].probe %u out of range",
+                                 v->what, i, s->probe);
         snprintf(name, sizeof name, "samples[%zu].position", i);
         if ((rc = check_vec3(v, name, s->position)))
             return rc;
@@ -286,31 +286,32 @@ static int check_contacts(const vctx *v, size_t n, const uint32_t *node, size_t 
                           size_t n_value, const double *value, uint32_t limit)
 {
     if (n > INT32_MAX || n_group != n || n_kind != n || n_value != 3 * n)
-        return wire_err(v->err, FTM_EINVAL,
-                        "%s: contact columns disagree: %zu nodes, %zu groups, %zu kinds, "
-                        "%zu values (want 3 per node)",
-                        v->what, n, n_group, n_kind, n_value);
+        return ftm_error_set(v->err, FTM_EINVAL,
+                             "%s: contact columns disagree: %zu nodes, %zu groups, %zu kinds, "
+                             "%zu values (want 3 per node)",
+                             v->what, n, n_group, n_kind, n_value);
     for (size_t i = 0; i < n; i++) {
         if (node[i] >= limit) {
             if (v->scene_nodes)
-                return wire_err(v->err, FTM_ERANGE,
-                                "%s: contact %zu: node %u out of range (scene has %u nodes)",
-                                v->what, i, node[i], v->scene_nodes);
-            return wire_err(v->err, FTM_ERANGE, "%s: contact %zu: node %u out of range", v->what,
-                            i, node[i]);
+                return ftm_error_set(v->err, FTM_ERANGE,
+                                     "%s: contact %zu: node %u out of range (scene has %u nodes)",
+                                     v->what, i, node[i], v->scene_nodes);
+            return ftm_error_set(v->err, FTM_ERANGE, "%s: contact %zu: node %u out of range",
+                                 v->what, i, node[i]);
         }
         if (group[i] > INT32_MAX)
-            return wire_err(v->err, FTM_ERANGE, "%s: contact %zu: group %u out of range", v->what,
-                            i, group[i]);
+            return ftm_error_set(v->err, FTM_ERANGE, "%s: contact %zu: group %u out of range",
+                                 v->what, i, group[i]);
         if ((int)kind[i] != FTM__V1__CONTACT_KIND__CONTACT_FORCE &&
             (int)kind[i] != FTM__V1__CONTACT_KIND__CONTACT_DISPLACEMENT)
-            return wire_err(v->err, FTM_EINVAL, "%s: contact %zu: unknown contact kind %d",
-                            v->what, i, (int)kind[i]);
+            return ftm_error_set(v->err, FTM_EINVAL, "%s: contact %zu: unknown contact kind %d",
+                                 v->what, i, (int)kind[i]);
         for (int c = 0; c < 3; c++) {
             double x = value[3 * i + (size_t)c];
             if (!isfinite(x))
-                return wire_err(v->err, FTM_EINVAL, "%s: contact %zu: value.%c is not finite (%g)",
-                                v->what, i, "xyz"[c], x);
+                return ftm_error_set(v->err, FTM_EINVAL,
+                                     "%s: contact %zu: value.%c is not finite (%g)", v->what, i,
+                                     "xyz"[c], x);
         }
     }
     return FTM_OK;
@@ -336,8 +337,8 @@ static int check_tick(const vctx *v, const Ftm__V1__TickFrame *m)
                              m->n_contact_value, m->contact_value, v->node_limit)))
         return rc;
     if (m->n_reactions > FTM_WIRE_REACTIONS_MAX)
-        return wire_err(v->err, FTM_ERANGE, "%s: %zu reactions (at most %d)", v->what,
-                        m->n_reactions, FTM_WIRE_REACTIONS_MAX);
+        return ftm_error_set(v->err, FTM_ERANGE, "%s: %zu reactions (at most %d)", v->what,
+                             m->n_reactions, FTM_WIRE_REACTIONS_MAX);
     for (size_t i = 0; i < m->n_reactions; i++) {
         const Ftm__V1__ProbeReaction *r = m->reactions[i];
         char name[64];
@@ -350,17 +351,19 @@ static int check_tick(const vctx *v, const Ftm__V1__TickFrame *m)
             return missing(v, name);
         }
         if (r->group > INT32_MAX || r->probe > INT32_MAX)
-            return wire_err(v->err, FTM_ERANGE, "%s: reactions[%zu]: group or probe out of range",
-                            v->what, i);
+            return ftm_error_set(v->err, FTM_ERANGE,
+                                 "%s: reactions[%zu]: group or probe out of range", v->what, i);
         snprintf(name, sizeof name, "reactions[%zu].force", i);
         if ((rc = check_vec3(v, name, r->force)))
             return rc;
         if (r->n_stiffness != 0 && r->n_stiffness != 9)
-            return wire_err(v->err, FTM_EINVAL, "%s: reactions[%zu].stiffness has %zu values (0 or 9)",
-                            v->what, i, r->n_stiffness);
+            return ftm_error_set(v->err, FTM_EINVAL,
+                                 "%s: reactions[%zu].stiffness has %zu values (0 or 9)", v->what, i,
+                                 r->n_stiffness);
         if ((r->n_stiffness == 9) != (r->hip != NULL))
-            return wire_err(v->err, FTM_EINVAL,
-                            "%s: reactions[%zu]: stiffness and hip must come together", v->what, i);
+            return ftm_error_set(v->err, FTM_EINVAL,
+                                 "%s: reactions[%zu]: stiffness and hip must come together",
+                                 v->what, i);
         for (size_t k = 0; k < r->n_stiffness; k++) {
             if (!isfinite(r->stiffness[k])) {
                 snprintf(name, sizeof name, "reactions[%zu].stiffness[%zu]", i, k);
@@ -371,9 +374,10 @@ static int check_tick(const vctx *v, const Ftm__V1__TickFrame *m)
         if (r->hip && (rc = check_vec3(v, name, r->hip)))
             return rc;
         if (!r->contact_point != !r->contact_normal)
-            return wire_err(v->err, FTM_EINVAL,
-                            "%s: reactions[%zu]: contact_point and contact_normal must come together",
-                            v->what, i);
+            return ftm_error_set(
+                v->err, FTM_EINVAL,
+                "%s: reactions[%zu]: contact_point and contact_normal must come together", v->what,
+                i);
         snprintf(name, sizeof name, "reactions[%zu].contact_point", i);
         if (r->contact_point && (rc = check_vec3(v, name, r->contact_point)))
             return rc;
@@ -384,9 +388,9 @@ static int check_tick(const vctx *v, const Ftm__V1__TickFrame *m)
             const Ftm__V1__Vec3 *nv = r->contact_normal;
             double len = sqrt(nv->x * nv->x + nv->y * nv->y + nv->z * nv->z);
             if (!(fabs(len - 1.0) <= 1e-6))
-                return wire_err(v->err, FTM_EINVAL,
-                                "%s: reactions[%zu].contact_normal has length %g (must be 1)",
-                                v->what, i, len);
+                return ftm_error_set(v->err, FTM_EINVAL,
+                                     "%s: reactions[%zu].contact_normal has length %g (must be 1)",
+                                     v->what, i, len);
         }
     }
     return FTM_OK;
@@ -409,18 +413,18 @@ static int check_mode(const vctx *v, const Ftm__V1__IntegratorMode *m)
     if (!m->has_energy_prev)
         return missing(v, "mode.energy_prev");
     if (m->substeps < 1 || m->substeps > SUBSTEPS_MAX)
-        return wire_err(v->err, FTM_ERANGE, "%s: mode.substeps %u out of range (1..%u)", v->what,
-                        m->substeps, SUBSTEPS_MAX);
+        return ftm_error_set(v->err, FTM_ERANGE, "%s: mode.substeps %u out of range (1..%u)",
+                             v->what, m->substeps, SUBSTEPS_MAX);
     if (m->steps_at_substeps > INT32_MAX || m->quiet_steps > INT32_MAX)
-        return wire_err(v->err, FTM_ERANGE, "%s: mode step counters out of range (%u, %u)",
-                        v->what, m->steps_at_substeps, m->quiet_steps);
+        return ftm_error_set(v->err, FTM_ERANGE, "%s: mode step counters out of range (%u, %u)",
+                             v->what, m->steps_at_substeps, m->quiet_steps);
     int rc;
     if ((rc = check_finite(v, "mode.energy_budget", m->energy_budget)) ||
         (rc = check_finite(v, "mode.energy_prev", m->energy_prev)))
         return rc;
     if (m->energy_prev < 0)
-        return wire_err(v->err, FTM_EINVAL, "%s: mode.energy_prev must be >= 0 (got %g)", v->what,
-                        m->energy_prev);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: mode.energy_prev must be >= 0 (got %g)",
+                             v->what, m->energy_prev);
     return FTM_OK;
 }
 
@@ -444,35 +448,37 @@ static int check_keyframe(const vctx *v, const Ftm__V1__Keyframe *m)
     if (m->mode && (rc = check_mode(v, m->mode)))
         return rc;
     if (m->node_count == 0 || m->node_count > INT32_MAX)
-        return wire_err(v->err, FTM_ERANGE, "%s: node_count %u out of range (1..%d)", v->what,
-                        m->node_count, INT32_MAX);
+        return ftm_error_set(v->err, FTM_ERANGE, "%s: node_count %u out of range (1..%d)", v->what,
+                             m->node_count, INT32_MAX);
     if ((rc = check_contacts(v, m->n_contact_node, m->contact_node, m->n_contact_group,
                              m->contact_group, m->n_contact_kind, m->contact_kind,
                              m->n_contact_value, m->contact_value, m->node_count)))
         return rc;
     if (v->scene_nodes && m->node_count != v->scene_nodes)
-        return wire_err(v->err, FTM_ERANGE, "%s: for a mesh of %u nodes, scene has %u nodes",
-                        v->what, m->node_count, v->scene_nodes);
+        return ftm_error_set(v->err, FTM_ERANGE, "%s: for a mesh of %u nodes, scene has %u nodes",
+                             v->what, m->node_count, v->scene_nodes);
     size_t n = m->n_node;
     if (n > m->node_count || m->n_position != 3 * n || m->n_previous != 3 * n)
-        return wire_err(v->err, FTM_EINVAL,
-                        "%s: node columns disagree: %zu nodes (mesh has %u), %zu positions, "
-                        "%zu previous (want 3 per node)",
-                        v->what, n, m->node_count, m->n_position, m->n_previous);
+        return ftm_error_set(v->err, FTM_EINVAL,
+                             "%s: node columns disagree: %zu nodes (mesh has %u), %zu positions, "
+                             "%zu previous (want 3 per node)",
+                             v->what, n, m->node_count, m->n_position, m->n_previous);
     for (size_t i = 0; i < n; i++) {
         if (m->node[i] >= m->node_count)
-            return wire_err(v->err, FTM_ERANGE, "%s: entry %zu: node %u out of range (mesh has %u nodes)",
-                            v->what, i, m->node[i], m->node_count);
+            return ftm_error_set(v->err, FTM_ERANGE,
+                                 "%s: entry %zu: node %u out of range (mesh has %u nodes)", v->what,
+                                 i, m->node[i], m->node_count);
         if (i > 0 && m->node[i] <= m->node[i - 1])
-            return wire_err(v->err, FTM_EINVAL,
-                            "%s: entry %zu: node %u not above the previous node %u (must ascend)",
-                            v->what, i, m->node[i], m->node[i - 1]);
+            return ftm_error_set(
+                v->err, FTM_EINVAL,
+                "%s: entry %zu: node %u not above the previous node %u (must ascend)", v->what, i,
+                m->node[i], m->node[i - 1]);
     }
     for (size_t i = 0; i < 3 * n; i++) {
         if (!isfinite(m->position[i]) || !isfinite(m->previous[i]))
-            return wire_err(v->err, FTM_EINVAL, "%s: entry %zu (node %u): %s.%c is not finite",
-                            v->what, i / 3, m->node[i / 3],
-                            isfinite(m->position[i]) ? "previous" : "position", "xyz"[i % 3]);
+            return ftm_error_set(v->err, FTM_EINVAL, "%s: entry %zu (node %u): %s.%c is not finite",
+                                 v->what, i / 3, m->node[i / 3],
+                                 isfinite(m->position[i]) ? "previous" : "position", "xyz"[i % 3]);
     }
     return FTM_OK;
 }
@@ -484,13 +490,14 @@ static int check_text(const vctx *v, const char *field, const char *text, size_t
 {
     const size_t n = text ? strlen(text) : 0;
     if (n >= cap)
-        return wire_err(v->err, FTM_EINVAL, "%s: %s of %zu bytes (at most %zu)", v->what, field, n,
-                        cap - 1);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: %s of %zu bytes (at most %zu)", v->what,
+                             field, n, cap - 1);
     for (size_t i = 0; i < n; i++) {
         const unsigned char c = (unsigned char)text[i];
         if (c < 0x20 || c == 0x7f)
-            return wire_err(v->err, FTM_EINVAL, "%s: %s has control character 0x%02x at byte %zu",
-                            v->what, field, c, i);
+            return ftm_error_set(v->err, FTM_EINVAL,
+                                 "%s: %s has control character 0x%02x at byte %zu", v->what, field,
+                                 c, i);
     }
     return FTM_OK;
 }
@@ -505,11 +512,11 @@ static int check_status(const vctx *v, const Ftm__V1__ParticipantStatus *m)
     if (!m->has_role)
         return missing(v, "role");
     if ((int)m->role < FTM_WIRE_ROLE_SERVER || (int)m->role > FTM_WIRE_ROLE_BOT)
-        return wire_err(v->err, FTM_EINVAL, "%s: unknown role %d", v->what, (int)m->role);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: unknown role %d", v->what, (int)m->role);
     if (!m->has_state)
         return missing(v, "state");
     if ((int)m->state < FTM_WIRE_STATE_JOINING || (int)m->state > FTM_WIRE_STATE_LEAVING)
-        return wire_err(v->err, FTM_EINVAL, "%s: unknown state %d", v->what, (int)m->state);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: unknown state %d", v->what, (int)m->state);
     if (!m->has_last_applied_tick)
         return missing(v, "last_applied_tick");
     if (!m->has_state_hash)
@@ -522,34 +529,36 @@ static int check_status(const vctx *v, const Ftm__V1__ParticipantStatus *m)
         (rc = check_finite(v, "replay_ns_max", m->replay_ns_max)))
         return rc;
     if (m->replay_ns_per_tick < 0 || m->replay_ns_max < 0)
-        return wire_err(v->err, FTM_EINVAL, "%s: negative replay time", v->what);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: negative replay time", v->what);
     if ((rc = check_text(v, "name", m->name, FTM_WIRE_DISPLAY_MAX)))
         return rc;
     if (m->n_ignored_participant != m->n_ignored_origin)
-        return wire_err(v->err, FTM_EINVAL, "%s: %zu ignored_participant but %zu ignored_origin",
-                        v->what, m->n_ignored_participant, m->n_ignored_origin);
+        return ftm_error_set(v->err, FTM_EINVAL,
+                             "%s: %zu ignored_participant but %zu ignored_origin", v->what,
+                             m->n_ignored_participant, m->n_ignored_origin);
     if (m->n_ignored_participant > FTM_WIRE_IGNORED_MAX)
-        return wire_err(v->err, FTM_ERANGE, "%s: %zu ignored processes (at most %d)", v->what,
-                        m->n_ignored_participant, FTM_WIRE_IGNORED_MAX);
+        return ftm_error_set(v->err, FTM_ERANGE, "%s: %zu ignored processes (at most %d)", v->what,
+                             m->n_ignored_participant, FTM_WIRE_IGNORED_MAX);
     if (m->n_ignored_participant && (int)m->role != FTM_WIRE_ROLE_SERVER)
-        return wire_err(v->err, FTM_EINVAL, "%s: ignored processes in a %s's status (a server's only)",
-                        v->what, ftm_wire_role_name((ftm_wire_role)m->role));
+        return ftm_error_set(v->err, FTM_EINVAL,
+                             "%s: ignored processes in a %s's status (a server's only)", v->what,
+                             ftm_wire_role_name((ftm_wire_role)m->role));
     if (m->n_holder_participant != m->n_holder_origin)
-        return wire_err(v->err, FTM_EINVAL, "%s: %zu holder_participant but %zu holder_origin",
-                        v->what, m->n_holder_participant, m->n_holder_origin);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: %zu holder_participant but %zu holder_origin",
+                             v->what, m->n_holder_participant, m->n_holder_origin);
     if (m->n_holder_participant > FTM_WIRE_HOLDERS_MAX)
-        return wire_err(v->err, FTM_ERANGE, "%s: %zu holders (at most %d)", v->what,
-                        m->n_holder_participant, FTM_WIRE_HOLDERS_MAX);
+        return ftm_error_set(v->err, FTM_ERANGE, "%s: %zu holders (at most %d)", v->what,
+                             m->n_holder_participant, FTM_WIRE_HOLDERS_MAX);
     if (m->n_holder_participant && (int)m->role != FTM_WIRE_ROLE_SERVER)
-        return wire_err(v->err, FTM_EINVAL, "%s: holders in a %s's status (a server's only)",
-                        v->what, ftm_wire_role_name((ftm_wire_role)m->role));
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: holders in a %s's status (a server's only)",
+                             v->what, ftm_wire_role_name((ftm_wire_role)m->role));
     /* one process per id: a second pair for an id would make "the server
      * hears us" ambiguous */
     for (size_t i = 1; i < m->n_holder_participant; i++)
         for (size_t j = 0; j < i; j++)
             if (m->holder_participant[i] == m->holder_participant[j])
-                return wire_err(v->err, FTM_EINVAL, "%s: holder_participant %u listed twice",
-                                v->what, m->holder_participant[i]);
+                return ftm_error_set(v->err, FTM_EINVAL, "%s: holder_participant %u listed twice",
+                                     v->what, m->holder_participant[i]);
     return FTM_OK;
 }
 
@@ -587,14 +596,15 @@ static int check_control_reply(const vctx *v, const Ftm__V1__ControlReply *m)
     if (!m->has_outcome)
         return missing(v, "outcome");
     if ((int)m->outcome < FTM_WIRE_OUTCOME_APPLIED || (int)m->outcome > FTM_WIRE_OUTCOME_REFUSED)
-        return wire_err(v->err, FTM_EINVAL, "%s: unknown outcome %d", v->what, (int)m->outcome);
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: unknown outcome %d", v->what,
+                             (int)m->outcome);
     if (!m->has_tick)
         return missing(v, "tick");
     if ((rc = check_text(v, "reason", m->reason, FTM_WIRE_REASON_MAX)))
         return rc;
     if ((!m->reason || !m->reason[0]) && (int)m->outcome != FTM_WIRE_OUTCOME_APPLIED)
-        return wire_err(v->err, FTM_EINVAL, "%s: a %s command needs a reason", v->what,
-                        ftm_wire_outcome_name((ftm_wire_outcome)m->outcome));
+        return ftm_error_set(v->err, FTM_EINVAL, "%s: a %s command needs a reason", v->what,
+                             ftm_wire_outcome_name((ftm_wire_outcome)m->outcome));
     return FTM_OK;
 }
 
@@ -608,7 +618,7 @@ static int check_any(const vctx *v, int kind, const ProtobufCMessage *m)
     case FTM_WIRE_STATUS: return check_status(v, (const Ftm__V1__ParticipantStatus *)m);
     case FTM_WIRE_CONTROL: return check_control(v, (const Ftm__V1__SessionControl *)m);
     case FTM_WIRE_CONTROL_REPLY: return check_control_reply(v, (const Ftm__V1__ControlReply *)m);
-    default: return wire_err(v->err, FTM_EINVAL, "unknown message kind %d", kind);
+    default: return ftm_error_set(v->err, FTM_EINVAL, "unknown message kind %d", kind);
     }
 }
 
@@ -683,7 +693,7 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         ftm_wire_probe_input *p = &out->u.probe_input;
         void *s = NULL;
         if (!(out->storage = alloc_arrays(m->n_samples * sizeof *p->samples, 0, 0, &s, NULL, NULL)))
-            return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", what);
         p->samples = s;
         p->participant = m->participant_id;
         p->last_tick_seen = m->last_tick_seen;
@@ -701,7 +711,7 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         out->storage = alloc_arrays(m->n_contact_node * sizeof *t->contacts,
                                     m->n_reactions * sizeof *t->reactions, 0, &c, &r, NULL);
         if (!out->storage)
-            return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", what);
         t->contacts = c;
         t->reactions = r;
         t->tick = m->tick;
@@ -744,7 +754,7 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         out->storage = alloc_arrays(6 * n * sizeof(double), nc * sizeof(ftm_contact),
                                     n * sizeof(int32_t), &pos, &cts, &nodes);
         if (!out->storage)
-            return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", what);
         k->positions = pos;
         k->previous = k->positions + 3 * n;
         k->nodes = nodes;
@@ -828,7 +838,7 @@ static int convert(int kind, const ProtobufCMessage *pm, ftm_wire_msg *out, ftm_
         snprintf(r->reason, sizeof r->reason, "%s", m->reason ? m->reason : "");
         return FTM_OK;
     }
-    default: return wire_err(err, FTM_EINVAL, "unknown message kind %d", kind);
+    default: return ftm_error_set(err, FTM_EINVAL, "unknown message kind %d", kind);
     }
 }
 
@@ -844,20 +854,20 @@ int ftm_wire_decode(int kind, const void *data, size_t size, const ftm_wire_limi
                     ftm_wire_msg *out, ftm_error *err)
 {
     if (!out)
-        return wire_err(err, FTM_EINVAL, "ftm_wire_decode: out is NULL");
+        return ftm_error_set(err, FTM_EINVAL, "ftm_wire_decode: out is NULL");
     memset(out, 0, sizeof *out);
     const ProtobufCMessageDescriptor *desc = wire_descriptor(kind);
     if (!desc)
-        return wire_err(err, FTM_EINVAL, "unknown message kind %d", kind);
+        return ftm_error_set(err, FTM_EINVAL, "unknown message kind %d", kind);
     const char *what = ftm_wire_kind_name(kind);
     if (!data && size)
-        return wire_err(err, FTM_EINVAL, "%s: payload is NULL", what);
+        return ftm_error_set(err, FTM_EINVAL, "%s: payload is NULL", what);
     size_t cap = wire_payload_cap(limits, kind);
     if (size > cap)
-        return wire_err(err, FTM_ETOOBIG, "%s: payload of %zu bytes exceeds the %zu-byte cap",
-                        what, size, cap);
+        return ftm_error_set(err, FTM_ETOOBIG, "%s: payload of %zu bytes exceeds the %zu-byte cap",
+                             what, size, cap);
     if (size == 0)
-        return wire_err(err, FTM_EPARSE, "%s: empty payload", what);
+        return ftm_error_set(err, FTM_EPARSE, "%s: empty payload", what);
     int rc = wire_scan(desc, data, size, what, err);
     if (rc)
         return rc;
@@ -869,12 +879,13 @@ int ftm_wire_decode(int kind, const void *data, size_t size, const ftm_wire_limi
     ProtobufCMessage *pm = protobuf_c_message_unpack(desc, &b.allocator, size, data);
     if (!pm) {
         if (b.exceeded)
-            return wire_err(err, FTM_EBUDGET,
-                            "%s: decoding the %zu-byte payload needs more than its %zu-byte "
-                            "memory budget (e.g. many empty repeated submessages)",
-                            what, size, b.limit);
-        return wire_err(err, FTM_EPARSE, "%s: malformed payload of %zu bytes (protobuf-c rejected it)",
-                        what, size);
+            return ftm_error_set(err, FTM_EBUDGET,
+                                 "%s: decoding the %zu-byte payload needs more than its %zu-byte "
+                                 "memory budget (e.g. many empty repeated submessages)",
+                                 what, size, b.limit);
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s: malformed payload of %zu bytes (protobuf-c rejected it)", what,
+                             size);
     }
     vctx v = {what, err, (uint32_t)INT32_MAX, 0};
     if (limits && limits->node_count > 0) {
@@ -945,21 +956,22 @@ static int contacts_to(scratch *s, const char *what, const ftm_contact *c, int32
                        Ftm__V1__ContactKind **kind, double **value, ftm_error *err)
 {
     if (count < 0 || (count && !c))
-        return wire_err(err, FTM_EINVAL, "%s: bad contact_count %d or NULL contacts", what, count);
+        return ftm_error_set(err, FTM_EINVAL, "%s: bad contact_count %d or NULL contacts", what,
+                             count);
     size_t n = (size_t)count;
     uint32_t *nodes = scratch_alloc(s, 2 * n * sizeof *nodes);
     Ftm__V1__ContactKind *kinds = scratch_alloc(s, n * sizeof *kinds);
     double *values = scratch_alloc(s, 3 * n * sizeof *values);
     if (!nodes || !kinds || !values)
-        return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+        return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", what);
     uint32_t *groups = nodes + n;
     for (size_t i = 0; i < n; i++) {
         if (c[i].node < 0 || c[i].group < 0)
-            return wire_err(err, FTM_ERANGE, "%s: contact %zu: negative node %d or group %d", what,
-                            i, c[i].node, c[i].group);
+            return ftm_error_set(err, FTM_ERANGE, "%s: contact %zu: negative node %d or group %d",
+                                 what, i, c[i].node, c[i].group);
         if (c[i].kind != FTM_CONTACT_FORCE && c[i].kind != FTM_CONTACT_DISPLACEMENT)
-            return wire_err(err, FTM_EINVAL, "%s: contact %zu: unknown contact kind %d", what, i,
-                            (int)c[i].kind);
+            return ftm_error_set(err, FTM_EINVAL, "%s: contact %zu: unknown contact kind %d", what,
+                                 i, (int)c[i].kind);
         nodes[i] = (uint32_t)c[i].node;
         groups[i] = (uint32_t)c[i].group;
         kinds[i] = c[i].kind == FTM_CONTACT_FORCE ? FTM__V1__CONTACT_KIND__CONTACT_FORCE
@@ -979,7 +991,7 @@ static int contacts_to(scratch *s, const char *what, const ftm_contact *c, int32
 static int limits_to(scratch *s, const char *what, int32_t lo, int32_t hi, ftm_error *err)
 {
     if (lo < 0 || hi < 0)
-        return wire_err(err, FTM_EINVAL, "%s: negative depth limit (%d..%d)", what, lo, hi);
+        return ftm_error_set(err, FTM_EINVAL, "%s: negative depth limit (%d..%d)", what, lo, hi);
     ftm__v1__depth_limits__init(&s->limits);
     s->limits.has_min = s->limits.has_max = 1;
     s->limits.min = (uint32_t)lo;
@@ -987,11 +999,11 @@ static int limits_to(scratch *s, const char *what, int32_t lo, int32_t hi, ftm_e
     return FTM_OK;
 }
 
-#define NEG_CHECK(value, field)                                                              \
-    do {                                                                                     \
-        if ((value) < 0)                                                                     \
-            return wire_err(err, FTM_EINVAL, "%s: %s is negative (%lld)", what, field,       \
-                            (long long)(value));                                             \
+#define NEG_CHECK(value, field)                                                                    \
+    do {                                                                                           \
+        if ((value) < 0)                                                                           \
+            return ftm_error_set(err, FTM_EINVAL, "%s: %s is negative (%lld)", what, field,        \
+                                 (long long)(value));                                              \
     } while (0)
 
 static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ftm_error *err)
@@ -1002,15 +1014,15 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         const ftm_wire_announce *a = &msg->u.announce;
         Ftm__V1__SceneAnnounce *m = scratch_alloc(s, sizeof *m);
         if (!m)
-            return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", what);
         ftm__v1__scene_announce__init(m);
         NEG_CHECK(a->depth, "depth");
         NEG_CHECK(a->node_count, "node_count");
         if (a->digest_len < 0 || a->digest_len > FTM_WIRE_DIGEST_MAX)
-            return wire_err(err, FTM_EINVAL, "%s: digest_len %d out of range (1..%d)", what,
-                            a->digest_len, FTM_WIRE_DIGEST_MAX);
+            return ftm_error_set(err, FTM_EINVAL, "%s: digest_len %d out of range (1..%d)", what,
+                                 a->digest_len, FTM_WIRE_DIGEST_MAX);
         if (!memchr(a->scene_id, '\0', sizeof a->scene_id))
-            return wire_err(err, FTM_EINVAL, "%s: scene_id is not NUL-terminated", what);
+            return ftm_error_set(err, FTM_EINVAL, "%s: scene_id is not NUL-terminated", what);
         m->has_version = 1;
         m->version = FTM_WIRE_VERSION;
         m->scene_id = (char *)a->scene_id;
@@ -1045,17 +1057,17 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
     case FTM_WIRE_PROBE_INPUT: {
         const ftm_wire_probe_input *p = &msg->u.probe_input;
         if (p->sample_count < 0 || p->sample_count > FTM_WIRE_SAMPLES_MAX)
-            return wire_err(err, FTM_ERANGE, "%s: sample_count %d out of range (0..%d)", what,
-                            p->sample_count, FTM_WIRE_SAMPLES_MAX);
+            return ftm_error_set(err, FTM_ERANGE, "%s: sample_count %d out of range (0..%d)", what,
+                                 p->sample_count, FTM_WIRE_SAMPLES_MAX);
         if (p->sample_count && !p->samples)
-            return wire_err(err, FTM_EINVAL, "%s: samples is NULL", what);
+            return ftm_error_set(err, FTM_EINVAL, "%s: samples is NULL", what);
         size_t n = (size_t)p->sample_count;
         Ftm__V1__ProbeInput *m = scratch_alloc(s, sizeof *m);
         Ftm__V1__ProbeSample *samples = scratch_alloc(s, n * sizeof *samples);
         Ftm__V1__ProbeSample **ptrs = scratch_alloc(s, n * sizeof *ptrs);
         Ftm__V1__Vec3 *pos = scratch_alloc(s, n * sizeof *pos);
         if (!m || !samples || !ptrs || !pos)
-            return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", what);
         ftm__v1__probe_input__init(m);
         m->has_version = 1;
         m->version = FTM_WIRE_VERSION;
@@ -1082,12 +1094,13 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         const ftm_wire_tick *t = &msg->u.tick;
         NEG_CHECK(t->depth, "depth");
         if (t->contact_count < 0 || (t->contact_count && !t->contacts))
-            return wire_err(err, FTM_EINVAL, "%s: bad contact_count %d or NULL contacts", what,
-                            t->contact_count);
+            return ftm_error_set(err, FTM_EINVAL, "%s: bad contact_count %d or NULL contacts", what,
+                                 t->contact_count);
         if (t->reaction_count < 0 || t->reaction_count > FTM_WIRE_REACTIONS_MAX ||
             (t->reaction_count && !t->reactions))
-            return wire_err(err, FTM_ERANGE, "%s: bad reaction_count %d (0..%d) or NULL reactions",
-                            what, t->reaction_count, FTM_WIRE_REACTIONS_MAX);
+            return ftm_error_set(err, FTM_ERANGE,
+                                 "%s: bad reaction_count %d (0..%d) or NULL reactions", what,
+                                 t->reaction_count, FTM_WIRE_REACTIONS_MAX);
         size_t nr = (size_t)t->reaction_count;
         Ftm__V1__TickFrame *m = scratch_alloc(s, sizeof *m);
         Ftm__V1__ProbeReaction *rs = scratch_alloc(s, nr * sizeof *rs);
@@ -1095,7 +1108,7 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         /* force, hip, contact point, contact normal */
         Ftm__V1__Vec3 *forces = scratch_alloc(s, 4 * nr * sizeof *forces);
         if (!m || !rs || !rptrs || !forces)
-            return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", what);
         ftm__v1__tick_frame__init(m);
         m->has_version = 1;
         m->version = FTM_WIRE_VERSION;
@@ -1121,8 +1134,8 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         for (size_t i = 0; i < nr; i++) {
             const ftm_wire_reaction *r = &t->reactions[i];
             if (r->group < 0 || r->probe < 0)
-                return wire_err(err, FTM_ERANGE, "%s: reactions[%zu]: negative group or probe",
-                                what, i);
+                return ftm_error_set(err, FTM_ERANGE, "%s: reactions[%zu]: negative group or probe",
+                                     what, i);
             ftm__v1__probe_reaction__init(&rs[i]);
             rs[i].has_group = rs[i].has_participant_id = rs[i].has_probe = 1;
             rs[i].group = (uint32_t)r->group;
@@ -1156,12 +1169,13 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         NEG_CHECK(k->depth, "depth");
         NEG_CHECK(k->node_count, "node_count");
         if (k->count < 0 || (k->count && (!k->nodes || !k->positions || !k->previous)))
-            return wire_err(err, FTM_EINVAL, "%s: bad count %d or NULL arrays", what, k->count);
+            return ftm_error_set(err, FTM_EINVAL, "%s: bad count %d or NULL arrays", what,
+                                 k->count);
         size_t n = (size_t)k->count;
         Ftm__V1__Keyframe *m = scratch_alloc(s, sizeof *m);
         uint32_t *nodes = scratch_alloc(s, n * sizeof *nodes);
         if (!m || !nodes)
-            return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", what);
         ftm__v1__keyframe__init(m);
         m->has_version = 1;
         m->version = FTM_WIRE_VERSION;
@@ -1180,8 +1194,8 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         if (k->has_mode) {
             const ftm_sim_mode *md = &k->mode;
             if (md->substeps < 1 || md->steps_at_substeps < 0 || md->quiet_steps < 0)
-                return wire_err(err, FTM_ERANGE, "%s: mode out of range (substeps %d)", what,
-                                (int)md->substeps);
+                return ftm_error_set(err, FTM_ERANGE, "%s: mode out of range (substeps %d)", what,
+                                     (int)md->substeps);
             Ftm__V1__IntegratorMode *im = &s->mode;
             ftm__v1__integrator_mode__init(im);
             im->has_substeps = im->has_steps_at_substeps = im->has_quiet_steps = 1;
@@ -1203,8 +1217,8 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         m->n_contact_value = 3 * m->n_contact_node;
         for (size_t i = 0; i < n; i++) {
             if (k->nodes[i] < 0)
-                return wire_err(err, FTM_ERANGE, "%s: entry %zu: negative node %d", what, i,
-                                k->nodes[i]);
+                return ftm_error_set(err, FTM_ERANGE, "%s: entry %zu: negative node %d", what, i,
+                                     k->nodes[i]);
             nodes[i] = (uint32_t)k->nodes[i];
         }
         m->n_node = n;
@@ -1219,9 +1233,9 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         const ftm_wire_status *st = &msg->u.status;
         Ftm__V1__ParticipantStatus *m = scratch_alloc(s, sizeof *m);
         if (!m)
-            return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", what);
         if (!memchr(st->name, '\0', sizeof st->name))
-            return wire_err(err, FTM_EINVAL, "%s: name is not NUL-terminated", what);
+            return ftm_error_set(err, FTM_EINVAL, "%s: name is not NUL-terminated", what);
         ftm__v1__participant_status__init(m);
         m->has_version = 1;
         m->version = FTM_WIRE_VERSION;
@@ -1241,25 +1255,26 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         m->replay_ns_max = st->replay_ns_max;
         m->name = st->name[0] ? (char *)st->name : NULL;
         if (st->ignored_count < 0 || st->ignored_count > FTM_WIRE_IGNORED_MAX)
-            return wire_err(err, FTM_ERANGE, "%s: %d ignored processes (0..%d)", what,
-                            (int)st->ignored_count, FTM_WIRE_IGNORED_MAX);
+            return ftm_error_set(err, FTM_ERANGE, "%s: %d ignored processes (0..%d)", what,
+                                 (int)st->ignored_count, FTM_WIRE_IGNORED_MAX);
         if (st->ignored_count && st->role != FTM_WIRE_ROLE_SERVER)
-            return wire_err(err, FTM_EINVAL, "%s: ignored processes in a %s's status (a server's only)",
-                            what, ftm_wire_role_name(st->role));
+            return ftm_error_set(err, FTM_EINVAL,
+                                 "%s: ignored processes in a %s's status (a server's only)", what,
+                                 ftm_wire_role_name(st->role));
         m->n_ignored_participant = m->n_ignored_origin = (size_t)st->ignored_count;
         m->ignored_participant = (uint32_t *)st->ignored_participant;
         m->ignored_origin = (uint64_t *)st->ignored_origin;
         if (st->holder_count < 0 || st->holder_count > FTM_WIRE_HOLDERS_MAX)
-            return wire_err(err, FTM_ERANGE, "%s: %d holders (0..%d)", what,
-                            (int)st->holder_count, FTM_WIRE_HOLDERS_MAX);
+            return ftm_error_set(err, FTM_ERANGE, "%s: %d holders (0..%d)", what,
+                                 (int)st->holder_count, FTM_WIRE_HOLDERS_MAX);
         if (st->holder_count && st->role != FTM_WIRE_ROLE_SERVER)
-            return wire_err(err, FTM_EINVAL, "%s: holders in a %s's status (a server's only)",
-                            what, ftm_wire_role_name(st->role));
+            return ftm_error_set(err, FTM_EINVAL, "%s: holders in a %s's status (a server's only)",
+                                 what, ftm_wire_role_name(st->role));
         for (int32_t i = 1; i < st->holder_count; i++)
             for (int32_t j = 0; j < i; j++)
                 if (st->holder_participant[i] == st->holder_participant[j])
-                    return wire_err(err, FTM_EINVAL, "%s: holder_participant %u listed twice",
-                                    what, st->holder_participant[i]);
+                    return ftm_error_set(err, FTM_EINVAL, "%s: holder_participant %u listed twice",
+                                         what, st->holder_participant[i]);
         m->n_holder_participant = m->n_holder_origin = (size_t)st->holder_count;
         m->holder_participant = (uint32_t *)st->holder_participant;
         m->holder_origin = (uint64_t *)st->holder_origin;
@@ -1270,7 +1285,7 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         const ftm_wire_control *c = &msg->u.control;
         Ftm__V1__SessionControl *m = scratch_alloc(s, sizeof *m);
         if (!m)
-            return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", what);
         ftm__v1__session_control__init(m);
         m->has_version = 1;
         m->version = FTM_WIRE_VERSION;
@@ -1308,7 +1323,7 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
             break;
         }
         default:
-            return wire_err(err, FTM_EINVAL, "%s: unknown command %d", what, (int)c->command);
+            return ftm_error_set(err, FTM_EINVAL, "%s: unknown command %d", what, (int)c->command);
         }
         *out = &m->base;
         return FTM_OK;
@@ -1317,9 +1332,9 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         const ftm_wire_control_reply *r = &msg->u.control_reply;
         Ftm__V1__ControlReply *m = scratch_alloc(s, sizeof *m);
         if (!m)
-            return wire_err(err, FTM_ENOMEM, "%s: out of memory", what);
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", what);
         if (!memchr(r->reason, '\0', sizeof r->reason))
-            return wire_err(err, FTM_EINVAL, "%s: reason is not NUL-terminated", what);
+            return ftm_error_set(err, FTM_EINVAL, "%s: reason is not NUL-terminated", what);
         ftm__v1__control_reply__init(m);
         m->has_version = 1;
         m->version = FTM_WIRE_VERSION;
@@ -1335,14 +1350,14 @@ static int build(const ftm_wire_msg *msg, scratch *s, ProtobufCMessage **out, ft
         *out = &m->base;
         return FTM_OK;
     }
-    default: return wire_err(err, FTM_EINVAL, "unknown message kind %d", (int)msg->kind);
+    default: return ftm_error_set(err, FTM_EINVAL, "unknown message kind %d", (int)msg->kind);
     }
 }
 
 int ftm_wire_encode(const ftm_wire_msg *msg, uint8_t **out, size_t *size, ftm_error *err)
 {
     if (!msg || !out || !size)
-        return wire_err(err, FTM_EINVAL, "ftm_wire_encode: NULL argument");
+        return ftm_error_set(err, FTM_EINVAL, "ftm_wire_encode: NULL argument");
     scratch s;
     memset(&s, 0, sizeof s);
     ProtobufCMessage *pm = NULL;
@@ -1357,12 +1372,14 @@ int ftm_wire_encode(const ftm_wire_msg *msg, uint8_t **out, size_t *size, ftm_er
         size_t n = protobuf_c_message_get_packed_size(pm);
         size_t cap = ftm_wire_default_cap(msg->kind);
         if (n > cap) {
-            rc = wire_err(err, FTM_ETOOBIG, "%s: encoding of %zu bytes exceeds the %zu-byte cap",
-                          ftm_wire_kind_name(msg->kind), n, cap);
+            rc = ftm_error_set(err, FTM_ETOOBIG,
+                               "%s: encoding of %zu bytes exceeds the %zu-byte cap",
+                               ftm_wire_kind_name(msg->kind), n, cap);
         } else {
             uint8_t *buf = malloc(n ? n : 1);
             if (!buf) {
-                rc = wire_err(err, FTM_ENOMEM, "%s: out of memory", ftm_wire_kind_name(msg->kind));
+                rc = ftm_error_set(err, FTM_ENOMEM, "%s: out of memory",
+                                   ftm_wire_kind_name(msg->kind));
             } else {
                 size_t packed = protobuf_c_message_pack(pm, buf);
                 (void)packed;

@@ -1,32 +1,8 @@
 #include "wire_internal.h"
 
-#include <stdarg.h>
-#include <stdio.h>
-
-int wire_err(ftm_error *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        err->code = code;
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err->message, sizeof err->message, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
-
 const char *ftm_wire_strerror(int code)
 {
-    switch (code) {
-    case FTM_ETOOBIG: return "message too large";
-    case FTM_EBUDGET: return "decoding memory budget exceeded";
-    case FTM_EVERSION: return "protocol version mismatch";
-    case FTM_ETIMEDOUT: return "timed out";
-    case FTM_EDDS: return "DDS error";
-    case FTM_EAGAIN: return "queue full";
-    case FTM_EACCESS: return "not permitted by DDS Security";
-    default: return ftm_strerror(code);
-    }
+    return ftm_strerror(code);
 }
 
 const char *ftm_wire_kind_name(int kind)

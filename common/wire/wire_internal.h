@@ -9,9 +9,9 @@
 #include <limits.h>
 #include <stdbool.h>
 
-/* Sets err (if any) and returns code. */
-int wire_err(ftm_error *err, int code, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
+/* The old name of ftm_error_set (ftm/base.h), still used by security.c;
+ * every other file says ftm_error_set. */
+#define wire_err ftm_error_set
 
 /* Walks a protobuf encoding against its descriptor without allocating and
  * reports the first structural problem with its byte offset and field:
