@@ -134,22 +134,6 @@ struct ftm_wire_transport {
     pthread_t thread;
 };
 
-static const char *const topic_names[KINDS] = {
-    NULL,
-    "ftm_v1_scene_announce",
-    "ftm_v1_probe_input",
-    "ftm_v1_tick_frame",
-    "ftm_v1_keyframe",
-    "ftm_v1_participant_status",
-    "ftm_v1_session_control",
-    "ftm_v1_control_reply",
-};
-
-const char *ftm_wire_topic_name(int kind)
-{
-    return kind >= FTM_WIRE_KIND_MIN && kind <= FTM_WIRE_KIND_MAX ? topic_names[kind] : NULL;
-}
-
 static bool valid_kind(int kind)
 {
     return kind >= FTM_WIRE_KIND_MIN && kind <= FTM_WIRE_KIND_MAX;
@@ -606,9 +590,9 @@ static int endpoint_fail(const ftm_wire_transport *t, ftm_error *err, const char
             "in partition %s: this program needs an identity issued for its role "
             "and id",
             t->sec.permissions[0] ? t->sec.permissions : "(the configuration)",
-            write ? "write" : "read", topic_names[kind], ftm_wire_kind_name(kind),
+            write ? "write" : "read", ftm_wire_topic_name(kind), ftm_wire_kind_name(kind),
             write ? t->sec.partition : FTM_WIRE_PARTITION_PREFIX "*");
-    return ftm_error_set(err, FTM_EDDS, "%s for %s failed: %s", call, topic_names[kind],
+    return ftm_error_set(err, FTM_EDDS, "%s for %s failed: %s", call, ftm_wire_topic_name(kind),
                          dds_strretcode(rc));
 }
 
@@ -639,7 +623,8 @@ static int make_partitions(ftm_wire_transport *t, ftm_error *err)
 static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_error *err)
 {
     kind_io *io = &t->io[k];
-    io->topic = dds_create_topic(t->participant, &ftm_wire_Envelope_desc, topic_names[k], NULL, NULL);
+    io->topic = dds_create_topic(t->participant, &ftm_wire_Envelope_desc, ftm_wire_topic_name(k),
+                                 NULL, NULL);
     if (io->topic < 0)
         return endpoint_fail(t, err, "dds_create_topic", k, pub, io->topic);
     if (pub) {

@@ -5,20 +5,6 @@ const char *ftm_wire_strerror(int code)
     return ftm_strerror(code);
 }
 
-const char *ftm_wire_kind_name(int kind)
-{
-    switch (kind) {
-    case FTM_WIRE_ANNOUNCE: return "scene announcement";
-    case FTM_WIRE_PROBE_INPUT: return "probe input";
-    case FTM_WIRE_TICK: return "tick frame";
-    case FTM_WIRE_KEYFRAME: return "keyframe";
-    case FTM_WIRE_STATUS: return "participant status";
-    case FTM_WIRE_CONTROL: return "session control";
-    case FTM_WIRE_CONTROL_REPLY: return "control reply";
-    default: return "unknown kind";
-    }
-}
-
 const char *ftm_wire_role_name(ftm_wire_role role)
 {
     switch (role) {
