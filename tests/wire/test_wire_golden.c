@@ -294,6 +294,34 @@ static void test_golden_file_complete(void **state)
     assert_int_equal(lines, NGOLDEN);
 }
 
+/* The kinds' names, topics and caps (now read from their descriptors). */
+static void test_kind_tables(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *name, *topic;
+        size_t cap;
+    } want[] = {{"unknown kind", NULL, 0},
+                {"scene announcement", "ftm_v1_scene_announce", 64 * 1024},
+                {"probe input", "ftm_v1_probe_input", 256 * 1024},
+                {"tick frame", "ftm_v1_tick_frame", 2 * 1024 * 1024},
+                {"keyframe", "ftm_v1_keyframe", 16 * 1024 * 1024},
+                {"participant status", "ftm_v1_participant_status", 4 * 1024},
+                {"session control", "ftm_v1_session_control", 4 * 1024},
+                {"control reply", "ftm_v1_control_reply", 4 * 1024},
+                {"unknown kind", NULL, 0}};
+    for (int k = 0; k <= FTM_WIRE_KIND_MAX + 1; k++) {
+        assert_string_equal(ftm_wire_kind_name(k), want[k].name);
+        if (want[k].topic)
+            assert_string_equal(ftm_wire_topic_name(k), want[k].topic);
+        else
+            assert_null(ftm_wire_topic_name(k));
+        assert_int_equal(ftm_wire_default_cap(k), want[k].cap);
+    }
+    assert_string_equal(ftm_wire_kind_name(-1), "unknown kind");
+    assert_null(ftm_wire_topic_name(1000));
+}
+
 static int write_golden(const char *path)
 {
     golden g[NGOLDEN];
@@ -323,6 +351,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_encode_matches_golden),
         cmocka_unit_test(test_golden_decodes_back),
         cmocka_unit_test(test_golden_file_complete),
+        cmocka_unit_test(test_kind_tables),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,3 +1,6 @@
+/* Names of roles, participant states and reply outcomes, for logs and
+ * displays; and the old name of ftm_strerror. (Kinds' names are in their
+ * descriptors, kinds.c.) */
 #include "wire_internal.h"
 
 const char *ftm_wire_strerror(int code)
