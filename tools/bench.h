@@ -2,12 +2,28 @@
 #ifndef FTM_TOOLS_BENCH_H
 #define FTM_TOOLS_BENCH_H
 
+#include "ftm/ftm.h"
+
+#include <stdbool.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <time.h>
 
 int ftm_bench_table3(int argc, char **argv);
 int ftm_bench_accuracy(int argc, char **argv); /* only with FTM_HAVE_FEM */
 int ftm_bench_feel(int argc, char **argv);     /* only with FTM_HAVE_FEM */
+
+/* `ftm bench accuracy --speed` (bench_speed.c): the step of every force
+ * model on one body, alternating in one run. */
+typedef struct ftm_speed_def {
+    const char *name;
+    const ftm_mesh *mesh; /* hexahedra (a tetrahedral twin is made from them) */
+    const ftm_contact *contacts;
+    int32_t ncontacts, depth;
+    double young, poisson;
+    int rounds, steps, warmup;
+} ftm_speed_def;
+int ftm_bench_speed(const ftm_speed_def *d, FILE *out, bool json);
 
 static inline double ftm_bench_now_us(void)
 {

@@ -85,6 +85,8 @@ typedef struct options {
     bool be_newton; /* implicit-newton on the organ too (always on the cube) */
     bool corot;     /* ft-corot and ft-neo on the organ too (always on the cube) */
     bool json, cube, organ, verbose;
+    bool speed, mesh_given; /* --speed: the step of every model side by side (bench_speed.c) */
+    int rounds;
     const char *save;
     int32_t depths[16];
     int ndepths;
@@ -943,7 +945,13 @@ static void usage(FILE *f)
             "  --max-steps  step cap per run (default 2000000)\n"
             "  --json       print {\"meshes\":[...],\"rows\":[{\"mesh\",\"method\",\"depth\",\"nodes\",\"h\",\n"
             "               \"step_us\",\"steps\",\"time_s\",\"setup_s\",\"wall_s\",\"error\",\"converged\"}]}\n"
-            "  --save P     also write P.txt (table), P.json and P.dat (gnuplot blocks)\n\n"
+            "  --save P     also write P.txt (table), P.json and P.dat (gnuplot blocks)\n"
+            "  --speed      instead: the step of springs and of linear, co-rotational and\n"
+            "               neo-Hookean forces (hexahedra and tetrahedra) at full depth,\n"
+            "               alternating in one run, and their ratios to springs (default\n"
+            "               --mesh cube); with --json {\"bodies\":[{\"mesh\",...,\"rows\":[{\n"
+            "               \"elements\",\"forces\",\"nodes\",\"h\",\"step_us\",\"ratio\"}]}]}\n"
+            "  --rounds N   --speed: rounds of 10 steps per model (default 41)\n\n"
             "exit status: 0 success, 1 a run failed, 2 bad arguments or an output that cannot\n"
             "be written\n");
 }
@@ -1040,13 +1048,47 @@ static int run_body(body *b, const options *o, row *rows, int *nrows, FILE *prog
     return FTM_OK;
 }
 
+/* --speed: each selected body (default the cube) through bench_speed.c */
+static int run_speed(const options *o)
+{
+    int status = 0;
+    if (o->json)
+        printf("{\"bench\":\"speed\",\"bodies\":[");
+    for (int which = 0, nb = 0; which < 2 && !status; which++) {
+        if ((which == 0 && !o->cube) || (which == 1 && !(o->organ && o->mesh_given)))
+            continue;
+        ftm_error err;
+        body b;
+        int rc = body_make(&b, which ? "organ" : "cube", which == 1, &err);
+        if (rc) {
+            fprintf(stderr, "ftm bench accuracy: %s: %s\n", which ? "organ" : "cube", err.message);
+            body_free(&b);
+            return 1;
+        }
+        ftm_speed_def d = {.name = b.name, .mesh = b.mesh, .contacts = b.contacts,
+                           .ncontacts = b.ncontacts, .depth = b.max_depth, .young = YOUNG,
+                           .poisson = POISSON, .rounds = o->rounds, .steps = 10, .warmup = 200};
+        if (o->json && nb++)
+            printf(",");
+        if (ftm_bench_speed(&d, stdout, o->json) != FTM_OK)
+            status = 1;
+        if (!o->json)
+            printf("\n");
+        body_free(&b);
+    }
+    if (o->json && !status)
+        printf("]}\n");
+    return status;
+}
+
 int ftm_bench_accuracy(int argc, char **argv)
 {
-    options o = {.tol = 1e-3, .max_steps = 2000000, .be_step = 0.01, .cube = true, .organ = true};
+    options o = {.tol = 1e-3, .max_steps = 2000000, .be_step = 0.01, .cube = true, .organ = true,
+                 .rounds = 41};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
-        static const char *const valued[] = {"--mesh", "--depths", "--tol", "--be-step",
-                                             "--max-steps", "--save"};
+        static const char *const valued[] = {"--mesh",      "--depths", "--tol",   "--be-step",
+                                             "--max-steps", "--save",   "--rounds"};
         for (size_t k = 0; k < sizeof valued / sizeof valued[0]; k++) {
             if (strcmp(a, valued[k]) == 0 && i + 1 >= argc) {
                 fprintf(stderr, "ftm bench accuracy: %s needs a value\n", a);
@@ -1062,8 +1104,16 @@ int ftm_bench_accuracy(int argc, char **argv)
             o.be_newton = true;
         } else if (strcmp(a, "--corot") == 0) {
             o.corot = true;
+        } else if (strcmp(a, "--speed") == 0) {
+            o.speed = true;
+        } else if (strcmp(a, "--rounds") == 0 && more) {
+            if (!ftm_cli_int(argv[++i], 1, 100000, &o.rounds)) {
+                fprintf(stderr, "ftm bench accuracy: --rounds must be in 1..100000\n");
+                return 2;
+            }
         } else if (strcmp(a, "--mesh") == 0 && more) {
             const char *v = argv[++i];
+            o.mesh_given = true;
             o.cube = strcmp(v, "cube") == 0 || strcmp(v, "all") == 0;
             o.organ = strcmp(v, "organ") == 0 || strcmp(v, "all") == 0;
             if (!o.cube && !o.organ) {
@@ -1103,6 +1153,8 @@ int ftm_bench_accuracy(int argc, char **argv)
             return 2;
         }
     }
+    if (o.speed)
+        return run_speed(&o);
     /* The --save files are opened before the runs, so that a bad path fails
      * at once rather than after them. */
     FILE *outs[3] = {NULL, NULL, NULL};
