@@ -30,6 +30,7 @@
  * (ftm_elem_intact). */
 #include "sim_elem.h"
 
+#include "elem_kernel.h"
 #include "error.h"
 #include "farfield.h"
 #include "hyperelastic.h"
@@ -64,8 +65,18 @@ struct ftm_elem {
      * stamp[e] == gen; the moduli mu and kappa */
     double *gp;
     size_t *goff;
-    double *fe;
     double mu, kappa;
+    /* the elements in blocks, evaluated a block at a time (elem_kernel.h):
+     * eb.fe holds element e's nodal forces; inc_fe[q] is where incidence q's
+     * node's three are (at +0, +FTM_EB, +2 FTM_EB) */
+    ftm_elem_blocks eb;
+    ftm_neo_blocks_fn neo_blocks;
+    int lanes;
+    int32_t *inc_fe;
+    int32_t *list;      /* blocks to evaluate */
+    uint32_t *bstamp;   /* per block: bgen when listed */
+    uint32_t *inv_mark; /* per element: bgen when found inverted */
+    uint32_t bgen;
     /* the forces of the elements evaluated at the end of the last step (in
      * generation gen) are still those of the current positions: the next
      * sweep reuses them (ftm_elem_intact) */
@@ -106,7 +117,17 @@ void ftm_elem_free(ftm_elem *el)
     free(el->mass);
     free(el->gp);
     free(el->goff);
-    free(el->fe);
+    free(el->eb.lanes);
+    free(el->eb.node);
+    free(el->eb.gp);
+    free(el->eb.grad);
+    free(el->eb.fe);
+    free(el->eb.det);
+    free(el->eb.ok);
+    free(el->inc_fe);
+    free(el->list);
+    free(el->bstamp);
+    free(el->inv_mark);
     free(el);
 }
 
@@ -257,20 +278,6 @@ static inline void corot_force(ftm_elem *restrict el, const ftm_mesh *restrict m
     f[2] = fz;
 }
 
-/* The displacements of element e's nodes, 3 each. */
-static inline void element_displacements(const ftm_elem *el, const ftm_mesh *m, const double *x,
-                                         int32_t e, double *u)
-{
-    const int32_t s0 = el->start[e], nn = el->start[e + 1] - s0;
-    for (int32_t b = 0; b < nn; b++) {
-        const int32_t j = el->node[s0 + b];
-        for (int d = 0; d < 3; d++)
-            u[3 * b + d] = x[3 * j + d] - m->rest[3 * j + d];
-    }
-}
-
-static inline int quadrature_points(int32_t nn) { return nn == 8 ? 8 : 1; }
-
 static void note_inversion(ftm_elem *el, int32_t e, double det)
 {
     if (!el->inverted) {
@@ -280,41 +287,99 @@ static void note_inversion(ftm_elem *el, int32_t e, double det)
     el->inverted = true;
 }
 
-/* Neo-Hookean forces of element e at positions x into fe (3 per node);
- * false (fe zero) if inverted. */
-static bool neo_element(const ftm_elem *el, const ftm_mesh *m, const double *x, int32_t e,
-                        double *fe, double *min_det)
-{
-    double u[24];
-    const int32_t nn = el->start[e + 1] - el->start[e];
-    element_displacements(el, m, x, e, u);
-    return ftm_neo_element_forces(nn, quadrature_points(nn), el->gp + el->goff[e], u, el->mu,
-                                  el->kappa, fe, min_det);
-}
-
-/* Neo-Hookean: f = sum over the elements e of i of their cached force on i,
- * each element evaluated at its first use in the substep. */
-static inline void neo_force(ftm_elem *restrict el, const ftm_mesh *restrict m,
-                             const double *restrict x, int32_t i, double f[3])
+/* Neo-Hookean: f = sum over the elements e of i of their cached force on i
+ * (prepared for this generation, below). */
+static inline void neo_force(const ftm_elem *restrict el, int32_t i, double f[3])
 {
     double fx = 0.0, fy = 0.0, fz = 0.0;
+    const double *fe = el->eb.fe;
     for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
-        const int32_t e = el->inc_elem[q];
-        double *fe = el->fe + 3 * (size_t)el->start[e];
-        if (el->stamp[e] != el->gen) {
-            double det;
-            if (!neo_element(el, m, x, e, fe, &det))
-                note_inversion(el, e, det);
-            el->stamp[e] = el->gen;
-        }
-        const double *fa = fe + 3 * el->inc_local[q];
+        const double *fa = fe + el->inc_fe[q];
         fx += fa[0];
-        fy += fa[1];
-        fz += fa[2];
+        fy += fa[FTM_EB];
+        fz += fa[2 * FTM_EB];
     }
     f[0] = fx;
     f[1] = fy;
     f[2] = fz;
+}
+
+/* A node list for prepare(). */
+typedef struct node_list {
+    const int32_t *node;
+    int32_t count;
+} node_list;
+
+static uint32_t next_block_generation(ftm_elem *el)
+{
+    if (++el->bgen == 0) {
+        memset(el->bstamp, 0, (size_t)el->eb.count * sizeof *el->bstamp);
+        memset(el->inv_mark, 0, (size_t)el->count * sizeof *el->inv_mark);
+        el->bgen = 1;
+    }
+    return el->bgen;
+}
+
+/* Neo-Hookean: evaluates at x the elements of the listed nodes that hold no
+ * value of this generation, whole blocks at a time (the other elements of a
+ * block become valid too, unless inverted), as the scalar code evaluated
+ * each at its first use: no node of theirs moves before that. An element
+ * found inverted is noted, the first in the lists' order (the order of
+ * first use); returns false if there was one. */
+static bool prepare(ftm_elem *el, const double *x, const double *rest, const node_list *lists,
+                    int nlists)
+{
+    const uint32_t bg = next_block_generation(el), gen = el->gen;
+    const ftm_elem_blocks *eb = &el->eb;
+    int32_t nb = 0;
+    for (int li = 0; li < nlists; li++)
+        for (int32_t k = 0; k < lists[li].count; k++) {
+            const int32_t i = lists[li].node[k];
+            for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
+                const int32_t e = el->inc_elem[q];
+                if (el->stamp[e] == gen)
+                    continue;
+                el->stamp[e] = gen;
+                const int32_t b = ftm_eb_block(eb, e);
+                if (el->bstamp[b] != bg) {
+                    el->bstamp[b] = bg;
+                    el->list[nb++] = b;
+                }
+            }
+        }
+    if (nb == 0)
+        return true;
+    el->neo_blocks(&el->eb, el->list, nb, x, rest);
+    bool bad = false;
+    for (int32_t k = 0; k < nb; k++) {
+        const int32_t b = el->list[k];
+        const int32_t e0 = b < eb->hex_blocks ? FTM_EB * b
+                                              : eb->hex_count + FTM_EB * (b - eb->hex_blocks);
+        for (int32_t l = 0; l < eb->lanes[b]; l++) {
+            const int32_t e = e0 + l;
+            if (eb->ok[FTM_EB * (size_t)b + (size_t)l]) {
+                el->stamp[e] = gen;
+            } else if (el->stamp[e] == gen) { /* listed: in use */
+                el->inv_mark[e] = bg;
+                bad = true;
+            }
+        }
+    }
+    if (!bad)
+        return true;
+    for (int li = 0; li < nlists; li++)
+        for (int32_t k = 0; k < lists[li].count; k++) {
+            const int32_t i = lists[li].node[k];
+            for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
+                const int32_t e = el->inc_elem[q];
+                if (el->inv_mark[e] == bg) {
+                    const int32_t b = ftm_eb_block(eb, e);
+                    note_inversion(el, e, eb->det[FTM_EB * (size_t)b + (size_t)ftm_eb_lane(eb, e)]);
+                    return false;
+                }
+            }
+        }
+    return false;
 }
 
 static inline void node_force(ftm_elem *el, const ftm_mesh *m, const double *x, int32_t i,
@@ -325,7 +390,7 @@ static inline void node_force(ftm_elem *el, const ftm_mesh *m, const double *x, 
     else if (el->kind == FTM_FORCES_COROT_FEM)
         corot_force(el, m, x, i, NULL, f);
     else
-        neo_force(el, m, x, i, f);
+        neo_force(el, i, f);
 }
 
 /* Eq. 8 for node i (as in sim_kernel.c): returns the squared motion. */
@@ -384,6 +449,10 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
     el->carry = false;
     bool ok = true;
     double mm = *max_m2;
+    if (el->kind == FTM_FORCES_NEO_HOOKEAN) { /* (an inversion is noted and fails the step) */
+        const node_list l = {s->node, s->count};
+        prepare(el, sim->x, sim->m->rest, &l, 1);
+    }
     if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
         /* one node at a time in schedule order; save as the kernels do */
         const int32_t w = sim->group_lanes;
@@ -430,29 +499,15 @@ bool ftm_elem_sweep_relax(ftm_sim *sim)
     if (sim->nrelax == 0)
         return true;
     next_generation(sim->elem);
+    if (sim->elem->kind == FTM_FORCES_NEO_HOOKEAN) {
+        const node_list l = {sim->relax, sim->nrelax};
+        prepare(sim->elem, sim->x, sim->m->rest, &l, 1);
+    }
     bool ok = true;
     double mm = 0.0;
     for (int32_t r = 0; r < sim->nrelax; r++)
         ok &= update_node(sim, sim->relax[r], NULL, 1, &mm);
     return ok;
-}
-
-/* The end of a step: evaluates the elements of node i not yet evaluated in
- * this generation; false (noted) at the first with J <= 0. */
-static bool evaluate_node(ftm_elem *el, const ftm_mesh *m, const double *x, int32_t i)
-{
-    for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
-        const int32_t e = el->inc_elem[q];
-        if (el->stamp[e] == el->gen)
-            continue;
-        el->stamp[e] = el->gen;
-        double det;
-        if (!neo_element(el, m, x, e, el->fe + 3 * (size_t)el->start[e], &det)) {
-            note_inversion(el, e, det);
-            return false;
-        }
-    }
-    return true;
 }
 
 bool ftm_elem_intact(ftm_sim *sim, bool last, bool region_ran)
@@ -463,17 +518,14 @@ bool ftm_elem_intact(ftm_sim *sim, bool last, bool region_ran)
     bool ok = !el->inverted;
     if (ok && last) {
         /* the positions the step leaves, whose forces the next step starts
-         * from: evaluated now (the check) and carried over */
+         * from: evaluated now (the check) and carried over. (The ring's
+         * elements that hold a region node are among the region's; the
+         * others give no scheduled node a force.) */
         next_generation(el);
-        const ftm_mesh *m = sim->m;
-        for (int32_t k = 0; ok && region_ran && k < sim->s.count; k++)
-            ok = evaluate_node(el, m, sim->x, sim->s.node[k]);
-        for (int32_t k = 0; ok && region_ran && k < sim->ndisp; k++)
-            ok = evaluate_node(el, m, sim->x, sim->disp[k]);
-        /* (the ring's elements that hold a region node are evaluated above;
-         * the others give no scheduled node a force) */
-        for (int32_t k = 0; ok && k < sim->nrelax; k++)
-            ok = evaluate_node(el, m, sim->x, sim->relax[k]);
+        const node_list l[3] = {{sim->s.node, region_ran ? sim->s.count : 0},
+                                {sim->disp, region_ran ? sim->ndisp : 0},
+                                {sim->relax, sim->nrelax}};
+        ok = prepare(el, sim->x, sim->m->rest, l, 3);
         el->carry = ok;
     }
     el->inverted = false;
@@ -515,6 +567,10 @@ void ftm_elem_reactions(ftm_sim *sim)
         memset(sim->reaction, 0, (size_t)sim->reaction_groups * 3 * sizeof(double));
     if (!sim->elem->carry) /* neo-Hookean: the step's end already evaluated */
         next_generation(sim->elem);
+    if (sim->elem->kind == FTM_FORCES_NEO_HOOKEAN) {
+        const node_list l = {sim->disp, sim->ndisp};
+        prepare(sim->elem, sim->x, sim->m->rest, &l, 1);
+    }
     for (int32_t c = 0; c < sim->ncontacts; c++) {
         const ftm_contact *ct = &sim->contacts[c];
         if (ct->kind != FTM_CONTACT_DISPLACEMENT)
@@ -568,32 +624,39 @@ int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f)
         return FTM_OK;
     }
     if (el->kind == FTM_FORCES_NEO_HOOKEAN) {
-        /* every element from x into a private cache, then the sums per node
+        /* every block from x into private results, then the sums per node
          * in the integrator's order; nothing written if one is inverted */
-        size_t total = (size_t)el->start[el->count];
-        double *fe = malloc((3 * total + 1) * sizeof *fe);
-        if (!fe)
-            return FTM_ENOMEM;
-        for (int32_t e = 0; e < el->count; e++) {
-            double det;
-            if (!neo_element(el, m, x, e, fe + 3 * (size_t)el->start[e], &det)) {
-                free(fe);
-                return FTM_EINVAL;
-            }
+        ftm_elem_blocks eb = el->eb;
+        const size_t nb = (size_t)eb.count;
+        eb.fe = malloc((3 * FTM_EB * ftm_eb_node_off(&eb, eb.count) + 1) * sizeof *eb.fe);
+        eb.det = malloc((FTM_EB * nb + 1) * sizeof *eb.det);
+        eb.ok = malloc((FTM_EB * nb + 1) * sizeof *eb.ok);
+        int32_t *all = malloc((nb + 1) * sizeof *all);
+        int rc = eb.fe && eb.det && eb.ok && all ? FTM_OK : FTM_ENOMEM;
+        if (!rc) {
+            for (int32_t b = 0; b < eb.count; b++)
+                all[b] = b;
+            el->neo_blocks(&eb, all, eb.count, x, m->rest);
+            for (size_t b = 0; b < nb && !rc; b++)
+                for (int32_t l = 0; l < eb.lanes[b]; l++)
+                    if (!eb.ok[FTM_EB * b + (size_t)l])
+                        rc = FTM_EINVAL;
         }
-        for (int32_t i = 0; i < m->node_count; i++) {
+        for (int32_t i = 0; !rc && i < m->node_count; i++) {
             double s[3] = {0.0, 0.0, 0.0};
             for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
-                const int32_t e = el->inc_elem[q];
-                const double *fa = fe + 3 * ((size_t)el->start[e] + (size_t)el->inc_local[q]);
+                const double *fa = eb.fe + el->inc_fe[q];
                 s[0] += fa[0];
-                s[1] += fa[1];
-                s[2] += fa[2];
+                s[1] += fa[FTM_EB];
+                s[2] += fa[2 * FTM_EB];
             }
             memcpy(f + 3 * i, s, sizeof s);
         }
-        free(fe);
-        return FTM_OK;
+        free(eb.fe);
+        free(eb.det);
+        free(eb.ok);
+        free(all);
+        return rc;
     }
     /* rotations from x into a private copy: the sim's cache stays untouched */
     double *rots = malloc(((size_t)el->count * 9 + 1) * sizeof *rots);
@@ -798,6 +861,71 @@ static int build_rows(ftm_elem *el, int32_t n, ftm_error *err)
     return FTM_OK;
 }
 
+/* The elements in blocks (elem_kernel.h), lane-minor: nodes and, for
+ * neo-Hookean forces, the quadrature data el->gp held per element (freed
+ * here); where each incidence's forces are. */
+static int build_blocks(ftm_elem *el, const ftm_mesh *m, ftm_error *err)
+{
+    ftm_elem_blocks *eb = &el->eb;
+    eb->hex_count = m->hex_count;
+    eb->hex_blocks = (m->hex_count + FTM_EB - 1) / FTM_EB;
+    eb->count = eb->hex_blocks + (m->tet_count + FTM_EB - 1) / FTM_EB;
+    eb->mu = el->mu;
+    eb->kappa = el->kappa;
+    const size_t nb = (size_t)eb->count, slots = FTM_EB * ftm_eb_node_off(eb, eb->count);
+    eb->lanes = malloc((nb + 1) * sizeof *eb->lanes);
+    eb->node = malloc((slots + 1) * sizeof *eb->node);
+    eb->fe = calloc(3 * slots + 1, sizeof *eb->fe);
+    eb->det = calloc(FTM_EB * nb + 1, sizeof *eb->det);
+    eb->ok = calloc(FTM_EB * nb + 1, sizeof *eb->ok);
+    if (el->gp)
+        eb->gp = calloc(FTM_EB * ftm_eb_gp_off(eb, eb->count) + 1, sizeof *eb->gp);
+    el->inc_fe = malloc(((size_t)el->start[el->count] + 1) * sizeof *el->inc_fe);
+    el->list = malloc((nb + 1) * sizeof *el->list);
+    el->bstamp = calloc(nb + 1, sizeof *el->bstamp);
+    el->inv_mark = calloc((size_t)el->count + 1, sizeof *el->inv_mark);
+    if (!eb->lanes || !eb->node || !eb->fe || !eb->det || !eb->ok || (el->gp && !eb->gp) ||
+        !el->inc_fe || !el->list || !el->bstamp || !el->inv_mark)
+        return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %d element blocks",
+                             (int)nb);
+    for (int32_t b = 0; b < eb->count; b++) {
+        const bool hex = ftm_eb_hex(eb, b);
+        const int32_t e0 = hex ? FTM_EB * b : eb->hex_count + FTM_EB * (b - eb->hex_blocks);
+        const int32_t e1 = hex ? eb->hex_count : el->count;
+        const int32_t lanes = e1 - e0 < FTM_EB ? e1 - e0 : FTM_EB;
+        const int nn = ftm_eb_nodes(eb, b), gn = hex ? FTM_HEX_GP : FTM_TET_GP;
+        eb->lanes[b] = lanes;
+        int32_t *node = eb->node + FTM_EB * ftm_eb_node_off(eb, b);
+        for (int l = 0; l < FTM_EB; l++) {
+            const int32_t e = e0 + (l < lanes ? l : 0); /* a spare lane repeats lane 0 */
+            for (int a = 0; a < nn; a++)
+                node[FTM_EB * a + l] = el->node[el->start[e] + a];
+            if (eb->gp && l < lanes)
+                for (int k = 0; k < gn; k++)
+                    eb->gp[FTM_EB * (ftm_eb_gp_off(eb, b) + (size_t)k) + (size_t)l] =
+                        el->gp[el->goff[e] + (size_t)k];
+        }
+    }
+    for (int32_t i = 0; i < m->node_count; i++)
+        for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
+            const int32_t e = el->inc_elem[q], b = ftm_eb_block(eb, e);
+            el->inc_fe[q] = (int32_t)(FTM_EB * (3 * ftm_eb_node_off(eb, b) +
+                                                3 * (size_t)el->inc_local[q]) +
+                                      (size_t)ftm_eb_lane(eb, e));
+        }
+    free(el->gp);
+    free(el->goff);
+    el->gp = NULL;
+    el->goff = NULL;
+    el->neo_blocks = ftm_neo_blocks_kernel(FTM_ELEM_KERNEL_BEST, &el->lanes);
+    return FTM_OK;
+}
+
+void ftm_elem_select_kernel(ftm_elem *el, ftm_elem_kernel which)
+{
+    el->neo_blocks = ftm_neo_blocks_kernel(which, &el->lanes);
+}
+
 /* Gershgorin bound on the largest eigenvalue of M^-1/2 K M^-1/2 over the
  * free nodes' rows (h_crit = 2 / sqrt(lambda)), and the same low-damping
  * warning as springs (sim.c: d/2m >= 0.055 lambda_i h) where the update is
@@ -900,10 +1028,11 @@ int ftm_elem_create(ftm_sim *sim, ftm_error *err)
     if (!rc && d->forces == FTM_FORCES_NEO_HOOKEAN) {
         el->mu = d->young / (2.0 * (1.0 + d->poisson));
         el->kappa = d->young / (3.0 * (1.0 - 2.0 * d->poisson));
-        el->fe = malloc((3 * (size_t)el->start[el->count] + 1) * sizeof *el->fe);
         el->stamp = calloc((size_t)el->count + 1, sizeof *el->stamp);
-        if (!el->fe || !el->stamp)
+        if (!el->stamp)
             rc = ftm_error_set(err, FTM_ENOMEM, "sim: out of memory");
+        else
+            rc = build_blocks(el, m, err);
     }
     if (rc) {
         ftm_elem_free(el);

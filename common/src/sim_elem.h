@@ -3,6 +3,7 @@
 #ifndef FTM_SRC_SIM_ELEM_H
 #define FTM_SRC_SIM_ELEM_H
 
+#include "elem_kernel.h"
 #include "sim_internal.h"
 
 typedef struct ftm_elem ftm_elem;
@@ -20,6 +21,11 @@ double ftm_elem_critical_step(const ftm_elem *el);
  * 3x3 blocks k + 9 * that index, row-major. */
 void ftm_elem_rows(const ftm_elem *el, const int32_t **start, const int32_t **node,
                    const double **k);
+
+/* The element kernel (elem_kernel.h): the widest this CPU runs, or another
+ * (the same bits; ftm_sim_select_kernel asks for the best or the portable
+ * one, tests for each). */
+void ftm_elem_select_kernel(ftm_elem *el, ftm_elem_kernel which);
 
 /* The sweeps and reactions of sim_kernel.c with element forces. */
 bool ftm_elem_sweep(ftm_sim *sim, double *max_m2);

@@ -1,6 +1,7 @@
 /* The hot loop of the integrator: spring forces (Eq. 6), the central
  * difference update (Eq. 8) and the sweeps over the schedule in each order,
  * plus reactions (Eq. 19). */
+#include "sim_elem.h"
 #include "sim_internal.h"
 
 #include <math.h>
@@ -358,6 +359,9 @@ void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
         sim->group_lanes = 8;
     }
 #endif
+    if (sim->elem)
+        ftm_elem_select_kernel(sim->elem,
+                               portable ? FTM_ELEM_KERNEL_PORTABLE : FTM_ELEM_KERNEL_BEST);
     /* the group orders' links are laid out for the kernel's lane count */
     if (sim->def.order != FTM_ORDER_BFS)
         sim->s.linked = false;

@@ -1,0 +1,328 @@
+/* The element block kernels (common/src/elem_kernel.c): every kernel this
+ * CPU runs (AVX-512, AVX2, portable) gives exactly the bits of the scalar
+ * reference, element by element, with the elements' lanes mixed (a cube root
+ * near 1 in one lane and far from it in the next, partial blocks, inverted
+ * elements), and whole simulations give the same hash with every kernel. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include "ftm/ftm.h"
+#include "hyperelastic.h"
+#include "sim_elem.h"
+#include "sim_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define YOUNG 0.6e6
+#define POISSON 0.45
+#define MU (YOUNG / (2.0 * (1.0 + POISSON)))
+#define KAPPA (YOUNG / (3.0 * (1.0 - 2.0 * POISSON)))
+
+static const ftm_elem_kernel kernels[] = {FTM_ELEM_KERNEL_BEST, FTM_ELEM_KERNEL_AVX2,
+                                          FTM_ELEM_KERNEL_PORTABLE};
+static const char *const kernel_names[] = {"best", "avx2", "portable"};
+
+/* xorshift64*: a fixed sequence in [0, 1) */
+static double rnd(uint64_t *s)
+{
+    *s ^= *s >> 12;
+    *s ^= *s << 25;
+    *s ^= *s >> 27;
+    return (double)((*s * 0x2545f4914f6cdd1dULL) >> 11) * 0x1p-53;
+}
+
+/* An nx x ny x nz-node block of 10 mm cells, bottom fixed: hexahedra, or
+ * each cell as six tetrahedra around its diagonal. */
+static ftm_mesh *block_mesh(int nx, int ny, int nz, bool tets)
+{
+    const double s = 0.01;
+    ftm_mesh_builder *b = ftm_mesh_builder_create();
+    for (int k = 0; k < nz; k++)
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                ftm_node_def nd = ftm_default_node_def();
+                nd.position = (ftm_vec3){i * s, j * s, k * s};
+                nd.mass = 0.001;
+                nd.damping = 0.5;
+                nd.fixed = k == 0;
+                assert_true(ftm_mesh_builder_add_node(b, &nd) >= 0);
+            }
+#define ID(i, j, k) ((i) + nx * ((j) + ny * (k)))
+    for (int k = 0; k + 1 < nz; k++)
+        for (int j = 0; j + 1 < ny; j++)
+            for (int i = 0; i + 1 < nx; i++) {
+                const int32_t h[8] = {ID(i, j, k),         ID(i + 1, j, k),
+                                      ID(i + 1, j + 1, k), ID(i, j + 1, k),
+                                      ID(i, j, k + 1),     ID(i + 1, j, k + 1),
+                                      ID(i + 1, j + 1, k + 1), ID(i, j + 1, k + 1)};
+                if (!tets) {
+                    assert_int_equal(ftm_mesh_builder_add_hexahedron(b, h), FTM_OK);
+                    continue;
+                }
+                static const int path[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2},
+                                               {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+                for (int t = 0; t < 6; t++) {
+                    int c[3] = {i, j, k}, v[4];
+                    v[0] = ID(c[0], c[1], c[2]);
+                    for (int st = 0; st < 3; st++) {
+                        c[path[t][st]]++;
+                        v[st + 1] = ID(c[0], c[1], c[2]);
+                    }
+                    assert_int_equal(ftm_mesh_builder_add_tetrahedron(b, v[0], v[1], v[2], v[3]),
+                                     FTM_OK);
+                }
+            }
+#undef ID
+    /* links: the elements' edges are not needed by element forces, one keeps
+     * the builder content */
+    ftm_link_def l = ftm_default_link_def();
+    l.a = 0;
+    l.b = 1;
+    l.stiffness = 1.0;
+    assert_int_equal(ftm_mesh_builder_add_link(b, &l), FTM_OK);
+    ftm_mesh *m = NULL;
+    assert_int_equal(ftm_mesh_build(b, NULL, &m, NULL), FTM_OK);
+    ftm_mesh_builder_destroy(b);
+    return m;
+}
+
+static ftm_sim *make_sim(const ftm_mesh *m, ftm_forces forces)
+{
+    ftm_sim_def d = ftm_default_sim_def();
+    d.forces = forces;
+    d.young = YOUNG;
+    d.poisson = POISSON;
+    d.density = 1040.0;
+    d.time_step = 2e-5;
+    d.depth = 100;
+    ftm_sim *sim = NULL;
+    ftm_error err;
+    assert_int_equal(ftm_sim_create(m, &d, &sim, &err), FTM_OK);
+    return sim;
+}
+
+/* Positions X + u: a smooth field whose volume change varies from about
+ * 0.5 to 1.7 over the body (scale 1), so that neighbouring elements take
+ * either branch of the cube root, plus noise of relative size noise. */
+static void deform(const ftm_mesh *m, double scale, double noise, uint64_t seed, double *x)
+{
+    uint64_t s = seed;
+    for (int32_t i = 0; i < ftm_mesh_node_count(m); i++) {
+        ftm_vec3 X = ftm_mesh_rest_position(m, i);
+        double u[3] = {scale * (6.0 * X.x * X.x + 2.0 * X.y * X.z),
+                       scale * (-3.0 * X.y * X.y + 1.5 * X.x * X.z),
+                       scale * (8.0 * X.z * X.x - 2.0 * X.y * X.x)};
+        x[3 * i] = X.x + u[0] + noise * 0.01 * (rnd(&s) - 0.5);
+        x[3 * i + 1] = X.y + u[1] + noise * 0.01 * (rnd(&s) - 0.5);
+        x[3 * i + 2] = X.z + u[2] + noise * 0.01 * (rnd(&s) - 0.5);
+    }
+}
+
+/* The neo-Hookean internal forces by the scalar reference: each element by
+ * ftm_neo_element_forces, each node's sum over its elements in element order
+ * (as the integrator sums). false if an element is inverted. */
+static bool neo_reference(const ftm_mesh *m, const double *x, double *f)
+{
+    const int32_t n = ftm_mesh_node_count(m), nh = ftm_mesh_hexahedron_count(m),
+                  nt = ftm_mesh_tetrahedron_count(m);
+    memset(f, 0, (size_t)n * 3 * sizeof *f);
+    bool *seen = calloc((size_t)n, sizeof *seen);
+    double *fe = malloc((size_t)(nh + nt) * 24 * sizeof *fe);
+    bool ok = true;
+    for (int32_t e = 0; e < nh + nt; e++) {
+        const bool hex = e < nh;
+        const int nn = hex ? 8 : 4;
+        const int32_t *v = hex ? ftm_mesh_hexahedra(m) + 8 * e : ftm_mesh_tetrahedra(m) + 4 * (e - nh);
+        ftm_vec3 X[8];
+        double u[24], gp[200];
+        for (int a = 0; a < nn; a++) {
+            X[a] = ftm_mesh_rest_position(m, v[a]);
+            const double r[3] = {X[a].x, X[a].y, X[a].z};
+            for (int c = 0; c < 3; c++)
+                u[3 * a + c] = x[3 * v[a] + c] - r[c];
+        }
+        if (hex) {
+            double g[192], det[8];
+            assert_int_equal(ftm_hex8_gauss_gradients(X, g, det), FTM_OK);
+            for (int q = 0; q < 8; q++) {
+                memcpy(gp + 25 * q, g + 24 * q, 24 * sizeof *g);
+                gp[25 * q + 24] = det[q];
+            }
+        } else {
+            double ke[144], vol;
+            assert_int_equal(ftm_tet4_stiffness(X, YOUNG, POISSON, ke, &vol), FTM_OK);
+            assert_int_equal(ftm_tet4_gradients(X, gp), FTM_OK);
+            gp[12] = fabs(vol);
+        }
+        double md;
+        ok &= ftm_neo_element_forces(nn, hex ? 8 : 1, gp, u, MU, KAPPA, fe + 24 * e, &md);
+    }
+    /* sums per node over its elements in ascending order */
+    for (int32_t e = 0; e < nh + nt; e++) {
+        const bool hex = e < nh;
+        const int nn = hex ? 8 : 4;
+        const int32_t *v = hex ? ftm_mesh_hexahedra(m) + 8 * e : ftm_mesh_tetrahedra(m) + 4 * (e - nh);
+        for (int a = 0; a < nn; a++) {
+            for (int c = 0; c < 3; c++)
+                f[3 * v[a] + c] = seen[v[a]] ? f[3 * v[a] + c] + fe[24 * e + 3 * a + c]
+                                             : 0.0 + fe[24 * e + 3 * a + c];
+            seen[v[a]] = true;
+        }
+    }
+    free(seen);
+    free(fe);
+    return ok;
+}
+
+/* bit-identical arrays; prints the first difference */
+static bool same_bits(const double *a, const double *b, size_t n, const char *what)
+{
+    for (size_t i = 0; i < n; i++)
+        if (memcmp(a + i, b + i, sizeof *a) != 0) {
+            print_error("%s: entry %zu: %.17g, reference %.17g\n", what, i, a[i], b[i]);
+            return false;
+        }
+    return true;
+}
+
+static void check_forces(ftm_forces forces, bool tets)
+{
+    /* partial last blocks: 4 x 3 x 3 = 36 hexahedra (4 blocks and 4 lanes),
+     * 3 x 3 x 2 cells = 108 tetrahedra (13 blocks and 4 lanes) */
+    ftm_mesh *m = tets ? block_mesh(4, 4, 3, true) : block_mesh(5, 4, 4, false);
+    const int32_t n = ftm_mesh_node_count(m);
+    double *x = malloc((size_t)n * 3 * sizeof *x), *ref = malloc((size_t)n * 3 * sizeof *ref),
+           *f = malloc((size_t)n * 3 * sizeof *f);
+    ftm_sim *sim = make_sim(m, forces);
+    const struct {
+        double scale, noise;
+        bool inverted;
+    } fields[] = {{0.05, 0.001, false}, {1.0, 0.0, false}, {1.0, 0.05, false},
+                  {0.0, 1.2, true}};
+    int cases = 0;
+    for (size_t fi = 0; fi < sizeof fields / sizeof fields[0]; fi++) {
+        deform(m, fields[fi].scale, fields[fi].noise, 7 + fi, x);
+        const bool ok = neo_reference(m, x, ref);
+        if (fields[fi].inverted && ok)
+            continue; /* (the noise did not invert one: nothing to compare) */
+        assert_true(ok == !fields[fi].inverted);
+        for (size_t k = 0; k < sizeof kernels / sizeof kernels[0]; k++) {
+            ftm_elem_select_kernel(sim->elem, kernels[k]);
+            char what[64];
+            snprintf(what, sizeof what, "%s %s field %zu", tets ? "tets" : "hexes",
+                     kernel_names[k], fi);
+            memset(f, 0, (size_t)n * 3 * sizeof *f);
+            int rc = ftm_sim_internal_forces(sim, x, f);
+            if (!ok) {
+                assert_int_equal(rc, FTM_EINVAL);
+                continue;
+            }
+            assert_int_equal(rc, FTM_OK);
+            assert_true(same_bits(f, ref, (size_t)n * 3, what));
+            cases++;
+        }
+    }
+    assert_true(cases >= 9);
+    ftm_sim_destroy(sim);
+    ftm_mesh_destroy(m);
+    free(x);
+    free(ref);
+    free(f);
+}
+
+static void test_neo_hexahedra(void **state)
+{
+    (void)state;
+    check_forces(FTM_FORCES_NEO_HOOKEAN, false);
+}
+
+static void test_neo_tetrahedra(void **state)
+{
+    (void)state;
+    check_forces(FTM_FORCES_NEO_HOOKEAN, true);
+}
+
+/* A press, a release and a deep press that inverts elements (substeps, then
+ * refused): the same hash after every step with every kernel. */
+static void quiet(void *user, ftm_log_level level, const char *msg)
+{
+    (void)user;
+    (void)level;
+    (void)msg;
+}
+
+static uint64_t run(const ftm_mesh *m, int nx, int nz, ftm_forces forces, ftm_elem_kernel k,
+                    ftm_order order)
+{
+    ftm_sim_def d = ftm_default_sim_def();
+    d.forces = forces;
+    d.young = YOUNG;
+    d.poisson = POISSON;
+    d.density = 1040.0;
+    d.time_step = 4e-5;
+    d.depth = 2;
+    d.order = order;
+    d.max_substeps = 4;
+    d.log = quiet;
+    ftm_sim *sim = NULL;
+    assert_int_equal(ftm_sim_create(m, &d, &sim, NULL), FTM_OK);
+    ftm_elem_select_kernel(sim->elem, k);
+    const int32_t top = ftm_mesh_node_of_input(m, nx / 2 + nx * (nx / 2 + nx * (nz - 1)));
+    ftm_contact c[2] = {{.node = top, .group = 0, .kind = FTM_CONTACT_DISPLACEMENT,
+                         .value = {0.001, 0.0005, -0.003}},
+                        {.node = ftm_mesh_node_of_input(m, nx * nx * nz - 1), .group = 1, .kind = FTM_CONTACT_FORCE,
+                         .value = {0.0, 0.3, -1.0}}};
+    uint64_t h = 0;
+    int refused = 0;
+    for (int s = 0; s < 300; s++) {
+        if (s == 0 || s == 150)
+            assert_int_equal(ftm_sim_set_contacts(sim, c, s == 0 ? 2 : 1, NULL), FTM_OK);
+        if (s == 220) { /* a press through the body at once: inverted, refused */
+            c[0].value.z = -0.03;
+            assert_int_equal(ftm_sim_set_contacts(sim, c, 1, NULL), FTM_OK);
+        }
+        int rc = ftm_sim_step(sim);
+        assert_true(rc == FTM_OK || (s >= 220 && rc == FTM_EUNSTABLE));
+        refused += rc == FTM_EUNSTABLE;
+        h = h * 0x100000001b3ULL ^ ftm_sim_hash(sim);
+    }
+    assert_true(refused > 0); /* the deep press was met */
+    ftm_sim_destroy(sim);
+    return h;
+}
+
+static void test_runs_match(void **state)
+{
+    (void)state;
+    for (int tets = 0; tets < 2; tets++) {
+        const int nx = tets ? 4 : 5;
+        ftm_mesh *m = block_mesh(nx, nx, nx, tets);
+        for (int f = 0; f < 1; f++) {
+            const ftm_forces forces = FTM_FORCES_NEO_HOOKEAN;
+            const ftm_order order = tets ? FTM_ORDER_BFS : FTM_ORDER_LAYER_COLORED;
+            const uint64_t h0 = run(m, nx, nx, forces, kernels[0], order);
+            for (size_t k = 1; k < sizeof kernels / sizeof kernels[0]; k++)
+                if (run(m, nx, nx, forces, kernels[k], order) != h0)
+                    fail_msg("%s, %s: kernel %s differs from the best", tets ? "tets" : "hexes",
+                             "neo-hookean", kernel_names[k]);
+        }
+        ftm_mesh_destroy(m);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_neo_hexahedra),
+        cmocka_unit_test(test_neo_tetrahedra),
+        cmocka_unit_test(test_runs_match),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
