@@ -4,64 +4,116 @@
 #include "elem_kernel.h"
 
 #include "hyperelastic.h"
+#include "sim_internal.h"
 
 #include <math.h>
 #include <string.h>
 
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#endif
+
 /* the helpers of elem_block.inc pass vectors by value; all are inlined */
-#if defined(__GNUC__) && !defined(__clang__)
+#if defined(__clang__)
+#pragma clang diagnostic ignored "-Wpsabi"
+#elif defined(__GNUC__)
 #pragma GCC diagnostic ignored "-Wpsabi"
 #endif
 
 typedef double e4d __attribute__((vector_size(32)));
 typedef int64_t e4l __attribute__((vector_size(32)));
 
+/* 4 lanes: x, y, z of four points by 16-byte pairs (sim_internal.h) */
+#define LOAD_XYZ4(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
+#define SELECT_BITS(m, a, b) ((EV)(((m) & (EL)(a)) | (~(m) & (EL)(b))))
+
 #define EW 4
 #define EV e4d
 #define EL e4l
 #define ETARGET
 #define ENAME(f) portable_##f
+#define ESELECT SELECT_BITS
+#define EANY(m) ((m)[0] | (m)[1] | (m)[2] | (m)[3])
+#define ELOADXYZ LOAD_XYZ4
 #include "elem_block.inc"
 #undef ETARGET
 #undef ENAME
+#undef ESELECT
+#undef EANY
 
 #if defined(__x86_64__) || defined(__i386__)
 #define ETARGET __attribute__((target("avx2")))
 #define ENAME(f) avx2_##f
+#define ESELECT(m, a, b) ((EV)_mm256_blendv_pd((__m256d)(b), (__m256d)(a), (__m256d)(m)))
+#define EANY(m) (_mm256_movemask_pd((__m256d)(m)) != 0)
 #include "elem_block.inc"
 #undef ETARGET
 #undef ENAME
+#undef ESELECT
+#undef EANY
+#undef ELOADXYZ
 #undef EW
 #undef EV
 #undef EL
 
+/* 8 lanes: x, y, z of eight points, as sim_kernel.c's load_xyz8 */
+static inline __attribute__((target("avx512f"), always_inline)) __m512d
+pairs4(const double *a, const double *b, const double *c, const double *d)
+{
+    const __m256d lo =
+        _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(a)), _mm_loadu_pd(b), 1);
+    const __m256d hi =
+        _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(c)), _mm_loadu_pd(d), 1);
+    return _mm512_insertf64x4(_mm512_castpd256_pd512(lo), hi, 1);
+}
+
 typedef double e8d __attribute__((vector_size(64)));
 typedef int64_t e8l __attribute__((vector_size(64)));
+
+static inline __attribute__((target("avx512f"), always_inline)) void
+load_xyz8(const double *p, const size_t o[8], e8d *x, e8d *y, e8d *z)
+{
+    const __m512d xy0 = pairs4(p + o[0], p + o[2], p + o[4], p + o[6]),
+                  xy1 = pairs4(p + o[1], p + o[3], p + o[5], p + o[7]),
+                  yz0 = pairs4(p + o[0] + 1, p + o[2] + 1, p + o[4] + 1, p + o[6] + 1),
+                  yz1 = pairs4(p + o[1] + 1, p + o[3] + 1, p + o[5] + 1, p + o[7] + 1);
+    *x = (e8d)_mm512_unpacklo_pd(xy0, xy1);
+    *y = (e8d)_mm512_unpacklo_pd(yz0, yz1);
+    *z = (e8d)_mm512_unpackhi_pd(yz0, yz1);
+}
+
 #define EW 8
 #define EV e8d
 #define EL e8l
 #define ETARGET __attribute__((target("avx512f")))
 #define ENAME(f) avx512_##f
+#define ESELECT SELECT_BITS /* (a ternary logic instruction) */
+#define EANY(m) (_mm512_test_epi64_mask((__m512i)(m), (__m512i)(m)) != 0)
+#define ELOADXYZ load_xyz8
 #include "elem_block.inc"
 #undef ETARGET
 #undef ENAME
+#undef ESELECT
+#undef EANY
+#undef ELOADXYZ
 #endif
 #undef EW
 #undef EV
 #undef EL
 
-ftm_neo_blocks_fn ftm_neo_blocks_kernel(ftm_elem_kernel which, int *lanes)
+ftm_blocks_fn ftm_blocks_kernel(ftm_elem_kind kind, ftm_elem_kernel which, int *lanes)
 {
+    const bool neo = kind == FTM_EK_NEO;
     *lanes = 4;
 #if defined(__x86_64__) || defined(__i386__)
     if (which == FTM_ELEM_KERNEL_BEST && __builtin_cpu_supports("avx512f")) {
         *lanes = 8;
-        return avx512_neo_blocks;
+        return neo ? avx512_neo_blocks : avx512_corot_blocks;
     }
     if (which != FTM_ELEM_KERNEL_PORTABLE && __builtin_cpu_supports("avx2"))
-        return avx2_neo_blocks;
+        return neo ? avx2_neo_blocks : avx2_corot_blocks;
 #else
     (void)which;
 #endif
-    return portable_neo_blocks;
+    return neo ? portable_neo_blocks : portable_corot_blocks;
 }

@@ -1,16 +1,16 @@
-/* Internal: element forces evaluated a block of elements at a time, the
- * elements in vector lanes (elem_kernel.c, elem_block.inc), for the
- * neo-Hookean and co-rotational forces of sim_elem.c.
+/* Internal: neo-Hookean and co-rotational element forces evaluated a block
+ * of elements at a time, the elements in vector lanes (elem_kernel.c,
+ * elem_block.inc), for sim_elem.c.
  *
  * Elements are grouped in blocks of FTM_EB consecutive elements of one type
  * (hexahedra first, then tetrahedra; a type's last block may be partial),
  * and every per-element array is stored lane-minor: value k of the element
  * in lane l of block b at [b's offset + k * FTM_EB + l]. A kernel of W
  * lanes (8 with AVX-512, 4 with AVX2 or portable) runs a block as FTM_EB / W
- * vectors; each lane does exactly the operations of the scalar reference
- * (ftm_neo_element_forces, the co-rotational element force of sim_elem.c)
- * in the same order, so every kernel gives the same bits as the reference
- * and as each other, on every machine. */
+ * vectors, each lane doing one element's operations in one fixed order, so
+ * every kernel gives the same bits on every machine: for neo-Hookean forces
+ * exactly those of the scalar ftm_neo_element_forces; for co-rotational
+ * forces those of the formulation described in elem_block.inc. */
 #ifndef FTM_SRC_ELEM_KERNEL_H
 #define FTM_SRC_ELEM_KERNEL_H
 
@@ -20,29 +20,45 @@
 
 #define FTM_EB 8 /* elements per block */
 
-/* quadrature data per element: per point the 3 nn rest gradients, then the
- * weight (hyperelastic.h) */
-#define FTM_HEX_GP (8 * 25)
+/* Per element data (gp) of the kinds:
+ * neo-Hookean: per quadrature point the 3 nn rest gradients, then the
+ *   weight (hyperelastic.h): 8 x 25 on a hexahedron, 13 on a tetrahedron;
+ * co-rotational: a hexahedron's inverse Jacobians at its 8 Gauss points and
+ *   then its centre (9 each, ftm_hex8_inverse_jacobians) and the 8 points'
+ *   weights; a tetrahedron's 12 gradients and its volume, as neo-Hookean. */
+#define FTM_NEO_HEX_GP (8 * 25)
+#define FTM_COROT_HEX_GP (9 * 9 + 8)
 #define FTM_TET_GP 13
 
+typedef enum ftm_elem_kind { FTM_EK_NEO, FTM_EK_COROT } ftm_elem_kind;
+
 typedef struct ftm_elem_blocks {
+    ftm_elem_kind kind;
     int32_t count;      /* blocks */
     int32_t hex_blocks; /* blocks 0 .. hex_blocks-1 hold hexahedra, the rest tetrahedra */
     int32_t hex_count;  /* elements 0 .. hex_count-1 are hexahedra */
+    int32_t hex_gp;     /* gp entries per hexahedron (FTM_NEO_HEX_GP or FTM_COROT_HEX_GP) */
     int32_t *lanes;     /* per block: elements in it (1 .. FTM_EB) */
     int32_t *node;      /* per block nn x FTM_EB node indices (a spare lane repeats lane 0) */
-    double *gp;         /* neo-Hookean: per block nq (3 nn + 1) x FTM_EB, spare lanes 0 */
-    double *grad;       /* co-rotational: per block the centre gradients, 3 nn x FTM_EB */
+    double *gp;         /* per block the kind's element data, spare lanes 0 */
+    double *rest;       /* per block the nodes' rest positions, 3 nn x FTM_EB */
     double *fe;         /* per block the nodal forces, 3 nn x FTM_EB */
-    double *det;        /* per block FTM_EB: the smallest J of each lane's points (neo) */
-    int64_t *ok;        /* per block FTM_EB: all ones where J > 0 at every point (neo) */
-    double mu, kappa;
+    double *det;        /* per block FTM_EB: neo, the smallest J of each lane's points */
+    int64_t *ok;        /* per block FTM_EB: neo, all ones where J > 0 at every point;
+                           co-rotational, all ones */
+    double mu, kappa;   /* neo: shear and bulk moduli */
+    double lambda;      /* co-rotational: Lame's first parameter (mu the second) */
 } ftm_elem_blocks;
 
 static inline bool ftm_eb_hex(const ftm_elem_blocks *eb, int32_t b) { return b < eb->hex_blocks; }
 static inline int32_t ftm_eb_nodes(const ftm_elem_blocks *eb, int32_t b)
 {
     return b < eb->hex_blocks ? 8 : 4;
+}
+/* the first element of block b */
+static inline int32_t ftm_eb_first(const ftm_elem_blocks *eb, int32_t b)
+{
+    return b < eb->hex_blocks ? FTM_EB * b : eb->hex_count + FTM_EB * (b - eb->hex_blocks);
 }
 /* the block of element e and its lane */
 static inline int32_t ftm_eb_block(const ftm_elem_blocks *eb, int32_t e)
@@ -54,7 +70,7 @@ static inline int32_t ftm_eb_lane(const ftm_elem_blocks *eb, int32_t e)
     return (e < eb->hex_count ? e : e - eb->hex_count) % FTM_EB;
 }
 /* offsets of block b in the arrays above, in units of FTM_EB entries: a
- * per-node array (nn per element), and the quadrature data */
+ * per-node array (nn per element), and the element data */
 static inline size_t ftm_eb_node_off(const ftm_elem_blocks *eb, int32_t b)
 {
     return b < eb->hex_blocks ? 8 * (size_t)b
@@ -62,17 +78,17 @@ static inline size_t ftm_eb_node_off(const ftm_elem_blocks *eb, int32_t b)
 }
 static inline size_t ftm_eb_gp_off(const ftm_elem_blocks *eb, int32_t b)
 {
-    return b < eb->hex_blocks
-               ? FTM_HEX_GP * (size_t)b
-               : FTM_HEX_GP * (size_t)eb->hex_blocks + FTM_TET_GP * (size_t)(b - eb->hex_blocks);
+    return b < eb->hex_blocks ? (size_t)eb->hex_gp * (size_t)b
+                              : (size_t)eb->hex_gp * (size_t)eb->hex_blocks +
+                                    FTM_TET_GP * (size_t)(b - eb->hex_blocks);
 }
 
-/* Evaluates the neo-Hookean forces of the blocks list[0 .. n-1] at
- * positions x (rest positions rest): fe, and det and ok per lane (a lane
- * with J <= 0 at a point gets fe = 0, ok = 0, det the smallest J up to that
- * point, as ftm_neo_element_forces). */
-typedef void (*ftm_neo_blocks_fn)(ftm_elem_blocks *eb, const int32_t *list, int32_t n,
-                                  const double *x, const double *rest);
+/* Evaluates the blocks list[0 .. n-1] at positions x (rest positions
+ * rest): fe, det and ok. Neo-Hookean: a lane with J <= 0 at a point gets
+ * fe = 0, ok = 0 and det the smallest J up to that point, as
+ * ftm_neo_element_forces. */
+typedef void (*ftm_blocks_fn)(ftm_elem_blocks *eb, const int32_t *list, int32_t n,
+                              const double *x, const double *rest);
 
 typedef enum ftm_elem_kernel {
     FTM_ELEM_KERNEL_BEST,     /* the widest this CPU runs */
@@ -80,7 +96,8 @@ typedef enum ftm_elem_kernel {
     FTM_ELEM_KERNEL_PORTABLE, /* 4 lanes, baseline instructions */
 } ftm_elem_kernel;
 
-/* The kernel asked for, or the closest this CPU runs; *lanes gets its width. */
-ftm_neo_blocks_fn ftm_neo_blocks_kernel(ftm_elem_kernel which, int *lanes);
+/* The kernel of that kind asked for, or the closest this CPU runs; *lanes
+ * gets its width. */
+ftm_blocks_fn ftm_blocks_kernel(ftm_elem_kind kind, ftm_elem_kernel which, int *lanes);
 
 #endif

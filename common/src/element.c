@@ -90,12 +90,12 @@ static void inv3(const double m[9], double det, double out[9])
 static const double hex_corner[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
                                         {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
 
-/* At natural point (r, s, t): shape values n[a] (may be NULL), gradients
- * grad[a] = dN_a/dx and det J. Returns det J; grad is left unset if det J <= 0. */
-static double hex_point(const ftm_vec3 x[8], double r, double s, double t, double *n,
-                        double grad[8][3])
+/* At natural point (r, s, t): dN_a / d(r, s, t) into dn (and the shape
+ * values n[a] unless NULL), and the Jacobian's determinant; its inverse
+ * into ji unless det J <= 0. */
+static double hex_jacobian(const ftm_vec3 x[8], double r, double s, double t, double *n,
+                           double dn[8][3], double ji[9])
 {
-    double dn[8][3]; /* dN_a / d(r, s, t) */
     for (int a = 0; a < 8; a++) {
         double ra = hex_corner[a][0], sa = hex_corner[a][1], ta = hex_corner[a][2];
         dn[a][0] = 0.125 * ra * (1.0 + s * sa) * (1.0 + t * ta);
@@ -112,10 +112,20 @@ static double hex_point(const ftm_vec3 x[8], double r, double s, double t, doubl
                 jac[3 * i + j] += p[i] * dn[a][j];
     }
     double det = det3(jac);
+    if (det > 0.0)
+        inv3(jac, det, ji);
+    return det;
+}
+
+/* At natural point (r, s, t): shape values n[a] (may be NULL), gradients
+ * grad[a] = dN_a/dx and det J. Returns det J; grad is left unset if det J <= 0. */
+static double hex_point(const ftm_vec3 x[8], double r, double s, double t, double *n,
+                        double grad[8][3])
+{
+    double dn[8][3], ji[9];
+    double det = hex_jacobian(x, r, s, t, n, dn, ji);
     if (!(det > 0.0))
         return det;
-    double ji[9];
-    inv3(jac, det, ji);
     for (int a = 0; a < 8; a++) /* dN_a / dx_i = sum_j dN_a/dxi_j (J^-1)_ji */
         for (int i = 0; i < 3; i++)
             grad[a][i] = dn[a][0] * ji[0 * 3 + i] + dn[a][1] * ji[1 * 3 + i] +
@@ -170,6 +180,22 @@ int ftm_hex8_gauss_gradients(const ftm_vec3 x[8], double grad[192], double det[8
         if (!(det[q] > 0.0))
             return FTM_EINVAL;
         memcpy(grad + 24 * q, gq, sizeof gq);
+    }
+    return FTM_OK;
+}
+
+int ftm_hex8_inverse_jacobians(const ftm_vec3 x[8], double ji[81], double det[8])
+{
+    const double g = 1.0 / sqrt(3.0); /* the points of ftm_hex8_stiffness, then the centre */
+    double dn[8][3];
+    for (int q = 0; q < 9; q++) {
+        const double d = q < 8 ? hex_jacobian(x, g * hex_corner[q][0], g * hex_corner[q][1],
+                                              g * hex_corner[q][2], NULL, dn, ji + 9 * q)
+                               : hex_jacobian(x, 0.0, 0.0, 0.0, NULL, dn, ji + 9 * q);
+        if (!(d > 0.0))
+            return FTM_EINVAL;
+        if (q < 8)
+            det[q] = d;
     }
     return FTM_OK;
 }

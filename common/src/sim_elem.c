@@ -2,32 +2,30 @@
  *
  * Instead of springs, a node's internal force is the sum over its elements of
  * the element force rows: linear, f_e = K_e (x_e - X_e), with the element
- * stiffness of the linear FEM reference (element.c), or co-rotational,
+ * stiffness of the linear FEM reference (element.c); co-rotational,
  * f_e = R K_e (R^T x_e - X_e), R the rotation of the element's deformation
- * gradient at its centre (polar decomposition). The update is the same
- * layer-by-layer Gauss-Seidel central difference as with springs, in the
- * same schedule, so at full depth its equilibrium is K u = f exactly: the
- * FEM solution. docs/accuracy.md has the measurements.
+ * gradient at its centre (polar decomposition); or neo-Hookean
+ * (hyperelastic.c), total Lagrangian: f_a = sum_q w_q P(F_q) grad N_a(X_q),
+ * F_q from the rest gradients at the quadrature points of the linear
+ * elements (2x2x2 Gauss on hexahedra, one point on tetrahedra), so that its
+ * tangent at rest is the linear K_e. At full depth the equilibrium is the
+ * FEM's. docs/accuracy.md has the measurements.
  *
  * Linear forces use the assembled rows (node i: sum_j K_ij u_j over the nodes
- * sharing an element with i), which is the same sum in fewer operations.
- * Co-rotational forces go element by element with per-node incidence lists;
- * each element's rotation is computed once per substep, from the positions
- * at its first use in the sweep (fixed order, so deterministic).
+ * sharing an element with i) in the same layer-by-layer Gauss-Seidel update
+ * as springs, each node reading its neighbours' newest positions.
  *
- * Neo-Hookean forces (hyperelastic.c) are total Lagrangian:
- * f_a = sum_q w_q P(F_q) grad N_a(X_q), F_q from the rest gradients at the
- * quadrature points of the linear elements (2x2x2 Gauss on hexahedra, one
- * point on tetrahedra), so their tangent at rest is the linear K_e. Each
- * element's nodal forces are computed once per substep, at the element's
- * first use, and summed per node from that cache. No scheduled node of an
- * element has moved before its first use, so every element is evaluated at
- * the positions the substep started from (the displacement contacts
- * already placed): the forces are those of plain central differences, the
- * same in every order. An element with J <= 0 at a quadrature point
- * (inverted) fails the step, with the guard or without: it is undone and
- * substepped, and the positions a step leaves are checked too
- * (ftm_elem_intact). */
+ * Co-rotational and neo-Hookean forces are evaluated element by element,
+ * once per substep at the positions the substep starts from (the
+ * displacement contacts and the far field's ring already placed), a block
+ * of elements at a time in vector lanes (elem_kernel.h), and each node sums
+ * its elements' forces: the update is plain central differences, the same
+ * bits in every order. The forces of the elements evaluated for the
+ * end-of-step check (neo-Hookean) are carried into the next step, except
+ * those of elements with a node moved outside a sweep. An element with
+ * J <= 0 at a quadrature point (neo-Hookean: inverted) fails the step, with
+ * the guard or without: it is undone and substepped, and the positions a
+ * step leaves are checked too (ftm_elem_intact). */
 #include "sim_elem.h"
 
 #include "elem_kernel.h"
@@ -45,12 +43,8 @@ struct ftm_elem {
     int32_t count;   /* elements: hexahedra, then tetrahedra */
     int32_t *start;  /* element e: nodes node[start[e] .. start[e+1]-1] */
     int32_t *node;   /* mesh indices */
-    size_t *koff;    /* element e: K_e (3 nn)^2 row-major at k + koff[e] */
+    size_t *koff;    /* element e: K_e (3 nn)^2 row-major at k + koff[e] (set-up) */
     double *k;
-    double *grad;    /* rest shape gradients at the centre, 3 per element node */
-    double *rot;     /* 9 per element: its rotation (row-major) */
-    uint32_t *stamp; /* per element: substep generation of rot */
-    uint32_t gen;
     int32_t *inc_start; /* node i: incidences inc_start[i] .. inc_start[i+1]-1 */
     int32_t *inc_elem;
     int32_t *inc_local; /* the node's index inside the element */
@@ -59,27 +53,34 @@ struct ftm_elem {
     double *row_k;      /* 9 per entry: the 3x3 block K_ij */
     double *mass;
     double h_crit;
-    /* neo-Hookean: quadrature data of element e at gp + goff[e] (per point
-     * the rest gradients of its nodes, then the weight; hyperelastic.h), its
-     * nodal forces at fe + 3 p (p = start[e] + local node), valid while
-     * stamp[e] == gen; the moduli mu and kappa */
+    /* set-up: element e's data for the blocks (elem_kernel.h) at gp + goff[e] */
     double *gp;
     size_t *goff;
-    double mu, kappa;
-    /* the elements in blocks, evaluated a block at a time (elem_kernel.h):
-     * eb.fe holds element e's nodal forces; inc_fe[q] is where incidence q's
-     * node's three are (at +0, +FTM_EB, +2 FTM_EB) */
+    /* co-rotational and neo-Hookean: the elements in blocks, evaluated a
+     * block at a time; inc_fe[q] is where the forces of incidence q are in
+     * eb.fe (at +0, +FTM_EB, +2 FTM_EB); node i's blocks are
+     * node_blk[node_blk_start[i] ..] */
     ftm_elem_blocks eb;
-    ftm_neo_blocks_fn neo_blocks;
+    ftm_blocks_fn blocks;
     int lanes;
     int32_t *inc_fe;
+    int32_t *node_blk_start, *node_blk;
+    /* a block's forces are those of the current positions while
+     * valid[b] == gen; next_generation starts a new generation, in which
+     * every block must be evaluated again */
+    uint32_t *valid;
+    uint32_t gen;
     int32_t *list;      /* blocks to evaluate */
     uint32_t *bstamp;   /* per block: bgen when listed */
     uint32_t *inv_mark; /* per element: bgen when found inverted */
     uint32_t bgen;
-    /* the forces of the elements evaluated at the end of the last step (in
-     * generation gen) are still those of the current positions: the next
-     * sweep reuses them (ftm_elem_intact) */
+    /* the blocks of the schedule's nodes, for the schedule of that version */
+    int32_t *sched_blk, nsched_blk;
+    uint32_t sched_version;
+    bool sched_known;
+    /* the blocks evaluated at the end of the last step (in generation gen)
+     * are still those of the current positions: the next sweep reuses them
+     * (ftm_elem_intact) */
     bool carry;
     bool inverted;    /* an element had J <= 0 since the last ftm_elem_intact */
     int32_t inv_elem; /* the first such element and its smallest J */
@@ -105,9 +106,6 @@ void ftm_elem_free(ftm_elem *el)
     free(el->node);
     free(el->koff);
     free(el->k);
-    free(el->grad);
-    free(el->rot);
-    free(el->stamp);
     free(el->inc_start);
     free(el->inc_elem);
     free(el->inc_local);
@@ -120,105 +118,52 @@ void ftm_elem_free(ftm_elem *el)
     free(el->eb.lanes);
     free(el->eb.node);
     free(el->eb.gp);
-    free(el->eb.grad);
+    free(el->eb.rest);
     free(el->eb.fe);
     free(el->eb.det);
     free(el->eb.ok);
     free(el->inc_fe);
+    free(el->node_blk_start);
+    free(el->node_blk);
+    free(el->valid);
     free(el->list);
     free(el->bstamp);
     free(el->inv_mark);
+    free(el->sched_blk);
     free(el);
 }
 
-/* ---- rotations ---- */
-
-static double det3(const double m[9])
-{
-    return m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
-           m[2] * (m[3] * m[7] - m[4] * m[6]);
-}
-
-/* The rotation of the polar decomposition F = R S by Newton's iteration
- * R <- (R + R^-T) / 2 from R = F: quadratic convergence, only + - * /, so
- * the same bits everywhere. F = I gives exactly I. Returns false for
- * det F <= 0 (an inverted element, which has no proper rotation). */
-static bool polar_rotation(const double f[9], double r[9])
-{
-    double x[9];
-    memcpy(x, f, sizeof x);
-    for (int it = 0; it < 60; it++) {
-        double det = det3(x);
-        if (!(det > 0.0) || !isfinite(det))
-            return false;
-        /* (X^-1)^T = cofactor(X) / det */
-        double c[9] = {x[4] * x[8] - x[5] * x[7], x[5] * x[6] - x[3] * x[8],
-                       x[3] * x[7] - x[4] * x[6], x[2] * x[7] - x[1] * x[8],
-                       x[0] * x[8] - x[2] * x[6], x[1] * x[6] - x[0] * x[7],
-                       x[1] * x[5] - x[2] * x[4], x[2] * x[3] - x[0] * x[5],
-                       x[0] * x[4] - x[1] * x[3]};
-        double diff = 0.0;
-        for (int q = 0; q < 9; q++) {
-            double y = 0.5 * (x[q] + c[q] / det);
-            double dq = fabs(y - x[q]);
-            diff = dq > diff ? dq : diff;
-            x[q] = y;
-        }
-        if (diff <= 1e-10) /* the next error is ~diff^2: round-off */
-            break;
-    }
-    memcpy(r, x, sizeof x);
-    return true;
-}
-
-/* Rotation of element e from positions x: F = I + sum_b u_b grad_b^T. */
-static void element_rotation(ftm_elem *el, const ftm_mesh *m, const double *x, int32_t e,
-                             double *r)
-{
-    double f[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-    for (int32_t p = el->start[e]; p < el->start[e + 1]; p++) {
-        int32_t b = el->node[p];
-        const double *g = el->grad + 3 * p;
-        for (int i = 0; i < 3; i++) {
-            double u = x[3 * b + i] - m->rest[3 * b + i];
-            f[3 * i] += u * g[0];
-            f[3 * i + 1] += u * g[1];
-            f[3 * i + 2] += u * g[2];
-        }
-    }
-    /* inverted: keep the last rotation */
-    double nr[9];
-    if (polar_rotation(f, nr))
-        memcpy(r, nr, sizeof nr);
-}
-
-static const double *fresh_rotation(ftm_elem *el, const ftm_mesh *m, const double *x, int32_t e)
-{
-    double *r = el->rot + 9 * (size_t)e;
-    if (el->stamp[e] != el->gen) {
-        element_rotation(el, m, x, e, r);
-        el->stamp[e] = el->gen;
-    }
-    return r;
-}
+/* ---- generations ---- */
 
 static void next_generation(ftm_elem *el)
 {
     el->carry = false;
-    if (++el->gen == 0) { /* wrapped: no element may look fresh */
-        memset(el->stamp, 0, (size_t)el->count * sizeof *el->stamp);
+    if (!el->valid)
+        return;
+    if (++el->gen == 0) { /* wrapped: no block may look valid */
+        memset(el->valid, 0, (size_t)el->eb.count * sizeof *el->valid);
         el->gen = 1;
     }
 }
 
-/* Element values of node i's elements are stale (the node moved outside a
+/* The blocks of node i's elements are stale (the node moved outside a
  * sweep): evaluated again at their next use. */
 static void forget_node(ftm_elem *el, int32_t i)
 {
-    if (!el->stamp)
+    if (!el->valid)
         return;
-    for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++)
-        el->stamp[el->inc_elem[q]] = el->gen - 1; /* gen is never 0, so never gen */
+    for (int32_t q = el->node_blk_start[i]; q < el->node_blk_start[i + 1]; q++)
+        el->valid[el->node_blk[q]] = el->gen - 1; /* gen is never 0, so never gen */
+}
+
+static uint32_t next_block_generation(ftm_elem *el)
+{
+    if (++el->bgen == 0) {
+        memset(el->bstamp, 0, (size_t)el->eb.count * sizeof *el->bstamp);
+        memset(el->inv_mark, 0, (size_t)el->count * sizeof *el->inv_mark);
+        el->bgen = 1;
+    }
+    return el->bgen;
 }
 
 /* ---- forces ---- */
@@ -243,56 +188,12 @@ static inline void linear_force(const ftm_elem *restrict el, const ftm_mesh *res
     f[2] = fz;
 }
 
-/* Co-rotational: f = sum over the elements e of i of the rows of node a = i
- * of R K_e (R^T x_e - X_e). rots: NULL = the per-substep cache, else 9 per
- * element precomputed. */
-static inline void corot_force(ftm_elem *restrict el, const ftm_mesh *restrict m,
-                               const double *restrict x, int32_t i, const double *rots,
-                               double f[3])
+/* Co-rotational and neo-Hookean: f = sum over the elements of i, in
+ * element order, of their force on i in fe (prepared below). */
+static inline void element_force(const ftm_elem *restrict el, const double *restrict fe,
+                                 int32_t i, double f[3])
 {
     double fx = 0.0, fy = 0.0, fz = 0.0;
-    for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
-        const int32_t e = el->inc_elem[q], a = el->inc_local[q];
-        const double *r = rots ? rots + 9 * (size_t)e : fresh_rotation(el, m, x, e);
-        const int32_t s0 = el->start[e], nn = el->start[e + 1] - s0, w = 3 * nn;
-        const double *k = el->k + el->koff[e] + (size_t)(3 * a) * (size_t)w;
-        double g0 = 0.0, g1 = 0.0, g2 = 0.0;
-        for (int32_t b = 0; b < nn; b++) {
-            const int32_t j = el->node[s0 + b];
-            const double *xj = x + 3 * j, *Xj = m->rest + 3 * j;
-            /* y = R^T x_j - X_j */
-            double y0 = r[0] * xj[0] + r[3] * xj[1] + r[6] * xj[2] - Xj[0];
-            double y1 = r[1] * xj[0] + r[4] * xj[1] + r[7] * xj[2] - Xj[1];
-            double y2 = r[2] * xj[0] + r[5] * xj[1] + r[8] * xj[2] - Xj[2];
-            const double *k0 = k + 3 * b, *k1 = k0 + w, *k2 = k1 + w;
-            g0 += k0[0] * y0 + k0[1] * y1 + k0[2] * y2;
-            g1 += k1[0] * y0 + k1[1] * y1 + k1[2] * y2;
-            g2 += k2[0] * y0 + k2[1] * y1 + k2[2] * y2;
-        }
-        fx += r[0] * g0 + r[1] * g1 + r[2] * g2;
-        fy += r[3] * g0 + r[4] * g1 + r[5] * g2;
-        fz += r[6] * g0 + r[7] * g1 + r[8] * g2;
-    }
-    f[0] = fx;
-    f[1] = fy;
-    f[2] = fz;
-}
-
-static void note_inversion(ftm_elem *el, int32_t e, double det)
-{
-    if (!el->inverted) {
-        el->inv_elem = e;
-        el->inv_det = det;
-    }
-    el->inverted = true;
-}
-
-/* Neo-Hookean: f = sum over the elements e of i of their cached force on i
- * (prepared for this generation, below). */
-static inline void neo_force(const ftm_elem *restrict el, int32_t i, double f[3])
-{
-    double fx = 0.0, fy = 0.0, fz = 0.0;
-    const double *fe = el->eb.fe;
     for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
         const double *fa = fe + el->inc_fe[q];
         fx += fa[0];
@@ -304,72 +205,109 @@ static inline void neo_force(const ftm_elem *restrict el, int32_t i, double f[3]
     f[2] = fz;
 }
 
+static inline void node_force(const ftm_elem *el, const ftm_mesh *m, const double *x, int32_t i,
+                              double f[3])
+{
+    if (el->kind == FTM_FORCES_LINEAR_FEM)
+        linear_force(el, m, x, i, f);
+    else
+        element_force(el, el->eb.fe, i, f);
+}
+
+static void note_inversion(ftm_elem *el, int32_t e, double det)
+{
+    if (!el->inverted) {
+        el->inv_elem = e;
+        el->inv_det = det;
+    }
+    el->inverted = true;
+}
+
 /* A node list for prepare(). */
 typedef struct node_list {
     const int32_t *node;
     int32_t count;
 } node_list;
 
-static uint32_t next_block_generation(ftm_elem *el)
+/* Lists block b for evaluation unless valid or listed already. */
+static inline void want_block(ftm_elem *el, int32_t b, uint32_t bg, int32_t *nb)
 {
-    if (++el->bgen == 0) {
-        memset(el->bstamp, 0, (size_t)el->eb.count * sizeof *el->bstamp);
-        memset(el->inv_mark, 0, (size_t)el->count * sizeof *el->inv_mark);
-        el->bgen = 1;
+    if (el->valid[b] != el->gen && el->bstamp[b] != bg) {
+        el->bstamp[b] = bg;
+        el->list[(*nb)++] = b;
     }
-    return el->bgen;
 }
 
-/* Neo-Hookean: evaluates at x the elements of the listed nodes that hold no
- * value of this generation, whole blocks at a time (the other elements of a
- * block become valid too, unless inverted), as the scalar code evaluated
- * each at its first use: no node of theirs moves before that. An element
- * found inverted is noted, the first in the lists' order (the order of
- * first use); returns false if there was one. */
-static bool prepare(ftm_elem *el, const double *x, const double *rest, const node_list *lists,
+/* The blocks of the schedule's nodes, once per schedule. */
+static void schedule_blocks(ftm_elem *el, const schedule *s)
+{
+    if (el->sched_known && el->sched_version == s->version)
+        return;
+    const uint32_t bg = next_block_generation(el);
+    int32_t nb = 0;
+    for (int32_t k = 0; k < s->count; k++) {
+        const int32_t i = s->node[k];
+        for (int32_t q = el->node_blk_start[i]; q < el->node_blk_start[i + 1]; q++) {
+            const int32_t b = el->node_blk[q];
+            if (el->bstamp[b] != bg) {
+                el->bstamp[b] = bg;
+                el->sched_blk[nb++] = b;
+            }
+        }
+    }
+    el->nsched_blk = nb;
+    el->sched_version = s->version;
+    el->sched_known = true;
+}
+
+/* Evaluates at x the blocks of the elements of the listed nodes (with
+ * sched, first those of the schedule's nodes) that are not valid in this
+ * generation; they become valid unless one of their elements is inverted.
+ * No node of such an element moves between the start of a sweep and its
+ * use, so this is what the scalar code did evaluating each element at its
+ * first use. An element in use found inverted is noted, the first in the
+ * lists' order (the order of first use), and the result is false. */
+static bool prepare(ftm_elem *el, const ftm_sim *sim, bool sched, const node_list *lists,
                     int nlists)
 {
-    const uint32_t bg = next_block_generation(el), gen = el->gen;
+    const uint32_t bg = next_block_generation(el);
     const ftm_elem_blocks *eb = &el->eb;
     int32_t nb = 0;
+    if (sched) {
+        schedule_blocks(el, &sim->s);
+        for (int32_t k = 0; k < el->nsched_blk; k++)
+            want_block(el, el->sched_blk[k], bg, &nb);
+    }
     for (int li = 0; li < nlists; li++)
         for (int32_t k = 0; k < lists[li].count; k++) {
             const int32_t i = lists[li].node[k];
-            for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
-                const int32_t e = el->inc_elem[q];
-                if (el->stamp[e] == gen)
-                    continue;
-                el->stamp[e] = gen;
-                const int32_t b = ftm_eb_block(eb, e);
-                if (el->bstamp[b] != bg) {
-                    el->bstamp[b] = bg;
-                    el->list[nb++] = b;
-                }
-            }
+            for (int32_t q = el->node_blk_start[i]; q < el->node_blk_start[i + 1]; q++)
+                want_block(el, el->node_blk[q], bg, &nb);
         }
     if (nb == 0)
         return true;
-    el->neo_blocks(&el->eb, el->list, nb, x, rest);
+    el->blocks(&el->eb, el->list, nb, sim->x, sim->m->rest);
     bool bad = false;
     for (int32_t k = 0; k < nb; k++) {
-        const int32_t b = el->list[k];
-        const int32_t e0 = b < eb->hex_blocks ? FTM_EB * b
-                                              : eb->hex_count + FTM_EB * (b - eb->hex_blocks);
-        for (int32_t l = 0; l < eb->lanes[b]; l++) {
-            const int32_t e = e0 + l;
-            if (eb->ok[FTM_EB * (size_t)b + (size_t)l]) {
-                el->stamp[e] = gen;
-            } else if (el->stamp[e] == gen) { /* listed: in use */
-                el->inv_mark[e] = bg;
-                bad = true;
+        const int32_t b = el->list[k], e0 = ftm_eb_first(eb, b);
+        bool all = true;
+        for (int32_t l = 0; l < eb->lanes[b]; l++)
+            if (!eb->ok[FTM_EB * (size_t)b + (size_t)l]) {
+                el->inv_mark[e0 + l] = bg;
+                all = false;
             }
-        }
+        if (all)
+            el->valid[b] = el->gen;
+        bad |= !all;
     }
     if (!bad)
         return true;
-    for (int li = 0; li < nlists; li++)
-        for (int32_t k = 0; k < lists[li].count; k++) {
-            const int32_t i = lists[li].node[k];
+    /* an inverted element: the first in use, in the order of use */
+    const node_list sl = {sim->s.node, sched ? sim->s.count : 0};
+    for (int li = -1; li < nlists; li++) {
+        const node_list *l = li < 0 ? &sl : &lists[li];
+        for (int32_t k = 0; k < l->count; k++) {
+            const int32_t i = l->node[k];
             for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
                 const int32_t e = el->inc_elem[q];
                 if (el->inv_mark[e] == bg) {
@@ -379,18 +317,8 @@ static bool prepare(ftm_elem *el, const double *x, const double *rest, const nod
                 }
             }
         }
-    return false;
-}
-
-static inline void node_force(ftm_elem *el, const ftm_mesh *m, const double *x, int32_t i,
-                              double f[3])
-{
-    if (el->kind == FTM_FORCES_LINEAR_FEM)
-        linear_force(el, m, x, i, f);
-    else if (el->kind == FTM_FORCES_COROT_FEM)
-        corot_force(el, m, x, i, NULL, f);
-    else
-        neo_force(el, i, f);
+    }
+    return true; /* (inverted elements, none in use) */
 }
 
 /* Eq. 8 for node i (as in sim_kernel.c): returns the squared motion. */
@@ -449,10 +377,8 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
     el->carry = false;
     bool ok = true;
     double mm = *max_m2;
-    if (el->kind == FTM_FORCES_NEO_HOOKEAN) { /* (an inversion is noted and fails the step) */
-        const node_list l = {s->node, s->count};
-        prepare(el, sim->x, sim->m->rest, &l, 1);
-    }
+    if (el->kind != FTM_FORCES_LINEAR_FEM) /* (an inversion is noted and fails the step) */
+        prepare(el, sim, true, NULL, 0);
     if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
         /* one node at a time in schedule order; save as the kernels do */
         const int32_t w = sim->group_lanes;
@@ -499,9 +425,9 @@ bool ftm_elem_sweep_relax(ftm_sim *sim)
     if (sim->nrelax == 0)
         return true;
     next_generation(sim->elem);
-    if (sim->elem->kind == FTM_FORCES_NEO_HOOKEAN) {
+    if (sim->elem->kind != FTM_FORCES_LINEAR_FEM) {
         const node_list l = {sim->relax, sim->nrelax};
-        prepare(sim->elem, sim->x, sim->m->rest, &l, 1);
+        prepare(sim->elem, sim, false, &l, 1);
     }
     bool ok = true;
     double mm = 0.0;
@@ -522,10 +448,9 @@ bool ftm_elem_intact(ftm_sim *sim, bool last, bool region_ran)
          * elements that hold a region node are among the region's; the
          * others give no scheduled node a force.) */
         next_generation(el);
-        const node_list l[3] = {{sim->s.node, region_ran ? sim->s.count : 0},
-                                {sim->disp, region_ran ? sim->ndisp : 0},
+        const node_list l[2] = {{sim->disp, region_ran ? sim->ndisp : 0},
                                 {sim->relax, sim->nrelax}};
-        ok = prepare(el, sim->x, sim->m->rest, l, 3);
+        ok = prepare(el, sim, region_ran, l, 2);
         el->carry = ok;
     }
     el->inverted = false;
@@ -567,9 +492,9 @@ void ftm_elem_reactions(ftm_sim *sim)
         memset(sim->reaction, 0, (size_t)sim->reaction_groups * 3 * sizeof(double));
     if (!sim->elem->carry) /* neo-Hookean: the step's end already evaluated */
         next_generation(sim->elem);
-    if (sim->elem->kind == FTM_FORCES_NEO_HOOKEAN) {
+    if (sim->elem->kind != FTM_FORCES_LINEAR_FEM) {
         const node_list l = {sim->disp, sim->ndisp};
-        prepare(sim->elem, sim->x, sim->m->rest, &l, 1);
+        prepare(sim->elem, sim, false, &l, 1);
     }
     for (int32_t c = 0; c < sim->ncontacts; c++) {
         const ftm_contact *ct = &sim->contacts[c];
@@ -623,52 +548,31 @@ int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f)
             linear_force(el, m, x, i, f + 3 * i);
         return FTM_OK;
     }
-    if (el->kind == FTM_FORCES_NEO_HOOKEAN) {
-        /* every block from x into private results, then the sums per node
-         * in the integrator's order; nothing written if one is inverted */
-        ftm_elem_blocks eb = el->eb;
-        const size_t nb = (size_t)eb.count;
-        eb.fe = malloc((3 * FTM_EB * ftm_eb_node_off(&eb, eb.count) + 1) * sizeof *eb.fe);
-        eb.det = malloc((FTM_EB * nb + 1) * sizeof *eb.det);
-        eb.ok = malloc((FTM_EB * nb + 1) * sizeof *eb.ok);
-        int32_t *all = malloc((nb + 1) * sizeof *all);
-        int rc = eb.fe && eb.det && eb.ok && all ? FTM_OK : FTM_ENOMEM;
-        if (!rc) {
-            for (int32_t b = 0; b < eb.count; b++)
-                all[b] = b;
-            el->neo_blocks(&eb, all, eb.count, x, m->rest);
-            for (size_t b = 0; b < nb && !rc; b++)
-                for (int32_t l = 0; l < eb.lanes[b]; l++)
-                    if (!eb.ok[FTM_EB * b + (size_t)l])
-                        rc = FTM_EINVAL;
-        }
-        for (int32_t i = 0; !rc && i < m->node_count; i++) {
-            double s[3] = {0.0, 0.0, 0.0};
-            for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
-                const double *fa = eb.fe + el->inc_fe[q];
-                s[0] += fa[0];
-                s[1] += fa[FTM_EB];
-                s[2] += fa[2 * FTM_EB];
-            }
-            memcpy(f + 3 * i, s, sizeof s);
-        }
-        free(eb.fe);
-        free(eb.det);
-        free(eb.ok);
-        free(all);
-        return rc;
+    /* every block from x into private results, then the sums per node in
+     * the integrator's order; nothing written if an element is inverted */
+    ftm_elem_blocks eb = el->eb;
+    const size_t nb = (size_t)eb.count;
+    eb.fe = malloc((3 * FTM_EB * ftm_eb_node_off(&eb, eb.count) + 1) * sizeof *eb.fe);
+    eb.det = malloc((FTM_EB * nb + 1) * sizeof *eb.det);
+    eb.ok = malloc((FTM_EB * nb + 1) * sizeof *eb.ok);
+    int32_t *all = malloc((nb + 1) * sizeof *all);
+    int rc = eb.fe && eb.det && eb.ok && all ? FTM_OK : FTM_ENOMEM;
+    if (!rc) {
+        for (int32_t b = 0; b < eb.count; b++)
+            all[b] = b;
+        el->blocks(&eb, all, eb.count, x, m->rest);
+        for (size_t b = 0; b < nb && !rc; b++)
+            for (int32_t l = 0; l < eb.lanes[b]; l++)
+                if (!eb.ok[FTM_EB * b + (size_t)l])
+                    rc = FTM_EINVAL;
     }
-    /* rotations from x into a private copy: the sim's cache stays untouched */
-    double *rots = malloc(((size_t)el->count * 9 + 1) * sizeof *rots);
-    if (!rots)
-        return FTM_ENOMEM;
-    memcpy(rots, el->rot, (size_t)el->count * 9 * sizeof *rots);
-    for (int32_t e = 0; e < el->count; e++)
-        element_rotation((ftm_elem *)el, m, x, e, rots + 9 * (size_t)e);
-    for (int32_t i = 0; i < m->node_count; i++)
-        corot_force((ftm_elem *)el, m, x, i, rots, f + 3 * i);
-    free(rots);
-    return FTM_OK;
+    for (int32_t i = 0; !rc && i < m->node_count; i++)
+        element_force(el, eb.fe, i, f + 3 * i);
+    free(eb.fe);
+    free(eb.det);
+    free(eb.ok);
+    free(all);
+    return rc;
 }
 
 /* ---- set-up ---- */
@@ -679,7 +583,8 @@ static int cmp_i32(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* Element nodes, stiffness matrices and centre gradients. */
+/* Element nodes, stiffness matrices and the data of the blocks
+ * (elem_kernel.h) of co-rotational and neo-Hookean forces. */
 static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, ftm_error *err)
 {
     int32_t ne = m->hex_count + m->tet_count;
@@ -690,19 +595,20 @@ static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d,
     el->node = malloc((nodes + 1) * sizeof *el->node);
     el->koff = malloc(((size_t)ne + 1) * sizeof *el->koff);
     el->k = malloc((kn + 1) * sizeof *el->k);
-    el->grad = malloc((nodes * 3 + 1) * sizeof *el->grad);
-    if (!el->start || !el->node || !el->koff || !el->k || !el->grad)
+    if (!el->start || !el->node || !el->koff || !el->k)
         return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %d elements", (int)ne);
-    if (el->kind == FTM_FORCES_NEO_HOOKEAN) {
+    const bool neo = el->kind == FTM_FORCES_NEO_HOOKEAN;
+    const size_t hex_gp = neo ? FTM_NEO_HEX_GP : FTM_COROT_HEX_GP;
+    if (el->kind != FTM_FORCES_LINEAR_FEM) {
         el->goff = malloc(((size_t)ne + 1) * sizeof *el->goff);
-        el->gp = malloc(((size_t)m->hex_count * 200 + (size_t)m->tet_count * 13 + 1) *
+        el->gp = malloc(((size_t)m->hex_count * hex_gp + (size_t)m->tet_count * FTM_TET_GP + 1) *
                         sizeof *el->gp);
         if (!el->goff || !el->gp)
             return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %d elements", (int)ne);
         size_t off = 0;
         for (int32_t e = 0; e <= ne; e++) {
             el->goff[e] = off;
-            off += e < m->hex_count ? 200 : 13;
+            off += e < m->hex_count ? hex_gp : FTM_TET_GP;
         }
     }
     size_t p = 0, ko = 0;
@@ -720,20 +626,20 @@ static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d,
             const double *r = m->rest + 3 * (size_t)src[a];
             x[a] = (ftm_vec3){r[0], r[1], r[2]};
         }
+        double *dst = el->gp ? el->gp + el->goff[e] : NULL;
         int rc;
         if (hex) {
             double min_det;
             rc = ftm_hex8_stiffness(x, d->young, d->poisson, el->k + ko, &min_det);
-            if (!rc)
-                rc = ftm_hex8_centre_gradients(x, el->grad + 3 * p);
-            if (!rc && el->gp) { /* per Gauss point: 24 gradients, then det J (weight 1) */
+            if (!rc && neo) { /* per Gauss point: 24 gradients, then det J (weight 1) */
                 double g[192], det[8];
-                double *dst = el->gp + el->goff[e];
                 rc = ftm_hex8_gauss_gradients(x, g, det);
                 for (int q = 0; !rc && q < 8; q++) {
                     memcpy(dst + 25 * q, g + 24 * q, 24 * sizeof *g);
                     dst[25 * q + 24] = det[q];
                 }
+            } else if (!rc && dst) { /* J^-1 at the Gauss points and the centre, the weights */
+                rc = ftm_hex8_inverse_jacobians(x, dst, dst + 81);
             }
             if (rc)
                 return ftm_error_set(err, FTM_EINVAL,
@@ -744,11 +650,8 @@ static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d,
         } else {
             double vol;
             rc = ftm_tet4_stiffness(x, d->young, d->poisson, el->k + ko, &vol);
-            if (!rc)
-                rc = ftm_tet4_gradients(x, el->grad + 3 * p);
-            if (!rc && el->gp) { /* one point: the 12 gradients, then the volume */
-                double *dst = el->gp + el->goff[e];
-                memcpy(dst, el->grad + 3 * p, 12 * sizeof *dst);
+            if (!rc && dst) { /* one point: the 12 gradients, then the volume */
+                rc = ftm_tet4_gradients(x, dst);
                 dst[12] = fabs(vol);
             }
             if (rc)
@@ -861,69 +764,95 @@ static int build_rows(ftm_elem *el, int32_t n, ftm_error *err)
     return FTM_OK;
 }
 
-/* The elements in blocks (elem_kernel.h), lane-minor: nodes and, for
- * neo-Hookean forces, the quadrature data el->gp held per element (freed
- * here); where each incidence's forces are. */
-static int build_blocks(ftm_elem *el, const ftm_mesh *m, ftm_error *err)
+/* The elements in blocks (elem_kernel.h), lane-minor: their nodes and the
+ * data el->gp held per element (freed here); where each incidence's forces
+ * are; each node's blocks. */
+static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, ftm_error *err)
 {
     ftm_elem_blocks *eb = &el->eb;
+    const bool neo = el->kind == FTM_FORCES_NEO_HOOKEAN;
+    eb->kind = neo ? FTM_EK_NEO : FTM_EK_COROT;
+    eb->hex_gp = neo ? FTM_NEO_HEX_GP : FTM_COROT_HEX_GP;
     eb->hex_count = m->hex_count;
     eb->hex_blocks = (m->hex_count + FTM_EB - 1) / FTM_EB;
     eb->count = eb->hex_blocks + (m->tet_count + FTM_EB - 1) / FTM_EB;
-    eb->mu = el->mu;
-    eb->kappa = el->kappa;
+    const double young = d->young, nu = d->poisson;
+    eb->mu = young / (2.0 * (1.0 + nu));
+    eb->kappa = young / (3.0 * (1.0 - 2.0 * nu));
+    eb->lambda = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
     const size_t nb = (size_t)eb->count, slots = FTM_EB * ftm_eb_node_off(eb, eb->count);
+    const size_t ninc = (size_t)el->start[el->count];
     eb->lanes = malloc((nb + 1) * sizeof *eb->lanes);
     eb->node = malloc((slots + 1) * sizeof *eb->node);
     eb->fe = calloc(3 * slots + 1, sizeof *eb->fe);
     eb->det = calloc(FTM_EB * nb + 1, sizeof *eb->det);
     eb->ok = calloc(FTM_EB * nb + 1, sizeof *eb->ok);
-    if (el->gp)
-        eb->gp = calloc(FTM_EB * ftm_eb_gp_off(eb, eb->count) + 1, sizeof *eb->gp);
-    el->inc_fe = malloc(((size_t)el->start[el->count] + 1) * sizeof *el->inc_fe);
+    eb->gp = calloc(FTM_EB * ftm_eb_gp_off(eb, eb->count) + 1, sizeof *eb->gp);
+    eb->rest = calloc(3 * slots + 1, sizeof *eb->rest);
+    el->inc_fe = malloc((ninc + 1) * sizeof *el->inc_fe);
+    el->node_blk_start = malloc(((size_t)m->node_count + 1) * sizeof *el->node_blk_start);
+    el->node_blk = malloc((ninc + 1) * sizeof *el->node_blk);
+    el->valid = calloc(nb + 1, sizeof *el->valid);
     el->list = malloc((nb + 1) * sizeof *el->list);
     el->bstamp = calloc(nb + 1, sizeof *el->bstamp);
     el->inv_mark = calloc((size_t)el->count + 1, sizeof *el->inv_mark);
-    if (!eb->lanes || !eb->node || !eb->fe || !eb->det || !eb->ok || (el->gp && !eb->gp) ||
-        !el->inc_fe || !el->list || !el->bstamp || !el->inv_mark)
+    el->sched_blk = malloc((nb + 1) * sizeof *el->sched_blk);
+    if (!eb->lanes || !eb->node || !eb->fe || !eb->det || !eb->ok || !eb->gp || !eb->rest || !el->inc_fe ||
+        !el->node_blk_start || !el->node_blk || !el->valid || !el->list || !el->bstamp ||
+        !el->inv_mark || !el->sched_blk)
         return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %d element blocks",
                              (int)nb);
     for (int32_t b = 0; b < eb->count; b++) {
         const bool hex = ftm_eb_hex(eb, b);
-        const int32_t e0 = hex ? FTM_EB * b : eb->hex_count + FTM_EB * (b - eb->hex_blocks);
-        const int32_t e1 = hex ? eb->hex_count : el->count;
+        const int32_t e0 = ftm_eb_first(eb, b), e1 = hex ? eb->hex_count : el->count;
         const int32_t lanes = e1 - e0 < FTM_EB ? e1 - e0 : FTM_EB;
-        const int nn = ftm_eb_nodes(eb, b), gn = hex ? FTM_HEX_GP : FTM_TET_GP;
+        const int nn = ftm_eb_nodes(eb, b), gn = hex ? eb->hex_gp : FTM_TET_GP;
         eb->lanes[b] = lanes;
         int32_t *node = eb->node + FTM_EB * ftm_eb_node_off(eb, b);
         for (int l = 0; l < FTM_EB; l++) {
             const int32_t e = e0 + (l < lanes ? l : 0); /* a spare lane repeats lane 0 */
-            for (int a = 0; a < nn; a++)
-                node[FTM_EB * a + l] = el->node[el->start[e] + a];
-            if (eb->gp && l < lanes)
+            for (int a = 0; a < nn; a++) {
+                const int32_t i = el->node[el->start[e] + a];
+                node[FTM_EB * a + l] = i;
+                for (int c = 0; c < 3; c++)
+                    eb->rest[FTM_EB * (3 * ftm_eb_node_off(eb, b) + 3 * (size_t)a + (size_t)c) +
+                             (size_t)l] = m->rest[3 * (size_t)i + (size_t)c];
+            }
+            if (l < lanes)
                 for (int k = 0; k < gn; k++)
                     eb->gp[FTM_EB * (ftm_eb_gp_off(eb, b) + (size_t)k) + (size_t)l] =
                         el->gp[el->goff[e] + (size_t)k];
         }
     }
-    for (int32_t i = 0; i < m->node_count; i++)
+    /* per node: its incidences' places in eb.fe, and its distinct blocks */
+    size_t nbk = 0;
+    for (int32_t i = 0; i < m->node_count; i++) {
+        el->node_blk_start[i] = (int32_t)nbk;
         for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
             const int32_t e = el->inc_elem[q], b = ftm_eb_block(eb, e);
             el->inc_fe[q] = (int32_t)(FTM_EB * (3 * ftm_eb_node_off(eb, b) +
                                                 3 * (size_t)el->inc_local[q]) +
                                       (size_t)ftm_eb_lane(eb, e));
+            bool seen = false;
+            for (size_t t = (size_t)el->node_blk_start[i]; t < nbk && !seen; t++)
+                seen = el->node_blk[t] == b;
+            if (!seen)
+                el->node_blk[nbk++] = b;
         }
+    }
+    el->node_blk_start[m->node_count] = (int32_t)nbk;
     free(el->gp);
     free(el->goff);
     el->gp = NULL;
     el->goff = NULL;
-    el->neo_blocks = ftm_neo_blocks_kernel(FTM_ELEM_KERNEL_BEST, &el->lanes);
+    el->blocks = ftm_blocks_kernel(eb->kind, FTM_ELEM_KERNEL_BEST, &el->lanes);
     return FTM_OK;
 }
 
 void ftm_elem_select_kernel(ftm_elem *el, ftm_elem_kernel which)
 {
-    el->neo_blocks = ftm_neo_blocks_kernel(which, &el->lanes);
+    if (el->kind != FTM_FORCES_LINEAR_FEM)
+        el->blocks = ftm_blocks_kernel(el->eb.kind, which, &el->lanes);
 }
 
 /* Gershgorin bound on the largest eigenvalue of M^-1/2 K M^-1/2 over the
@@ -958,10 +887,11 @@ static void bound_and_warn(ftm_elem *el, const ftm_sim *sim)
         }
     }
     el->h_crit = lmax > 0.0 ? 2.0 / sqrt(lmax) : INFINITY;
-    /* neo-Hookean forces are evaluated at the substep's start (plain central
-     * differences): no Gauss-Seidel coupling to damp (docs/calculix.md:
-     * undamped at half the critical step, bounded where linear-fem diverges) */
-    if (worst >= 0 && worst_ratio < 1.0 && el->kind != FTM_FORCES_NEO_HOOKEAN)
+    /* co-rotational and neo-Hookean forces are evaluated at the substep's
+     * start (plain central differences): no Gauss-Seidel coupling to damp
+     * (docs/calculix.md: undamped at half the critical step, bounded where
+     * linear-fem diverges) */
+    if (worst >= 0 && worst_ratio < 1.0 && el->kind == FTM_FORCES_LINEAR_FEM)
         ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
                  "nodal damping is low for the layer-by-layer update with element forces at this "
                  "time step (node %d: d/2m = %g, needs about %g): the scene may slowly gain "
@@ -1013,41 +943,21 @@ int ftm_elem_create(ftm_sim *sim, ftm_error *err)
                                "sim: node %d (input index %d) belongs to no element and is not "
                                "fixed: element forces cannot hold it",
                                (int)i, (int)m->input_of_node[i]);
-    if (!rc && d->forces == FTM_FORCES_COROT_FEM) {
-        el->rot = malloc(((size_t)el->count * 9 + 1) * sizeof *el->rot);
-        el->stamp = calloc((size_t)el->count + 1, sizeof *el->stamp);
-        if (!el->rot || !el->stamp)
-            rc = ftm_error_set(err, FTM_ENOMEM, "sim: out of memory");
-        else
-            for (int32_t e = 0; e < el->count; e++) {
-                double *r = el->rot + 9 * (size_t)e;
-                memset(r, 0, 9 * sizeof *r);
-                r[0] = r[4] = r[8] = 1.0;
-            }
-    }
-    if (!rc && d->forces == FTM_FORCES_NEO_HOOKEAN) {
-        el->mu = d->young / (2.0 * (1.0 + d->poisson));
-        el->kappa = d->young / (3.0 * (1.0 - 2.0 * d->poisson));
-        el->stamp = calloc((size_t)el->count + 1, sizeof *el->stamp);
-        if (!el->stamp)
-            rc = ftm_error_set(err, FTM_ENOMEM, "sim: out of memory");
-        else
-            rc = build_blocks(el, m, err);
-    }
+    if (!rc && d->forces != FTM_FORCES_LINEAR_FEM)
+        rc = build_blocks(el, m, d, err);
     if (rc) {
         ftm_elem_free(el);
         return rc;
     }
     el->gen = 1;
-    bound_and_warn(el, sim); /* neo-Hookean: its tangent at rest is the linear K */
-    if (el->kind == FTM_FORCES_NEO_HOOKEAN) { /* the linear matrices have served */
-        free(el->k);
-        free(el->grad);
-        el->k = el->grad = NULL;
-        if (d->far_field != FTM_FAR_FIELD_ELASTIC) { /* its compliance needs the rows */
-            free(el->row_k);
-            el->row_k = NULL;
-        }
+    bound_and_warn(el, sim); /* the others' tangent at rest is the linear K */
+    free(el->k); /* the element matrices have served (the rows hold them) */
+    free(el->koff);
+    el->k = NULL;
+    el->koff = NULL;
+    if (el->kind != FTM_FORCES_LINEAR_FEM && d->far_field != FTM_FAR_FIELD_ELASTIC) {
+        free(el->row_k); /* (the elastic far field's compliance needs the rows) */
+        el->row_k = NULL;
     }
     sim->elem = el;
     return FTM_OK;

@@ -95,6 +95,7 @@ typedef struct schedule {
     double *save;
     double *tmp;    /* new positions of a group, x, y and z vectors of 4 or 8 per block */
     int32_t uses;   /* group sweeps since the schedule was built */
+    uint32_t version; /* raised with every new schedule (element forces' block lists) */
     int32_t last_uses; /* the previous schedule's, when this one was built */
     bool linked;    /* block, link_j, link_kl and node_c hold the blocks' copies */
     int32_t cap, gcap;

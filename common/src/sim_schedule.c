@@ -189,6 +189,7 @@ static void schedule_groups(ftm_sim *sim, const int32_t *bounds, int32_t ranges,
     s->last_uses = s->uses;
     s->uses = 0;
     s->linked = false;
+    s->version++;
 }
 
 /* The update schedule from the current layers and contact kinds. */

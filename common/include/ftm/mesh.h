@@ -137,6 +137,11 @@ int ftm_hex8_centre_gradients(const ftm_vec3 x[8], double grad[24]);
  * ftm_hex8_stiffness, in its order (24 per point, 3 per node), and det J
  * there (the points' weights are 1). FTM_EINVAL if det J <= 0 at one. */
 int ftm_hex8_gauss_gradients(const ftm_vec3 x[8], double grad[192], double det[8]);
+/* The inverse Jacobian J^-1 (row-major, J_ij = dx_i/dxi_j; dN_a/dx =
+ * J^-T dN_a/dxi) at the 8 Gauss points of ftm_hex8_stiffness in its order,
+ * then at the centre (9 each), and det J at the Gauss points. FTM_EINVAL if
+ * det J <= 0 at one of the nine. */
+int ftm_hex8_inverse_jacobians(const ftm_vec3 x[8], double ji[81], double det[8]);
 /* Row-sum lumped masses int rho N_a dV (2x2x2 Gauss). */
 int ftm_hex8_lumped_mass(const ftm_vec3 x[8], double density, double mass[8]);
 /* 4-node tetrahedron: K_e = V B^T D B, V = |signed volume|. FTM_EINVAL if

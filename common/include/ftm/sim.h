@@ -52,7 +52,9 @@ typedef enum ftm_order {
 typedef enum ftm_forces {
     FTM_FORCES_SPRINGS = 0,    /* Voigt links (Eq. 6), the default */
     FTM_FORCES_LINEAR_FEM = 1, /* f_e = K_e (x_e - X_e): small displacements */
-    FTM_FORCES_COROT_FEM = 2,  /* co-rotational f_e = R K_e (R^T x_e - X_e): large rotations */
+    /* co-rotational f_e = R K_e (R^T x_e - X_e), R the rotation of the element's
+     * centre (I where it is inverted): large rotations */
+    FTM_FORCES_COROT_FEM = 2,
     /* compressible neo-Hookean, W = mu/2 (J^(-2/3) I1 - 3) + kappa/2 (J - 1)^2
      * (CalculiX's *HYPERELASTIC, NEO HOOKE with C10 = mu/2, D1 = 2/kappa,
      * mu and kappa from young and poisson): large strains. An element
@@ -193,9 +195,11 @@ uint64_t ftm_sim_hash(const ftm_sim *sim);
 
 /* Revision of the core's arithmetic: raised whenever a change makes the same
  * scene and inputs give other bits (2: one division per pair of links,
- * 2026-11-25). Hashes and replays agree only between cores of one revision,
- * so a session announces its server's (ftm_wire_announce.arithmetic). */
-#define FTM_ARITHMETIC_REVISION 2u
+ * 2026-11-25; 3: co-rotational forces evaluated per element at the substep's
+ * start, in vector lanes, 2026-11-29). Hashes and replays agree only between
+ * cores of one revision, so a session announces its server's
+ * (ftm_wire_announce.arithmetic). */
+#define FTM_ARITHMETIC_REVISION 3u
 uint32_t ftm_arithmetic_revision(void);
 
 void ftm_sim_get_stats(const ftm_sim *sim, ftm_sim_stats *stats);
