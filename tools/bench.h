@@ -22,6 +22,7 @@ typedef struct ftm_speed_def {
     int32_t ncontacts, depth;
     double young, poisson;
     int rounds, steps, warmup;
+    const char *only; /* NULL, or springs and this model ("tetrahedra neo-hookean", ...) */
 } ftm_speed_def;
 int ftm_bench_speed(const ftm_speed_def *d, FILE *out, bool json);
 

@@ -87,6 +87,7 @@ typedef struct options {
     bool json, cube, organ, verbose;
     bool speed, mesh_given; /* --speed: the step of every model side by side (bench_speed.c) */
     int rounds;
+    const char *only;
     const char *save;
     int32_t depths[16];
     int ndepths;
@@ -951,7 +952,9 @@ static void usage(FILE *f)
             "               alternating in one run, and their ratios to springs (default\n"
             "               --mesh cube); with --json {\"bodies\":[{\"mesh\",...,\"rows\":[{\n"
             "               \"elements\",\"forces\",\"nodes\",\"h\",\"step_us\",\"ratio\"}]}]}\n"
-            "  --rounds N   --speed: rounds of 10 steps per model (default 41)\n\n"
+            "  --rounds N   --speed: rounds of 10 steps per model (default 41)\n"
+            "  --only 'E F' --speed: springs and only the model of elements E (hexahedra,\n"
+            "               tetrahedra) and forces F (for a profiler)\n\n"
             "exit status: 0 success, 1 a run failed, 2 bad arguments or an output that cannot\n"
             "be written\n");
 }
@@ -1067,7 +1070,8 @@ static int run_speed(const options *o)
         }
         ftm_speed_def d = {.name = b.name, .mesh = b.mesh, .contacts = b.contacts,
                            .ncontacts = b.ncontacts, .depth = b.max_depth, .young = YOUNG,
-                           .poisson = POISSON, .rounds = o->rounds, .steps = 10, .warmup = 200};
+                           .poisson = POISSON, .rounds = o->rounds, .steps = 10, .warmup = 200,
+                           .only = o->only};
         if (o->json && nb++)
             printf(",");
         if (ftm_bench_speed(&d, stdout, o->json) != FTM_OK)
@@ -1088,7 +1092,7 @@ int ftm_bench_accuracy(int argc, char **argv)
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         static const char *const valued[] = {"--mesh",      "--depths", "--tol",   "--be-step",
-                                             "--max-steps", "--save",   "--rounds"};
+                                             "--max-steps", "--save",   "--rounds",  "--only"};
         for (size_t k = 0; k < sizeof valued / sizeof valued[0]; k++) {
             if (strcmp(a, valued[k]) == 0 && i + 1 >= argc) {
                 fprintf(stderr, "ftm bench accuracy: %s needs a value\n", a);
@@ -1106,6 +1110,8 @@ int ftm_bench_accuracy(int argc, char **argv)
             o.corot = true;
         } else if (strcmp(a, "--speed") == 0) {
             o.speed = true;
+        } else if (strcmp(a, "--only") == 0 && more) {
+            o.only = argv[++i];
         } else if (strcmp(a, "--rounds") == 0 && more) {
             if (!ftm_cli_int(argv[++i], 1, 100000, &o.rounds)) {
                 fprintf(stderr, "ftm bench accuracy: --rounds must be in 1..100000\n");
