@@ -30,6 +30,7 @@ packages=(
   xvfb xauth                                      # headless X server for client tests
   python3                                         # test scripts' checks, ftm-plot-forces' names
   iproute2                                        # test_two_hosts: network namespaces, veth
+  tcpdump                                         # test_net_secure_capture: what a listener records
 )
 
 missing=()

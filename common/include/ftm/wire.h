@@ -298,10 +298,12 @@ typedef struct ftm_wire_transport_def {
      * i.e. $CYCLONEDDS_URI or built-in defaults. */
     const char *config;
     /* DDS Security: the directory of this participant's identity and
-     * permissions (deploy/ftm-security issue: ca.pem, cert.pem, key.pem,
-     * governance.p7s, permissions.p7s), checked here and added to the
-     * configuration; NULL: no security (docs/deploy.md, "Securing a
-     * session"). Errors name the file and the cause; an endpoint the
+     * permissions (deploy/ftm-security issue: identity_ca.pem,
+     * permissions_ca.pem, cert.pem, key.pem, governance.p7s,
+     * permissions.p7s), checked here and added to the configuration; NULL:
+     * no security (docs/deploy.md, "Securing a session"). Errors name the
+     * file and the cause; a bundle of a room with one CA (ca.pem), or whose
+     * two CAs are one, is refused (CVE-2023-24011); an endpoint the
      * permissions do not grant fails with FTM_EACCESS. */
     const char *security;
     /* secured: the role this program runs as (0: not checked); an identity
