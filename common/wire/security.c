@@ -93,7 +93,7 @@ static int open_file(const bundle *b, const char *file, FILE **f, ftm_error *err
     bundle_path(b, file, path, sizeof path);
     *f = fopen(path, "r");
     if (!*f)
-        return wire_err(err, FTM_EIO, "DDS Security: %s: %s", path, strerror(errno));
+        return ftm_error_set(err, FTM_EIO, "DDS Security: %s: %s", path, strerror(errno));
     return FTM_OK;
 }
 
@@ -106,7 +106,7 @@ static int load_cert(const bundle *b, const char *file, X509 **out, ftm_error *e
     *out = PEM_read_X509(f, NULL, NULL, NULL);
     fclose(f);
     if (!*out)
-        return wire_err(err, FTM_EPARSE, "DDS Security: %s/%s is not a PEM certificate%s", b->dir,
+        return ftm_error_set(err, FTM_EPARSE, "DDS Security: %s/%s is not a PEM certificate%s", b->dir,
                         file, ossl_reason());
     return FTM_OK;
 }
@@ -117,7 +117,7 @@ static int load_key(bundle *b, ftm_error *err)
     bundle_path(b, KEY_FILE, path, sizeof path);
     struct stat st;
     if (stat(path, &st) == 0 && (st.st_mode & 077))
-        return wire_err(err, FTM_EINVAL,
+        return ftm_error_set(err, FTM_EINVAL,
                         "DDS Security: the private key %s may be read by others (mode %04o): "
                         "chmod 600 it",
                         path, (unsigned)(st.st_mode & 07777));
@@ -128,7 +128,7 @@ static int load_key(bundle *b, ftm_error *err)
     b->key = PEM_read_PrivateKey(f, NULL, NULL, NULL);
     fclose(f);
     if (!b->key)
-        return wire_err(err, FTM_EPARSE, "DDS Security: %s is not an unencrypted PEM private key%s",
+        return ftm_error_set(err, FTM_EPARSE, "DDS Security: %s is not an unencrypted PEM private key%s",
                         path, ossl_reason());
     return FTM_OK;
 }
@@ -176,7 +176,7 @@ static int check_not_one_ca(const bundle *b, ftm_error *err)
     struct stat st;
     if (stat(path, &st) == 0 || stat(one, &st) != 0)
         return FTM_OK;
-    return wire_err(err, FTM_EINVAL,
+    return ftm_error_set(err, FTM_EINVAL,
                     "DDS Security: %s is a bundle of a room with one CA (%s) for identities and "
                     "permissions, made by an earlier ftm-security: any participant of such a room "
                     "can sign itself a server's or an instructor's permissions (CVE-2023-24011), "
@@ -195,7 +195,7 @@ static int check_cas(const bundle *b, ftm_error *err)
                            : NULL;
     ERR_clear_error();
     if (same)
-        return wire_err(err, FTM_EINVAL,
+        return ftm_error_set(err, FTM_EINVAL,
                         "DDS Security: the identity CA %s/" ID_CA_FILE " and the permissions CA "
                         "%s/" PERM_CA_FILE " are %s: any participant could sign itself any "
                         "permissions (CVE-2023-24011); use a bundle of a room made by "
@@ -207,7 +207,7 @@ static int check_cas(const bundle *b, ftm_error *err)
         const int self = X509_self_signed(ca[i], 1);
         ERR_clear_error();
         if (self != 1)
-            return wire_err(err, FTM_EINVAL,
+            return ftm_error_set(err, FTM_EINVAL,
                             "DDS Security: the CA %s/%s is not self-signed: FTM takes each CA of a "
                             "room as a root of its own (a chain between them could let a "
                             "participant's certificate sign permissions); 'ftm-security init' "
@@ -218,14 +218,14 @@ static int check_cas(const bundle *b, ftm_error *err)
     const ASN1_TIME *nb = X509_get0_notBefore(b->perm_ca), *na = X509_get0_notAfter(b->perm_ca);
     if (X509_cmp_current_time(na) <= 0) {
         asn1_time_text(na, when, sizeof when);
-        return wire_err(err, FTM_EINVAL,
+        return ftm_error_set(err, FTM_EINVAL,
                         "DDS Security: the permissions CA %s/" PERM_CA_FILE " expired on %s: "
                         "make a new room (ftm-security init)",
                         d, when);
     }
     if (X509_cmp_current_time(nb) >= 0) {
         asn1_time_text(nb, when, sizeof when);
-        return wire_err(err, FTM_EINVAL,
+        return ftm_error_set(err, FTM_EINVAL,
                         "DDS Security: the permissions CA %s/" PERM_CA_FILE " is not valid before "
                         "%s (is this machine's clock right?)",
                         d, when);
@@ -239,7 +239,7 @@ static int check_cert(bundle *b, ftm_error *err)
     X509_STORE_CTX *ctx = X509_STORE_CTX_new();
     if (!ctx || !X509_STORE_CTX_init(ctx, b->id_store, b->cert, NULL)) {
         X509_STORE_CTX_free(ctx);
-        return wire_err(err, FTM_ENOMEM, "DDS Security: out of memory");
+        return ftm_error_set(err, FTM_ENOMEM, "DDS Security: out of memory");
     }
     const int ok = X509_verify_cert(ctx);
     const int e = X509_STORE_CTX_get_error(ctx);
@@ -260,31 +260,31 @@ static int check_cert(bundle *b, ftm_error *err)
             const char *fix = !expired ? " (is this machine's clock right?)"
                               : is_ca  ? ": make a new room (ftm-security init)"
                                        : ": have a new one issued (deploy/ftm-security issue)";
-            return wire_err(err, FTM_EINVAL, "DDS Security: the certificate %s/%s %s %s%s", b->dir,
+            return ftm_error_set(err, FTM_EINVAL, "DDS Security: the certificate %s/%s %s %s%s", b->dir,
                             which, expired ? "expired on" : "is not valid before", when, fix);
         }
         case X509_V_ERR_UNABLE_TO_GET_ISSUER_CERT_LOCALLY:
         case X509_V_ERR_UNABLE_TO_GET_ISSUER_CERT:
         case X509_V_ERR_CERT_SIGNATURE_FAILURE:
             if (signed_by(b->cert, b->perm_ca))
-                return wire_err(err, FTM_EINVAL,
+                return ftm_error_set(err, FTM_EINVAL,
                                 "DDS Security: the certificate %s/" CERT_FILE " is signed by the "
                                 "permissions CA %s/" PERM_CA_FILE ", which signs documents only: "
                                 "a participant's certificate comes from the identity CA "
                                 "(ftm-security issue)",
                                 b->dir, b->dir);
-            return wire_err(err, FTM_EINVAL,
+            return ftm_error_set(err, FTM_EINVAL,
                             "DDS Security: the certificate %s/" CERT_FILE " is not signed by the "
                             "identity CA in %s/" ID_CA_FILE " (a certificate of another room?)",
                             b->dir, b->dir);
         default:
-            return wire_err(err, FTM_EINVAL, "DDS Security: the certificate %s/%s: %s", b->dir,
+            return ftm_error_set(err, FTM_EINVAL, "DDS Security: the certificate %s/%s: %s", b->dir,
                             which, X509_verify_cert_error_string(e));
         }
     }
     if (X509_check_private_key(b->cert, b->key) != 1) {
         ERR_clear_error();
-        return wire_err(err, FTM_EINVAL, "DDS Security: %s/%s is not the key of the certificate %s/%s",
+        return ftm_error_set(err, FTM_EINVAL, "DDS Security: %s/%s is not the key of the certificate %s/%s",
                         b->dir, KEY_FILE, b->dir, CERT_FILE);
     }
     return FTM_OK;
@@ -302,29 +302,29 @@ static int signed_fail(const bundle *b, const char *path, PKCS7 *p7, ftm_error *
         subject_text(s, subject, sizeof subject);
     int rc;
     if (!s)
-        rc = wire_err(err, FTM_EINVAL,
+        rc = ftm_error_set(err, FTM_EINVAL,
                       "DDS Security: %s is not signed by the permissions CA in %s/" PERM_CA_FILE
                       " (a document of another room?)",
                       path, d);
     else if (X509_cmp(s, b->perm_ca) == 0)
-        rc = wire_err(err, FTM_EINVAL,
+        rc = ftm_error_set(err, FTM_EINVAL,
                       "DDS Security: %s does not verify with the permissions CA in %s/" PERM_CA_FILE
                       ": it was changed after signing",
                       path, d);
     else if (X509_cmp(s, b->id_ca) == 0)
-        rc = wire_err(err, FTM_EINVAL,
+        rc = ftm_error_set(err, FTM_EINVAL,
                       "DDS Security: %s is signed by the identity CA %s/" ID_CA_FILE
                       ", which signs certificates only: documents are signed by the permissions CA "
                       "%s/" PERM_CA_FILE " (ftm-security init and issue)",
                       path, d, d);
     else if (signed_by(s, b->id_ca))
-        rc = wire_err(err, FTM_EINVAL,
+        rc = ftm_error_set(err, FTM_EINVAL,
                       "DDS Security: %s is signed by a participant's certificate ('%s'), not by "
                       "the permissions CA in %s/" PERM_CA_FILE ": forged (a participant signing "
                       "its own permissions, CVE-2023-24011)",
                       path, subject, d);
     else
-        rc = wire_err(err, FTM_EINVAL,
+        rc = ftm_error_set(err, FTM_EINVAL,
                       "DDS Security: %s is signed by '%s', not by the permissions CA in "
                       "%s/" PERM_CA_FILE " (a document of another room?)",
                       path, subject, d);
@@ -350,10 +350,10 @@ static int check_signed(const bundle *b, const char *file, char **text, ftm_erro
     BIO *in = BIO_new_file(path, "r"), *content = NULL, *out = BIO_new(BIO_s_mem());
     PKCS7 *p7 = in ? SMIME_read_PKCS7(in, &content) : NULL;
     if (!p7) {
-        rc = wire_err(err, FTM_EPARSE, "DDS Security: %s is not an S/MIME signed document%s", path,
+        rc = ftm_error_set(err, FTM_EPARSE, "DDS Security: %s is not an S/MIME signed document%s", path,
                       ossl_reason());
     } else if (!out || !PKCS7_type_is_signed(p7)) {
-        rc = wire_err(err, FTM_EPARSE, "DDS Security: %s is not a signed document", path);
+        rc = ftm_error_set(err, FTM_EPARSE, "DDS Security: %s is not a signed document", path);
     } else if (PKCS7_verify(p7, b->perm_signer, b->perm_store, content, out,
                             PKCS7_TEXT | PKCS7_NOINTERN) != 1) {
         rc = signed_fail(b, path, p7, err);
@@ -362,7 +362,7 @@ static int check_signed(const bundle *b, const char *file, char **text, ftm_erro
         long n = BIO_get_mem_data(out, &data);
         *text = malloc((size_t)(n > 0 ? n : 0) + 1);
         if (!*text) {
-            rc = wire_err(err, FTM_ENOMEM, "DDS Security: out of memory");
+            rc = ftm_error_set(err, FTM_ENOMEM, "DDS Security: out of memory");
         } else {
             if (n > 0)
                 memcpy(*text, data, (size_t)n);
@@ -397,7 +397,7 @@ static int check_subject(const bundle *b, const char *permissions, ftm_error *er
         if (n == strlen(subject) && strncmp(p, subject, n) == 0)
             return FTM_OK;
     }
-    return wire_err(err, FTM_EINVAL,
+    return ftm_error_set(err, FTM_EINVAL,
                     "DDS Security: the permissions %s/%s have no grant for '%s', the subject of "
                     "%s/%s (documents of two participants mixed up?)",
                     b->dir, PERMISSIONS_FILE, subject, b->dir, CERT_FILE);
@@ -443,7 +443,7 @@ static int check_bundle(bundle *b, ftm_error *err)
     b->perm_signer = sk_X509_new_null();
     if (!b->id_store || !b->perm_store || !b->perm_signer ||
         !sk_X509_push(b->perm_signer, b->perm_ca))
-        return wire_err(err, FTM_ENOMEM, "DDS Security: out of memory");
+        return ftm_error_set(err, FTM_ENOMEM, "DDS Security: out of memory");
     rc = check_cas(b, err);
     if (!rc)
         rc = check_cert(b, err);
@@ -490,7 +490,7 @@ static int read_role(const bundle *b, ftm_wire_role *role, ftm_error *err)
     bundle_path(b, "role", path, sizeof path);
     FILE *f = fopen(path, "r");
     if (!f)
-        return wire_err(err, FTM_EIO, "DDS Security: %s: %s (a bundle of deploy/ftm-security issue "
+        return ftm_error_set(err, FTM_EIO, "DDS Security: %s: %s (a bundle of deploy/ftm-security issue "
                         "names its role there)", path, strerror(errno));
     char buf[32] = "";
     const int n = fscanf(f, "%31s", buf);
@@ -500,7 +500,7 @@ static int read_role(const bundle *b, ftm_wire_role *role, ftm_error *err)
             *role = (ftm_wire_role)r;
             return FTM_OK;
         }
-    return wire_err(err, FTM_EPARSE, "DDS Security: %s: not server, trainee, instructor or observer",
+    return ftm_error_set(err, FTM_EPARSE, "DDS Security: %s: not server, trainee, instructor or observer",
                     path);
 }
 
@@ -518,9 +518,9 @@ static int check_id(const bundle *b, uint32_t id, ftm_error *err)
     const int n = fscanf(f, "%lu", &want);
     fclose(f);
     if (n != 1 || want == 0 || want > UINT32_MAX)
-        return wire_err(err, FTM_EPARSE, "DDS Security: %s: not a participant id", path);
+        return ftm_error_set(err, FTM_EPARSE, "DDS Security: %s: not a participant id", path);
     if (want != id)
-        return wire_err(err, FTM_EINVAL,
+        return ftm_error_set(err, FTM_EINVAL,
                         "DDS Security: the identity in %s was issued for participant id %lu, "
                         "not %u (--id %lu)",
                         b->dir, want, id, want);
@@ -532,24 +532,24 @@ int wire_security_config(const char *dir, uint32_t id, char **xml, wire_security
 {
     *xml = NULL;
     if (!FTM_DDS_SECURITY_LIBDIR[0])
-        return wire_err(err, FTM_EINVAL,
+        return ftm_error_set(err, FTM_EINVAL,
                         "DDS Security: this build found no Cyclone DDS security plugins "
                         "(libdds_security_auth.so, Debian package libddsc0debian)");
     bundle b;
     memset(&b, 0, sizeof b);
     struct stat st;
     if (stat(dir, &st) != 0)
-        return wire_err(err, FTM_EIO, "DDS Security: %s: %s", dir, strerror(errno));
+        return ftm_error_set(err, FTM_EIO, "DDS Security: %s: %s", dir, strerror(errno));
     if (!S_ISDIR(st.st_mode))
-        return wire_err(err, FTM_EINVAL,
+        return ftm_error_set(err, FTM_EINVAL,
                         "DDS Security: %s is not a directory (give the participant's directory "
                         "made by deploy/ftm-security issue)",
                         dir);
     if (!realpath(dir, b.dir))
-        return wire_err(err, FTM_EIO, "DDS Security: %s: %s", dir, strerror(errno));
+        return ftm_error_set(err, FTM_EIO, "DDS Security: %s: %s", dir, strerror(errno));
     /* Cyclone splits its configuration at commas; XML text needs none of < & " */
     if (strpbrk(b.dir, ",<>&\""))
-        return wire_err(err, FTM_EINVAL,
+        return ftm_error_set(err, FTM_EINVAL,
                         "DDS Security: the path %s has a character Cyclone DDS cannot take in a "
                         "configuration (one of , < > & \")",
                         b.dir);
@@ -589,7 +589,7 @@ int wire_security_config(const char *dir, uint32_t id, char **xml, wire_security
     int n = snprintf(NULL, 0, fmt, lib, d, d, d, lib, d, d, d, lib);
     *xml = n > 0 ? malloc((size_t)n + 1) : NULL;
     if (!*xml)
-        return wire_err(err, FTM_ENOMEM, "DDS Security: out of memory");
+        return ftm_error_set(err, FTM_ENOMEM, "DDS Security: out of memory");
     snprintf(*xml, (size_t)n + 1, fmt, lib, d, d, d, lib, d, d, d, lib);
     return FTM_OK;
 }

@@ -9,10 +9,6 @@
 #include <limits.h>
 #include <stdbool.h>
 
-/* The old name of ftm_error_set (ftm/base.h), still used by security.c;
- * every other file says ftm_error_set. */
-#define wire_err ftm_error_set
-
 /* Walks a protobuf encoding against its descriptor without allocating and
  * reports the first structural problem with its byte offset and field:
  * truncated varint/length, wire type that does not fit the field, groups,
