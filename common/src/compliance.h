@@ -43,6 +43,10 @@ static inline void ftm_compliance_block(const float *const *cols, int32_t a, int
         out[e] = (double)g[e];
 }
 
+/* Tests: the widest solve kernel used from now on in this process (2:
+ * AVX-512, 1: AVX2, 0: plain C); each gives the same bits. */
+void ftm_compliance_limit_kernel(int widest);
+
 /* The columns (entry b: NULL until present); entries, once set, never change. */
 const float *const *ftm_compliance_columns(const ftm_compliance *c);
 
