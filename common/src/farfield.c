@@ -339,6 +339,8 @@ void ftm_far_impose(ftm_sim *sim)
     }
 }
 
+void ftm_far_set_scale(ftm_far *f, double scale) { f->kscale = scale; }
+
 int ftm_far_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err)
 {
     ftm_far *f = sim->far;

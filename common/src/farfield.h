@@ -61,5 +61,8 @@ void ftm_far_impose(ftm_sim *sim);
  * stiffness is the old one times one factor, the columns are rescaled;
  * otherwise recomputed. */
 int ftm_far_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err);
+/* Element forces: the stiffness is `scale` times the one G was computed
+ * for (a factor on E). */
+void ftm_far_set_scale(ftm_far *f, double scale);
 
 #endif

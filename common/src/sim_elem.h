@@ -21,6 +21,13 @@ double ftm_elem_critical_step(const ftm_elem *el);
 void ftm_elem_rows(const ftm_elem *el, const int32_t **start, const int32_t **node,
                    const double **k);
 
+/* ftm_sim_set_mesh with element forces: the new links' stiffness over the
+ * ones the elements were made with must be one factor, which then scales E
+ * (and the critical step by its inverse square root); the mesh's damping
+ * (and masses, without a density) take effect through the caller. */
+int ftm_elem_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err);
+double ftm_elem_scale(const ftm_elem *el);
+
 /* The sweeps and reactions of sim_kernel.c with element forces. */
 bool ftm_elem_sweep(ftm_sim *sim, double *max_m2);
 bool ftm_elem_sweep_relax(ftm_sim *sim);

@@ -421,6 +421,75 @@ static void log_damage(void *user, ftm_log_level level, const char *msg)
         damaged_said++;
 }
 
+/* An instructor's stiffness change on element forces (ftm_sim_set_mesh with
+ * every link times 2: E times 2): linear and neo-Hookean forces, with the
+ * elastic far field, settle where a body made with twice E settles; links
+ * changed by different factors are refused. */
+static void test_element_stiffness_factor(void **state)
+{
+    (void)state;
+    const int n = 6;
+    ftm_mesh *m = cube(n, false, true, 0.0);
+    int32_t nn = ftm_mesh_node_count(m);
+    double *f = malloc(sizeof(double) * 3 * (size_t)nn);
+    ftm_contact c[4];
+    int nc = top_load(m, n, 2.0, c, f);
+    double *u = fem_solution(m, f);
+    ftm_material_def from = ftm_default_material_def();
+    from.node_mass = 1e-3;
+    from.stiffness = 1000;
+    ftm_material_def to = from, aniso = from;
+    to.stiffness = 2000;
+    aniso.axis_scale = (ftm_vec3){1.0, 1.0, 2.0};
+    static const ftm_forces models[] = {FTM_FORCES_LINEAR_FEM, FTM_FORCES_NEO_HOOKEAN};
+    for (int k = 0; k < 2; k++) {
+        double dz[2] = {0.0, 0.0};
+        for (int v = 0; v < 2; v++) { /* v = 0: E doubled by the mesh; 1: made so */
+            ftm_mesh *dm = NULL;
+            ftm_sim_def d = elem_def(models[k], FTM_ORDER_LAYER_COLORED);
+            d.far_field = FTM_FAR_FIELD_ELASTIC;
+            d.depth = 2;
+            if (v == 1)
+                d.young *= 2.0;
+            ftm_sim *sim = damped_sim(m, d, u, f, &dm);
+            ftm_error err;
+            if (v == 0) {
+                ftm_mesh *stiff = NULL, *bad = NULL;
+                /* damped_sim's mesh carries the damping: scale it, not m */
+                ftm_material_def df = from;
+                df.node_damping = ftm_mesh_damping(dm, 0);
+                df.node_mass = ftm_mesh_mass(dm, 0);
+                ftm_material_def dt = df, da = df;
+                dt.stiffness = to.stiffness;
+                da.axis_scale = aniso.axis_scale;
+                assert_int_equal(ftm_mesh_with_material(dm, &df, &da, &bad, &err), FTM_OK);
+                assert_int_equal(ftm_sim_set_mesh(sim, bad, &err), FTM_EINVAL);
+                assert_contains(err.message, "one factor on E");
+                assert_int_equal(ftm_mesh_with_material(dm, &df, &dt, &stiff, &err), FTM_OK);
+                assert_int_equal(ftm_sim_set_mesh(sim, stiff, &err), FTM_OK);
+                assert_int_equal(ftm_sim_set_contacts(sim, c, nc, &err), FTM_OK);
+                settle(sim, SIDE / (n - 1), 1e-12, 100000);
+                dz[v] = ftm_sim_position(sim, c[0].node).z - ftm_mesh_rest_position(m, c[0].node).z;
+                ftm_sim_destroy(sim);
+                ftm_mesh_destroy(stiff);
+                ftm_mesh_destroy(bad);
+            } else {
+                assert_int_equal(ftm_sim_set_contacts(sim, c, nc, &err), FTM_OK);
+                settle(sim, SIDE / (n - 1), 1e-12, 100000);
+                dz[v] = ftm_sim_position(sim, c[0].node).z - ftm_mesh_rest_position(m, c[0].node).z;
+                ftm_sim_destroy(sim);
+            }
+            ftm_mesh_destroy(dm);
+        }
+        print_message("%s: E x 2 by the mesh %.6e m, made so %.6e m\n",
+                      k ? "neo-hookean" : "linear-fem", dz[0], dz[1]);
+        assert_true(fabs(dz[0] - dz[1]) < 1e-6 * fabs(dz[1]));
+    }
+    free(u);
+    free(f);
+    ftm_mesh_destroy(m);
+}
+
 /* The cache: written once and read back with the same result; a column
  * damaged in the file is noticed when it is first used and computed again,
  * with the same result. */
@@ -558,6 +627,7 @@ int main(void)
         cmocka_unit_test(test_springs_depth_two),
         cmocka_unit_test(test_state_release_depth),
         cmocka_unit_test(test_scaled_stiffness),
+        cmocka_unit_test(test_element_stiffness_factor),
         cmocka_unit_test(test_cache),
         cmocka_unit_test(test_kernels_same_bits),
         cmocka_unit_test(test_refusals),
