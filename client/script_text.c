@@ -248,15 +248,6 @@ ftm_vec3 ftm_script_points_at(const ftm_script_point *p, int32_t n, double t)
     return (ftm_vec3){a.x + w * (b.x - a.x), a.y + w * (b.y - a.y), a.z + w * (b.z - a.z)};
 }
 
-bool ftm_option_int(const char *v, size_t len, long long lo, long long hi, long long *out)
-{
-    int64_t x = 0;
-    if (ftm_text_read_int(v, len, &x) != NULL || x < lo || x > hi)
-        return false;
-    *out = (long long)x;
-    return true;
-}
-
 int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
                        long long hi, long long *out)
 {

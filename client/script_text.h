@@ -10,6 +10,7 @@
 #define FTM_CLIENT_SCRIPT_TEXT_H
 
 #include "ftm/base.h"
+#include "ftm/options.h"
 
 #include <stdbool.h>
 #include <stddef.h>
@@ -87,12 +88,10 @@ void ftm_script_text_free(ftm_script_text *s);
 ftm_vec3 ftm_script_points_at(const ftm_script_point *p, int32_t n, double t);
 
 /* Command-line values, read alike by ftm-server, ftm-bot and ftm-client.
- * An integer option's value v[0..len): a whole base-10 number in lo..hi,
- * nothing cast or wrapped ("-1" is not 4294967295, 4294967376 is not 80).
- * The largest DDS domain an option may name: UINT32_MAX is Cyclone's "the
- * configuration's default", which no wrapped "-1" may pick by accident. */
-bool ftm_option_int(const char *v, size_t len, long long lo, long long hi, long long *out);
-/* The same for a whole argument v of option opt; if it is no such integer,
+ * (ftm_option_int: ftm/options.h.) The largest DDS domain an option may
+ * name: UINT32_MAX is Cyclone's "the configuration's default", which no
+ * wrapped "-1" may pick by accident. */
+/* An integer option's value for a whole argument v of option opt; if it is no such integer,
  * says "PROGRAM: OPT must be an integer in LO..HI (got 'V')" and returns -1. */
 int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
                        long long hi, long long *out);
@@ -111,8 +110,5 @@ typedef struct ftm_option_path {
  * or outputs that do not exist are never the same. */
 bool ftm_option_output_is_input(const ftm_option_path *in, int nin, const ftm_option_path *out,
                                 int nout, int *in_i, int *out_i);
-/* The longest time an option may give [s], about 31.7 years: in nanoseconds
- * it still fits 64-bit clock arithmetic (a larger double wraps when cast). */
-#define FTM_OPTION_SECONDS_MAX 1e9
 
 #endif
