@@ -21,6 +21,7 @@
 #include "hud.h"
 #include "render.h"
 #include "screenshot.h"
+#include "cli.h"
 #include "script.h"
 
 #include <errno.h>

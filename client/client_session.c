@@ -3,7 +3,9 @@
 #include "parts.h"
 #include "report.h"
 
-#include "replay.h"
+#include "claims.h"
+#include "pending.h"
+#include "replica.h"
 
 #include <inttypes.h>
 #include <pthread.h>

@@ -14,8 +14,9 @@
  *
  * Not a test: figures depend on the machine and its load. */
 #include "haptic.h"
-#include "replay.h"
+#include "cli.h"
 #include "script_text.h"
+#include "step.h"
 
 #include "ftm/scene.h"
 #include "ftm/sim.h"

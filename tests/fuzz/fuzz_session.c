@@ -25,7 +25,7 @@
 #include "fuzz.h"
 
 #include "record.h"
-#include "replay.h"
+#include "digest.h"
 #include "server.h"
 
 #include "ftm/scene.h"

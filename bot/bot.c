@@ -10,7 +10,10 @@
  * that did not recover (or never synced); 2 usage; 3 set-up failure; 4
  * otherwise fine, but the script did not hold: an expectation failed or a
  * command was refused or never answered (docs/bot-script.md). */
-#include "replay.h"
+#include "claims.h"
+#include "cli.h"
+#include "pending.h"
+#include "replica.h"
 #include "script.h"
 
 #include "ftm/scene.h"
