@@ -5,20 +5,26 @@
 #define FTM_SESSION_CLI_H
 
 #include "ftm/options.h"
+#include "ftm/wire.h"
 
 #include <stdbool.h>
 
-/* An integer option's value for a whole argument v of option opt; if it is no such integer,
- * says "PROGRAM: OPT must be an integer in LO..HI (got 'V')" and returns -1. */
-int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
-                       long long hi, long long *out);
 /* The largest DDS domain an option may name: UINT32_MAX is Cyclone's "the
  * configuration's default", which no wrapped "-1" may pick by accident. */
 #define FTM_OPTION_DOMAIN_MAX 4294967294LL
+
 /* A display name (--name) as the protocol carries it: 1..63 bytes, no
  * control characters (the codec refuses them: they would reach others'
- * terminals). If not, says "PROGRAM: --name ..." and returns -1. */
+ * terminals). An ftm_option_parse_fn for a const char * field. */
+#define FTM_DISPLAY_NAME_MAX (FTM_WIRE_DISPLAY_MAX - 1)
+int ftm_option_parse_display_name(const ftm_option *o, const char *v, void *field, char *why,
+                                  size_t cap);
+
+/* (the hand-written parsers' checks, until they take the option table) */
+int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
+                       long long hi, long long *out);
 int ftm_option_name_arg(const char *program, const char *v);
+
 /* A file a program reads or writes, with the option that names it. */
 typedef struct ftm_option_path {
     const char *opt, *path;
