@@ -36,7 +36,6 @@
 /* The shortest --input-period: 10 kHz, ten times a 1 kHz haptic device.
  * Shorter ones only fill the publishing queue ("publishing queue full"). */
 #define MIN_INPUT_PERIOD 1e-4
-#define MAX_DOMAIN FTM_OPTION_DOMAIN_MAX
 
 typedef struct options {
     const char *role, *script, *scene, *session, *config, *security, *log_path, *name;
@@ -78,109 +77,61 @@ static void log_hook(void *user, ftm_log_level level, const char *message)
 
 /* ---- options ------------------------------------------------------------------------ */
 
-static void usage(FILE *f)
+static int parse_role(const ftm_option *o, const char *v, void *field, char *why, size_t cap)
 {
-    fprintf(f,
-            "usage: ftm-bot --role trainee|observer|instructor [options]\n"
-            "  --script FILE          HIP trajectory / commands (docs/bot-script.md)\n"
-            "  --scene NAME|FILE      local scene (default: the announced scene id)\n"
-            "  --session NAME         session name (default: ftm)\n"
-            "  --domain N             DDS domain id (default 0)\n"
-            "  --config FILE          Cyclone DDS configuration\n"
-            "  --security DIR         DDS Security: this participant's identity and permissions\n"
-            "                         (deploy/ftm-security issue DIR NAME --role ROLE)\n"
-            "  --id N                 participant id (default: from pid and time)\n"
-            "  --name TEXT            display name, 1..63 bytes, no control characters\n"
-            "  --duration S           stop after S seconds, <= 1e9 (default 10; also when the server\n"
-            "                         leaves)\n"
-            "  --resync-timeout S     fail if not synced for S seconds (default 5)\n"
-            "  --input-period S       probe input batch period, >= 0.0001 (default 0.001)\n"
-            "  --rejoin S             when the server leaves, wait S seconds for it to restart\n"
-            "                         and rejoin it (default 0: stop)\n"
-            "  --log FILE             CSV: one line per applied frame\n");
+    if (strcmp(v, "trainee") && strcmp(v, "observer") && strcmp(v, "instructor")) {
+        snprintf(why, cap, "must be trainee, observer or instructor (got '%s')", v);
+        return -1;
+    }
+    memcpy(field, &v, sizeof v);
+    return 0;
 }
 
+#define O options
+static const ftm_option option_table[] = {
+    FTM_OPT_CUSTOM("role", "trainee|observer|instructor", O, role, parse_role,
+                   "the participant's role (required)"),
+    FTM_OPT_STRING("script", "FILE", O, script, "HIP trajectory / commands (docs/bot-script.md)"),
+    FTM_OPT_STRING("scene", "NAME|FILE", O, scene, "local scene (default: the announced scene id)"),
+    FTM_OPT_STRING("session", "NAME", O, session, "session name (default: ftm)"),
+    FTM_OPT_INT("domain", "N", O, domain, 0, FTM_OPTION_DOMAIN_MAX, "DDS domain id (default 0)"),
+    FTM_OPT_STRING("config", "FILE", O, config, "Cyclone DDS configuration"),
+    FTM_OPT_STRING("security", "DIR", O, security,
+                   "DDS Security: this participant's identity and permissions\n"
+                   "(deploy/ftm-security issue DIR NAME --role ROLE)"),
+    FTM_OPT_INT("id", "N", O, id, 0, UINT32_MAX, "participant id (default 0: from pid and time)"),
+    FTM_OPT_CUSTOM("name", "TEXT", O, name, ftm_option_parse_display_name,
+                   "display name, 1..63 bytes, no control characters"),
+    FTM_OPT_DOUBLE("duration", "S", O, duration, 0, MAX_SECONDS, FTM_OPTION_ABOVE_LO, "seconds",
+                   "stop after S seconds, <= 1e9 (default 10; also when the server\nleaves)"),
+    FTM_OPT_DOUBLE("resync-timeout", "S", O, resync_timeout, 0, MAX_SECONDS, FTM_OPTION_ABOVE_LO,
+                   "seconds", "fail if not synced for S seconds (default 5)"),
+    FTM_OPT_DOUBLE("input-period", "S", O, input_period, MIN_INPUT_PERIOD, MAX_SECONDS, 0,
+                   "seconds", "probe input batch period, >= 0.0001 (default 0.001)"),
+    FTM_OPT_DOUBLE("rejoin", "S", O, rejoin, 0, 3600, 0, "seconds",
+                   "when the server leaves, wait S seconds for it to restart\n"
+                   "and rejoin it (default 0: stop)"),
+    FTM_OPT_STRING("log", "FILE", O, log_path, "CSV: one line per applied frame"),
+    {0}};
+#undef O
+
+static const ftm_option_set option_set = {
+    "ftm-bot", "usage: ftm-bot --role trainee|observer|instructor [options]", option_table,
+    "Exit status: 0 synced at the end; 1 not synced; 2 usage or a taken id; 3 set-up;\n"
+    "4 the script did not hold (docs/bot-script.md)."};
+
+/* -1 to go on, or the exit status: 0 after --help, 2 refused. */
 static int parse(int argc, char **argv, options *o)
 {
     *o = (options){.session = "ftm", .duration = 10.0, .resync_timeout = 5.0, .input_period = 0.001};
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            usage(stdout);
-            exit(0);
-        }
-        if (i + 1 >= argc) {
-            fprintf(stderr, "ftm-bot: %s needs a value (or unknown option)\n", a);
-            return -1;
-        }
-        const char *v = argv[++i];
-        char *end = NULL;
-        long long n = 0;
-        int bad = 0; /* an integer option out of range, already said */
-        errno = 0;
-        if (strcmp(a, "--role") == 0)
-            o->role = v;
-        else if (strcmp(a, "--script") == 0)
-            o->script = v;
-        else if (strcmp(a, "--scene") == 0)
-            o->scene = v;
-        else if (strcmp(a, "--session") == 0)
-            o->session = v;
-        else if (strcmp(a, "--config") == 0)
-            o->config = v;
-        else if (strcmp(a, "--security") == 0)
-            o->security = v;
-        else if (strcmp(a, "--log") == 0)
-            o->log_path = v;
-        else if (strcmp(a, "--name") == 0) {
-            bad = ftm_option_name_arg("ftm-bot", v);
-            o->name = v;
-        }
-        else if (strcmp(a, "--domain") == 0) {
-            bad = ftm_option_int_arg("ftm-bot", a, v, 0, MAX_DOMAIN, &n);
-            o->domain = (uint32_t)n;
-        } else if (strcmp(a, "--id") == 0) {
-            bad = ftm_option_int_arg("ftm-bot", a, v, 0, UINT32_MAX, &n); /* 0: from pid and time */
-            o->id = (uint32_t)n;
-        } else if (strcmp(a, "--duration") == 0)
-            o->duration = strtod(v, &end);
-        else if (strcmp(a, "--resync-timeout") == 0)
-            o->resync_timeout = strtod(v, &end);
-        else if (strcmp(a, "--input-period") == 0)
-            o->input_period = strtod(v, &end);
-        else if (strcmp(a, "--rejoin") == 0)
-            o->rejoin = strtod(v, &end);
-        else {
-            fprintf(stderr, "ftm-bot: unknown option %s\n", a);
-            return -1;
-        }
-        if (bad)
-            return -1;
-        if (end && (*end || errno)) {
-            fprintf(stderr, "ftm-bot: %s: bad number '%s'\n", a, v);
-            return -1;
-        }
+    int rc = ftm_options_parse(&option_set, argc, argv, o, NULL, NULL);
+    if (rc == FTM_OPTIONS_HELP)
+        return 0;
+    if (rc == FTM_OPTIONS_OK && !o->role) {
+        fprintf(stderr, "ftm-bot: --role is required (trainee, observer or instructor)\n");
+        rc = FTM_OPTIONS_BAD;
     }
-    if (!o->role) {
-        fprintf(stderr, "ftm-bot: --role is required\n");
-        return -1;
-    }
-    if (!(o->duration > 0 && o->duration <= MAX_SECONDS) ||
-        !(o->resync_timeout > 0 && o->resync_timeout <= MAX_SECONDS)) {
-        fprintf(stderr, "ftm-bot: --duration and --resync-timeout must be in (0, %g] seconds "
-                        "(got %g and %g)\n", MAX_SECONDS, o->duration, o->resync_timeout);
-        return -1;
-    }
-    if (!(o->input_period >= MIN_INPUT_PERIOD && o->input_period <= MAX_SECONDS)) {
-        fprintf(stderr, "ftm-bot: --input-period must be in [%g, %g] seconds (got %g)\n",
-                MIN_INPUT_PERIOD, MAX_SECONDS, o->input_period);
-        return -1;
-    }
-    if (!(o->rejoin >= 0 && o->rejoin <= 3600)) {
-        fprintf(stderr, "ftm-bot: --rejoin must be 0..3600 seconds\n");
-        return -1;
-    }
-    return 0;
+    return rc == FTM_OPTIONS_OK ? -1 : 2;
 }
 
 /* ---- the bot ---------------------------------------------------------------------------- */
@@ -486,16 +437,9 @@ static int report(bot *b, const char *why, int rc_exit)
 /* The role and the script, checked together; 0 or the exit status 2. */
 static int setup(bot *b)
 {
-    if (strcmp(b->o.role, "trainee") == 0)
-        b->role = FTM_WIRE_ROLE_TRAINEE;
-    else if (strcmp(b->o.role, "observer") == 0)
-        b->role = FTM_WIRE_ROLE_OBSERVER;
-    else if (strcmp(b->o.role, "instructor") == 0)
-        b->role = FTM_WIRE_ROLE_INSTRUCTOR;
-    else {
-        fprintf(stderr, "ftm-bot: --role must be trainee, observer or instructor\n");
-        return 2;
-    }
+    b->role = strcmp(b->o.role, "trainee") == 0      ? FTM_WIRE_ROLE_TRAINEE
+              : strcmp(b->o.role, "observer") == 0   ? FTM_WIRE_ROLE_OBSERVER
+                                                     : FTM_WIRE_ROLE_INSTRUCTOR; /* (parse_role) */
     if (b->o.script) {
         if (ftm_script_load(b->o.script, &b->sc))
             return 2;
@@ -540,11 +484,10 @@ int main(int argc, char **argv)
     static bot bb;
     bot *b = &bb;
     g_t0 = ftm_clock_mono_ns();
-    if (parse(argc, argv, &b->o)) {
-        usage(stderr);
-        return 2;
-    }
-    int rc = setup(b);
+    int rc = parse(argc, argv, &b->o);
+    if (rc >= 0)
+        return rc;
+    rc = setup(b);
     if (rc) {
         ftm_script_free(&b->sc);
         return rc;

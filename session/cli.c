@@ -5,32 +5,6 @@
 #include <string.h>
 #include <sys/stat.h>
 
-int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
-                       long long hi, long long *out)
-{
-    if (ftm_option_int(v, strlen(v), lo, hi, out))
-        return 0;
-    fprintf(stderr, "%s: %s must be an integer in %lld..%lld (got '%s')\n", program, opt, lo, hi,
-            v);
-    return -1;
-}
-
-int ftm_option_name_arg(const char *program, const char *v)
-{
-    const size_t n = strlen(v);
-    if (n == 0 || n > 63) {
-        fprintf(stderr, "%s: --name must be 1..63 bytes (got %zu)\n", program, n);
-        return -1;
-    }
-    for (size_t i = 0; i < n; i++)
-        if ((unsigned char)v[i] < 0x20 || (unsigned char)v[i] == 0x7f) {
-            fprintf(stderr, "%s: --name has control character 0x%02x at byte %zu\n", program,
-                    (unsigned char)v[i], i);
-            return -1;
-        }
-    return 0;
-}
-
 int ftm_option_parse_display_name(const ftm_option *o, const char *v, void *field, char *why,
                                   size_t cap)
 {

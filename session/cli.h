@@ -20,11 +20,6 @@
 int ftm_option_parse_display_name(const ftm_option *o, const char *v, void *field, char *why,
                                   size_t cap);
 
-/* (the hand-written parsers' checks, until they take the option table) */
-int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
-                       long long hi, long long *out);
-int ftm_option_name_arg(const char *program, const char *v);
-
 /* A file a program reads or writes, with the option that names it. */
 typedef struct ftm_option_path {
     const char *opt, *path;
