@@ -3,7 +3,7 @@
  * session would be is printed: exit 0 if it would start, 3 if not. For an
  * ExecStartPre= of the service and for whoever writes its options. */
 #define _GNU_SOURCE /* pthread_setaffinity_np */
-#include "server_internal.h"
+#include "rooms.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -14,14 +14,6 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-/* The metrics' address as a URL: http://127.0.0.1:N/metrics, IPv6 in brackets. */
-void srv_metrics_url(const ftm_server_def *o, char *buf, size_t cap)
-{
-    bool v6 = strchr(o->metrics_addr, ':') != NULL;
-    snprintf(buf, cap, "http://%s%s%s:%d/metrics", v6 ? "[" : "", o->metrics_addr, v6 ? "]" : "",
-             (int)o->metrics_port);
-}
 
 /* Whether a file may be created in the directory of `path` (dir: path is the
  * directory itself); a reason in `why` if not. */

@@ -1,7 +1,7 @@
 /* The instructor's session control (docs/server.md, Roles): pause, resume,
  * reset, depth limits and tissue parameters, each answered with a
  * ControlReply to its issuer (docs/protocol.md). */
-#include "server_internal.h"
+#include "rooms.h"
 
 #include <inttypes.h>
 #include <stdarg.h>

@@ -2,7 +2,7 @@
  * from bot scripts on the tick clock, the reference of the session tests;
  * --inputs and --replay's second pass feed a recording's inputs through the
  * same handlers and tick logic as a live session. */
-#include "server_internal.h"
+#include "rooms.h"
 #include "script.h"
 
 #include "ftm/options.h"
@@ -33,7 +33,7 @@ static void feed_input(server *s, feed *f, const ftm_record_entry *e)
     while (s->tk.tick < e->tick)
         srv_run_tick(s);
     f->inputs++;
-    /* --inputs --record: as srv_drain records them, before handling */
+    /* --inputs --record: as the loop records them (server.c), before handling */
     srv_record_entry(s, true, e->kind, e->sender, e->payload, e->size, e->gone, e->lost);
     if (e->lost) {
         participant *p = srv_find_part(s, e->sender, false);

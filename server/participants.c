@@ -1,8 +1,8 @@
-/* Who is in the session (server_internal.h, participants.c): the table of
+/* Who is in the session (rooms.h, participants.c): the table of
  * participants from their statuses, their probe input, and whose messages
  * are heard at all: one process per id, one server per session
  * (docs/server.md, Roles). */
-#include "server_internal.h"
+#include "rooms.h"
 
 #include <inttypes.h>
 #include <stdlib.h>
@@ -198,12 +198,13 @@ void srv_on_probe_input(server *s, ftm_wire_received *rx)
 }
 
 /* Another ftm-server's status on this session: every participant would
- * follow two streams of frames. The one that started later stops (exit 3):
+ * follow two streams of frames. The one that started later stops (exit 3;
+ * displaced):
  * at the same rate it has run fewer ticks than the other's status, which is
  * at most a status period old, so the older one never finds itself behind. */
 static void other_server(server *s, const ftm_wire_status *st)
 {
-    if (s->stopping)
+    if (s->stopping || s->parts.displaced)
         return;
     if (s->tk.tick < st->last_applied_tick) {
         srv_log(s, "error",
@@ -217,7 +218,7 @@ static void other_server(server *s, const ftm_wire_status *st)
         ftm_error err = {0, ""};
         if (ftm_wire_wait_matched(s->pub.wire, FTM_WIRE_STATUS, 1, 1000000000LL, &err))
             srv_log(s, "warn", "the other server did not match our status in 1 s: %s", err.message);
-        srv_shutdown(s, "another server serves the session");
+        /* (the loop shuts down when this drain is over) */
     } else if (!s->parts.other_server_told) {
         srv_log(s, "error",
                 "another ftm-server ('%s', at tick %" PRIu64 ") joined session '%s' on domain %u; "
@@ -233,7 +234,7 @@ static void other_server(server *s, const ftm_wire_status *st)
  * probe jumping between them. The server's own id is no participant's, and
  * another server's status stops one of the two (other_server). What is not
  * listened to is not recorded either, so a replay sees what the session did. */
-static bool admit(server *s, int kind, const ftm_wire_received *rx)
+bool srv_admit(server *s, int kind, const ftm_wire_received *rx)
 {
     if (kind == FTM_WIRE_STATUS && !rx->gone &&
         rx->msg.u.status.role == FTM_WIRE_ROLE_SERVER) {
@@ -260,35 +261,6 @@ static bool admit(server *s, int kind, const ftm_wire_received *rx)
                 p->id, ftm_wire_role_name(p->role), p->name, ftm_wire_kind_name(kind),
                 p->impostor_msgs);
     return false;
-}
-
-void srv_drain(server *s)
-{
-    static const int kinds[3] = {FTM_WIRE_STATUS, FTM_WIRE_CONTROL, FTM_WIRE_PROBE_INPUT};
-    for (int k = 0; k < 3; k++)
-        for (int n = 0; n < 256; n++) {
-            ftm_wire_received rx;
-            if (ftm_wire_receive(s->pub.wire, kinds[k], &rx, 0, NULL) != FTM_OK)
-                break;
-            if (!admit(s, kinds[k], &rx)) {
-                ftm_wire_received_free(&rx);
-                continue;
-            }
-            if (s->rec.w) { /* re-encoded from the decoded message */
-                uint8_t *buf = NULL;
-                size_t size = 0;
-                if (rx.gone || ftm_wire_encode(&rx.msg, &buf, &size, NULL) == FTM_OK)
-                    srv_record_entry(s, true, kinds[k], rx.sender, buf, size, rx.gone, false);
-                free(buf);
-            }
-            if (kinds[k] == FTM_WIRE_STATUS)
-                srv_on_status(s, &rx);
-            else if (kinds[k] == FTM_WIRE_CONTROL)
-                srv_on_control(s, &rx);
-            else
-                srv_on_probe_input(s, &rx);
-            ftm_wire_received_free(&rx);
-        }
 }
 
 /* Statuses come every 500 ms (docs/protocol.md): a participant silent for

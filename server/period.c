@@ -3,7 +3,7 @@
  * snapshot (metrics.h) and --control-log. Runs on the loop thread between
  * ticks, so a new depth applies from the next tick and goes out in its
  * frame. */
-#include "server_internal.h"
+#include "rooms.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -24,6 +24,14 @@ int srv_period_setup(server *s, ftm_error *err)
     ftm_depth_ctl_default(&cdef, floor, depth, 1e9 / s->o.rate);
     cdef.hold_up_ns = (int64_t)(s->o.depth_hold_up * 1e9);
     return ftm_depth_ctl_init(&s->per.ctl, &cdef, err);
+}
+
+/* The metrics' address as a URL: http://127.0.0.1:N/metrics, IPv6 in brackets. */
+void srv_metrics_url(const ftm_server_def *o, char *buf, size_t cap)
+{
+    bool v6 = strchr(o->metrics_addr, ':') != NULL;
+    snprintf(buf, cap, "http://%s%s%s:%d/metrics", v6 ? "[" : "", o->metrics_addr, v6 ? "]" : "",
+             (int)o->metrics_port);
 }
 
 int srv_period_start(server *s)

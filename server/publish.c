@@ -1,7 +1,7 @@
 /* What the server publishes (docs/protocol.md): announcements, its
  * statuses, tick frames (unless idle) and keyframes. Each is encoded here,
  * counted and recorded, and queued for ftm_wire's publishing thread. */
-#include "server_internal.h"
+#include "rooms.h"
 #include "keyframe.h"
 #include "step.h"
 

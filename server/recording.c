@@ -1,7 +1,7 @@
 /* The session's recording (record.h, docs/server.md "Recording and
  * replay"), its report (report.h, --report) and --reactions: what a run
  * leaves behind. A write error stops the recording, not the session. */
-#include "server_internal.h"
+#include "rooms.h"
 
 #include <errno.h>
 #include <fcntl.h>

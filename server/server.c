@@ -1,7 +1,7 @@
 /* ftm-server: the authoritative session server (docs/server.md).
  *
  * This file keeps the server's lifetime: set-up from its definition, the
- * libuv loop and its end; the rooms it runs are in server_internal.h. One
+ * libuv loop and its end; the rooms it runs are in rooms.h. One
  * thread for everything but DDS writes (ftm_wire's publishing thread does
  * those): a 1 ms timer runs the ticks that are due by the monotonic clock,
  * after draining received status, probe input and session control without
@@ -11,7 +11,7 @@
  * heartbeat frame every 100 ms). */
 #define _GNU_SOURCE /* sched_getcpu, pthread_setaffinity_np */
 #include "record_replay.h"
-#include "server_internal.h"
+#include "rooms.h"
 
 #include "ftm/options.h"
 
@@ -25,36 +25,52 @@
 #include <stdlib.h>
 #include <string.h>
 
-void srv_log(server *s, const char *level, const char *fmt, ...)
-{
-    char buf[1024];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(buf, sizeof buf, fmt, ap);
-    va_end(ap);
-    double t = (double)(srv_now() - s->t_start_ns) * 1e-9;
-    fprintf(stderr, "ftm-server [%8.3f] %s: %s\n", t, level, buf);
-    if (s->logf) {
-        fprintf(s->logf, "[%8.3f] %s: %s\n", t, level, buf);
-        fflush(s->logf);
-    }
-}
-
-void srv_log_hook(void *user, ftm_log_level level, const char *message)
-{
-    server *s = user; /* every hook is registered with its server */
-    static const char *const names[] = {"debug", "info", "warn", "error"};
-    srv_log(s, names[level < 4 ? level : 3], "%s", message);
-}
-
 /* ---- the loop ------------------------------------------------------------------------ */
+
+static void shutdown_loop(server *s, const char *why);
+
+/* What arrived since the last turn, each kind at most 256: statuses,
+ * session control, probe input. What is heard (srv_admit) is recorded, then
+ * handled, as --inputs and --replay handle it again (offline.c). */
+static void drain(server *s)
+{
+    static const int kinds[3] = {FTM_WIRE_STATUS, FTM_WIRE_CONTROL, FTM_WIRE_PROBE_INPUT};
+    for (int k = 0; k < 3; k++)
+        for (int n = 0; n < 256; n++) {
+            ftm_wire_received rx;
+            if (ftm_wire_receive(s->pub.wire, kinds[k], &rx, 0, NULL) != FTM_OK)
+                break;
+            if (!srv_admit(s, kinds[k], &rx)) {
+                ftm_wire_received_free(&rx);
+                continue;
+            }
+            if (s->rec.w) { /* re-encoded from the decoded message */
+                uint8_t *buf = NULL;
+                size_t size = 0;
+                if (rx.gone || ftm_wire_encode(&rx.msg, &buf, &size, NULL) == FTM_OK)
+                    srv_record_entry(s, true, kinds[k], rx.sender, buf, size, rx.gone, false);
+                free(buf);
+            }
+            if (kinds[k] == FTM_WIRE_STATUS)
+                srv_on_status(s, &rx);
+            else if (kinds[k] == FTM_WIRE_CONTROL)
+                srv_on_control(s, &rx);
+            else
+                srv_on_probe_input(s, &rx);
+            ftm_wire_received_free(&rx);
+        }
+}
 
 static void on_tick_timer(uv_timer_t *h)
 {
     server *s = h->data;
     if (s->stopping)
         return;
-    srv_drain(s);
+    drain(s);
+    if (s->parts.displaced) {
+        shutdown_loop(s, "another server serves the session");
+        return;
+    }
     srv_control_period(s);
     if (!s->tk.paused)
         srv_run_due_ticks(s);
@@ -73,7 +89,7 @@ static void on_status_timer(uv_timer_t *h)
     srv_check_statuses(s);
 }
 
-void srv_shutdown(server *s, const char *why)
+static void shutdown_loop(server *s, const char *why)
 {
     if (s->stopping)
         return;
@@ -100,10 +116,10 @@ void srv_shutdown(server *s, const char *why)
 
 static void on_signal(uv_signal_t *h, int signum)
 {
-    srv_shutdown(h->data, signum == SIGINT ? "SIGINT" : "SIGTERM");
+    shutdown_loop(h->data, signum == SIGINT ? "SIGINT" : "SIGTERM");
 }
 
-static void on_stop_timer(uv_timer_t *h) { srv_shutdown(h->data, "duration reached"); }
+static void on_stop_timer(uv_timer_t *h) { shutdown_loop(h->data, "duration reached"); }
 
 /* The loop of this server (a loop of its own, not libuv's default one)
  * until SIGINT, SIGTERM, --duration or another server stops it. */
@@ -200,7 +216,12 @@ static int setup(server *s)
         srv_log(s, "error", "scene digest: out of memory");
         return 3;
     }
-    return srv_tick_setup(s);
+    int rc = srv_tick_setup(s);
+    if (rc == 0 && srv_period_setup(s, &err)) {
+        srv_log(s, "error", "%s", err.message);
+        rc = 2;
+    }
+    return rc;
 }
 
 /* --offline, --inputs, --replay's second pass: no DDS, no clock. */

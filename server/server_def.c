@@ -3,7 +3,7 @@
 #define _GNU_SOURCE /* CPU_SETSIZE */
 #include "cli.h"
 #include "depth_ctl.h"
-#include "server_internal.h"
+#include "rooms.h"
 
 #include "ftm/options.h"
 

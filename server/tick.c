@@ -2,7 +2,7 @@
  * contacts by point collision with the deformed surface (collide.h), the
  * simulation steps exactly as every replica will (ftm_replay_step), the
  * reactions go into the frame, the report and --reactions. */
-#include "server_internal.h"
+#include "rooms.h"
 #include "step.h"
 
 #include <inttypes.h>
@@ -328,10 +328,6 @@ int srv_tick_setup(server *s)
         return 2;
     }
     ftm_error err = {0, ""};
-    if (srv_period_setup(s, &err)) {
-        srv_log(s, "error", "%s", err.message);
-        return 2;
-    }
     tk->mat.scene = s->scene;
     if (ftm_sim_create(s->mesh, &def, &tk->sim, &err) ||
         ftm_collide_create(s->mesh, &tk->collide, &err)) {

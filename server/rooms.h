@@ -4,7 +4,7 @@
  * every function takes the server it works for, so that one process can
  * run a server after another (the session fuzz target does).
  *
- *   server.c        the lifetime: set-up, the libuv loop, the end
+ *   server.c        the lifetime: set-up, the libuv loop and what it drains, the end
  *   server_def.c    options: defaults, the option table, their checks
  *   participants.c  who is in the session: statuses, probe input, ids
  *   commands.c      the instructor's session control and its replies
@@ -14,9 +14,14 @@
  *   recording.c     the session recording and report
  *   offline.c       runs without DDS: --offline, --inputs, --replay's inputs
  *   check.c         --check: what a session would be, and whether it starts
+ *   log.c           the log
+ *
+ * Each room calls only rooms below it: server.c; offline.c, check.c;
+ * commands.c; participants.c, tick.c, period.c; publish.c; recording.c;
+ * log.c. What they share otherwise is state, through the server struct.
  */
-#ifndef FTM_SERVER_INTERNAL_H
-#define FTM_SERVER_INTERNAL_H
+#ifndef FTM_SERVER_ROOMS_H
+#define FTM_SERVER_ROOMS_H
 
 #include "collide.h"
 #include "depth_ctl.h"
@@ -202,10 +207,10 @@ typedef struct server {
     uint64_t loop_start_ns, stop_ns;
 } server;
 
-/* server.c */
+/* log.c */
 void srv_log(server *s, const char *level, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 void srv_log_hook(void *user, ftm_log_level level, const char *message);
-void srv_shutdown(server *s, const char *why);
+
 
 /* server_def.c: an output that is an existing directory (opt names it), or NULL */
 const char *ftm_server_output_dir(const ftm_server_def *def, const char **opt);
@@ -216,7 +221,8 @@ void srv_release_probes(participant *p);
 void srv_on_status(server *s, ftm_wire_received *rx);
 void srv_on_probe_input(server *s, ftm_wire_received *rx);
 void srv_reject(server *s, participant *p, uint32_t id, const char *what, const char *why);
-void srv_drain(server *s);
+/* whether a message is heard: one process per id, one server per session */
+bool srv_admit(server *s, int kind, const ftm_wire_received *rx);
 void srv_check_statuses(server *s);
 
 /* commands.c */
@@ -252,6 +258,7 @@ int srv_period_setup(server *s, ftm_error *err);
 /* a session's --control-log and metrics; 0, or 3 after saying why not */
 int srv_period_start(server *s);
 int srv_period_stop(server *s); /* 0, or 3 if the control log failed */
+void srv_metrics_url(const ftm_server_def *o, char *buf, size_t cap);
 void srv_control_period(server *s);
 
 /* recording.c */
@@ -270,6 +277,5 @@ int srv_replay_inputs(server *s);
 
 /* check.c */
 int srv_check_setup(server *s);
-void srv_metrics_url(const ftm_server_def *o, char *buf, size_t cap);
 
 #endif
