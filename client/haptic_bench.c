@@ -429,7 +429,7 @@ static int make_truth(const options *o, truth *tr)
         ftm_script_device_position(path, k * tr->h, &hip);
         tr->x[k] = hip;
         const double *x = ftm_sim_positions(sim);
-        /* server/server.c probe_contacts: sticky contact on the collided
+        /* server/tick.c probe_contacts: sticky contact on the collided
          * triangle, released when the HIP is back on the side it came from */
         if (contact) {
             if (vdot(vsub(hip, anchor), normal) >= 0.0)
@@ -470,7 +470,7 @@ static int make_truth(const options *o, truth *tr)
         tr->contact[k] = contact;
         if (contact) {
             tr->f[k] = ftm_sim_reaction(sim, 0);
-            /* exactly what the server sends (server/server.c run_tick) */
+            /* exactly what the server sends (server/tick.c fill_reactions) */
             if (ftm_sim_contact_stiffness(sim, 0, tr->K + 9 * k) > 0) {
                 ftm_stiffness_make_passive(tr->K + 9 * k);
                 double S[9];
