@@ -19,6 +19,7 @@ packages=(
   zlib1g-dev                                      # libftm: .nii.gz volumes (optional)
   gnuplot-nox                                     # benchmark plots in docs/
   libsuitesparse-dev                              # FEM reference (CHOLMOD)
+  calculix-ccx                                    # CalculiX: re-runs the FEM references (tests/calculix)
   cyclonedds-dev cyclonedds-tools                 # DDS transport, idlc, ddsperf
   libddsc0debian                                  # DDS Security plugins (--security)
   openssl libssl-dev                              # deploy/ftm-security; bundle checks in ftm_wire
@@ -29,6 +30,7 @@ packages=(
   xvfb xauth                                      # headless X server for client tests
   python3                                         # test scripts' checks, ftm-plot-forces' names
   iproute2                                        # test_two_hosts: network namespaces, veth
+  tcpdump                                         # test_net_secure_capture: what a listener records
 )
 
 missing=()

@@ -7,6 +7,7 @@
  *   ft-springs D      force transmittal, springs, penetration depth D
  *   ft-fem D          force transmittal, linear FEM element forces, depth D
  *   ft-corot max      force transmittal, co-rotational element forces, full depth
+ *   ft-neo max        force transmittal, neo-Hookean element forces, full depth
  *   explicit-springs  plain explicit central differences, every node at once (Jacobi)
  *   implicit-springs  linearised backward Euler (Baraff-Witkin), CHOLMOD per step
  *   fem-cholmod       the linear FEM itself: one prefactored solve per load
@@ -82,7 +83,7 @@ typedef struct options {
     int32_t max_steps;
     double be_step;
     bool be_newton; /* implicit-newton on the organ too (always on the cube) */
-    bool corot;     /* ft-corot on the organ too (always on the cube) */
+    bool corot;     /* ft-corot and ft-neo on the organ too (always on the cube) */
     bool json, cube, organ, verbose;
     const char *save;
     int32_t depths[16];
@@ -565,7 +566,8 @@ static int run_ft(const body *bd, ftm_forces forces, int32_t depth, const option
     snprintf(r->method, sizeof r->method, "%s",
              forces == FTM_FORCES_SPRINGS     ? "ft-springs"
              : forces == FTM_FORCES_LINEAR_FEM ? "ft-fem"
-                                               : "ft-corot");
+             : forces == FTM_FORCES_COROT_FEM  ? "ft-corot"
+                                               : "ft-neo");
     free(nodes);
     free(xinf);
     free(samples);
@@ -937,7 +939,7 @@ static void usage(FILE *f)
             "               own equilibrium (default 1e-3)\n"
             "  --be-step    backward-Euler time step in s (default 0.01)\n"
             "  --newton     implicit-newton (refactorise every step) on the organ too\n"
-            "  --corot      ft-corot on the organ too (slow)\n"
+            "  --corot      ft-corot and ft-neo on the organ too (slow)\n"
             "  --max-steps  step cap per run (default 2000000)\n"
             "  --json       print {\"meshes\":[...],\"rows\":[{\"mesh\",\"method\",\"depth\",\"nodes\",\"h\",\n"
             "               \"step_us\",\"steps\",\"time_s\",\"setup_s\",\"wall_s\",\"error\",\"converged\"}]}\n"
@@ -986,10 +988,12 @@ static int run_body(body *b, const options *o, row *rows, int *nrows, FILE *prog
         }
     row *r = &rows[(*nrows)];
     int rc;
-    if (strcmp(b->name, "cube") == 0 || o->corot) {
+    for (int k = 0; k < 2 && (strcmp(b->name, "cube") == 0 || o->corot); k++) {
+        r = &rows[(*nrows)];
         memset(r, 0, sizeof *r);
         r->mesh = b->name;
-        if ((rc = run_ft(b, FTM_FORCES_COROT_FEM, b->max_depth, o, r)) != FTM_OK)
+        ftm_forces f = k ? FTM_FORCES_NEO_HOOKEAN : FTM_FORCES_COROT_FEM;
+        if ((rc = run_ft(b, f, b->max_depth, o, r)) != FTM_OK)
             return rc;
         (*nrows)++;
         print_row(progress, r);

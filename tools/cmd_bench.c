@@ -20,6 +20,7 @@ static const struct {
 #endif
 #ifdef FTM_HAVE_FEM
     {"accuracy", ftm_bench_accuracy, "run time against error to equilibrium vs the FEM reference"},
+    {"feel", ftm_bench_feel, "what a trainee feels: force and dent per model, far field, depth"},
 #endif
 };
 

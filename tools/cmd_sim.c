@@ -153,8 +153,11 @@ static int parse_options(int argc, char **argv, sim_options *o)
 static void log_to_stderr(void *user, ftm_log_level level, const char *message)
 {
     (void)user;
-    if (level >= FTM_LOG_WARN)
-        fprintf(stderr, "ftm: %s: %s\n", level >= FTM_LOG_ERROR ? "error" : "warning", message);
+    /* (the core's info: the far field's precomputation, its progress and cache) */
+    if (level >= FTM_LOG_INFO)
+        fprintf(stderr, "ftm: %s: %s\n",
+                level >= FTM_LOG_ERROR ? "error" : level >= FTM_LOG_WARN ? "warning" : "info",
+                message);
 }
 
 static const char *order_name(ftm_order order)
@@ -297,8 +300,9 @@ static void print_json(FILE *out, const summary *s, const ftm_sim *sim, const in
     json_number(out, s->wall);
     fputs(", \"steps_per_s\": ", out);
     json_number(out, s->wall > 0 ? s->steps / s->wall : NAN);
-    fprintf(out, ", \"region_nodes\": %d, \"layers\": %d, \"relaxing_nodes\": %d",
-            (int)s->stats.region_nodes, (int)s->stats.layers, (int)s->stats.relaxing_nodes);
+    fprintf(out, ", \"region_nodes\": %d, \"layers\": %d, \"relaxing_nodes\": %d, \"far_nodes\": %d",
+            (int)s->stats.region_nodes, (int)s->stats.layers, (int)s->stats.relaxing_nodes,
+            (int)s->stats.far_nodes);
     fputs(", \"max_displacement\": ", out);
     json_number(out, s->max_disp);
     fprintf(out, ", \"max_displacement_node\": %d, \"reactions\": [", (int)s->max_node);
@@ -345,6 +349,9 @@ static void print_human(FILE *out, const summary *s, const ftm_sim *sim, const i
     fprintf(out, "region           %d nodes in %d layers%s\n", (int)s->stats.region_nodes,
             (int)s->stats.layers, s->stats.region_sleeping ? " (sleeping)" : "");
     fprintf(out, "relaxing nodes   %d\n", (int)s->stats.relaxing_nodes);
+    if (s->stats.far_nodes > 0)
+        fprintf(out, "far field        %d nodes beyond the region placed elastically\n",
+                (int)s->stats.far_nodes);
     if (s->max_node >= 0)
         fprintf(out, "max displacement %.6g m at node %d\n", s->max_disp, (int)s->max_node);
     for (int32_t i = 0; i < group_count; i++) {
@@ -452,7 +459,7 @@ int ftm_cmd_sim(int argc, char **argv)
     s.links = ftm_mesh_link_count(mesh);
     s.triangles = ftm_mesh_triangle_count(mesh);
     s.h = def.time_step;
-    s.h_crit = ftm_mesh_critical_time_step(mesh);
+    s.h_crit = ftm_sim_critical_time_step(sim); /* of the forces it runs: springs or elements */
     s.depth = def.depth;
     s.order = def.order;
     s.steps = o.steps >= 0 ? (int32_t)o.steps : ftm_scene_steps(scene);
@@ -482,8 +489,9 @@ int ftm_cmd_sim(int argc, char **argv)
         rc = ftm_sim_step(sim);
         if (rc == FTM_EUNSTABLE) {
             fprintf(stderr,
-                    "ftm sim: %s: step %d (t = %.6g s): the integration diverged even with "
-                    "%d substeps; use a smaller time_step (critical %.6g s)\n",
+                    "ftm sim: %s: step %d (t = %.6g s): the integration diverged (or an "
+                    "element inverted) even with %d substeps; use a smaller time_step "
+                    "(critical %.6g s) or a gentler load\n",
                     s.scene, (int)step, t, (int)def.max_substeps, s.h_crit);
             status = EXIT_UNSTABLE;
             goto done;

@@ -17,12 +17,12 @@ ftm_fem_material ftm_default_fem_material(void)
 int ftm_fem_check_material(const ftm_fem_material *m, const char *what, ftm_error *err)
 {
     if (!m)
-        return ftm_fem_fail(err, FTM_EINVAL, "%s: no material", what);
+        return ftm_error_set(err, FTM_EINVAL, "%s: no material", what);
     if (!isfinite(m->young) || !(m->young > 0))
-        return ftm_fem_fail(err, FTM_EINVAL, "%s: Young's modulus must be > 0, got %g", what,
+        return ftm_error_set(err, FTM_EINVAL, "%s: Young's modulus must be > 0, got %g", what,
                             m->young);
     if (!isfinite(m->poisson) || !(m->poisson > -1.0) || !(m->poisson < 0.5))
-        return ftm_fem_fail(err, FTM_EINVAL,
+        return ftm_error_set(err, FTM_EINVAL,
                             "%s: Poisson's ratio must be > -1 and < 0.5, got %g", what,
                             m->poisson);
     return FTM_OK;

@@ -42,18 +42,6 @@ struct ftm_fem {
     ftm_fem_stats stats;
 };
 
-int ftm_fem_fail(ftm_error *err, int code, const char *fmt, ...)
-{
-    if (err) {
-        err->code = code;
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err->message, sizeof err->message, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
-
 static void logf_(const ftm_fem_def *def, const char *fmt, ...)
 {
     if (!def->log)
@@ -189,7 +177,7 @@ oom:
     free(elist);
     free(mark);
     free(count);
-    return ftm_fem_fail(err, FTM_ENOMEM, "ftm_fem_create: out of memory");
+    return ftm_error_set(err, FTM_ENOMEM, "ftm_fem_create: out of memory");
 }
 
 /* Position of block (i, j) in the compressed rows (j must be in the pattern). */
@@ -247,7 +235,7 @@ static int assemble(ftm_fem *fem, const ftm_fem_def *def, const elements *el, ft
         double min_det = 0;
         if (ftm_fem_hex_stiffness(x, m, ke, &min_det) != FTM_OK) {
             describe_nodes(mesh, v, 8, nodes, sizeof nodes);
-            return ftm_fem_fail(err, FTM_EINVAL,
+            return ftm_error_set(err, FTM_EINVAL,
                                 "hexahedron %d (input nodes %s) is inverted or degenerate: "
                                 "Jacobian determinant %g at a Gauss point (must be > 0; nodes "
                                 "go bottom face counter-clockwise seen from above, then top)",
@@ -266,7 +254,7 @@ static int assemble(ftm_fem *fem, const ftm_fem_def *def, const elements *el, ft
         const ftm_fem_material *m = def->tet_materials ? &def->tet_materials[t] : &def->material;
         if (ftm_fem_tet_stiffness(x, m, ke, &vol) != FTM_OK) {
             describe_nodes(mesh, v, 4, nodes, sizeof nodes);
-            return ftm_fem_fail(err, FTM_EINVAL,
+            return ftm_error_set(err, FTM_EINVAL,
                                 "tetrahedron %d (input nodes %s) is degenerate (volume %g)",
                                 (int)t, nodes, vol);
         }
@@ -282,7 +270,7 @@ static int assemble(ftm_fem *fem, const ftm_fem_def *def, const elements *el, ft
         ftm_fem_tet_stiffness(x, m, ke, &vol);
         if ((vol > 0) != majority_positive) {
             describe_nodes(mesh, v, 4, nodes, sizeof nodes);
-            return ftm_fem_fail(err, FTM_EINVAL,
+            return ftm_error_set(err, FTM_EINVAL,
                                 "tetrahedron %d (input nodes %s) is inverted: signed volume %g, "
                                 "but %d of the mesh's %d tetrahedra have the other orientation",
                                 (int)t, nodes, vol,
@@ -315,13 +303,13 @@ static int factorise(ftm_fem *fem, const ftm_fem_def *def, ftm_error *err)
                 }
         }
     if (nnz >= INT_MAX)
-        return ftm_fem_fail(err, FTM_ERANGE,
+        return ftm_error_set(err, FTM_ERANGE,
                             "ftm_fem_create: %lld stiffness entries exceed CHOLMOD's int range",
                             (long long)nnz);
     cholmod_sparse *a =
         cholmod_allocate_sparse((size_t)nf, (size_t)nf, (size_t)nnz, 1, 1, 1, CHOLMOD_REAL, c);
     if (!a)
-        return ftm_fem_fail(err, FTM_ENOMEM, "ftm_fem_create: CHOLMOD out of memory");
+        return ftm_error_set(err, FTM_ENOMEM, "ftm_fem_create: CHOLMOD out of memory");
     int *ap = a->p, *ai = a->i;
     double *ax = a->x;
     int64_t k = 0;
@@ -354,15 +342,15 @@ static int factorise(ftm_fem *fem, const ftm_fem_def *def, ftm_error *err)
     fem->factor = cholmod_analyze(a, c);
     int rc = FTM_OK;
     if (!fem->factor) {
-        rc = ftm_fem_fail(err, c->status == CHOLMOD_OUT_OF_MEMORY ? FTM_ENOMEM : FTM_EINVAL,
+        rc = ftm_error_set(err, c->status == CHOLMOD_OUT_OF_MEMORY ? FTM_ENOMEM : FTM_EINVAL,
                           "ftm_fem_create: CHOLMOD analysis failed (status %d)", c->status);
     } else {
         int ok = cholmod_factorize(a, fem->factor, c);
         if (!ok || c->status == CHOLMOD_OUT_OF_MEMORY) {
-            rc = ftm_fem_fail(err, FTM_ENOMEM, "ftm_fem_create: CHOLMOD factorisation failed "
+            rc = ftm_error_set(err, FTM_ENOMEM, "ftm_fem_create: CHOLMOD factorisation failed "
                                                "(status %d)", c->status);
         } else if (c->status == CHOLMOD_NOT_POSDEF) {
-            rc = ftm_fem_fail(err, FTM_EINVAL,
+            rc = ftm_error_set(err, FTM_EINVAL,
                               "stiffness matrix is not positive definite (pivot %d of %lld): "
                               "unconstrained body or mechanism; fix enough nodes or dofs to "
                               "stop rigid motion",
@@ -371,7 +359,7 @@ static int factorise(ftm_fem *fem, const ftm_fem_def *def, ftm_error *err)
             double rcond = cholmod_rcond(fem->factor, c);
             fem->stats.rcond = rcond;
             if (!(rcond > FEM_RCOND_SINGULAR))
-                rc = ftm_fem_fail(err, FTM_EINVAL,
+                rc = ftm_error_set(err, FTM_EINVAL,
                                   "stiffness matrix is singular (pivot ratio %.3g): "
                                   "unconstrained body or mechanism; fix enough nodes or dofs to "
                                   "stop rigid motion",
@@ -389,7 +377,7 @@ static int factorise(ftm_fem *fem, const ftm_fem_def *def, ftm_error *err)
         fem->work = malloc((size_t)nf * sizeof *fem->work);
         fem->first = malloc((size_t)nf * sizeof *fem->first);
         if (!fem->rhs || !fem->work || !fem->first)
-            rc = ftm_fem_fail(err, FTM_ENOMEM, "ftm_fem_create: out of memory");
+            rc = ftm_error_set(err, FTM_ENOMEM, "ftm_fem_create: out of memory");
     }
     cholmod_free_sparse(&a, c);
     return rc;
@@ -421,16 +409,16 @@ void ftm_fem_destroy(ftm_fem *fem)
 int ftm_fem_create(const ftm_mesh *mesh, const ftm_fem_def *def, ftm_fem **out, ftm_error *err)
 {
     if (!mesh || !def || !out)
-        return ftm_fem_fail(err, FTM_EINVAL, "ftm_fem_create: NULL argument");
+        return ftm_error_set(err, FTM_EINVAL, "ftm_fem_create: NULL argument");
     elements el = {ftm_mesh_hexahedra(mesh), ftm_mesh_tetrahedra(mesh),
                    ftm_mesh_hexahedron_count(mesh), ftm_mesh_tetrahedron_count(mesh)};
     int32_t n = ftm_mesh_node_count(mesh);
     if (el.nh + (int64_t)el.nt == 0)
-        return ftm_fem_fail(err, FTM_EINVAL,
+        return ftm_error_set(err, FTM_EINVAL,
                             "mesh has no hexahedra or tetrahedra: the FEM needs a volume mesh "
                             "(a lattice3d or a tetrahedral mesh file)");
     if ((int64_t)el.nh + el.nt > INT32_MAX || 3 * (int64_t)n >= INT_MAX)
-        return ftm_fem_fail(err, FTM_ERANGE, "ftm_fem_create: mesh too large");
+        return ftm_error_set(err, FTM_ERANGE, "ftm_fem_create: mesh too large");
     /* materials first: the cheapest checks with the clearest messages */
     char what[64];
     int rc = ftm_fem_check_material(&def->material, "material", err);
@@ -447,7 +435,7 @@ int ftm_fem_create(const ftm_mesh *mesh, const ftm_fem_def *def, ftm_fem **out, 
 
     ftm_fem *fem = calloc(1, sizeof *fem);
     if (!fem)
-        return ftm_fem_fail(err, FTM_ENOMEM, "ftm_fem_create: out of memory");
+        return ftm_error_set(err, FTM_ENOMEM, "ftm_fem_create: out of memory");
     fem->mesh = mesh;
     fem->nodes = n;
     fem->stats.nodes = n;
@@ -466,7 +454,7 @@ int ftm_fem_create(const ftm_mesh *mesh, const ftm_fem_def *def, ftm_fem **out, 
     if (rc == FTM_OK) {
         fem->reduced = malloc(3 * (size_t)n * sizeof *fem->reduced);
         if (!fem->reduced)
-            rc = ftm_fem_fail(err, FTM_ENOMEM, "ftm_fem_create: out of memory");
+            rc = ftm_error_set(err, FTM_ENOMEM, "ftm_fem_create: out of memory");
     }
     for (int32_t i = 0; rc == FTM_OK && i < n; i++) {
         bool fixed = ftm_mesh_fixed(mesh, i);
@@ -477,7 +465,7 @@ int ftm_fem_create(const ftm_mesh *mesh, const ftm_fem_def *def, ftm_fem **out, 
                 fem->constrained++;
             } else {
                 if (elem_count[i] == 0) {
-                    rc = ftm_fem_fail(err, FTM_EINVAL,
+                    rc = ftm_error_set(err, FTM_EINVAL,
                                       "node %d (input index) belongs to no element and is not "
                                       "fixed: its displacement is undetermined",
                                       (int)ftm_mesh_input_of_node(mesh, i));
@@ -532,7 +520,7 @@ static int solve_factor(ftm_fem *fem, ftm_error *err)
 {
     if (!cholmod_solve2(CHOLMOD_A, fem->factor, fem->rhs, NULL, &fem->x, NULL, &fem->y, &fem->e,
                         &fem->cc))
-        return ftm_fem_fail(err, FTM_ENOMEM, "ftm_fem_solve: CHOLMOD solve failed (status %d)",
+        return ftm_error_set(err, FTM_ENOMEM, "ftm_fem_solve: CHOLMOD solve failed (status %d)",
                             fem->cc.status);
     return FTM_OK;
 }
@@ -541,16 +529,16 @@ int ftm_fem_solve(ftm_fem *fem, const double *forces, const double *prescribed, 
                   ftm_error *err)
 {
     if (!fem || !u_out)
-        return ftm_fem_fail(err, FTM_EINVAL, "ftm_fem_solve: NULL argument");
+        return ftm_error_set(err, FTM_EINVAL, "ftm_fem_solve: NULL argument");
     int32_t n = fem->nodes;
     for (int64_t d = 0; d < 3 * (int64_t)n; d++) {
         bool c = fem->reduced[d] < 0;
         if (!c && forces && !isfinite(forces[d]))
-            return ftm_fem_fail(err, FTM_EINVAL, "ftm_fem_solve: force on node %d axis %c is %g",
+            return ftm_error_set(err, FTM_EINVAL, "ftm_fem_solve: force on node %d axis %c is %g",
                                 (int)ftm_mesh_input_of_node(fem->mesh, (int32_t)(d / 3)),
                                 (int)('x' + d % 3), forces[d]);
         if (c && prescribed && !isfinite(prescribed[d]))
-            return ftm_fem_fail(err, FTM_EINVAL,
+            return ftm_error_set(err, FTM_EINVAL,
                                 "ftm_fem_solve: prescribed displacement of node %d axis %c is %g",
                                 (int)ftm_mesh_input_of_node(fem->mesh, (int32_t)(d / 3)),
                                 (int)('x' + d % 3), prescribed[d]);

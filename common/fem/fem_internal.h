@@ -1,13 +1,8 @@
-/* Internal helpers shared by the ftm_fem sources. */
+/* Internal helpers shared by the ftm_fem sources: errors are filled by the
+ * core's ftm_error_set (ftm/base.h). */
 #ifndef FTM_FEM_INTERNAL_H
 #define FTM_FEM_INTERNAL_H
 
 #include "ftm/base.h"
-
-/* Formats a message into err (if not NULL) and returns code. */
-#if defined(__GNUC__)
-__attribute__((format(printf, 3, 4)))
-#endif
-int ftm_fem_fail(ftm_error *err, int code, const char *fmt, ...);
 
 #endif

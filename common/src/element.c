@@ -160,6 +160,20 @@ int ftm_hex8_centre_gradients(const ftm_vec3 x[8], double grad[24])
     return FTM_OK;
 }
 
+int ftm_hex8_gauss_gradients(const ftm_vec3 x[8], double grad[192], double det[8])
+{
+    const double g = 1.0 / sqrt(3.0); /* the points of ftm_hex8_stiffness, in its order */
+    for (int q = 0; q < 8; q++) {
+        double gq[8][3];
+        det[q] = hex_point(x, g * hex_corner[q][0], g * hex_corner[q][1], g * hex_corner[q][2],
+                           NULL, gq);
+        if (!(det[q] > 0.0))
+            return FTM_EINVAL;
+        memcpy(grad + 24 * q, gq, sizeof gq);
+    }
+    return FTM_OK;
+}
+
 int ftm_hex8_lumped_mass(const ftm_vec3 x[8], double density, double mass[8])
 {
     const double g = 1.0 / sqrt(3.0);

@@ -3,18 +3,24 @@
 #include <stdarg.h>
 #include <stdio.h>
 
+/* Both from the one list in ftm/base.h. */
 const char *ftm_strerror(int code)
 {
     switch (code) {
-    case FTM_OK: return "success";
-    case FTM_EINVAL: return "invalid argument";
-    case FTM_ENOMEM: return "out of memory";
-    case FTM_EIO: return "input/output error";
-    case FTM_EPARSE: return "malformed input";
-    case FTM_ERANGE: return "index or count out of range";
-    case FTM_EUNSTABLE: return "integration diverged";
-    case FTM_ENOENT: return "no such scene, generator or command";
+#define FTM_ERROR_TEXT_(name, value, text) case name: return text;
+        FTM_ERROR_CODES(FTM_ERROR_TEXT_)
+#undef FTM_ERROR_TEXT_
     default: return "unknown error";
+    }
+}
+
+const char *ftm_err_name(int code)
+{
+    switch (code) {
+#define FTM_ERROR_NAME_(name, value, text) case name: return #name;
+        FTM_ERROR_CODES(FTM_ERROR_NAME_)
+#undef FTM_ERROR_NAME_
+    default: return "unknown";
     }
 }
 

@@ -1,15 +1,8 @@
-/* Internal: filling ftm_error. */
+/* Internal: clearing ftm_error, logging. ftm_error_set is public (ftm/base.h). */
 #ifndef FTM_SRC_ERROR_H
 #define FTM_SRC_ERROR_H
 
 #include "ftm/base.h"
-
-/* Formats a message into err (if not NULL) and returns code, so that error
- * paths read: return ftm_error_set(err, FTM_EINVAL, "%s: ...", name); */
-#if defined(__GNUC__)
-__attribute__((format(printf, 3, 4)))
-#endif
-int ftm_error_set(ftm_error *err, int code, const char *fmt, ...);
 
 /* Clears err to FTM_OK with an empty message. */
 void ftm_error_clear(ftm_error *err);

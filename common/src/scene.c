@@ -93,6 +93,7 @@ typedef enum key {
     K_GUARD_MOTION,
     K_MAX_SUBSTEPS,
     K_FORCES,
+    K_FAR_FIELD,
     K_YOUNG,
     K_POISSON,
     K_DENSITY,
@@ -153,6 +154,7 @@ static const struct {
     [K_GUARD_MOTION] = {SEC_SIM, "guard_motion", false},
     [K_MAX_SUBSTEPS] = {SEC_SIM, "max_substeps", false},
     [K_FORCES] = {SEC_SIM, "forces", false},
+    [K_FAR_FIELD] = {SEC_SIM, "far_field", false},
     [K_YOUNG] = {SEC_FEM, "young", false},
     [K_POISSON] = {SEC_FEM, "poisson", false},
     [K_DENSITY] = {SEC_FEM, "density", false},
@@ -758,13 +760,24 @@ static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
         s->sim.max_substeps = (int32_t)iv;
         return FTM_OK;
     case K_FORCES: { /* element forces take the [fem] material (checked later) */
-        static const char *const names[] = {"springs", "linear-fem", "corot-fem", NULL};
+        static const char *const names[] = {"springs", "linear-fem", "corot-fem", "neo-hookean",
+                                            NULL};
         static const ftm_forces values[] = {FTM_FORCES_SPRINGS, FTM_FORCES_LINEAR_FEM,
-                                            FTM_FORCES_COROT_FEM};
+                                            FTM_FORCES_COROT_FEM, FTM_FORCES_NEO_HOOKEAN};
         int f;
-        if ((rc = word(p, kn, v, vlen, names, "springs, linear-fem or corot-fem", &f)) != FTM_OK)
+        if ((rc = word(p, kn, v, vlen, names, "springs, linear-fem, corot-fem or neo-hookean",
+                       &f)) != FTM_OK)
             return rc;
         s->sim.forces = values[f];
+        return FTM_OK;
+    }
+    case K_FAR_FIELD: { /* elastic needs a held body: checked when the simulation is made */
+        static const char *const names[] = {"fixed", "elastic", NULL};
+        static const ftm_far_field values[] = {FTM_FAR_FIELD_FIXED, FTM_FAR_FIELD_ELASTIC};
+        int f;
+        if ((rc = word(p, kn, v, vlen, names, "fixed or elastic", &f)) != FTM_OK)
+            return rc;
+        s->sim.far_field = values[f];
         return FTM_OK;
     }
     case K_YOUNG:
@@ -1585,6 +1598,9 @@ static const char *const builtin_texts[] = {
     "[sim]\n"
     "time_step = 1e-3\n"
     "depth = 8\n"
+    "# beyond the depth, where the whole body would be: the force the probe\n"
+    "# feels does not depend on the depth (docs/core.md, \"Far field\")\n"
+    "far_field = elastic\n"
     "steps = 2000\n"
     "[load]\n"
     "# lattice point (6, 6, 11): input index 6 + 12 * (6 + 12 * 11)\n"

@@ -4,6 +4,7 @@
 #include "ftm/sim.h"
 
 #include "error.h"
+#include "farfield.h"
 #include "sim_elem.h"
 #include "sim_internal.h"
 
@@ -54,6 +55,8 @@ static int check_def(const ftm_sim_def *d, ftm_error *err)
     if (d->max_substeps < 1 || d->max_substeps > 1 << 20)
         return ftm_error_set(err, FTM_EINVAL, "sim: max_substeps must be in 1..%d (got %d)",
                              1 << 20, (int)d->max_substeps);
+    if (d->far_field != FTM_FAR_FIELD_FIXED && d->far_field != FTM_FAR_FIELD_ELASTIC)
+        return ftm_error_set(err, FTM_EINVAL, "sim: unknown far_field %d", (int)d->far_field);
     return FTM_OK;
 }
 
@@ -78,6 +81,7 @@ void ftm_sim_destroy(ftm_sim *sim)
     free(sim->relax_save);
     free(sim->reaction);
     ftm_elem_free(sim->elem);
+    ftm_far_free(sim->far);
     free(sim);
 }
 
@@ -184,6 +188,10 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
         ftm_sim_destroy(sim);
         return rc;
     }
+    if (d.far_field == FTM_FAR_FIELD_ELASTIC && (rc = ftm_far_create(sim, err)) != FTM_OK) {
+        ftm_sim_destroy(sim);
+        return rc;
+    }
     sim->substeps = 1;
     set_substep_length(sim, d.time_step);
     for (size_t i = 0; i < n; i++) { /* extreme masses against the step: refuse, not NaN later */
@@ -241,6 +249,11 @@ int ftm_sim_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err)
                              "sim set mesh: the material's critical time step %g s is too short "
                              "for time step %g s with at most %d substeps",
                              hc, h, (int)most);
+    if (sim->far) {
+        int rc = ftm_far_set_mesh(sim, m, err);
+        if (rc)
+            return rc;
+    }
     sim->m = m;
     set_substep_length(sim, sim->h_sub); /* masses and damping are in the coefficients */
     sim->energy_floor = energy_floor(m);
@@ -402,6 +415,8 @@ int ftm_sim_set_contacts(ftm_sim *sim, const ftm_contact *c, int32_t count, ftm_
         sim->layers_dirty = true;
     else if (!same_kinds)
         sim->schedule_dirty = true;
+    if (!same_kinds)
+        ftm_far_contacts_changed(sim->far);
     if (!same_values) {
         sim->region_sleeping = false;
         sim->quiet_steps = 0;
@@ -447,11 +462,13 @@ static void impose_displacements(ftm_sim *sim)
     }
 }
 
-/* Saves x and xp of the displacement and relaxing nodes (and, when
- * substepping, of the scheduled nodes too) so a step can be undone. */
+/* Saves x and xp of the displacement, relaxing and far-field ring nodes
+ * (and, when substepping, of the scheduled nodes too) so a step can be
+ * undone. */
 static int save_state(ftm_sim *sim, double **full)
 {
-    int32_t aux = sim->ndisp + sim->nrelax;
+    const int32_t nring = ftm_far_ring_count(sim->far);
+    int32_t aux = sim->ndisp + sim->nrelax + nring;
     int rc = ftm_sim_relax_reserve(sim, aux + 1);
     if (rc)
         return rc;
@@ -463,6 +480,11 @@ static int save_state(ftm_sim *sim, double **full)
     for (int32_t r = 0; r < sim->nrelax; r++, sv += 6) {
         memcpy(sv, sim->x + 3 * sim->relax[r], 3 * sizeof(double));
         memcpy(sv + 3, sim->xp + 3 * sim->relax[r], 3 * sizeof(double));
+    }
+    const int32_t *ring = nring ? ftm_far_ring_nodes(sim->far) : NULL;
+    for (int32_t r = 0; r < nring; r++, sv += 6) {
+        memcpy(sv, sim->x + 3 * ring[r], 3 * sizeof(double));
+        memcpy(sv + 3, sim->xp + 3 * ring[r], 3 * sizeof(double));
     }
     *full = NULL;
     if (sim->substeps > 1 && sim->s.count > 0) {
@@ -488,6 +510,12 @@ static void restore_state(ftm_sim *sim, double *full, bool region_ran)
     for (int32_t r = 0; r < sim->nrelax; r++, sv += 6) {
         memcpy(sim->x + 3 * sim->relax[r], sv, 3 * sizeof(double));
         memcpy(sim->xp + 3 * sim->relax[r], sv + 3, 3 * sizeof(double));
+    }
+    const int32_t nring = ftm_far_ring_count(sim->far);
+    const int32_t *ring = nring ? ftm_far_ring_nodes(sim->far) : NULL;
+    for (int32_t r = 0; r < nring; r++, sv += 6) {
+        memcpy(sim->x + 3 * ring[r], sv, 3 * sizeof(double));
+        memcpy(sim->xp + 3 * ring[r], sv + 3, 3 * sizeof(double));
     }
     if (!region_ran)
         return;
@@ -569,18 +597,19 @@ static double energy_floor(const ftm_mesh *m)
 
 static int work_reserve(ftm_sim *sim)
 {
-    if (sim->ncontacts <= sim->work_cap)
+    const int32_t need = sim->ncontacts + ftm_far_ring_count(sim->far);
+    if (need <= sim->work_cap)
         return FTM_OK;
-    double *w = realloc(sim->work_mark, ((size_t)sim->ncontacts * 3 + 1) * sizeof *w);
+    double *w = realloc(sim->work_mark, ((size_t)need * 3 + 1) * sizeof *w);
     if (!w)
         return FTM_ENOMEM;
     sim->work_mark = w;
-    sim->work_cap = sim->ncontacts;
+    sim->work_cap = need;
     return FTM_OK;
 }
 
 /* Before the step: each force contact's position, each displacement
- * contact's spring force. */
+ * contact's (and far-field ring node's) spring force. */
 static void work_begin(ftm_sim *sim)
 {
     for (int32_t c = 0; c < sim->ncontacts; c++) {
@@ -590,13 +619,32 @@ static void work_begin(ftm_sim *sim)
         else
             ftm_sim_spring_force(sim, i, sim->work_mark + 3 * c);
     }
+    /* (a ring node this step does not move does no work) */
+    const int32_t nring = ftm_far_ring_count(sim->far);
+    for (int32_t r = 0; r < nring; r++)
+        if (ftm_far_ring_moves(sim->far, r))
+            ftm_sim_spring_force(sim, ftm_far_ring_nodes(sim->far)[r],
+                                 sim->work_mark + 3 * (sim->ncontacts + r));
+}
+
+/* The work of a held node (displacement contact, ring node) moved from x0
+ * to x against its springs' force, which was mark before the step: about
+ * f.dx, taken at the end that gives more (the upper bound for stiffening
+ * links), so pushing in never looks like free energy. */
+static double held_work(const ftm_sim *sim, int32_t i, const double *mark, const double *x0)
+{
+    const double *x = sim->x + 3 * i;
+    double f[3], dx[3] = {x[0] - x0[0], x[1] - x0[1], x[2] - x0[2]};
+    ftm_sim_spring_force(sim, i, f);
+    double w0 = mark[0] * dx[0] + mark[1] * dx[1] + mark[2] * dx[2];
+    double w1 = f[0] * dx[0] + f[1] * dx[1] + f[2] * dx[2];
+    return w0 > w1 ? w0 : w1;
 }
 
 /* After the step: the work the contacts did. A force contact F moved by dx
- * did F.dx; a displacement contact moved by dx against the springs' force f
- * did about f.dx, taken at the end that gives more (the upper bound for
- * stiffening links), so pushing in never looks like free energy. Relies on
- * save_state having saved the displacement nodes' x first. */
+ * did F.dx; a displacement contact and a far-field ring node moved by dx
+ * did held_work. Relies on save_state having saved the displacement nodes'
+ * x first and the ring's after the relaxing nodes'. */
 static double work_end(const ftm_sim *sim)
 {
     double w = 0.0;
@@ -604,24 +652,26 @@ static double work_end(const ftm_sim *sim)
     for (int32_t c = 0; c < sim->ncontacts; c++) {
         const ftm_contact *ct = &sim->contacts[c];
         const double *x = sim->x + 3 * ct->node, *mark = sim->work_mark + 3 * c;
-        if (ct->kind == FTM_CONTACT_FORCE) {
+        if (ct->kind == FTM_CONTACT_FORCE)
             w += ct->value.x * (x[0] - mark[0]) + ct->value.y * (x[1] - mark[1]) +
                  ct->value.z * (x[2] - mark[2]);
-        } else {
-            const double *x0 = sim->relax_save + 6 * r++;
-            double f[3], dx[3] = {x[0] - x0[0], x[1] - x0[1], x[2] - x0[2]};
-            ftm_sim_spring_force(sim, ct->node, f);
-            double w0 = mark[0] * dx[0] + mark[1] * dx[1] + mark[2] * dx[2];
-            double w1 = f[0] * dx[0] + f[1] * dx[1] + f[2] * dx[2];
-            w += w0 > w1 ? w0 : w1;
-        }
+        else
+            w += held_work(sim, ct->node, mark, sim->relax_save + 6 * r++);
     }
+    const int32_t nring = ftm_far_ring_count(sim->far);
+    const double *ring_save = sim->relax_save + 6 * ((size_t)sim->ndisp + (size_t)sim->nrelax);
+    for (int32_t k = 0; k < nring; k++)
+        if (ftm_far_ring_moves(sim->far, k))
+            w += held_work(sim, ftm_far_ring_nodes(sim->far)[k],
+                           sim->work_mark + 3 * (sim->ncontacts + k), ring_save + 6 * k);
     return w;
 }
 
-/* One attempt at a full step with the current substeps. */
-static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
+/* One attempt at a full step with the current substeps. *inverted: it
+ * failed for an inverted element (neo-Hookean forces). */
+static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2, bool *inverted)
 {
+    *inverted = false;
     bool ok = true;
     schedule *s = &sim->s;
     *region_m2 = 0.0;
@@ -629,6 +679,8 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
         sim->energy = 0.0; /* the last substep's counts */
         if (region_active) {
             impose_displacements(sim);
+            if (sim->far)
+                ftm_far_impose(sim);
             if (sim->elem) {
                 ok &= ftm_elem_sweep(sim, region_m2);
             } else if (sim->def.order != FTM_ORDER_BFS) { /* groups: Jacobi, colored */
@@ -641,13 +693,22 @@ static bool attempt_step(ftm_sim *sim, bool region_active, double *region_m2)
             /* the held nodes' share of their links, which no sweep sums: on
              * release it becomes a free node's, and with no free neighbour
              * (depth 0, every neighbour fixed) nothing else accounts for it */
-            if (sim->energy_guard)
+            if (sim->energy_guard) {
                 for (int32_t d = 0; d < sim->ndisp; d++)
                     sim->energy += 0.25 * ftm_sim_link_pe(sim, sim->disp[d]);
+                const int32_t nring = ftm_far_ring_count(sim->far);
+                for (int32_t r = 0; r < nring; r++)
+                    sim->energy += 0.25 * ftm_sim_link_pe(sim, ftm_far_ring_nodes(sim->far)[r]);
+            }
         }
         ok &= sim->elem ? ftm_elem_sweep_relax(sim) : ftm_sweep_relax(sim);
         if (!sim->def.guard)
             ok = true;
+        /* an inverted element has no stress: the step fails, guard or not */
+        if (sim->elem && !ftm_elem_intact(sim, sub + 1 == sim->substeps, region_active)) {
+            *inverted = true;
+            ok = false;
+        }
         if (!ok)
             return false;
     }
@@ -669,6 +730,7 @@ static void sleep_relaxed(ftm_sim *sim)
         if (rest) {
             memcpy(xi, X, 3 * sizeof(double));
             memcpy(pi, X, 3 * sizeof(double));
+            ftm_elem_node_moved(sim, i);
         } else {
             sim->relax[w++] = i;
         }
@@ -714,6 +776,11 @@ int ftm_sim_step(ftm_sim *sim)
         sim->st.updated_nodes = 0;
         return FTM_OK;
     }
+    if (region_active && sim->far) {
+        int rc = ftm_far_prepare(sim);
+        if (rc)
+            return rc;
+    }
     /* energy guard: off with the motion guard, while the region sleeps (its
      * energy is not summed then), and above the critical step, where modes
      * with w h > 2 are stable only by damping and the discrete energy does not
@@ -739,7 +806,8 @@ int ftm_sim_step(ftm_sim *sim)
         }
         if (echeck)
             work_begin(sim);
-        bool ok = attempt_step(sim, region_active, &region_m2), energy_fail = false;
+        bool inverted;
+        bool ok = attempt_step(sim, region_active, &region_m2, &inverted), energy_fail = false;
         double work = 0.0;
         if (ok && echeck && sim->budget >= 0.0) {
             work = work_end(sim);
@@ -760,6 +828,7 @@ int ftm_sim_step(ftm_sim *sim)
             break;
         }
         restore_state(sim, full, region_active);
+        ftm_elem_forget(sim); /* the attempt's element values are not the restored state's */
         free(full);
         sim->st.guard_events++;
         if (energy_fail) {
@@ -769,11 +838,21 @@ int ftm_sim_step(ftm_sim *sim)
             /* the excess built up over many steps: start the account again from here */
             sim->budget = fmax(sim->budget, sim->energy_prev);
         }
+        char what[160] = "";
+        double det = 0.0;
+        if (inverted)
+            ftm_elem_inversion(sim, what, sizeof what, &det);
         if (sim->substeps * 2 > sim->def.max_substeps) {
             sim->st.unstable_steps++;
-            ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_ERROR,
-                     "step %llu diverged even with %d substeps; state kept as before the step",
-                     (unsigned long long)sim->st.step, (int)sim->substeps);
+            if (inverted)
+                ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_ERROR,
+                         "step %llu: %s inverted (J = det F = %g at a quadrature "
+                         "point) even with %d substeps; state kept as before the step",
+                         (unsigned long long)sim->st.step, what, det, (int)sim->substeps);
+            else
+                ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_ERROR,
+                         "step %llu diverged even with %d substeps; state kept as before the step",
+                         (unsigned long long)sim->st.step, (int)sim->substeps);
             give_back(sim, &origin);
             return FTM_EUNSTABLE;
         }
@@ -786,10 +865,16 @@ int ftm_sim_step(ftm_sim *sim)
             memcpy(origin.xp, sim->xp, (size_t)sim->n * 3 * sizeof *origin.xp);
         }
         change_substeps(sim, sim->substeps * 2);
-        ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
-                 "step %llu unstable (a node moved more than %g of its shortest link): rolled "
-                 "back, now %d substeps per step",
-                 (unsigned long long)sim->st.step, sim->def.guard_motion, (int)sim->substeps);
+        if (inverted)
+            ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
+                     "step %llu: %s inverted (J = det F = %g at a quadrature point): "
+                     "rolled back, now %d substeps per step",
+                     (unsigned long long)sim->st.step, what, det, (int)sim->substeps);
+        else
+            ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
+                     "step %llu unstable (a node moved more than %g of its shortest link): "
+                     "rolled back, now %d substeps per step",
+                     (unsigned long long)sim->st.step, sim->def.guard_motion, (int)sim->substeps);
     }
     sim->st.updated_nodes = (region_active ? sim->s.count : 0) + sim->nrelax;
     sim->st.updated_nodes *= sim->substeps;
@@ -874,8 +959,8 @@ static uint64_t node_hash(const ftm_sim *sim, int32_t i)
     return h;
 }
 
-/* Every node not at rest is in the region, a displacement contact or the
- * relaxing set; XOR makes the result independent of visiting order. */
+/* Every node not at rest is in the region, a displacement contact, the
+ * far field's ring or the relaxing set; XOR makes the result independent of visiting order. */
 uint64_t ftm_sim_hash(const ftm_sim *sim)
 {
     uint64_t acc = 0;
@@ -887,6 +972,12 @@ uint64_t ftm_sim_hash(const ftm_sim *sim)
     for (int32_t r = 0; r < sim->nrelax; r++)
         if (!ftm_sim_at_rest(sim, sim->relax[r]))
             acc ^= node_hash(sim, sim->relax[r]);
+    const int32_t nring = ftm_far_ring_count(sim->far);
+    for (int32_t r = 0; r < nring; r++) {
+        const int32_t i = ftm_far_ring_nodes(sim->far)[r];
+        if (!ftm_sim_at_rest(sim, i))
+            acc ^= node_hash(sim, i);
+    }
     return mix64(acc ^ mix64(sim->st.step ^ 0x5851f42d4c957f2dULL));
 }
 
@@ -897,6 +988,7 @@ void ftm_sim_get_stats(const ftm_sim *sim, ftm_sim_stats *st)
     st->region_nodes = sim->ly.gen ? sim->ly.count : 0;
     st->relaxing_nodes = sim->nrelax;
     st->region_sleeping = sim->region_sleeping;
+    st->far_nodes = ftm_far_ring_count(sim->far);
 }
 
 int32_t ftm_sim_layers(ftm_sim *sim, const int32_t **order, const int32_t **start)
@@ -948,6 +1040,7 @@ uint32_t ftm_arithmetic_revision(void)
 
 void ftm_sim_reset(ftm_sim *sim)
 {
+    ftm_elem_forget(sim);
     memcpy(sim->x, sim->m->rest, (size_t)sim->n * 3 * sizeof(double));
     memcpy(sim->xp, sim->m->rest, (size_t)sim->n * 3 * sizeof(double));
     ftm_sim_set_contacts(sim, NULL, 0, NULL);
@@ -1030,6 +1123,7 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
     if (rc)
         return rc;
     size_t n = (size_t)sim->n;
+    ftm_elem_forget(sim);
     memcpy(sim->x, sim->m->rest, n * 3 * sizeof(double));
     memcpy(sim->xp, sim->m->rest, n * 3 * sizeof(double));
     for (int32_t k = 0; k < count; k++) {
@@ -1054,7 +1148,8 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
     int32_t nr = 0;
     for (int32_t k = 0; k < count; k++) {
         int32_t i = nodes[k];
-        if (!ftm_layering_contains(&sim->ly, i) && !ftm_sim_at_rest(sim, i))
+        if (!ftm_layering_contains(&sim->ly, i) && !ftm_far_in_ring(sim->far, i) &&
+            !ftm_sim_at_rest(sim, i))
             sim->relax[nr++] = i;
     }
     sim->nrelax = nr;

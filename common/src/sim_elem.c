@@ -13,12 +13,29 @@
  * sharing an element with i), which is the same sum in fewer operations.
  * Co-rotational forces go element by element with per-node incidence lists;
  * each element's rotation is computed once per substep, from the positions
- * at its first use in the sweep (fixed order, so deterministic). */
+ * at its first use in the sweep (fixed order, so deterministic).
+ *
+ * Neo-Hookean forces (hyperelastic.c) are total Lagrangian:
+ * f_a = sum_q w_q P(F_q) grad N_a(X_q), F_q from the rest gradients at the
+ * quadrature points of the linear elements (2x2x2 Gauss on hexahedra, one
+ * point on tetrahedra), so their tangent at rest is the linear K_e. Each
+ * element's nodal forces are computed once per substep, at the element's
+ * first use, and summed per node from that cache. No scheduled node of an
+ * element has moved before its first use, so every element is evaluated at
+ * the positions the substep started from (the displacement contacts
+ * already placed): the forces are those of plain central differences, the
+ * same in every order. An element with J <= 0 at a quadrature point
+ * (inverted) fails the step, with the guard or without: it is undone and
+ * substepped, and the positions a step leaves are checked too
+ * (ftm_elem_intact). */
 #include "sim_elem.h"
 
 #include "error.h"
+#include "farfield.h"
+#include "hyperelastic.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -41,10 +58,33 @@ struct ftm_elem {
     double *row_k;      /* 9 per entry: the 3x3 block K_ij */
     double *mass;
     double h_crit;
+    /* neo-Hookean: quadrature data of element e at gp + goff[e] (per point
+     * the rest gradients of its nodes, then the weight; hyperelastic.h), its
+     * nodal forces at fe + 3 p (p = start[e] + local node), valid while
+     * stamp[e] == gen; the moduli mu and kappa */
+    double *gp;
+    size_t *goff;
+    double *fe;
+    double mu, kappa;
+    /* the forces of the elements evaluated at the end of the last step (in
+     * generation gen) are still those of the current positions: the next
+     * sweep reuses them (ftm_elem_intact) */
+    bool carry;
+    bool inverted;    /* an element had J <= 0 since the last ftm_elem_intact */
+    int32_t inv_elem; /* the first such element and its smallest J */
+    double inv_det;
 };
 
 const double *ftm_elem_masses(const ftm_elem *el) { return el->mass; }
 double ftm_elem_critical_step(const ftm_elem *el) { return el->h_crit; }
+
+void ftm_elem_rows(const ftm_elem *el, const int32_t **start, const int32_t **node,
+                   const double **k)
+{
+    *start = el->row_start;
+    *node = el->row_node;
+    *k = el->row_k;
+}
 
 void ftm_elem_free(ftm_elem *el)
 {
@@ -64,6 +104,9 @@ void ftm_elem_free(ftm_elem *el)
     free(el->row_node);
     free(el->row_k);
     free(el->mass);
+    free(el->gp);
+    free(el->goff);
+    free(el->fe);
     free(el);
 }
 
@@ -140,10 +183,21 @@ static const double *fresh_rotation(ftm_elem *el, const ftm_mesh *m, const doubl
 
 static void next_generation(ftm_elem *el)
 {
+    el->carry = false;
     if (++el->gen == 0) { /* wrapped: no element may look fresh */
         memset(el->stamp, 0, (size_t)el->count * sizeof *el->stamp);
         el->gen = 1;
     }
+}
+
+/* Element values of node i's elements are stale (the node moved outside a
+ * sweep): evaluated again at their next use. */
+static void forget_node(ftm_elem *el, int32_t i)
+{
+    if (!el->stamp)
+        return;
+    for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++)
+        el->stamp[el->inc_elem[q]] = el->gen - 1; /* gen is never 0, so never gen */
 }
 
 /* ---- forces ---- */
@@ -203,13 +257,75 @@ static inline void corot_force(ftm_elem *restrict el, const ftm_mesh *restrict m
     f[2] = fz;
 }
 
+/* The displacements of element e's nodes, 3 each. */
+static inline void element_displacements(const ftm_elem *el, const ftm_mesh *m, const double *x,
+                                         int32_t e, double *u)
+{
+    const int32_t s0 = el->start[e], nn = el->start[e + 1] - s0;
+    for (int32_t b = 0; b < nn; b++) {
+        const int32_t j = el->node[s0 + b];
+        for (int d = 0; d < 3; d++)
+            u[3 * b + d] = x[3 * j + d] - m->rest[3 * j + d];
+    }
+}
+
+static inline int quadrature_points(int32_t nn) { return nn == 8 ? 8 : 1; }
+
+static void note_inversion(ftm_elem *el, int32_t e, double det)
+{
+    if (!el->inverted) {
+        el->inv_elem = e;
+        el->inv_det = det;
+    }
+    el->inverted = true;
+}
+
+/* Neo-Hookean forces of element e at positions x into fe (3 per node);
+ * false (fe zero) if inverted. */
+static bool neo_element(const ftm_elem *el, const ftm_mesh *m, const double *x, int32_t e,
+                        double *fe, double *min_det)
+{
+    double u[24];
+    const int32_t nn = el->start[e + 1] - el->start[e];
+    element_displacements(el, m, x, e, u);
+    return ftm_neo_element_forces(nn, quadrature_points(nn), el->gp + el->goff[e], u, el->mu,
+                                  el->kappa, fe, min_det);
+}
+
+/* Neo-Hookean: f = sum over the elements e of i of their cached force on i,
+ * each element evaluated at its first use in the substep. */
+static inline void neo_force(ftm_elem *restrict el, const ftm_mesh *restrict m,
+                             const double *restrict x, int32_t i, double f[3])
+{
+    double fx = 0.0, fy = 0.0, fz = 0.0;
+    for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
+        const int32_t e = el->inc_elem[q];
+        double *fe = el->fe + 3 * (size_t)el->start[e];
+        if (el->stamp[e] != el->gen) {
+            double det;
+            if (!neo_element(el, m, x, e, fe, &det))
+                note_inversion(el, e, det);
+            el->stamp[e] = el->gen;
+        }
+        const double *fa = fe + 3 * el->inc_local[q];
+        fx += fa[0];
+        fy += fa[1];
+        fz += fa[2];
+    }
+    f[0] = fx;
+    f[1] = fy;
+    f[2] = fz;
+}
+
 static inline void node_force(ftm_elem *el, const ftm_mesh *m, const double *x, int32_t i,
                               double f[3])
 {
     if (el->kind == FTM_FORCES_LINEAR_FEM)
         linear_force(el, m, x, i, f);
-    else
+    else if (el->kind == FTM_FORCES_COROT_FEM)
         corot_force(el, m, x, i, NULL, f);
+    else
+        neo_force(el, m, x, i, f);
 }
 
 /* Eq. 8 for node i (as in sim_kernel.c): returns the squared motion. */
@@ -241,11 +357,31 @@ static inline bool update_node(ftm_sim *sim, int32_t i, double *save, int stride
     return m2 <= ftm_sim_lim2(sim, i); /* false for NaN too */
 }
 
+/* A held node (displacement contact, far-field ring) was just placed, its
+ * old position in x_prev: the elements evaluated at the last step's end
+ * still hold unless it moved (a probe held still, or a ring under
+ * unchanged contacts, keeps them). */
+static inline void forget_moved(ftm_elem *el, const ftm_sim *sim, int32_t i)
+{
+    const double *x = sim->x + 3 * i, *xp = sim->xp + 3 * i;
+    if (x[0] != xp[0] || x[1] != xp[1] || x[2] != xp[2])
+        forget_node(el, i);
+}
+
 bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
 {
     ftm_elem *el = sim->elem;
     schedule *s = &sim->s;
-    next_generation(el);
+    if (el->carry) { /* the last step's end: all but what was placed since */
+        for (int32_t k = 0; k < sim->ndisp; k++)
+            forget_moved(el, sim, sim->disp[k]);
+        const int32_t nring = ftm_far_ring_count(sim->far); /* ftm_far_impose */
+        for (int32_t k = 0; k < nring; k++)
+            forget_moved(el, sim, ftm_far_ring_nodes(sim->far)[k]);
+    } else {
+        next_generation(el);
+    }
+    el->carry = false;
     bool ok = true;
     double mm = *max_m2;
     if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
@@ -301,11 +437,84 @@ bool ftm_elem_sweep_relax(ftm_sim *sim)
     return ok;
 }
 
+/* The end of a step: evaluates the elements of node i not yet evaluated in
+ * this generation; false (noted) at the first with J <= 0. */
+static bool evaluate_node(ftm_elem *el, const ftm_mesh *m, const double *x, int32_t i)
+{
+    for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
+        const int32_t e = el->inc_elem[q];
+        if (el->stamp[e] == el->gen)
+            continue;
+        el->stamp[e] = el->gen;
+        double det;
+        if (!neo_element(el, m, x, e, el->fe + 3 * (size_t)el->start[e], &det)) {
+            note_inversion(el, e, det);
+            return false;
+        }
+    }
+    return true;
+}
+
+bool ftm_elem_intact(ftm_sim *sim, bool last, bool region_ran)
+{
+    ftm_elem *el = sim->elem;
+    if (el->kind != FTM_FORCES_NEO_HOOKEAN)
+        return true;
+    bool ok = !el->inverted;
+    if (ok && last) {
+        /* the positions the step leaves, whose forces the next step starts
+         * from: evaluated now (the check) and carried over */
+        next_generation(el);
+        const ftm_mesh *m = sim->m;
+        for (int32_t k = 0; ok && region_ran && k < sim->s.count; k++)
+            ok = evaluate_node(el, m, sim->x, sim->s.node[k]);
+        for (int32_t k = 0; ok && region_ran && k < sim->ndisp; k++)
+            ok = evaluate_node(el, m, sim->x, sim->disp[k]);
+        /* (the ring's elements that hold a region node are evaluated above;
+         * the others give no scheduled node a force) */
+        for (int32_t k = 0; ok && k < sim->nrelax; k++)
+            ok = evaluate_node(el, m, sim->x, sim->relax[k]);
+        el->carry = ok;
+    }
+    el->inverted = false;
+    return ok;
+}
+
+void ftm_elem_node_moved(ftm_sim *sim, int32_t i)
+{
+    if (sim->elem)
+        forget_node(sim->elem, i);
+}
+
+void ftm_elem_forget(ftm_sim *sim)
+{
+    if (sim->elem)
+        sim->elem->carry = false;
+}
+
+int32_t ftm_elem_inversion(const ftm_sim *sim, char *what, size_t size, double *det)
+{
+    const ftm_elem *el = sim->elem;
+    const ftm_mesh *m = sim->m;
+    const int32_t e = el->inv_elem, s0 = el->start[e], nn = el->start[e + 1] - s0;
+    const bool hex = e < m->hex_count;
+    int w = snprintf(what, size, "%s %d (input nodes", hex ? "hexahedron" : "tetrahedron",
+                     (int)(hex ? e : e - m->hex_count));
+    for (int32_t a = 0; a < nn && w >= 0 && (size_t)w < size; a++)
+        w += snprintf(what + w, size - (size_t)w, " %d",
+                      (int)m->input_of_node[el->node[s0 + a]]);
+    if (w >= 0 && (size_t)w < size)
+        snprintf(what + w, size - (size_t)w, ")");
+    *det = el->inv_det;
+    return e;
+}
+
 void ftm_elem_reactions(ftm_sim *sim)
 {
     if (sim->reaction_groups)
         memset(sim->reaction, 0, (size_t)sim->reaction_groups * 3 * sizeof(double));
-    next_generation(sim->elem);
+    if (!sim->elem->carry) /* neo-Hookean: the step's end already evaluated */
+        next_generation(sim->elem);
     for (int32_t c = 0; c < sim->ncontacts; c++) {
         const ftm_contact *ct = &sim->contacts[c];
         if (ct->kind != FTM_CONTACT_DISPLACEMENT)
@@ -317,6 +526,7 @@ void ftm_elem_reactions(ftm_sim *sim)
         r[1] -= f[1];
         r[2] -= f[2];
     }
+    sim->elem->inverted = false; /* the step was checked; this is a query */
 }
 
 /* ---- public queries ---- */
@@ -357,6 +567,34 @@ int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f)
             linear_force(el, m, x, i, f + 3 * i);
         return FTM_OK;
     }
+    if (el->kind == FTM_FORCES_NEO_HOOKEAN) {
+        /* every element from x into a private cache, then the sums per node
+         * in the integrator's order; nothing written if one is inverted */
+        size_t total = (size_t)el->start[el->count];
+        double *fe = malloc((3 * total + 1) * sizeof *fe);
+        if (!fe)
+            return FTM_ENOMEM;
+        for (int32_t e = 0; e < el->count; e++) {
+            double det;
+            if (!neo_element(el, m, x, e, fe + 3 * (size_t)el->start[e], &det)) {
+                free(fe);
+                return FTM_EINVAL;
+            }
+        }
+        for (int32_t i = 0; i < m->node_count; i++) {
+            double s[3] = {0.0, 0.0, 0.0};
+            for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
+                const int32_t e = el->inc_elem[q];
+                const double *fa = fe + 3 * ((size_t)el->start[e] + (size_t)el->inc_local[q]);
+                s[0] += fa[0];
+                s[1] += fa[1];
+                s[2] += fa[2];
+            }
+            memcpy(f + 3 * i, s, sizeof s);
+        }
+        free(fe);
+        return FTM_OK;
+    }
     /* rotations from x into a private copy: the sim's cache stays untouched */
     double *rots = malloc(((size_t)el->count * 9 + 1) * sizeof *rots);
     if (!rots)
@@ -392,6 +630,18 @@ static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d,
     el->grad = malloc((nodes * 3 + 1) * sizeof *el->grad);
     if (!el->start || !el->node || !el->koff || !el->k || !el->grad)
         return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %d elements", (int)ne);
+    if (el->kind == FTM_FORCES_NEO_HOOKEAN) {
+        el->goff = malloc(((size_t)ne + 1) * sizeof *el->goff);
+        el->gp = malloc(((size_t)m->hex_count * 200 + (size_t)m->tet_count * 13 + 1) *
+                        sizeof *el->gp);
+        if (!el->goff || !el->gp)
+            return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %d elements", (int)ne);
+        size_t off = 0;
+        for (int32_t e = 0; e <= ne; e++) {
+            el->goff[e] = off;
+            off += e < m->hex_count ? 200 : 13;
+        }
+    }
     size_t p = 0, ko = 0;
     for (int32_t e = 0; e < ne; e++) {
         bool hex = e < m->hex_count;
@@ -413,6 +663,15 @@ static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d,
             rc = ftm_hex8_stiffness(x, d->young, d->poisson, el->k + ko, &min_det);
             if (!rc)
                 rc = ftm_hex8_centre_gradients(x, el->grad + 3 * p);
+            if (!rc && el->gp) { /* per Gauss point: 24 gradients, then det J (weight 1) */
+                double g[192], det[8];
+                double *dst = el->gp + el->goff[e];
+                rc = ftm_hex8_gauss_gradients(x, g, det);
+                for (int q = 0; !rc && q < 8; q++) {
+                    memcpy(dst + 25 * q, g + 24 * q, 24 * sizeof *g);
+                    dst[25 * q + 24] = det[q];
+                }
+            }
             if (rc)
                 return ftm_error_set(err, FTM_EINVAL,
                                      "sim: hexahedron %d (input nodes %d %d %d %d %d %d %d %d) is "
@@ -420,9 +679,15 @@ static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d,
                                      (int)e, IN(0), IN(1), IN(2), IN(3), IN(4), IN(5), IN(6),
                                      IN(7), min_det);
         } else {
-            rc = ftm_tet4_stiffness(x, d->young, d->poisson, el->k + ko, NULL);
+            double vol;
+            rc = ftm_tet4_stiffness(x, d->young, d->poisson, el->k + ko, &vol);
             if (!rc)
                 rc = ftm_tet4_gradients(x, el->grad + 3 * p);
+            if (!rc && el->gp) { /* one point: the 12 gradients, then the volume */
+                double *dst = el->gp + el->goff[e];
+                memcpy(dst, el->grad + 3 * p, 12 * sizeof *dst);
+                dst[12] = fabs(vol);
+            }
             if (rc)
                 return ftm_error_set(err, FTM_EINVAL,
                                      "sim: tetrahedron %d (input nodes %d %d %d %d) is degenerate",
@@ -535,7 +800,8 @@ static int build_rows(ftm_elem *el, int32_t n, ftm_error *err)
 
 /* Gershgorin bound on the largest eigenvalue of M^-1/2 K M^-1/2 over the
  * free nodes' rows (h_crit = 2 / sqrt(lambda)), and the same low-damping
- * warning as springs (sim.c: d/2m >= 0.055 lambda_i h). */
+ * warning as springs (sim.c: d/2m >= 0.055 lambda_i h) where the update is
+ * Gauss-Seidel. */
 static void bound_and_warn(ftm_elem *el, const ftm_sim *sim)
 {
     const ftm_mesh *m = sim->m;
@@ -564,7 +830,10 @@ static void bound_and_warn(ftm_elem *el, const ftm_sim *sim)
         }
     }
     el->h_crit = lmax > 0.0 ? 2.0 / sqrt(lmax) : INFINITY;
-    if (worst >= 0 && worst_ratio < 1.0)
+    /* neo-Hookean forces are evaluated at the substep's start (plain central
+     * differences): no Gauss-Seidel coupling to damp (docs/calculix.md:
+     * undamped at half the critical step, bounded where linear-fem diverges) */
+    if (worst >= 0 && worst_ratio < 1.0 && el->kind != FTM_FORCES_NEO_HOOKEAN)
         ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
                  "nodal damping is low for the layer-by-layer update with element forces at this "
                  "time step (node %d: d/2m = %g, needs about %g): the scene may slowly gain "
@@ -576,7 +845,8 @@ int ftm_elem_create(ftm_sim *sim, ftm_error *err)
 {
     const ftm_sim_def *d = &sim->def;
     const ftm_mesh *m = sim->m;
-    if (d->forces != FTM_FORCES_LINEAR_FEM && d->forces != FTM_FORCES_COROT_FEM)
+    if (d->forces != FTM_FORCES_LINEAR_FEM && d->forces != FTM_FORCES_COROT_FEM &&
+        d->forces != FTM_FORCES_NEO_HOOKEAN)
         return ftm_error_set(err, FTM_EINVAL, "sim: unknown forces %d", (int)d->forces);
     if (!(d->young > 0.0) || !isfinite(d->young))
         return ftm_error_set(err, FTM_EINVAL,
@@ -627,12 +897,29 @@ int ftm_elem_create(ftm_sim *sim, ftm_error *err)
                 r[0] = r[4] = r[8] = 1.0;
             }
     }
+    if (!rc && d->forces == FTM_FORCES_NEO_HOOKEAN) {
+        el->mu = d->young / (2.0 * (1.0 + d->poisson));
+        el->kappa = d->young / (3.0 * (1.0 - 2.0 * d->poisson));
+        el->fe = malloc((3 * (size_t)el->start[el->count] + 1) * sizeof *el->fe);
+        el->stamp = calloc((size_t)el->count + 1, sizeof *el->stamp);
+        if (!el->fe || !el->stamp)
+            rc = ftm_error_set(err, FTM_ENOMEM, "sim: out of memory");
+    }
     if (rc) {
         ftm_elem_free(el);
         return rc;
     }
     el->gen = 1;
-    bound_and_warn(el, sim);
+    bound_and_warn(el, sim); /* neo-Hookean: its tangent at rest is the linear K */
+    if (el->kind == FTM_FORCES_NEO_HOOKEAN) { /* the linear matrices have served */
+        free(el->k);
+        free(el->grad);
+        el->k = el->grad = NULL;
+        if (d->far_field != FTM_FAR_FIELD_ELASTIC) { /* its compliance needs the rows */
+            free(el->row_k);
+            el->row_k = NULL;
+        }
+    }
     sim->elem = el;
     return FTM_OK;
 }

@@ -166,6 +166,7 @@ struct ftm_sim {
     bool energy_guard;   /* the sweeps compute spring energy (spring forces) */
     ftm_sim_stats st;
     struct ftm_elem *elem; /* element forces (sim_elem.c); NULL = springs */
+    struct ftm_far *far;   /* elastic far field (farfield.c); NULL = fixed */
 };
 
 /* The guard's squared motion limit of node i. */

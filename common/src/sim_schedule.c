@@ -1,6 +1,7 @@
 /* From layers to an update schedule: the order in which the region's nodes
  * are updated and its groups (a layer, or an independent set), the blocks'
  * slot-major copies, and the relaxing set kept when the region changes. */
+#include "farfield.h"
 #include "sim_internal.h"
 
 #include <stdlib.h>
@@ -79,13 +80,14 @@ static int update_relaxing(ftm_sim *sim, int32_t *old, int32_t cand)
     int32_t *merged = sim->relax;
     for (int32_t k = 0; k < cand; k++) {
         int32_t i = old[k];
-        if (!ftm_layering_contains(ly, i) && !sim->m->fixed[i] && !ftm_sim_at_rest(sim, i))
+        if (!ftm_layering_contains(ly, i) && !ftm_far_in_ring(sim->far, i) && !sim->m->fixed[i] &&
+            !ftm_sim_at_rest(sim, i))
             old[nr++] = i;
     }
     int32_t nold = 0;
     for (int32_t k = 0; k < sim->nrelax; k++) {
         int32_t i = sim->relax[k];
-        if (!ftm_layering_contains(ly, i))
+        if (!ftm_layering_contains(ly, i) && !ftm_far_in_ring(sim->far, i))
             merged[nold++] = i;
     }
     /* sort the new candidates, then merge with the (sorted) survivors */
@@ -230,6 +232,12 @@ int ftm_sim_rebuild_region(ftm_sim *sim)
         return rc;
     sim->st.searches++;
     sim->built_depth = sim->def.depth;
+    if (!same_region && sim->far) { /* the ring follows the region; its leavers may relax */
+        int32_t added = ftm_far_rebuild_ring(sim, sim->relax_tmp + cand);
+        if (added < 0)
+            return added;
+        cand += added;
+    }
     if (!same_region) {
         rc = update_relaxing(sim, sim->relax_tmp, cand);
         if (rc)

@@ -77,7 +77,7 @@ static int fail(const scan_ctx *c, const uint8_t *at, const char *path, const ch
         snprintf(where, sizeof where, "byte %zu", (size_t)(at - c->base));
     char msg[256];
     snprintf(msg, sizeof msg, fmt, detail);
-    return wire_err(c->err, FTM_EPARSE, "%s: malformed at %s: %s", c->what, where, msg);
+    return ftm_error_set(c->err, FTM_EPARSE, "%s: malformed at %s: %s", c->what, where, msg);
 }
 
 static int scan_message(const scan_ctx *c, const ProtobufCMessageDescriptor *desc,

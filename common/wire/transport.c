@@ -134,22 +134,6 @@ struct ftm_wire_transport {
     pthread_t thread;
 };
 
-static const char *const topic_names[KINDS] = {
-    NULL,
-    "ftm_v1_scene_announce",
-    "ftm_v1_probe_input",
-    "ftm_v1_tick_frame",
-    "ftm_v1_keyframe",
-    "ftm_v1_participant_status",
-    "ftm_v1_session_control",
-    "ftm_v1_control_reply",
-};
-
-const char *ftm_wire_topic_name(int kind)
-{
-    return kind >= FTM_WIRE_KIND_MIN && kind <= FTM_WIRE_KIND_MAX ? topic_names[kind] : NULL;
-}
-
 static bool valid_kind(int kind)
 {
     return kind >= FTM_WIRE_KIND_MIN && kind <= FTM_WIRE_KIND_MAX;
@@ -185,7 +169,7 @@ static void sleep_ns(int64_t ns)
 
 static int dds_fail(ftm_error *err, const char *call, dds_return_t rc)
 {
-    return wire_err(err, FTM_EDDS, "%s failed: %s", call, dds_strretcode(rc));
+    return ftm_error_set(err, FTM_EDDS, "%s failed: %s", call, dds_strretcode(rc));
 }
 
 /* ---- QoS ---------------------------------------------------------------- */
@@ -293,8 +277,8 @@ static int enqueue(ftm_wire_transport *t, int kind, uint8_t *payload, size_t siz
 {
     queue_item *it = malloc(sizeof *it + size);
     if (!it)
-        return wire_err(err, FTM_ENOMEM, "%s: out of memory queueing %zu bytes",
-                        ftm_wire_kind_name(kind), size);
+        return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory queueing %zu bytes",
+                             ftm_wire_kind_name(kind), size);
     it->next = NULL;
     it->kind = kind;
     it->size = size;
@@ -305,8 +289,8 @@ static int enqueue(ftm_wire_transport *t, int kind, uint8_t *payload, size_t siz
         t->io[kind].stats.queue_full++;
         pthread_mutex_unlock(&t->lock);
         free(it);
-        return wire_err(err, FTM_EAGAIN, "%s: publishing queue full (%d messages); dropped",
-                        ftm_wire_kind_name(kind), t->capacity);
+        return ftm_error_set(err, FTM_EAGAIN, "%s: publishing queue full (%d messages); dropped",
+                             ftm_wire_kind_name(kind), t->capacity);
     }
     it->seq = ++t->io[kind].next_seq;
     if (t->tail)
@@ -323,10 +307,11 @@ static int enqueue(ftm_wire_transport *t, int kind, uint8_t *payload, size_t siz
 int ftm_wire_publish(ftm_wire_transport *t, const ftm_wire_msg *msg, ftm_error *err)
 {
     if (!t || !msg)
-        return wire_err(err, FTM_EINVAL, "ftm_wire_publish: NULL argument");
+        return ftm_error_set(err, FTM_EINVAL, "ftm_wire_publish: NULL argument");
     if (!valid_kind(msg->kind) || !t->io[msg->kind].writer)
-        return wire_err(err, FTM_EINVAL, "ftm_wire_publish: this transport does not publish %s",
-                        ftm_wire_kind_name(msg->kind));
+        return ftm_error_set(err, FTM_EINVAL,
+                             "ftm_wire_publish: this transport does not publish %s",
+                             ftm_wire_kind_name(msg->kind));
     uint8_t *buf = NULL;
     size_t size = 0;
     int rc = ftm_wire_encode(msg, &buf, &size, err);
@@ -341,13 +326,15 @@ int ftm_wire_publish_raw(ftm_wire_transport *t, int kind, const void *payload, s
                          ftm_error *err)
 {
     if (!t || (!payload && size))
-        return wire_err(err, FTM_EINVAL, "ftm_wire_publish_raw: NULL argument");
+        return ftm_error_set(err, FTM_EINVAL, "ftm_wire_publish_raw: NULL argument");
     if (!valid_kind(kind) || !t->io[kind].writer)
-        return wire_err(err, FTM_EINVAL, "ftm_wire_publish_raw: this transport does not publish %s",
-                        ftm_wire_kind_name(kind));
+        return ftm_error_set(err, FTM_EINVAL,
+                             "ftm_wire_publish_raw: this transport does not publish %s",
+                             ftm_wire_kind_name(kind));
     if (size > FTM_WIRE_CAP_KEYFRAME)
-        return wire_err(err, FTM_ETOOBIG, "%s: raw payload of %zu bytes exceeds the envelope bound %u",
-                        ftm_wire_kind_name(kind), size, (unsigned)FTM_WIRE_CAP_KEYFRAME);
+        return ftm_error_set(err, FTM_ETOOBIG,
+                             "%s: raw payload of %zu bytes exceeds the envelope bound %u",
+                             ftm_wire_kind_name(kind), size, (unsigned)FTM_WIRE_CAP_KEYFRAME);
     return enqueue(t, kind, (uint8_t *)payload, size, err);
 }
 
@@ -377,19 +364,20 @@ static bool wait_drained(ftm_wire_transport *t, int64_t deadline)
 int ftm_wire_flush(ftm_wire_transport *t, int64_t timeout_ns, ftm_error *err)
 {
     if (!t)
-        return wire_err(err, FTM_EINVAL, "ftm_wire_flush: NULL transport");
+        return ftm_error_set(err, FTM_EINVAL, "ftm_wire_flush: NULL transport");
     int64_t deadline = now_ns() + timeout_ns;
     if (!wait_drained(t, deadline))
-        return wire_err(err, FTM_ETIMEDOUT, "flush: publishing queue not empty after %.3f s",
-                        (double)timeout_ns * 1e-9);
+        return ftm_error_set(err, FTM_ETIMEDOUT, "flush: publishing queue not empty after %.3f s",
+                             (double)timeout_ns * 1e-9);
     for (int k = FTM_WIRE_KIND_MIN; k <= FTM_WIRE_KIND_MAX; k++) {
         if (!t->io[k].writer || k == FTM_WIRE_PROBE_INPUT)
             continue;
         int64_t left = deadline - now_ns();
         dds_return_t rc = dds_wait_for_acks(t->io[k].writer, left > 0 ? left : 0);
         if (rc == DDS_RETCODE_TIMEOUT)
-            return wire_err(err, FTM_ETIMEDOUT, "flush: %s not acknowledged by every reader in %.3f s",
-                            ftm_wire_kind_name(k), (double)timeout_ns * 1e-9);
+            return ftm_error_set(err, FTM_ETIMEDOUT,
+                                 "flush: %s not acknowledged by every reader in %.3f s",
+                                 ftm_wire_kind_name(k), (double)timeout_ns * 1e-9);
         if (rc < 0)
             return dds_fail(err, "dds_wait_for_acks", rc);
     }
@@ -421,16 +409,16 @@ static int make_domain(const ftm_wire_transport_def *def, ftm_wire_transport *t,
             FILE *f = fopen(def->config, "r");
             if (!f) {
                 free(sec);
-                return wire_err(err, FTM_EIO, "Cyclone DDS configuration %s: %s", def->config,
-                                strerror(errno));
+                return ftm_error_set(err, FTM_EIO, "Cyclone DDS configuration %s: %s", def->config,
+                                     strerror(errno));
             }
             fclose(f);
             if (sec && strchr(def->config, ',')) {
                 free(sec);
-                return wire_err(err, FTM_EINVAL,
-                                "Cyclone DDS configuration %s: a path with a comma cannot be "
-                                "combined with DDS Security (Cyclone splits at commas)",
-                                def->config);
+                return ftm_error_set(err, FTM_EINVAL,
+                                     "Cyclone DDS configuration %s: a path with a comma cannot be "
+                                     "combined with DDS Security (Cyclone splits at commas)",
+                                     def->config);
             }
         }
     } else if (sec) {
@@ -447,7 +435,7 @@ static int make_domain(const ftm_wire_transport_def *def, ftm_wire_transport *t,
     uri = malloc(n);
     if (!uri) {
         free(sec);
-        return wire_err(err, FTM_ENOMEM, "out of memory");
+        return ftm_error_set(err, FTM_ENOMEM, "out of memory");
     }
     snprintf(uri, n, "%s%s%s%s", file ? "file://" : "", c ? c : "", c && sec ? "," : "",
              sec ? sec : "");
@@ -456,12 +444,13 @@ static int make_domain(const ftm_wire_transport_def *def, ftm_wire_transport *t,
     free(uri);
     if (dom == DDS_RETCODE_PRECONDITION_NOT_MET)
         return FTM_OK; /* this process already has the domain: share it */
-    if (dom < 0)
-        return wire_err(err, FTM_EINVAL,
-                        "Cyclone DDS rejected the configuration %s%s for domain %u: %s",
-                        !def->config ? "$CYCLONEDDS_URI" : *c == '<' ? "(XML text)" : def->config,
-                        def->security ? " with DDS Security" : "", def->domain_id,
-                        dds_strretcode(dom));
+    if (dom < 0) {
+        const char *cfg = !def->config ? "$CYCLONEDDS_URI" : *c == '<' ? "(XML text)" : def->config;
+        return ftm_error_set(err, FTM_EINVAL,
+                             "Cyclone DDS rejected the configuration %s%s for domain %u: %s", cfg,
+                             def->security ? " with DDS Security" : "", def->domain_id,
+                             dds_strretcode(dom));
+    }
     *created = dom;
     return FTM_OK;
 }
@@ -595,15 +584,16 @@ static int endpoint_fail(const ftm_wire_transport *t, ftm_error *err, const char
                          bool write, dds_return_t rc)
 {
     if (rc == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY)
-        return wire_err(err, FTM_EACCESS,
-                        "not permitted by the DDS Security permissions in %s to %s topic %s (%s) "
-                        "in partition %s: this program needs an identity issued for its role "
-                        "and id",
-                        t->sec.permissions[0] ? t->sec.permissions : "(the configuration)",
-                        write ? "write" : "read", topic_names[kind], ftm_wire_kind_name(kind),
-                        write ? t->sec.partition : FTM_WIRE_PARTITION_PREFIX "*");
-    return wire_err(err, FTM_EDDS, "%s for %s failed: %s", call, topic_names[kind],
-                    dds_strretcode(rc));
+        return ftm_error_set(
+            err, FTM_EACCESS,
+            "not permitted by the DDS Security permissions in %s to %s topic %s (%s) "
+            "in partition %s: this program needs an identity issued for its role "
+            "and id",
+            t->sec.permissions[0] ? t->sec.permissions : "(the configuration)",
+            write ? "write" : "read", ftm_wire_topic_name(kind), ftm_wire_kind_name(kind),
+            write ? t->sec.partition : FTM_WIRE_PARTITION_PREFIX "*");
+    return ftm_error_set(err, FTM_EDDS, "%s for %s failed: %s", call, ftm_wire_topic_name(kind),
+                         dds_strretcode(rc));
 }
 
 /* Secured: a publisher in our own partition (the identity the permissions
@@ -620,10 +610,11 @@ static int make_partitions(ftm_wire_transport *t, ftm_error *err)
         const dds_return_t r = t->publisher < 0 ? t->publisher : t->subscriber;
         t->publisher = t->subscriber = 0;
         if (r == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY)
-            return wire_err(err, FTM_EACCESS,
-                            "not permitted by the DDS Security permissions in %s to use partition "
-                            "%s (an identity of another role or id)",
-                            t->sec.permissions, t->sec.partition);
+            return ftm_error_set(
+                err, FTM_EACCESS,
+                "not permitted by the DDS Security permissions in %s to use partition "
+                "%s (an identity of another role or id)",
+                t->sec.permissions, t->sec.partition);
         return dds_fail(err, "dds_create_publisher/subscriber", r);
     }
     return FTM_OK;
@@ -632,7 +623,8 @@ static int make_partitions(ftm_wire_transport *t, ftm_error *err)
 static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_error *err)
 {
     kind_io *io = &t->io[k];
-    io->topic = dds_create_topic(t->participant, &ftm_wire_Envelope_desc, topic_names[k], NULL, NULL);
+    io->topic = dds_create_topic(t->participant, &ftm_wire_Envelope_desc, ftm_wire_topic_name(k),
+                                 NULL, NULL);
     if (io->topic < 0)
         return endpoint_fail(t, err, "dds_create_topic", k, pub, io->topic);
     if (pub) {
@@ -652,7 +644,7 @@ static int make_endpoints(ftm_wire_transport *t, int k, bool pub, bool sub, ftm_
         dds_listener_t *l = dds_create_listener(io);
         if (!l) {
             dds_delete_qos(q);
-            return wire_err(err, FTM_ENOMEM, "transport: out of memory for a listener");
+            return ftm_error_set(err, FTM_ENOMEM, "transport: out of memory for a listener");
         }
         dds_lset_data_available(l, on_data_available);
         io->reader = dds_create_reader(t->subscriber ? t->subscriber : t->participant, io->topic, q,
@@ -689,22 +681,23 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
                               ftm_error *err)
 {
     if (!def || !out)
-        return wire_err(err, FTM_EINVAL, "ftm_wire_transport_create: NULL argument");
+        return ftm_error_set(err, FTM_EINVAL, "ftm_wire_transport_create: NULL argument");
     if (!def->session || !def->session[0] || strlen(def->session) > 63)
-        return wire_err(err, FTM_EINVAL, "transport: session name must have 1..63 bytes");
+        return ftm_error_set(err, FTM_EINVAL, "transport: session name must have 1..63 bytes");
     if (def->participant_id == 0)
-        return wire_err(err, FTM_EINVAL, "transport: participant_id must not be 0");
+        return ftm_error_set(err, FTM_EINVAL, "transport: participant_id must not be 0");
     if ((def->publish | def->subscribe) & ~(uint32_t)FTM_WIRE_ALL_KINDS)
-        return wire_err(err, FTM_EINVAL, "transport: publish/subscribe masks name unknown kinds");
+        return ftm_error_set(err, FTM_EINVAL,
+                             "transport: publish/subscribe masks name unknown kinds");
     if (def->publisher_priority < 0 || def->publisher_priority > 99)
-        return wire_err(err, FTM_EINVAL, "transport: publisher_priority %d out of range 0..99",
-                        (int)def->publisher_priority);
+        return ftm_error_set(err, FTM_EINVAL, "transport: publisher_priority %d out of range 0..99",
+                             (int)def->publisher_priority);
     if (def->queue_capacity < 0)
-        return wire_err(err, FTM_EINVAL, "transport: negative queue_capacity");
+        return ftm_error_set(err, FTM_EINVAL, "transport: negative queue_capacity");
 
     ftm_wire_transport *t = calloc(1, sizeof *t);
     if (!t)
-        return wire_err(err, FTM_ENOMEM, "transport: out of memory");
+        return ftm_error_set(err, FTM_ENOMEM, "transport: out of memory");
     snprintf(t->session, sizeof t->session, "%s", def->session);
     t->id = def->participant_id;
     t->limits = def->limits;
@@ -732,11 +725,12 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
         t->participant = dds_create_participant(def->domain_id, NULL, NULL);
         if (t->participant < 0) {
             if (def->security)
-                rc = wire_err(err, FTM_EACCESS,
-                              "DDS Security refused the identity in %s (dds_create_participant: "
-                              "%s); Cyclone DDS gives the reason on standard error or in its "
-                              "trace (<Tracing><Verbosity>warning</Verbosity>)",
-                              def->security, dds_strretcode(t->participant));
+                rc = ftm_error_set(
+                    err, FTM_EACCESS,
+                    "DDS Security refused the identity in %s (dds_create_participant: "
+                    "%s); Cyclone DDS gives the reason on standard error or in its "
+                    "trace (<Tracing><Verbosity>warning</Verbosity>)",
+                    def->security, dds_strretcode(t->participant));
             else
                 rc = dds_fail(err, "dds_create_participant", t->participant);
             t->participant = 0;
@@ -761,15 +755,16 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
     /* after the endpoints: an identity whose grants fall short is named by
      * the permission refused; one of a wider role is refused here */
     if (rc == FTM_OK && def->security && def->role && def->role != t->sec.role)
-        rc = wire_err(err, FTM_EACCESS,
-                      "DDS Security: the identity in %s was issued for role %s, and this program "
-                      "runs as %s: the others would reject its statuses; use an identity issued "
-                      "for %s",
-                      def->security, ftm_wire_role_name(t->sec.role), ftm_wire_role_name(def->role),
-                      ftm_wire_role_name(def->role));
+        rc = ftm_error_set(
+            err, FTM_EACCESS,
+            "DDS Security: the identity in %s was issued for role %s, and this program "
+            "runs as %s: the others would reject its statuses; use an identity issued "
+            "for %s",
+            def->security, ftm_wire_role_name(t->sec.role), ftm_wire_role_name(def->role),
+            ftm_wire_role_name(def->role));
     if (rc == FTM_OK) {
         if (pthread_create(&t->thread, NULL, publisher_main, t) != 0) {
-            rc = wire_err(err, FTM_ENOMEM, "transport: cannot start the publishing thread");
+            rc = ftm_error_set(err, FTM_ENOMEM, "transport: cannot start the publishing thread");
         } else {
             t->thread_started = true;
             if (def->publisher_priority > 0) {
@@ -846,16 +841,17 @@ int ftm_wire_wait_matched(ftm_wire_transport *t, int kind, int32_t count, int64_
                           ftm_error *err)
 {
     if (!t || !valid_kind(kind) || (!t->io[kind].writer && !t->io[kind].reader))
-        return wire_err(err, FTM_EINVAL, "wait_matched: this transport neither writes nor reads %s",
-                        ftm_wire_kind_name(kind));
+        return ftm_error_set(err, FTM_EINVAL,
+                             "wait_matched: this transport neither writes nor reads %s",
+                             ftm_wire_kind_name(kind));
     int64_t deadline = now_ns() + timeout_ns;
     for (;;) {
         int32_t n = matched_count(&t->io[kind]);
         if (n >= count)
             return FTM_OK;
         if (now_ns() >= deadline)
-            return wire_err(err, FTM_ETIMEDOUT, "%s: %d of %d peers matched after %.3f s",
-                            ftm_wire_kind_name(kind), n, count, (double)timeout_ns * 1e-9);
+            return ftm_error_set(err, FTM_ETIMEDOUT, "%s: %d of %d peers matched after %.3f s",
+                                 ftm_wire_kind_name(kind), n, count, (double)timeout_ns * 1e-9);
         sleep_ns(5000000);
     }
 }
@@ -865,13 +861,14 @@ uint64_t ftm_wire_transport_origin(const ftm_wire_transport *t) { return t->orig
 int ftm_wire_pin_publisher(ftm_wire_transport *t, int cpu, ftm_error *err)
 {
     if (!t || !t->thread_started || cpu < 0 || cpu >= CPU_SETSIZE)
-        return wire_err(err, FTM_EINVAL, "ftm_wire_pin_publisher: bad transport or cpu %d", cpu);
+        return ftm_error_set(err, FTM_EINVAL, "ftm_wire_pin_publisher: bad transport or cpu %d",
+                             cpu);
     cpu_set_t set;
     CPU_ZERO(&set);
     CPU_SET(cpu, &set);
     int e = pthread_setaffinity_np(t->thread, sizeof set, &set);
     if (e)
-        return wire_err(err, FTM_EINVAL, "publishing thread on cpu %d: %s", cpu, strerror(e));
+        return ftm_error_set(err, FTM_EINVAL, "publishing thread on cpu %d: %s", cpu, strerror(e));
     return FTM_OK;
 }
 
@@ -988,16 +985,18 @@ static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm
     if (it->oversize) {
         const size_t cap = wire_payload_cap(&t->limits, kind);
         reject(t, kind, "message from participant %u seq %llu: %s: payload of %zu bytes exceeds "
-               "the %zu-byte cap",
-               it->sender, (unsigned long long)it->seq, what, it->oversize, cap);
+               "the %zu-byte cap (%s)",
+               it->sender, (unsigned long long)it->seq, what, it->oversize, cap,
+               ftm_err_name(FTM_ETOOBIG));
         return 0;
     }
     ftm_error e = {0, ""};
     ftm_wire_msg msg;
     int rc = ftm_wire_decode(kind, it->data, it->size, &t->limits, &msg, &e);
     if (rc) {
-        reject(t, kind, "message from participant %u seq %llu: %s", it->sender,
-               (unsigned long long)it->seq, e.message);
+        /* the code's name ties the line to the classes of docs/protocol.md */
+        reject(t, kind, "message from participant %u seq %llu: %s (%s)", it->sender,
+               (unsigned long long)it->seq, e.message, ftm_err_name(rc));
         return 0;
     }
     if (secured && uncertified(it, kind, &msg, why, sizeof why)) {
@@ -1051,11 +1050,11 @@ int ftm_wire_receive(ftm_wire_transport *t, int kind, ftm_wire_received *out, in
                      ftm_error *err)
 {
     if (!t || !out)
-        return wire_err(err, FTM_EINVAL, "ftm_wire_receive: NULL argument");
+        return ftm_error_set(err, FTM_EINVAL, "ftm_wire_receive: NULL argument");
     memset(out, 0, sizeof *out);
     if (!valid_kind(kind) || !t->io[kind].reader)
-        return wire_err(err, FTM_EINVAL, "ftm_wire_receive: this transport does not read %s",
-                        ftm_wire_kind_name(kind));
+        return ftm_error_set(err, FTM_EINVAL, "ftm_wire_receive: this transport does not read %s",
+                             ftm_wire_kind_name(kind));
     kind_io *io = &t->io[kind];
     int64_t deadline = now_ns() + (timeout_ns > 0 ? timeout_ns : 0);
     for (;;) {
@@ -1068,8 +1067,8 @@ int ftm_wire_receive(ftm_wire_transport *t, int kind, ftm_wire_received *out, in
                      (unsigned long long)dropped, ftm_wire_kind_name(kind), RX_QUEUE_MAX,
                      RX_QUEUE_BYTES >> 20);
         if (!it)
-            return wire_err(err, FTM_ETIMEDOUT, "%s: nothing received in %.3f s",
-                            ftm_wire_kind_name(kind), (double)timeout_ns * 1e-9);
+            return ftm_error_set(err, FTM_ETIMEDOUT, "%s: nothing received in %.3f s",
+                                 ftm_wire_kind_name(kind), (double)timeout_ns * 1e-9);
         int got = handle_sample(t, kind, it, out);
         free(it);
         if (got)
@@ -1101,7 +1100,7 @@ static uint64_t stat_value(const struct dds_statistics *s, const char *name)
 int ftm_wire_get_stats(ftm_wire_transport *t, int kind, ftm_wire_stats *stats, ftm_error *err)
 {
     if (!t || !stats || !valid_kind(kind))
-        return wire_err(err, FTM_EINVAL, "ftm_wire_get_stats: bad argument");
+        return ftm_error_set(err, FTM_EINVAL, "ftm_wire_get_stats: bad argument");
     kind_io *io = &t->io[kind];
     pthread_mutex_lock(&t->lock);
     *stats = io->stats;

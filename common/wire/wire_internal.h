@@ -1,4 +1,4 @@
-/* Internals of ftm_wire shared by codec.c, scan.c and transport.c. */
+/* Internals of ftm_wire shared by the codec, scan.c, security.c and transport.c. */
 #ifndef FTM_WIRE_INTERNAL_H
 #define FTM_WIRE_INTERNAL_H
 
@@ -8,10 +8,6 @@
 
 #include <limits.h>
 #include <stdbool.h>
-
-/* Sets err (if any) and returns code. */
-int wire_err(ftm_error *err, int code, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
 
 /* Walks a protobuf encoding against its descriptor without allocating and
  * reports the first structural problem with its byte offset and field:
@@ -23,9 +19,6 @@ int wire_scan(const ProtobufCMessageDescriptor *desc, const uint8_t *data, size_
 /* The payload cap of kind under limits: their max_payload if set, else the
  * kind's default cap. limits may be NULL. */
 size_t wire_payload_cap(const ftm_wire_limits *limits, int kind);
-
-/* The protobuf-c descriptor of a kind's top-level message, NULL if none. */
-const ProtobufCMessageDescriptor *wire_descriptor(int kind);
 
 /* What a transport keeps of its DDS Security bundle. */
 typedef struct wire_security {

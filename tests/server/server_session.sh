@@ -26,6 +26,12 @@
 #             by their announcements and rejoined: one on the same scene,
 #             with a trainee pressing, then one on another scene, which the
 #             observer loads; it ends on the last server's hash.
+#   feel:     what a trainee feels does not depend on the depth (the default
+#             scene's elastic far field, docs/core.md): trainee 11 presses
+#             the same way twice, the instructor holds the depth at 2 for the
+#             first press and at 8 for the second; the forces the trainee
+#             received over the last 0.5 s of each 2.5 s hold differ by at
+#             most 3 % (the paper's fixed far field: about 20 %).
 # Every process runs under `timeout`; the test itself has a CTest TIMEOUT.
 set -u
 mode=${1:?mode}
@@ -36,7 +42,7 @@ dir=$(mktemp -d "${TMPDIR:-/tmp}/ftm-server-$mode.XXXXXX")
 trap 'rm -rf "$dir"' EXIT
 # a DDS domain of our own (tests/net uses 1..97, tests/wire 100..219; the
 # default port mapping ends at domain 231)
-case $mode in adaptive) base=220 ;; record) base=224 ;; tissue) base=98 ;; *) base=228 ;; esac
+case $mode in adaptive) base=220 ;; record) base=224 ;; tissue|feel) base=98 ;; *) base=228 ;; esac
 domain=$(( base + $$ % (base == 98 ? 2 : 4) ))
 session="srv-$mode-$$"
 common="--session $session --domain $domain --config $FTM_CONFIG"
@@ -132,6 +138,50 @@ adaptive)
     got=$(sed -n 's/^inputs .*; \(final tick .*\)$/\1/p' "$dir/inputs.out")
     [ "$got" = "$want" ] || fail "--inputs ends on '$got', the server on '$want'"
     echo "PASS adaptive: $want; lowest depth $min, at the end $end; $(sed -n 's/.*; \(depth [0-9.]* ([0-9]* changes)\).*/replayed \1/p' "$dir/replay.out")"
+    ;;
+feel)
+    # 500 Hz in every build: each hold is 1250 ticks (1.25 s of tissue time)
+    rate=500
+    start_server --duration 11 --control-log "$dir/control.csv"
+    timeout 60 "$FTM_BOT" --role trainee --script "$here/feel-trainee.bot" $common --id 11 \
+        --duration 30 --log "$dir/bot11.csv" >"$dir/bot11.out" 2>"$dir/bot11.err" &
+    b11=$!
+    timeout 60 "$FTM_BOT" --role instructor --script "$here/feel-instructor.bot" $common --id 12 \
+        --duration 30 >"$dir/bot12.out" 2>"$dir/bot12.err" &
+    b12=$!
+    wait $server || fail "server exited with $?"
+    wait $b11 || fail "bot 11 exited with $?"
+    wait $b12 || fail "bot 12 exited with $?"
+    check_hashes 11 12
+    [ "$(grep -c "command depth limits [28]\.\.[28]: applied" "$dir/bot12.err")" -eq 2 ] ||
+        fail "the instructor's depth limits were not both applied"
+    # the depth in use over each window (control log: time,tick,depth,...)
+    # and the trainee's received force (bot log: time_s,...,fz at column 9)
+    python3 - "$dir/bot11.csv" "$dir/control.csv" <<'PY' >"$dir/feel.out" || fail "the held forces depend on the depth: $(cat "$dir/feel.out")"
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+ctl = list(csv.DictReader(open(sys.argv[2])))
+def held(t0, t1):
+    w = [r for r in rows if t0 <= float(r['time_s']) < t1 and int(r['contacts']) > 0]
+    f = [float(r['fz']) for r in w]
+    ticks = [int(r['tick']) for r in w]
+    return (sum(f) / len(f) if f else None), len(f), (min(ticks), max(ticks)) if ticks else (0, -1)
+def depths(span):
+    # the control rows (every 0.5 s) from the one before the window to its end
+    before = [r for r in ctl if int(r['tick']) <= span[0]]
+    inside = [r for r in ctl if span[0] < int(r['tick']) <= span[1]]
+    return sorted({int(r['depth']) for r in before[-1:] + inside})
+f2, n2, s2 = held(3.5, 4.0)
+f8, n8, s8 = held(8.5, 9.0)
+d2, d8 = depths(s2), depths(s8)
+print(f"held force at depth {d2}: {f2} N ({n2} frames); at depth {d8}: {f8} N ({n8} frames)")
+ok = f2 is not None and f8 is not None and n2 > 20 and n8 > 20 and d2 == [2] and d8 == [8]
+ok = ok and f8 > 0.2 and abs(f2 - f8) <= 0.03 * f8
+if ok:
+    print(f"difference {100 * (f2 - f8) / f8:+.2f} % (at most 3 %)")
+sys.exit(0 if ok else 1)
+PY
+    cat "$dir/feel.out"
     ;;
 tissue)
     # trainee 11 presses and holds still; instructor 12 doubles the stiffness

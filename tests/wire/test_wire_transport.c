@@ -51,6 +51,13 @@ static void capture_log(void *user, ftm_log_level level, const char *message)
 
 /* ---- helpers -------------------------------------------------------------- */
 
+/* Whether the line that starts at line ends with suffix. */
+static bool line_ends_with(const char *line, const char *suffix)
+{
+    const size_t n = strcspn(line, "\n"), k = strlen(suffix);
+    return n >= k && memcmp(line + n - k, suffix, k) == 0;
+}
+
 static ftm_wire_transport *open_transport(const char *session, uint32_t id, uint32_t pub,
                                           uint32_t sub, logbuf *log)
 {
@@ -428,6 +435,9 @@ static void test_malformed_rejected_then_good(void **state)
     char *second = strstr(log.text, want2);
     if (!first || !second)
         fail_msg("log lacks the reasons:\n%s", log.text);
+    /* each with its code's symbolic name at the end of the line */
+    if (!line_ends_with(first, "(FTM_EPARSE)") || !line_ends_with(second, "(FTM_ETOOBIG)"))
+        fail_msg("log lacks the codes' names:\n%s", log.text);
     pthread_mutex_unlock(&log.lock);
     ftm_wire_transport_destroy(t);
     assert_int_equal(finish_peer(&c), 0);

@@ -133,6 +133,10 @@ int ftm_hex8_stiffness(const ftm_vec3 x[8], double young, double poisson, double
                        double *min_det);
 /* Shape-function gradients dN_a/dx at the element centre (3 per node). */
 int ftm_hex8_centre_gradients(const ftm_vec3 x[8], double grad[24]);
+/* Shape-function gradients dN_a/dx at the 8 Gauss points of
+ * ftm_hex8_stiffness, in its order (24 per point, 3 per node), and det J
+ * there (the points' weights are 1). FTM_EINVAL if det J <= 0 at one. */
+int ftm_hex8_gauss_gradients(const ftm_vec3 x[8], double grad[192], double det[8]);
 /* Row-sum lumped masses int rho N_a dV (2x2x2 Gauss). */
 int ftm_hex8_lumped_mass(const ftm_vec3 x[8], double density, double mass[8]);
 /* 4-node tetrahedron: K_e = V B^T D B, V = |signed volume|. FTM_EINVAL if

@@ -46,13 +46,34 @@ typedef enum ftm_order {
 } ftm_order;
 
 /* Internal forces of the integrator. The paper's model is springs; the
- * element forces use the mesh's hexahedra and tetrahedra with the linear
- * elastic element stiffness of the FEM reference (docs/accuracy.md). */
+ * element forces use the mesh's hexahedra and tetrahedra: the linear elastic
+ * element stiffness of the FEM reference, or the neo-Hookean solid
+ * (docs/accuracy.md, docs/calculix.md). */
 typedef enum ftm_forces {
     FTM_FORCES_SPRINGS = 0,    /* Voigt links (Eq. 6), the default */
     FTM_FORCES_LINEAR_FEM = 1, /* f_e = K_e (x_e - X_e): small displacements */
     FTM_FORCES_COROT_FEM = 2,  /* co-rotational f_e = R K_e (R^T x_e - X_e): large rotations */
+    /* compressible neo-Hookean, W = mu/2 (J^(-2/3) I1 - 3) + kappa/2 (J - 1)^2
+     * (CalculiX's *HYPERELASTIC, NEO HOOKE with C10 = mu/2, D1 = 2/kappa,
+     * mu and kappa from young and poisson): large strains. An element
+     * inverted at a quadrature point (J <= 0) fails the step: it is undone
+     * and substepped, guard or not, and FTM_EUNSTABLE if that cannot help */
+    FTM_FORCES_NEO_HOOKEAN = 3,
 } ftm_forces;
+
+/* What holds the contact region at its edge. The paper holds every node
+ * beyond the penetration depth at rest (FIXED), so a shallow region is
+ * clamped close to the contact and feels stiffer (+57 % at depth 2 on the
+ * elastin cube). ELASTIC places the nodes just beyond the region where the
+ * whole body's linear static solution puts them under the current contacts
+ * (precomputed compliance of the surface nodes, docs/core.md "Far field"):
+ * at equilibrium the contact forces and the region's displacements are the
+ * whole body's at every depth, at a cost still set by the region. It needs
+ * a held body (fixed nodes), and takes a precomputation at creation. */
+typedef enum ftm_far_field {
+    FTM_FAR_FIELD_FIXED = 0,   /* nodes beyond the depth at rest: the paper's model, the default */
+    FTM_FAR_FIELD_ELASTIC = 1, /* the region's edge where the whole body would be */
+} ftm_far_field;
 
 /* The range of ftm_sim_def.time_step [s]: below it the Eq. 8 coefficients
  * m / h^2 leave double's range for ordinary masses, above it nothing in
@@ -94,11 +115,13 @@ typedef struct ftm_sim_def {
     void *log_user;
     /* Internal forces (default FTM_FORCES_SPRINGS). With element forces a
      * node's force is the sum of its elements' rows of K_e (x_e - X_e) (or the
-     * co-rotated form), links only shape the layers and the guard; young > 0
-     * and -1 < poisson < 0.5 are required, and density > 0 [kg/m^3] replaces
-     * the mesh's node masses by lumped element masses (0 keeps them). */
+     * co-rotated form, or the neo-Hookean nodal forces), links only shape the
+     * layers and the guard; young > 0 and -1 < poisson < 0.5 are required,
+     * and density > 0 [kg/m^3] replaces the mesh's node masses by lumped
+     * element masses (0 keeps them). */
     ftm_forces forces;
     double young, poisson, density;
+    ftm_far_field far_field; /* default FTM_FAR_FIELD_FIXED */
 } ftm_sim_def;
 
 ftm_sim_def ftm_default_sim_def(void);
@@ -131,6 +154,7 @@ typedef struct ftm_sim_stats {
     uint64_t guard_events;    /* steps rolled back by the guard */
     uint64_t unstable_steps;  /* steps that failed even at max_substeps */
     uint64_t planar_sweeps;   /* group sweeps that left z out (planar_kernel) */
+    int32_t far_nodes;        /* elastic far field: nodes placed beyond the region */
 } ftm_sim_stats;
 
 int ftm_sim_create(const ftm_mesh *mesh, const ftm_sim_def *def, ftm_sim **out, ftm_error *err);
@@ -242,7 +266,9 @@ int ftm_sim_load_state(ftm_sim *sim, uint64_t step, int32_t depth, const int32_t
 
 /* The critical time step of the simulation's forces: ftm_mesh_critical_time_step
  * for springs; for element forces the Gershgorin bound on M^-1 K with the
- * assembled element stiffness and the simulation's (lumped) masses. */
+ * assembled element stiffness and the simulation's (lumped) masses. For
+ * neo-Hookean forces K is their tangent at rest (the linear K): a deformed
+ * body's tangent differs, and the guard substeps if that needs it. */
 double ftm_sim_critical_time_step(const ftm_sim *sim);
 
 /* Node masses the simulation uses (lumped element masses when set), 1 per node. */
@@ -252,7 +278,8 @@ const double *ftm_sim_masses(const ftm_sim *sim);
  * node): the spring forces sum_j f_ij, or the element forces, as the
  * integrator computes them (co-rotational: rotations from x). A node at
  * equilibrium has f = external force. Fixed nodes get their reactions'
- * negatives like any other node. FTM_ENOMEM possible. */
+ * negatives like any other node. FTM_ENOMEM possible; neo-Hookean:
+ * FTM_EINVAL (f_out untouched) if an element is inverted at x. */
 int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f_out);
 
 /* ---- contact stiffness (for haptic force models, docs/haptics.md) ---- */

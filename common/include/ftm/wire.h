@@ -7,8 +7,8 @@
  * and the ftm_contact type, so a tick frame's contacts go straight into
  * ftm_sim_set_contacts().
  *
- * Errors follow ftm/base.h: a negative FTM_E* code (the base codes or the
- * wire codes below) and an ftm_error message naming the message kind, the
+ * Errors follow ftm/base.h: a negative FTM_E* code (its list holds the wire's
+ * codes too) and an ftm_error message naming the message kind, the
  * field or byte offset and the problem, e.g.
  *   "tick frame: contact 3: node 912 out of range (scene has 400 nodes)".
  * Bad input from a peer is never fatal: it is rejected with such a message. */
@@ -25,18 +25,11 @@ extern "C" {
 /* Protocol version carried in every message (package ftm.v1). */
 #define FTM_WIRE_VERSION 1u
 
-/* Wire error codes (beside the FTM_E* codes of ftm/base.h). */
-enum {
-    FTM_ETOOBIG = -20,   /* payload larger than the kind's size cap */
-    FTM_EBUDGET = -21,   /* decoding would need more memory than the budget */
-    FTM_EVERSION = -22,  /* a message of another protocol version */
-    FTM_ETIMEDOUT = -23, /* nothing arrived / the peer did not show in time */
-    FTM_EDDS = -24,      /* a DDS call failed (the message names it) */
-    FTM_EAGAIN = -25,    /* the publishing queue is full; message dropped */
-    FTM_EACCESS = -26,   /* refused by DDS Security (identity or permissions) */
-};
+/* The wire's error codes (FTM_ETOOBIG, FTM_EBUDGET, FTM_EVERSION,
+ * FTM_ETIMEDOUT, FTM_EDDS, FTM_EAGAIN, FTM_EACCESS) are in the one list of
+ * ftm/base.h, which ftm_strerror and ftm_err_name know. */
 
-/* Like ftm_strerror, knowing the wire codes too; never NULL. */
+/* The same as ftm_strerror; kept for callers from before the one list. */
 const char *ftm_wire_strerror(int code);
 
 /* Message kinds; the values are ftm.v1.Kind and Envelope.kind. */
@@ -305,10 +298,12 @@ typedef struct ftm_wire_transport_def {
      * i.e. $CYCLONEDDS_URI or built-in defaults. */
     const char *config;
     /* DDS Security: the directory of this participant's identity and
-     * permissions (deploy/ftm-security issue: ca.pem, cert.pem, key.pem,
-     * governance.p7s, permissions.p7s), checked here and added to the
-     * configuration; NULL: no security (docs/deploy.md, "Securing a
-     * session"). Errors name the file and the cause; an endpoint the
+     * permissions (deploy/ftm-security issue: identity_ca.pem,
+     * permissions_ca.pem, cert.pem, key.pem, governance.p7s,
+     * permissions.p7s), checked here and added to the configuration; NULL:
+     * no security (docs/deploy.md, "Securing a session"). Errors name the
+     * file and the cause; a bundle of a room with one CA (ca.pem), or whose
+     * two CAs are one, is refused (CVE-2023-24011); an endpoint the
      * permissions do not grant fails with FTM_EACCESS. */
     const char *security;
     /* secured: the role this program runs as (0: not checked); an identity
