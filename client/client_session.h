@@ -10,7 +10,7 @@
 
 #include "ftm/scene.h"
 #include "ftm/wire.h"
-#include "replay.h" /* ftm_pending: commands waiting for their reply */
+#include "pending.h" /* ftm_pending: commands waiting for their reply */
 
 #define FTM_CLIENT_MAX_PROBES 64
 #define FTM_CLIENT_MAX_PARTS 32

@@ -24,7 +24,7 @@ case ${1:-} in -h|--help) usage; exit 0 ;; esac
 cd "$(dirname "$0")/.."
 build=${1:-build/release}
 server="$build/server/ftm-server"
-bot="$build/client/ftm-bot"
+bot="$build/bot/ftm-bot"
 client="$build/client/ftm-client"
 gui=
 case ${FTM_HEADLESS:-0} in 0|'') headless= ;; *) headless=1 ;; esac

@@ -10,7 +10,9 @@
  * check is of the physics and the frames, see the docs. */
 #include "record.h"
 #include "record_replay.h"
-#include "replay.h"
+#include "digest.h"
+#include "step.h"
+#include "tissue.h"
 
 #include "ftm/scene.h"
 #include "ftm/wire.h"

@@ -12,7 +12,8 @@
 #include "ftm/v1/ftm.pb-c.h"
 #include "ftm/wire.h"
 #include "haptic_wire.h"
-#include "replay.h"
+#include "replica.h"
+#include "step.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -51,7 +51,10 @@
 #include "device.h"
 #include "haptic.h"
 #include "haptic_wire.h"
-#include "replay.h"
+#include "digest.h"
+#include "keyframe.h"
+#include "step.h"
+#include "tissue.h"
 
 #include "ftm/sim.h"
 

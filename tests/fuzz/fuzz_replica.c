@@ -7,7 +7,7 @@
  * hang, and the replica's state never holds a NaN or infinity. */
 #include "fuzz.h"
 
-#include "replay.h"
+#include "replica.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -19,6 +19,7 @@
  * The wrong-kind envelope needs a raw DDS writer (ftm_wire always writes a
  * kind on its own topic); everything else goes through ftm_wire, raw
  * payloads with ftm_wire_publish_raw. */
+#include "ftm/clock.h"
 #include "ftm/wire.h"
 
 #include "ftm_envelope.h"
@@ -302,13 +303,6 @@ static ftm_wire_transport *forger(const char *config, uint32_t domain, const cha
                      FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL));
 }
 
-static int64_t now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
-}
-
 static int forge(const char *config, uint32_t domain, const char *session, uint32_t server_id,
                  uint32_t taken, uint32_t innocent, double seconds)
 {
@@ -320,11 +314,11 @@ static int forge(const char *config, uint32_t domain, const char *session, uint3
     uint64_t replies = 0, statuses = 0, heard_status = 0, heard_control = 0;
     uint32_t heard[FORGE_HEARD];
     int nheard = 0;
-    const int64_t end = now_ns() + (int64_t)(seconds * 1e9);
+    const int64_t end = ftm_clock_mono_ns() + (int64_t)(seconds * 1e9);
     int64_t next_status = 0;
     ftm_wire_msg m;
     ftm_error err = {0, ""};
-    while (now_ns() < end) {
+    while (ftm_clock_mono_ns() < end) {
         ftm_wire_received rx;
         /* whose processes there are: what the statuses' origins say */
         while (ftm_wire_receive(t[0], FTM_WIRE_STATUS, &rx, 0, NULL) == FTM_OK) {
@@ -370,9 +364,9 @@ static int forge(const char *config, uint32_t domain, const char *session, uint3
             }
             ftm_wire_received_free(&rx);
         }
-        if (now_ns() < next_status)
+        if (ftm_clock_mono_ns() < next_status)
             continue;
-        next_status = now_ns() + 20000000; /* 50 Hz: between any two of the server's */
+        next_status = ftm_clock_mono_ns() + 20000000; /* 50 Hz: between any two of the server's */
         for (int i = 0; i <= ntaken; i++) {
             memset(&m, 0, sizeof m);
             m.kind = FTM_WIRE_STATUS;
@@ -439,9 +433,9 @@ static int impersonate(const char *config, uint32_t domain, const char *session,
         exit(3);
     }
     ftm_wire_probe_sample smp = {.probe = 0, .device_time_ns = 1, .position = {0, 0, 0.2}};
-    const int64_t end = now_ns() + (int64_t)(seconds * 1e9);
+    const int64_t end = ftm_clock_mono_ns() + (int64_t)(seconds * 1e9);
     uint64_t sent = 0;
-    while (now_ns() < end) {
+    while (ftm_clock_mono_ns() < end) {
         ftm_wire_msg m;
         memset(&m, 0, sizeof m);
         m.kind = FTM_WIRE_STATUS;
@@ -515,15 +509,15 @@ static int elevated(const char *config, uint32_t domain, const char *session, ui
     fflush(stdout);
     static const ftm_wire_command cycle[4] = {FTM_WIRE_CMD_PAUSE, FTM_WIRE_CMD_RESUME,
                                               FTM_WIRE_CMD_TISSUE, FTM_WIRE_CMD_RESET};
-    const int64_t start = now_ns(), end = start + (int64_t)(seconds * 1e9);
+    const int64_t start = ftm_clock_mono_ns(), end = start + (int64_t)(seconds * 1e9);
     int64_t next_status = start, next_command = start + 300000000LL;
     uint64_t statuses = 0, commands = 0, answered = 0, applied = 0;
     int32_t matched = 0;
     ftm_error err = {0, ""};
     ftm_wire_msg m;
-    while (now_ns() < end) {
+    while (ftm_clock_mono_ns() < end) {
         matched = matched_max(t, kind, matched);
-        const int64_t now = now_ns();
+        const int64_t now = ftm_clock_mono_ns();
         if (now >= next_status) {
             next_status = now + (server ? 50000000LL : 300000000LL);
             memset(&m, 0, sizeof m);

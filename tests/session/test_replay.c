@@ -8,7 +8,12 @@
 #include <stddef.h>
 #include <cmocka.h>
 
-#include "replay.h"
+#include "claims.h"
+#include "digest.h"
+#include "keyframe.h"
+#include "replica.h"
+#include "step.h"
+#include "tissue.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -5,8 +5,8 @@
  * impulse) and how deep they pushed. Everything is counted in ticks from
  * the tick logic alone, never from the clock, so a --replay or --inputs run
  * of a recording reports exactly what the live session did. */
-#ifndef FTM_CLIENT_REPORT_H
-#define FTM_CLIENT_REPORT_H
+#ifndef FTM_SESSION_REPORT_H
+#define FTM_SESSION_REPORT_H
 
 #include "ftm/base.h"
 

@@ -2,8 +2,8 @@
  * and timed session commands. Shared by ftm-bot, which plays a script on
  * the wall clock, and ftm-server --offline, which plays it on the tick
  * clock without DDS (the reference the session tests compare against). */
-#ifndef FTM_CLIENT_SCRIPT_H
-#define FTM_CLIENT_SCRIPT_H
+#ifndef FTM_SESSION_SCRIPT_H
+#define FTM_SESSION_SCRIPT_H
 
 #include "ftm/wire.h"
 #include "script_text.h" /* the format's parser, ftm_script_point */
