@@ -47,15 +47,25 @@ typedef struct options {
 static volatile sig_atomic_t g_stop;
 static void on_signal(int sig) { (void)sig; g_stop = 1; }
 
-static int64_t g_t0;
+static int64_t g_t0;        /* the process' start: the log's times, `join` */
+static int64_t g_script_t0; /* the script's time 0: g_t0, or with `clock session` the
+                             * first moment the bot may act in the session (0: not yet) */
 static uint32_t g_id;
 
 /* A script's time [s] as a deadline on the monotonic clock. Scripts bound
  * times only to be finite: one beyond MAX_SECONDS comes after any
- * --duration, so it is never (cast, it would wrap). */
+ * --duration, so it is never (cast, it would wrap). Before a session clock
+ * has started, no script time has come. */
 static int64_t script_deadline(double t)
 {
-    return t < MAX_SECONDS ? g_t0 + (int64_t)(t * 1e9) : INT64_MAX;
+    return t < MAX_SECONDS && g_script_t0 ? g_script_t0 + (int64_t)(t * 1e9) : INT64_MAX;
+}
+
+/* The script's time at `now` [s]; negative before a session clock starts
+ * (no point, command or expectation window is there). */
+static double script_time(int64_t now)
+{
+    return g_script_t0 ? (double)(now - g_script_t0) * 1e-9 : -1.0;
 }
 
 static void blog(const char *fmt, ...)
@@ -202,7 +212,7 @@ static void on_frame(void *user, const ftm_wire_received *rx, int64_t taken_ns, 
     const ftm_wire_tick *t = ftm_replay_last_frame(rep);
     /* the log and the expectations see the frame at the same time: when it
      * was applied here, the trainee's "now" (after the latency) */
-    const double now_s = (double)(ftm_clock_mono_ns() - g_t0) * 1e-9;
+    const double now_s = script_time(ftm_clock_mono_ns());
     ftm_wire_reaction re;
     /* (unconfirmed or taken, a force under our id may be another's) */
     const bool contact = ftm_participant_id_ours(b->part) &&
@@ -327,20 +337,27 @@ static const char *run(bot *b, int64_t end_ns, int *rc_exit)
     ftm_participant_join(b->part);
     const int64_t joined_ns = ftm_clock_mono_ns();
     int64_t next_input = joined_ns;
-    const int64_t leave_ns = b->sc.leave >= 0 ? script_deadline(b->sc.leave) : INT64_MAX;
     b->unsynced_since = joined_ns;
     const bool trainee = b->role == FTM_WIRE_ROLE_TRAINEE;
     while (!g_stop) {
         int64_t now = ftm_clock_mono_ns();
+        if (!g_script_t0 && (trainee ? ftm_participant_may_press(b->part)
+                                     : ftm_participant_get_info(b->part)->ever_synced)) {
+            /* `clock session`: the script starts once the bot is in the
+             * session (a trainee: synced and heard under its id), however
+             * long joining took (a secured session on a loaded host) */
+            g_script_t0 = now;
+            blog("script time 0 (clock session)");
+        }
         if (now >= end_ns)
             return "duration reached";
-        if (now >= leave_ns)
+        if (b->sc.leave >= 0 && now >= script_deadline(b->sc.leave))
             return "script leave time";
         /* a trainee waits for frames no longer than until its next input */
         int64_t wait = trainee ? next_input - now : SEC / 1000;
         ftm_participant_turn(b->part, wait < 0 ? 0 : wait > SEC / 1000 ? SEC / 1000 : wait);
         now = ftm_clock_mono_ns();
-        const double t = (double)(now - g_t0) * 1e-9;
+        const double t = script_time(now);
         if (trainee && now >= next_input && ftm_participant_may_press(b->part)) {
             send_probe(b, t);
             next_input += (int64_t)(b->o.input_period * 1e9);
@@ -371,7 +388,7 @@ static void wind_down(bot *b)
         ftm_participant_turn(b->part, SEC / 100);
         ftm_participant_status_due(b->part, ftm_clock_mono_ns());
     }
-    double t_end = (double)(ftm_clock_mono_ns() - g_t0) * 1e-9;
+    double t_end = script_time(ftm_clock_mono_ns());
     for (int32_t i = 0; i < b->sc.ncmds && b->role == FTM_WIRE_ROLE_INSTRUCTOR; i++) {
         const ftm_script_command *c = &b->sc.cmds[i];
         if (!c->done && c->e.t <= t_end) { /* due, but held: no server to hear it */
@@ -421,7 +438,7 @@ static int report(bot *b, const char *why, int rc_exit)
         blog("%u server restart%s rejoined", in->restarts, in->restarts > 1 ? "s" : "");
     if (b->sc.nexpects > 0) {
         int failed = ftm_script_expect_report(&b->sc, b->o.script,
-                                              (double)(ftm_clock_mono_ns() - g_t0) * 1e-9, stderr);
+                                              script_time(ftm_clock_mono_ns()), stderr);
         blog("%d of %d expectations failed", failed, (int)b->sc.nexpects);
         /* a sync failure (1) or a taken id (2) says more: it keeps its code */
         if (failed && rc_exit == 0)
@@ -484,6 +501,7 @@ int main(int argc, char **argv)
     static bot bb;
     bot *b = &bb;
     g_t0 = ftm_clock_mono_ns();
+    g_script_t0 = g_t0;
     int rc = parse(argc, argv, &b->o);
     if (rc >= 0)
         return rc;
@@ -505,8 +523,10 @@ int main(int argc, char **argv)
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
     const int64_t end_ns = g_t0 + (int64_t)(b->o.duration * 1e9);
-    /* wait for the join time */
-    const int64_t join_ns = script_deadline(b->sc.join);
+    /* wait for the join time (process time, whatever the clock) */
+    const int64_t join_ns = b->sc.join < MAX_SECONDS ? g_t0 + (int64_t)(b->sc.join * 1e9) : INT64_MAX;
+    if (b->sc.session_clock)
+        g_script_t0 = 0;
     while (!g_stop && ftm_clock_mono_ns() < join_ns && ftm_clock_mono_ns() < end_ns) {
         struct timespec ts = {0, 5000000};
         nanosleep(&ts, NULL);

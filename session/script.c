@@ -27,6 +27,7 @@ int ftm_script_load(const char *path, ftm_script *sc)
     sc->npts = text.npts;
     sc->join = text.join;
     sc->leave = text.leave;
+    sc->session_clock = text.session_clock;
     return 0;
 }
 

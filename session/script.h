@@ -34,6 +34,7 @@ typedef struct ftm_script {
     ftm_script_check expects[FTM_SCRIPT_EXPECTS_MAX];
     int32_t nexpects;
     double join, leave; /* leave < 0: none */
+    bool session_clock; /* `clock session` (script_text.h) */
 } ftm_script;
 
 /* Reads a script file. On error prints `FILE:LINE: reason` to stderr and

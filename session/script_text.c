@@ -52,7 +52,7 @@ static int command(ftm_script_text *sc, const token *tok, int ntok, const char *
     if (k == sizeof keywords / sizeof *keywords)
         return ftm_text_error(err, FTM_EPARSE, name, line,
                     "unknown keyword '%.*s' (join, leave, pause, resume, reset, stiffness, "
-                    "damping, mass, depth, expect)",
+                    "damping, mass, depth, expect, clock)",
                     (int)(tok[0].n < 32 ? tok[0].n : 32), tok[0].p);
     const char *word = keywords[k].word;
     double t;
@@ -132,6 +132,16 @@ static int expectation(ftm_script_text *sc, const token *tok, int ntok, const ch
     return FTM_OK;
 }
 
+/* clock process|session: what a script's times count from */
+static int clock_base(ftm_script_text *sc, const token *tok, int ntok, const char *name,
+                      int32_t line, ftm_error *err)
+{
+    if (ntok != 2 || !(token_is(tok[1], "process") || token_is(tok[1], "session")))
+        return ftm_text_error(err, FTM_EPARSE, name, line, "expected 'clock process|session'");
+    sc->session_clock = token_is(tok[1], "session");
+    return FTM_OK;
+}
+
 static int point(ftm_script_text *sc, int32_t *cap, const token *tok, int ntok,
                  const char *name, int32_t line, ftm_error *err)
 {
@@ -194,6 +204,8 @@ int ftm_script_text_parse(const char *text, size_t length, const char *name,
             continue;
         if (token_is(tok[0], "expect"))
             rc = expectation(out, tok, ntok, name, txt.line, err);
+        else if (token_is(tok[0], "clock"))
+            rc = clock_base(out, tok, ntok, name, txt.line, err);
         else if (isalpha((unsigned char)tok[0].p[0]))
             rc = command(out, tok, ntok, name, txt.line, err);
         else

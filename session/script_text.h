@@ -69,6 +69,8 @@ typedef struct ftm_script_text {
     int32_t nexpects;
     double join;  /* `join t`, default 0 */
     double leave; /* `leave t`, -1: none */
+    bool session_clock; /* `clock session`: times but join's count from the
+                         * first moment the bot may act in the session */
 } ftm_script_text;
 
 /* Parses a script held in memory; name is used in error messages
