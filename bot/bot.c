@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-bot: a scripted headless participant (docs/bot-script.md).
  *
  * Joins a session as trainee, observer or instructor, replays the server's

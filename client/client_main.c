@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-client: the thin GLFW/OpenGL client (docs/client.md).
  *
  * Threads, as in the paper's Fig. 14: the haptic loop (haptic.h, 1 kHz,

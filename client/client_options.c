@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-client's command line (client_options.h). */
 #include "client_options.h"
 #include "cli.h"

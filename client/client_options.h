@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-client's command line (docs/client.md): its option table (the
  * parser and --help, ftm/options.h) and the checks of its outputs before
  * anything is opened. */

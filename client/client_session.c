@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The client's session thread; see client_session.h and docs/client.md.
  * The participant's side of the protocol is the participant core's
  * (participant.h), shared with ftm-bot; what is here is the client's own:

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The client's session thread ("replay" in the paper's Fig. 14): joins a
  * session over DDS, replays the server's tick frames with ftm_replay, sends
  * the trainee's probe input and the instructor's commands, watches for bad

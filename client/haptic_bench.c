@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-haptic-bench: haptic benchmarks (docs/haptics.md).
  *
  *   timing     the haptic loop thread against a scripted device for S

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The haptic loop thread (haptic.h): device in, renderer, device out, at
  * absolute CLOCK_MONOTONIC deadlines. Exchange with other threads through
  * one mutex held for a few hundred nanoseconds per tick: new samples in,

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Installs the Debian 12 packages FTM needs to build and test. Idempotent:
 # does nothing when everything is already installed. Run as root or with sudo.
 #

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # A headless training session on this machine, over loopback DDS:
 # ftm-server with the default scene at 1 kHz, two scripted trainees pressing
 # the tissue (docs/sessions/trainee*.bot), an instructor who makes the tissue

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-server --check (docs/deploy.md): everything a session needs is set
  * up as for the session, the rest tried without starting it, and what the
  * session would be is printed: exit 0 if it would start, 3 if not. For an

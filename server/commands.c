@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The instructor's session control (docs/server.md, Roles): pause, resume,
  * reset, depth limits and tissue parameters, each answered with a
  * ControlReply to its issuer (docs/protocol.md). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The server's log (rooms.h): stderr, and --log FILE, every line with the
  * time since the start. */
 #include "rooms.h"

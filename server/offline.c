@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Runs without DDS or the clock (docs/server.md): --offline plays trainees
  * from bot scripts on the tick clock, the reference of the session tests;
  * --inputs and --replay's second pass feed a recording's inputs through the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Who is in the session (rooms.h, participants.c): the table of
  * participants from their statuses, their probe input, and whose messages
  * are heard at all: one process per id, one server per session

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Every 100 ms (docs/server.md, Adaptive penetration depth): the period's
  * measurements go to the depth controller (depth_ctl.h), the Prometheus
  * snapshot (metrics.h) and --control-log. Runs on the loop thread between

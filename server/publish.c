@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* What the server publishes (docs/protocol.md): announcements, its
  * statuses, tick frames (unless idle) and keyframes. Each is encoded here,
  * counted and recorded, and queued for ftm_wire's publishing thread. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-server --replay FILE: re-simulates a recorded session from its scene
  * with libftm and checks every recorded tick frame's state hash
  * (docs/server.md, "Session recording").

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The session's recording (record.h, docs/server.md "Recording and
  * replay"), its report (report.h, --report) and --reactions: what a run
  * leaves behind. A write error stops the recording, not the session. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Inside ftm-server: one server's state, in rooms. Each room is a file with
  * a state struct of its own; the server struct holds one of each and what
  * they share (the scene, the log, the clock's origin). Nothing is global:

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-server: the authoritative session server (docs/server.md).
  *
  * This file keeps the server's lifetime: set-up from its definition, the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-server as a library: its definition (what the command line says,
  * with defaults), the program behind one call, and the argument parser.
  * The session fuzz target (tests/fuzz/fuzz_session.c) runs a server from a

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-server's options: the definition's defaults, its option table (the
  * parser and --help, ftm/options.h) and the checks of values together. */
 #define _GNU_SOURCE /* CPU_SETSIZE */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* One tick (docs/server.md, The tick loop): the trainees' probes become
  * contacts by point collision with the deformed surface (collide.h), the
  * simulation steps exactly as every replica will (ftm_replay_step), the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Whose id and whose frames (claims.h). */
 #include "claims.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Which process an id belongs to, as the server says, and which process is
  * the server: the rules a participant follows before it believes a status,
  * a frame or a force under an id (docs/protocol.md: Messages,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Command-line checks of the session's programs (cli.h). */
 #include "cli.h"
 

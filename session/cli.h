@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* What the session's programs (ftm-server, ftm-bot, ftm-client) check on
  * their command lines alike, beyond an option's own range (ftm/options.h):
  * a DDS domain, a display name, and outputs that are no input. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The scene digest (digest.h), by OpenSSL's EVP SHA-256. */
 #include "digest.h"
 #include "step.h"

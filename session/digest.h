@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The scene digest: SHA-256 (OpenSSL's EVP) over what determines a
  * session's dynamics, announced by the server and checked by every
  * replica before it replays a frame (docs/protocol.md, Announcement). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Keyframes (keyframe.h). */
 #include "keyframe.h"
 

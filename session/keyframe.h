@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Keyframes: a simulation's whole state at a tick, for joiners and for
  * replicas that lost frames (docs/protocol.md, Keyframe). */
 #ifndef FTM_SESSION_KEYFRAME_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The participant core (participant.h): one implementation of the
  * participant's side of the protocol for ftm-bot and ftm-client. */
 #include "participant.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The participant core: what every participant of a session does, whatever
  * it shows (docs/protocol.md, "Writing a new client"; docs/design.md). One
  * core serves ftm-bot (bot/bot.c) and ftm-client's session thread

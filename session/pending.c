@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* An instructor's commands waiting for their replies (pending.h). */
 #include "pending.h"
 

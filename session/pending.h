@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* An instructor's commands and the server's replies (ControlReply).
  * ftm-client and ftm-bot remember each SessionControl they sent until the
  * server's reply to it arrives (docs/protocol.md): a command with no reply

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The replica: a copy of the scene that replays the server's tick frames
  * (replica.h, docs/protocol.md "Ticks, heartbeats and replay"). */
 #include "replica.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The replica: a participant's own copy of the session's scene, replaying
  * the server's tick frames (docs/protocol.md, "Ticks, heartbeats and
  * replay").

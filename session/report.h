@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The session report (ftm-server --report FILE, docs/server.md): what each
  * participant did, for the instructor's debriefing. ftm-client keeps the
  * same figures live from the frames it receives, for an instructor's HUD. Trainees' probes count

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-bot scripts: parsing and interpolation (script.h, docs/bot-script.md). */
 #include "script.h"
 

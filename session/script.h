@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-bot scripts (docs/bot-script.md): a probe's HIP trajectory over time
  * and timed session commands. Shared by ftm-bot, which plays a script on
  * the wall clock, and ftm-server --offline, which plays it on the tick

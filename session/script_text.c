@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The ftm-bot script format: one parser for every reader (script_text.h).
  * Lines, tokens and numbers come from libftm's text reader (common/src/text.h),
  * the one the scene and mesh parsers use. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The ftm-bot script format (docs/bot-script.md), parsed in one place for
  * every reader: ftm-bot, ftm-client --commands and ftm-server --offline
  * (script.h), and the scripted haptic device (device.h), so that a file

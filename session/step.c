@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* One tick of a session (step.h). */
 #include "step.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* One tick, as the server runs it and every replica repeats it: the same
  * simulation definition and the same call sequence on both sides, so that
  * their state hashes agree bit for bit (docs/protocol.md, "Ticks,

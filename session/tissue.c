@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Tissue parameters during a session (tissue.h). */
 #include "tissue.h"
 

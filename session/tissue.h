@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Tissue parameters during a session (docs/protocol.md, "Tissue
  * parameters"). The instructor may change the tissue's mass, damping and
  * stiffness. The server and every replica then switch their simulation to a

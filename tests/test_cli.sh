@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # End-to-end tests of the ftm command-line tool.
 # Environment: FTM = path to the ftm binary, FTM_TEST_DATA = tests/data.
 set -eu

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm/options.h: one table drives the parser and --help; refusals name the
  * option; the parser can run many times in one process. */
 #include "ftm/options.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm bench net`: a whole session on loopback DDS, measured from outside
  * (docs/bench-net.md). It runs the real programs — ftm-server and N ftm-bot
  * trainees, plus Cyclone's ddsperf ping/pong beside them — and reads what

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm/clock.h: the programs' clocks. */
 #include "ftm/clock.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The compliance of a held body (compliance.h says what and why): its
  * stiffness at rest assembled and factorised (profile LDL^T), Green's
  * columns solved for, shared within the process and cached on disk. */

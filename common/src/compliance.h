@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: the compliance G = K^-1 of a held body, for the elastic far
  * field (farfield.h). K is the stiffness at rest with the fixed nodes
  * clamped: the springs' tangent, or the assembled linear element stiffness.

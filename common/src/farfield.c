@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The elastic far field: the ring of nodes just beyond the contact region,
  * placed each step from the body's compliance (farfield.h says what and
  * why; compliance.c computes G). */

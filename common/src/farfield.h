@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: the elastic far field (ftm_sim_def.far_field = FTM_FAR_FIELD_ELASTIC).
  *
  * The paper holds every node beyond the penetration depth at rest, so the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm/options.h: one option table for the parser (getopt_long) and --help. */
 #include "ftm/options.h"
 #include "text.h"

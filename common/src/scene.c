@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Scene files: INI-like text ("[section]", "key = value", "#" comments)
  * describing a mesh, its material, simulation parameters and scripted loads.
  * The format is documented in docs/scene-format.md.

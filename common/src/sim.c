@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The force transmittal integrator: contacts, cached layers and update
  * schedule, Gauss-Seidel central differences, relaxation and sleep, the
  * stability guard, reactions and the state hash. */

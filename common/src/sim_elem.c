@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Element forces in the force transmittal integrator (beyond the paper).
  *
  * Instead of springs, a node's internal force is the sum over its elements of

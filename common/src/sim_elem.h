@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: element forces of the integrator (sim_elem.c), the alternative to
  * springs selected by ftm_sim_def.forces. */
 #ifndef FTM_SRC_SIM_ELEM_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* DDS Security for a transport: a participant's bundle (the directory that
  * deploy/ftm-security issue makes) checked with OpenSSL before Cyclone sees
  * it, and turned into the <Security> part of the Cyclone configuration.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internals of ftm_wire shared by the codec, scan.c, security.c and transport.c. */
 #ifndef FTM_WIRE_INTERNAL_H
 #define FTM_WIRE_INTERNAL_H

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Screenshots of ftm-client for docs/client.md and the README, taken the way
 # the tests take them: a real ftm-server on loopback DDS, scripted trainees
 # (ftm-bot), and ftm-client under Xvfb with Mesa's software renderer.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The elastic far field (ftm_sim_def.far_field, docs/core.md "Far field"):
  *   - with linear element forces, a press held by displacement reaches the
  *     whole body's FEM solution at every depth: the contact force and the

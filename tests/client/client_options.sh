@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-client refuses out-of-range options with a message naming them, and
 # exits 2 before it opens a window or joins anything (no display needed:
 # every run also names a Cyclone configuration that does not exist).

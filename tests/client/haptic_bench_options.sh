@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-haptic-bench refuses what it cannot do, with a message naming it and
 # status 2, before computing anything.
 set -u

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The bot script format (client/script_text.h, docs/bot-script.md): one
  * parser for ftm-bot, ftm-server --offline and the scripted haptic device.
  * Points, commands, every refusal with its file and line, and the same

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-client's session thread (client/client_session.c) without GL, against
  * a real ftm-server on loopback; tests/client/client_session.sh starts the
  * server (and a bot) and then this program:

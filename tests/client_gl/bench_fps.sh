@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Frame rate of ftm-client under Xvfb + Mesa llvmpipe on the organ-like
 # scene (client-organ: 20480 triangles), while a scripted trainee presses
 # into it over loopback DDS (docs/client.md, "Frame rate").

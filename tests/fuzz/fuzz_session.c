@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The server's side of a session under hostile or broken peers: the message
  * handlers (status, probe input, session control, gone and lost events), the
  * probe collision and the tick logic of ftm-server, which no other target

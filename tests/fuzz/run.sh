@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Fuzz campaigns (docs/fuzzing.md). Builds the libFuzzer targets with clang,
 # ASan and UBSan in BUILD (default build/fuzz), then runs each TARGET (default:
 # all) for SECONDS (default 300) on a scratch copy of its committed corpus.

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # DDS Security (docs/deploy.md, "Securing a session"), on loopback. The
 # certificates are made here, in the test's directory, by deploy/ftm-security.
 #   script:  the script's argument errors, refusals to overwrite, key file

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Session tests on loopback: ftm-server + ftm-bot processes.
 #   basic: server + 2 trainees + 1 observer; every bot ends on the server's
 #          final tick and hash, and each trainee's reaction-force profile

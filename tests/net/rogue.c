@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-rogue: a hostile participant for the session tests (tests/net,
  * mode rogue). It joins a running session and sends, one after the other,
  * every kind of bad input the protocol must survive: garbage bytes, a

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # The adaptive depth at work (docs/server.md, docs/img/adaptive-depth.png):
 # ftm-server at 1 kHz with --adaptive 1, trainee 11 pressing and holding,
 # observer 13 stopped with SIGSTOP for 1.5 s; the server's control log (one

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-server refuses out-of-range options with a message naming them, and
 # accepts the limits themselves (--offline: no DDS involved; where a build
 # without the check would start a session, a configuration that does not

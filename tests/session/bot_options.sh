@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-bot refuses out-of-range options with a message naming them, before
 # it joins anything: every run names a Cyclone configuration that does not
 # exist, so that a build without a check stops before DDS instead.

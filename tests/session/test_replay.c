@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm_sim_load_state and the replay library, in one process (no network):
  * a simulation restored from another's keyframe continues bit-identically;
  * a replica follows frames with idle ticks left out, resyncs on a gap, a

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The clocks of the programs around the core, in nanoseconds: one pair for
  * every program instead of a helper in each. The physics never reads a clock
  * (its results depend on its inputs alone); servers, clients and benchmarks

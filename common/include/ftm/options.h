@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Command-line options from one table. A program lists its options once, as
  * an array of ftm_option: the table drives the parser (libc's getopt_long)
  * and the --help text, so that what a program accepts and what it says it

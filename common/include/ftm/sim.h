@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The force transmittal simulation (Choi, Sun, Heng 2004).
  *
  * Each step:

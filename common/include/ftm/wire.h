@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* FTM wire layer: the protocol codec (protobuf, proto/ftm.proto) and the DDS
  * transport (Cyclone DDS, one topic per message kind). docs/protocol.md is
  * the protocol's reference; this header is the C API over it.
