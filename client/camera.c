@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Orbit camera; see camera.h. Matrices are computed in double and handed
  * to GL as float. */
 #include "camera.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Orbit camera for the client: it circles a target point (azimuth about the
  * world z axis, which is "up" in every FTM scene, and elevation above the
  * xy plane) at a distance, and pans the target in the view plane. Matrices

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-client: the thin GLFW/OpenGL client (docs/client.md).
  *
  * Threads, as in the paper's Fig. 14: the haptic loop (haptic.h, 1 kHz,
@@ -14,6 +15,7 @@
 #include <GLFW/glfw3.h>
 
 #include "camera.h"
+#include "client_options.h"
 #include "client_session.h"
 #include "device.h"
 #include "haptic.h"
@@ -22,6 +24,8 @@
 #include "render.h"
 #include "screenshot.h"
 #include "script.h"
+
+#include "ftm/clock.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -35,31 +39,11 @@
 #include <time.h>
 #include <unistd.h>
 
-#define SEC 1000000000LL
+#define SEC FTM_NS_PER_S
 #define MOUSE_MAX_DEPTH 0.2 /* the mouse probe's deepest push, as a part of the scene's size */
 
-typedef struct options {
-    const char *role, *scene, *session, *config, *security, *name, *log_path, *device, *renderer;
-    const char *commands; /* instructor: timed session commands (bot script format) */
-    bool device_given, renderer_given; /* (trainee options: said for another role, refused) */
-    uint32_t domain, id;
-    double server_timeout, duration;
-    int width, height, swap_interval, msaa;
-    const char *screenshot;
-    bool shot_hold;
-    uint64_t shot_tick;
-    int64_t shot_contact; /* < 0: not asked */
-    double shot_after;    /* > 0: at this time whatever the state */
-    double shot_timeout;
-    double bench;
-    bool json;
-    bool colormap, region, hud, volume, cut, verbose;
-    int volume_step;
-    double colormap_full;
-} options;
-
 typedef struct app {
-    options o;
+    ftm_client_options o;
     ftm_wire_role role;
     int64_t t0;
     FILE *logf;
@@ -98,20 +82,13 @@ typedef struct app {
 static volatile sig_atomic_t g_stop;
 static void on_signal(int sig) { (void)sig; g_stop = 1; }
 
-static int64_t mono_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * SEC + ts.tv_nsec;
-}
-
 static void app_log(void *user, ftm_log_level level, const char *msg)
 {
     app *a = user;
     if (level < FTM_LOG_INFO && !a->o.verbose)
         return;
     const char *tag = level >= FTM_LOG_ERROR ? "error: " : level == FTM_LOG_WARN ? "warning: " : "";
-    double t = (double)(mono_ns() - a->t0) * 1e-9;
+    double t = (double)(ftm_clock_mono_ns() - a->t0) * 1e-9;
     fprintf(stderr, "ftm-client %u [%8.3f] %s%s\n", a->o.id, t, tag, msg);
     if (a->logf) {
         fprintf(a->logf, "[%8.3f] %s%s\n", t, tag, msg);
@@ -183,7 +160,7 @@ static void notice(app *a, bool bad, const char *fmt, ...)
     vsnprintf(a->notice, sizeof a->notice, fmt, ap);
     va_end(ap);
     a->notice_bad = bad;
-    a->notice_until = mono_ns() + NOTICE_NS;
+    a->notice_until = ftm_clock_mono_ns() + NOTICE_NS;
     alog(a, bad ? FTM_LOG_WARN : FTM_LOG_INFO, "%s", a->notice);
 }
 
@@ -234,7 +211,7 @@ static void scripted_commands(app *a)
     if (!a->have_cmds || !a->view.synced_once || a->view.state != FTM_WIRE_STATE_SYNCED ||
         a->view.server_away)
         return;
-    double t = (double)(mono_ns() - a->t0) * 1e-9;
+    double t = (double)(ftm_clock_mono_ns() - a->t0) * 1e-9;
     for (int32_t i = 0; i < a->cmds.ncmds; i++) {
         ftm_script_command *sc = &a->cmds.cmds[i];
         if (sc->done || t < sc->e.t)
@@ -372,288 +349,6 @@ static void on_glfw_error(int code, const char *msg)
     fprintf(stderr, "ftm-client: GLFW error 0x%x: %s\n", code, msg);
 }
 
-/* ---- options ------------------------------------------------------------------------------ */
-
-static void usage(FILE *f)
-{
-    fprintf(f,
-            "usage: ftm-client [--role trainee|instructor|observer] [options]\n"
-            "session:\n"
-            "  --session NAME           session name (default ftm)\n"
-            "  --domain N               DDS domain (default 0)\n"
-            "  --config FILE            Cyclone DDS configuration (deploy/cyclonedds-*.xml)\n"
-            "  --security DIR           DDS Security: this participant's identity and permissions\n"
-            "                           (deploy/ftm-security issue DIR NAME --role ROLE)\n"
-            "  --scene NAME|FILE        local scene (default: the announced scene id)\n"
-            "  --id N  --name TEXT      participant id (default: from pid and time), display name\n"
-            "  --server-timeout S       no tick frames for S s (paused: no server status, sent\n"
-            "                           every 0.5 s): server counted as gone (default 3)\n"
-            "instructor:\n"
-            "  --commands FILE          send the timed commands of an ftm-bot script (pause,\n"
-            "                           resume, reset, stiffness, damping, mass, depth;\n"
-            "                           docs/bot-script.md) once synced\n"
-            "trainee:\n"
-            "  --device mouse|script:FILE  probe device (default mouse)\n"
-            "  --renderer model|extrapolate haptic force renderer (default model)\n"
-            "view:\n"
-            "  --size WxH               window size (default 1280x800)\n"
-            "  --no-colormap --region --no-hud   initial display toggles (keys c, b, h)\n"
-            "  --no-volume              a scene's surface, not its volume (key v)\n"
-            "  --cut                    the volume cut away through its middle (key x)\n"
-            "  --volume-step N          draw every Nth slice of a volume: 1 (default, 9 between\n"
-            "                           node planes, as the paper), 2, 5, 10 (key n)\n"
-            "  --colormap-full MM       displacement at the top of the colour map\n"
-            "  --swap-interval N        0: no vsync (default 1)\n"
-            "  --msaa N                 multisample anti-aliasing samples (default 0; 4 looks\n"
-            "                           better on a GPU, costs much under llvmpipe)\n"
-            "headless:\n"
-            "  --screenshot FILE.png    render until the latest tick is applied, save, exit\n"
-            "  --screenshot-tick T      ... stop replaying at the first tick >= T instead\n"
-            "  --screenshot-contact N   ... wait until a contact has lasted N ticks\n"
-            "  --screenshot-after S     ... take it S s after start, whatever the state\n"
-            "  --screenshot-timeout S   give up after S s: save what is shown, exit 1 (default 60)\n"
-            "  --bench S                measure the frame rate for S s once synced, exit\n"
-            "  --json                   --bench result as JSON too\n"
-            "  --duration S             exit after S s\n"
-            "  --log FILE               also write the log there\n"
-            "  --verbose                debug messages\n");
-}
-
-static int parse(int argc, char **argv, options *o)
-{
-    *o = (options){0};
-    o->role = "observer";
-    o->session = "ftm";
-    o->server_timeout = 3.0;
-    o->width = 1280;
-    o->height = 800;
-    o->swap_interval = 1;
-    o->shot_contact = -1;
-    o->shot_timeout = 60.0;
-    o->colormap = o->hud = o->volume = true;
-    o->volume_step = 1;
-    o->device = "mouse";
-    o->renderer = "model";
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            usage(stdout);
-            exit(0);
-        }
-        bool flag = true;
-        if (strcmp(a, "--no-colormap") == 0)
-            o->colormap = false;
-        else if (strcmp(a, "--region") == 0)
-            o->region = true;
-        else if (strcmp(a, "--no-hud") == 0)
-            o->hud = false;
-        else if (strcmp(a, "--no-volume") == 0)
-            o->volume = false;
-        else if (strcmp(a, "--cut") == 0)
-            o->cut = true;
-        else if (strcmp(a, "--json") == 0)
-            o->json = true;
-        else if (strcmp(a, "--verbose") == 0)
-            o->verbose = true;
-        else
-            flag = false;
-        if (flag)
-            continue;
-        if (i + 1 >= argc) {
-            fprintf(stderr, "ftm-client: %s needs a value (or unknown option)\n", a);
-            return -1;
-        }
-        const char *v = argv[++i];
-        char *end = NULL;
-        long long n = 0;
-        int bad = 0; /* an integer option out of range, already said */
-        errno = 0;
-        if (strcmp(a, "--role") == 0)
-            o->role = v;
-        else if (strcmp(a, "--scene") == 0)
-            o->scene = v;
-        else if (strcmp(a, "--session") == 0)
-            o->session = v;
-        else if (strcmp(a, "--config") == 0)
-            o->config = v;
-        else if (strcmp(a, "--security") == 0)
-            o->security = v;
-        else if (strcmp(a, "--name") == 0) {
-            bad = ftm_option_name_arg("ftm-client", v);
-            o->name = v;
-        }
-        else if (strcmp(a, "--log") == 0)
-            o->log_path = v;
-        else if (strcmp(a, "--device") == 0)
-            o->device = v, o->device_given = true;
-        else if (strcmp(a, "--commands") == 0)
-            o->commands = v;
-        else if (strcmp(a, "--renderer") == 0)
-            o->renderer = v, o->renderer_given = true;
-        else if (strcmp(a, "--screenshot") == 0)
-            o->screenshot = v;
-        else if (strcmp(a, "--domain") == 0) {
-            bad = ftm_option_int_arg("ftm-client", a, v, 0, FTM_OPTION_DOMAIN_MAX, &n);
-            o->domain = (uint32_t)n;
-        } else if (strcmp(a, "--id") == 0) {
-            bad = ftm_option_int_arg("ftm-client", a, v, 0, UINT32_MAX, &n); /* 0: automatic */
-            o->id = (uint32_t)n;
-        } else if (strcmp(a, "--server-timeout") == 0)
-            o->server_timeout = strtod(v, &end);
-        else if (strcmp(a, "--duration") == 0)
-            o->duration = strtod(v, &end);
-        else if (strcmp(a, "--screenshot-tick") == 0) {
-            bad = ftm_option_int_arg("ftm-client", a, v, 0, INT64_MAX, &n);
-            o->shot_tick = (uint64_t)n;
-            o->shot_hold = true;
-        } else if (strcmp(a, "--screenshot-contact") == 0) {
-            bad = ftm_option_int_arg("ftm-client", a, v, 0, INT64_MAX, &n);
-            o->shot_contact = n;
-        } else if (strcmp(a, "--screenshot-after") == 0)
-            o->shot_after = strtod(v, &end);
-        else if (strcmp(a, "--screenshot-timeout") == 0)
-            o->shot_timeout = strtod(v, &end);
-        else if (strcmp(a, "--bench") == 0)
-            o->bench = strtod(v, &end);
-        else if (strcmp(a, "--colormap-full") == 0)
-            o->colormap_full = strtod(v, &end) * 1e-3;
-        else if (strcmp(a, "--volume-step") == 0) {
-            bad = ftm_option_int_arg("ftm-client", a, v, 1, 10, &n);
-            if (!bad && n != 1 && n != 2 && n != 5 && n != 10) {
-                fprintf(stderr, "ftm-client: --volume-step: 1, 2, 5 or 10 (a divisor of the 10 "
-                                "slices per lattice cell), got %lld\n", n);
-                return -1;
-            }
-            o->volume_step = (int)n;
-        } else if (strcmp(a, "--msaa") == 0) {
-            bad = ftm_option_int_arg("ftm-client", a, v, 0, 16, &n);
-            o->msaa = (int)n;
-        } else if (strcmp(a, "--swap-interval") == 0) {
-            /* -1: adaptive vsync where the driver has it */
-            bad = ftm_option_int_arg("ftm-client", a, v, -1, 8, &n);
-            o->swap_interval = (int)n;
-        } else if (strcmp(a, "--size") == 0) {
-            /* two whole numbers and an x, nothing else ("100x100junk", " 100x 100") */
-            const char *x = strchr(v, 'x');
-            long long w = 0, h = 0;
-            if (!x || !ftm_option_int(v, (size_t)(x - v), 64, 8192, &w) ||
-                !ftm_option_int(x + 1, strlen(x + 1), 64, 8192, &h)) {
-                fprintf(stderr, "ftm-client: --size: expected WxH (64..8192), got '%s'\n", v);
-                return -1;
-            }
-            o->width = (int)w;
-            o->height = (int)h;
-        } else {
-            fprintf(stderr, "ftm-client: unknown option %s\n", a);
-            return -1;
-        }
-        if (bad)
-            return -1;
-        if (end && (*end || errno)) {
-            fprintf(stderr, "ftm-client: %s: bad number '%s'\n", a, v);
-            return -1;
-        }
-    }
-    /* times at most FTM_OPTION_SECONDS_MAX: larger ones wrap when cast to
-     * nanoseconds */
-    const double most = FTM_OPTION_SECONDS_MAX;
-    if (!(o->server_timeout > 0 && o->server_timeout <= most) ||
-        !(o->shot_timeout > 0 && o->shot_timeout <= most) ||
-        !(o->duration >= 0 && o->duration <= most) || !(o->bench >= 0 && o->bench <= most) ||
-        !(o->shot_after >= 0 && o->shot_after <= most) ||
-        !(o->colormap_full >= 0 && isfinite(o->colormap_full))) {
-        fprintf(stderr, "ftm-client: --server-timeout, --screenshot-timeout must be in (0, %g] s; "
-                        "--duration, --bench, --screenshot-after in [0, %g] s; --colormap-full "
-                        ">= 0\n", most, most);
-        return -1;
-    }
-    return 0;
-}
-
-/* ---- outputs ----------------------------------------------------------------------------- */
-
-/* Says why an output at path cannot be written, or returns NULL: checked
- * at start, where writing it fails only at the end (a screenshot after its
- * wait). why holds the message. in_dir: the file is made anew in its
- * directory (a screenshot, written under another name first), which must
- * then be writable even if the file exists. */
-static const char *unwritable(const char *path, bool in_dir, char *why, size_t n)
-{
-    struct stat st;
-    if (!path[0])
-        return snprintf(why, n, "an empty path"), why;
-    /* a screenshot is renamed over its path: over a symbolic link, a
-     * device or a FIFO (/dev/null as root) that would replace the node */
-    if (in_dir && lstat(path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode))
-        return snprintf(why, n, "is not a regular file (a symbolic link, a device or a "
-                                "FIFO): name a file"), why;
-    if (stat(path, &st) == 0) {
-        if (S_ISDIR(st.st_mode))
-            return snprintf(why, n, "is a directory"), why;
-        if (access(path, W_OK) != 0)
-            return snprintf(why, n, "cannot be written: %s", strerror(errno)), why;
-        if (!in_dir)
-            return NULL; /* (--log /dev/null) */
-    }
-    char dir[4096];
-    const char *slash = strrchr(path, '/');
-    if (!slash)
-        snprintf(dir, sizeof dir, ".");
-    else if (slash == path)
-        snprintf(dir, sizeof dir, "/");
-    else
-        snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
-    if (stat(dir, &st) != 0)
-        return snprintf(why, n, "its directory %s: %s", dir, strerror(errno)), why;
-    if (!S_ISDIR(st.st_mode))
-        return snprintf(why, n, "%s is not a directory", dir), why;
-    if (access(dir, W_OK | X_OK) != 0)
-        return snprintf(why, n, "its directory %s cannot be written: %s", dir, strerror(errno)), why;
-    return NULL;
-}
-
-/* Before anything is opened for writing, as ftm-server checks its own: an
- * output that is a file the client reads (--commands, the --device
- * script, --config, a --scene file; the same file by device and inode:
- * another name, a link) would be destroyed before it is read, and an
- * output that cannot be written is better said now. Returns 0, or 2 (a bad
- * argument) after saying which. */
-static int check_outputs(const options *o)
-{
-    ftm_option_path in[4], out[2];
-    int nin = 0, nout = 0;
-    if (o->commands)
-        in[nin++] = (ftm_option_path){"--commands", o->commands};
-    if (o->device && strncmp(o->device, "script:", 7) == 0)
-        in[nin++] = (ftm_option_path){"--device", o->device + 7};
-    if (o->config)
-        in[nin++] = (ftm_option_path){"--config", o->config};
-    if (o->scene)
-        in[nin++] = (ftm_option_path){"--scene", o->scene}; /* a scene's name is no file: skipped */
-    if (o->log_path)
-        out[nout++] = (ftm_option_path){"--log", o->log_path};
-    if (o->screenshot)
-        out[nout++] = (ftm_option_path){"--screenshot", o->screenshot};
-    for (int i = 0; i < nout; i++) {
-        char why[300];
-        if (unwritable(out[i].path, out[i].path == o->screenshot, why, sizeof why)) {
-            fprintf(stderr, "ftm-client: %s '%s': %s\n", out[i].opt, out[i].path, why);
-            return 2;
-        }
-        if (i == 1 && strcmp(out[0].path, out[1].path) == 0) {
-            fprintf(stderr, "ftm-client: --log and --screenshot are the same file %s\n", out[1].path);
-            return 2;
-        }
-    }
-    int k, i;
-    if (ftm_option_output_is_input(in, nin, out, nout, &k, &i)) {
-        fprintf(stderr, "ftm-client: %s %s is the file %s %s reads: it would be overwritten; "
-                        "write to another file\n", out[i].opt, out[i].path, in[k].opt, in[k].path);
-        return 2;
-    }
-    return 0;
-}
-
 /* ---- the render loop ----------------------------------------------------------------------- */
 
 static void mesh_box(const ftm_mesh *m, ftm_vec3 *lo, ftm_vec3 *hi)
@@ -781,111 +476,173 @@ static bool shot_ready(const app *a, const ftm_client_view *v, double elapsed)
     return true;
 }
 
+/* The HUD's figures, and the own probe's HIP straight from the haptic
+ * loop (no delay) into what is drawn. */
+static void hud_info(app *a, ftm_client_view *draw, ftm_hud_info *info, int64_t now, double fps)
+{
+    memset(info, 0, sizeof *info);
+    if (a->hap) {
+        ftm_haptic_state st;
+        ftm_haptic_get_state(a->hap, &st);
+        int32_t j = 0;
+        while (j < draw->nprobes && !(draw->probes[j].own && draw->probes[j].probe == 0))
+            j++;
+        if (j == draw->nprobes && j < FTM_CLIENT_MAX_PROBES) {
+            memset(&draw->probes[j], 0, sizeof draw->probes[j]);
+            draw->probes[j].own = true;
+            draw->probes[j].participant = a->o.id;
+            draw->nprobes++;
+        }
+        if (j < draw->nprobes && st.ticks > 0) {
+            draw->probes[j].have_hip = true;
+            draw->probes[j].hip = st.hip;
+        }
+        info->haptic = true;
+        info->force = st.force;
+        info->haptic_flags = st.flags;
+        info->renderer = ftm_haptic_renderer_name(st.renderer);
+    }
+    info->role = a->role;
+    info->id = a->o.id;
+    info->fps = fps;
+    info->frame_ms = fps > 0 ? 1e3 / fps : 0;
+    info->triangles = ftm_render_triangle_count(a->ren);
+    info->colormap = a->ropts.colormap;
+    info->region = a->ropts.region;
+    info->volume = ftm_render_has_volume(a->ren) ? (a->ropts.volume ? 1 : -1) : 0;
+    info->volume_slices = ftm_render_volume_slices(a->ren);
+    info->colormap_full =
+        a->ropts.colormap_full > 0 ? a->ropts.colormap_full : 0.5 * ftm_render_link_length(a->ren);
+    info->last_command = a->last_cmd[0] ? a->last_cmd : NULL;
+    if (a->notice[0] && now < a->notice_until) {
+        info->command_outcome = a->notice;
+        info->outcome_bad = a->notice_bad;
+    }
+}
+
+/* The mouse probe moves in the view as it is drawn now. */
+static void mouse_view(app *a)
+{
+    ftm_mouse_view mv;
+    mv.eye = ftm_camera_eye(&a->cam);
+    ftm_camera_basis(&a->cam, &mv.right, &mv.up, &mv.forward);
+    mv.fov_y = a->cam.fovy;
+    int ww, wh;
+    glfwGetWindowSize(a->win, &ww, &wh);
+    mv.width = ww > 0 ? ww : 1;
+    mv.height = view_rows(a, wh > 0 ? wh : 1);
+    ftm_mouse_set_view(a->dev, &mv);
+}
+
+/* --bench: frame times once synced, for --bench seconds. */
+typedef struct bench {
+    double *dt;
+    size_t n, cap;
+    int64_t start;
+} bench;
+
+/* Takes one frame's time; true when the measurement is over (printed). */
+static bool bench_frame(app *a, bench *b, double dt, int w, int h)
+{
+    if (!b->start) {
+        b->start = ftm_clock_mono_ns();
+        return false;
+    }
+    if (b->n == b->cap) {
+        size_t c = b->cap ? 2 * b->cap : 4096;
+        double *q = realloc(b->dt, c * sizeof *q);
+        if (!q)
+            return true;
+        b->dt = q;
+        b->cap = c;
+    }
+    b->dt[b->n++] = dt;
+    if ((double)(ftm_clock_mono_ns() - b->start) * 1e-9 < a->o.bench)
+        return false;
+    const char *gl_renderer = (const char *)glGetString(GL_RENDERER);
+    const int tris = (int)ftm_render_triangle_count(a->ren);
+    double sum = 0;
+    for (size_t i = 0; i < b->n; i++)
+        sum += b->dt[i];
+    double med = quantile(b->dt, b->n, 0.5), p90 = quantile(b->dt, b->n, 0.9);
+    double p10 = quantile(b->dt, b->n, 0.1);
+    printf("bench: %d triangles, %dx%d, %s: %zu frames in %.1f s = %.1f fps; frame "
+           "time median %.2f ms (%.1f fps), p10 %.2f ms, p90 %.2f ms\n",
+           tris, w, h, gl_renderer, b->n, sum, sum > 0 ? (double)b->n / sum : 0.0, med * 1e3,
+           med > 0 ? 1.0 / med : 0.0, p10 * 1e3, p90 * 1e3);
+    if (a->o.json)
+        printf("{\"triangles\": %d, \"width\": %d, \"height\": %d, \"renderer\": \"%s\", "
+               "\"frames\": %zu, \"seconds\": %.3f, \"fps_mean\": %.2f, "
+               "\"frame_ms_median\": %.3f, \"fps_median\": %.2f, \"frame_ms_p10\": %.3f, "
+               "\"frame_ms_p90\": %.3f}\n",
+               tris, w, h, gl_renderer, b->n, sum, sum > 0 ? (double)b->n / sum : 0.0, med * 1e3,
+               med > 0 ? 1.0 / med : 0.0, p10 * 1e3, p90 * 1e3);
+    fflush(stdout);
+    return true;
+}
+
+/* What the session thread has for this frame: the view, a command's
+ * outcome, the scene's mesh, the camera framed on it. */
+static void take_view(app *a, int64_t now)
+{
+    bool changed = ftm_client_session_snapshot(a->sess, &a->view);
+    if (a->view.outcome_seq != a->outcome_seen) { /* the session thread logged it */
+        a->outcome_seen = a->view.outcome_seq;
+        snprintf(a->notice, sizeof a->notice, "%s", a->view.outcome);
+        a->notice_bad = a->view.outcome_bad;
+        a->notice_until = now + NOTICE_NS;
+    }
+    scripted_commands(a);
+    if (a->view.mesh != a->drawn_mesh)
+        new_mesh(a);
+    if (changed)
+        ftm_render_update(a->ren, &a->view);
+    if (!a->cam_set && a->view.mesh) {
+        ftm_vec3 lo, hi;
+        mesh_box(a->view.mesh, &lo, &hi);
+        ftm_camera_frame(&a->cam, lo, hi);
+        a->cam_set = true;
+    }
+}
+
+/* The render loop until the window closes, a signal, --duration, or a
+ * --screenshot or --bench that is done. Returns the exit status. */
 static int run(app *a)
 {
     int rc_exit = 0;
-    int64_t start = mono_ns(), last = start;
-    double fps = 0, frame_ms = 0, *bench_dt = NULL;
-    size_t nbench = 0, bench_cap = 0;
-    int64_t bench_start = 0;
+    int64_t start = ftm_clock_mono_ns(), last = start;
+    double fps = 0;
+    bench b = {0};
     char lines[FTM_HUD_LINES][FTM_HUD_WIDTH];
     const char *hud[FTM_HUD_LINES];
     ftm_client_view draw;
-    const char *gl_renderer = (const char *)glGetString(GL_RENDERER);
     while (!glfwWindowShouldClose(a->win) && !g_stop) {
         glfwPollEvents();
-        int64_t now = mono_ns();
+        int64_t now = ftm_clock_mono_ns();
         double dt = (double)(now - last) * 1e-9;
         last = now;
-        if (dt > 0) {
+        if (dt > 0)
             fps = fps > 0 ? 0.9 * fps + 0.1 / dt : 1.0 / dt;
-            frame_ms = 1e3 / fps;
-        }
-        bool changed = ftm_client_session_snapshot(a->sess, &a->view);
-        if (a->view.outcome_seq != a->outcome_seen) { /* the session thread logged it */
-            a->outcome_seen = a->view.outcome_seq;
-            snprintf(a->notice, sizeof a->notice, "%s", a->view.outcome);
-            a->notice_bad = a->view.outcome_bad;
-            a->notice_until = now + NOTICE_NS;
-        }
-        scripted_commands(a);
-        if (a->view.mesh != a->drawn_mesh)
-            new_mesh(a);
-        if (changed)
-            ftm_render_update(a->ren, &a->view);
-        if (!a->cam_set && a->view.mesh) {
-            ftm_vec3 lo, hi;
-            mesh_box(a->view.mesh, &lo, &hi);
-            ftm_camera_frame(&a->cam, lo, hi);
-            a->cam_set = true;
-        }
+        take_view(a, now);
         int w, h;
         glfwGetFramebufferSize(a->win, &w, &h);
         if (w <= 0 || h <= 0) {
             glfwWaitEventsTimeout(0.05);
             continue;
         }
-        /* the own probe's HIP comes straight from the haptic loop, no delay */
         draw = a->view;
         ftm_hud_info info;
-        memset(&info, 0, sizeof info);
-        if (a->hap) {
-            ftm_haptic_state st;
-            ftm_haptic_get_state(a->hap, &st);
-            int32_t j = 0;
-            while (j < draw.nprobes && !(draw.probes[j].own && draw.probes[j].probe == 0))
-                j++;
-            if (j == draw.nprobes && j < FTM_CLIENT_MAX_PROBES) {
-                memset(&draw.probes[j], 0, sizeof draw.probes[j]);
-                draw.probes[j].own = true;
-                draw.probes[j].participant = a->o.id;
-                draw.nprobes++;
-            }
-            if (j < draw.nprobes && st.ticks > 0) {
-                draw.probes[j].have_hip = true;
-                draw.probes[j].hip = st.hip;
-            }
-            info.haptic = true;
-            info.force = st.force;
-            info.haptic_flags = st.flags;
-            info.renderer = ftm_haptic_renderer_name(st.renderer);
-        }
-        if (mouse_probe(a)) {
-            ftm_mouse_view mv;
-            mv.eye = ftm_camera_eye(&a->cam);
-            ftm_camera_basis(&a->cam, &mv.right, &mv.up, &mv.forward);
-            mv.fov_y = a->cam.fovy;
-            int ww, wh;
-            glfwGetWindowSize(a->win, &ww, &wh);
-            mv.width = ww > 0 ? ww : 1;
-            mv.height = view_rows(a, wh > 0 ? wh : 1);
-            ftm_mouse_set_view(a->dev, &mv);
-        }
-        info.role = a->role;
-        info.id = a->o.id;
-        info.fps = fps;
-        info.frame_ms = frame_ms;
-        info.triangles = ftm_render_triangle_count(a->ren);
-        info.colormap = a->ropts.colormap;
-        info.region = a->ropts.region;
-        info.volume = ftm_render_has_volume(a->ren) ? (a->ropts.volume ? 1 : -1) : 0;
-        info.volume_slices = ftm_render_volume_slices(a->ren);
-        info.colormap_full =
-            a->ropts.colormap_full > 0 ? a->ropts.colormap_full : 0.5 * ftm_render_link_length(a->ren);
-        info.last_command = a->last_cmd[0] ? a->last_cmd : NULL;
-        if (a->notice[0] && now < a->notice_until) {
-            info.command_outcome = a->notice;
-            info.outcome_bad = a->notice_bad;
-        }
+        hud_info(a, &draw, &info, now, fps);
+        if (mouse_probe(a))
+            mouse_view(a);
         int nhud = ftm_hud_lines(&draw, &info, lines);
         for (int i = 0; i < nhud; i++)
             hud[i] = lines[i];
         a->fb_h = h;
         double top = frame_top(a, ftm_render_view_top(&a->ropts, nhud), now, dt);
         ftm_render_draw(a->ren, &draw, &a->cam, w, h, top, &a->ropts, hud, nhud);
-
+        const double el = (double)(now - start) * 1e-9;
         if (a->o.screenshot) {
-            double el = (double)(now - start) * 1e-9;
             bool late = el > a->o.shot_timeout && !(a->o.shot_after > 0);
             if (shot_ready(a, &draw, el) || late) {
                 if (late)
@@ -898,77 +655,30 @@ static int run(app *a)
             }
         }
         glfwSwapBuffers(a->win);
-
         if (a->o.bench > 0 && draw.synced_once && a->drawn_mesh) {
-            if (!bench_start) {
-                bench_start = mono_ns();
-            } else {
-                if (nbench == bench_cap) {
-                    size_t c = bench_cap ? 2 * bench_cap : 4096;
-                    double *q = realloc(bench_dt, c * sizeof *q);
-                    if (!q)
-                        break;
-                    bench_dt = q;
-                    bench_cap = c;
-                }
-                bench_dt[nbench++] = dt;
-            }
-            double el = (double)(mono_ns() - bench_start) * 1e-9;
-            if (el >= a->o.bench) {
-                double sum = 0;
-                for (size_t i = 0; i < nbench; i++)
-                    sum += bench_dt[i];
-                double med = quantile(bench_dt, nbench, 0.5), p90 = quantile(bench_dt, nbench, 0.9);
-                double p10 = quantile(bench_dt, nbench, 0.1);
-                printf("bench: %d triangles, %dx%d, %s: %zu frames in %.1f s = %.1f fps; frame "
-                       "time median %.2f ms (%.1f fps), p10 %.2f ms, p90 %.2f ms\n",
-                       (int)ftm_render_triangle_count(a->ren), w, h, gl_renderer, nbench, sum,
-                       sum > 0 ? (double)nbench / sum : 0.0, med * 1e3, med > 0 ? 1.0 / med : 0.0,
-                       p10 * 1e3, p90 * 1e3);
-                if (a->o.json)
-                    printf("{\"triangles\": %d, \"width\": %d, \"height\": %d, \"renderer\": \"%s\", "
-                           "\"frames\": %zu, \"seconds\": %.3f, \"fps_mean\": %.2f, "
-                           "\"frame_ms_median\": %.3f, \"fps_median\": %.2f, \"frame_ms_p10\": %.3f, "
-                           "\"frame_ms_p90\": %.3f}\n",
-                           (int)ftm_render_triangle_count(a->ren), w, h, gl_renderer, nbench, sum,
-                           sum > 0 ? (double)nbench / sum : 0.0, med * 1e3,
-                           med > 0 ? 1.0 / med : 0.0, p10 * 1e3, p90 * 1e3);
-                fflush(stdout);
+            if (bench_frame(a, &b, dt, w, h))
                 break;
-            }
-        } else if (a->o.bench > 0 && (double)(now - start) * 1e-9 > 60.0) {
+        } else if (a->o.bench > 0 && el > 60.0) {
             alog(a, FTM_LOG_ERROR, "bench: not synced with a scene after 60 s");
             rc_exit = 1;
             break;
         }
-        if (a->o.duration > 0 && (double)(now - start) * 1e-9 >= a->o.duration)
+        if (a->o.duration > 0 && el >= a->o.duration)
             break;
     }
-    free(bench_dt);
+    free(b.dt);
     return rc_exit;
 }
 
-int main(int argc, char **argv)
+/* The arguments taken together, the --commands script and a trainee's
+ * device: refused before anything opens. Returns 0, or the exit status
+ * (2 a bad argument, 3 out of memory). */
+static int check_args(app *a)
 {
-    static app aa;
-    app *a = &aa;
-    a->t0 = mono_ns();
-    if (parse(argc, argv, &a->o)) {
-        usage(stderr);
-        return 2;
-    }
-    if (strcmp(a->o.role, "trainee") == 0)
-        a->role = FTM_WIRE_ROLE_TRAINEE;
-    else if (strcmp(a->o.role, "instructor") == 0)
-        a->role = FTM_WIRE_ROLE_INSTRUCTOR;
-    else if (strcmp(a->o.role, "observer") == 0)
-        a->role = FTM_WIRE_ROLE_OBSERVER;
-    else {
-        fprintf(stderr, "ftm-client: --role must be trainee, instructor or observer\n");
-        return 2;
-    }
-    ftm_haptic_renderer_kind rkind;
-    if (ftm_haptic_renderer_parse(a->o.renderer, &rkind)) {
+    a->role = strcmp(a->o.role, "trainee") == 0      ? FTM_WIRE_ROLE_TRAINEE
+              : strcmp(a->o.role, "instructor") == 0 ? FTM_WIRE_ROLE_INSTRUCTOR
+                                                     : FTM_WIRE_ROLE_OBSERVER; /* (parse_role) */
+    if (ftm_haptic_renderer_parse(a->o.renderer, &a->hap_def.renderer)) {
         fprintf(stderr, "ftm-client: --renderer must be model or extrapolate\n");
         return 2;
     }
@@ -985,70 +695,47 @@ int main(int argc, char **argv)
                 a->o.device_given ? "--device" : "--renderer", a->o.role);
         return 2;
     }
-    if (check_outputs(&a->o))
+    if (ftm_client_options_check_outputs(&a->o))
         return 2;
-    if (a->o.id == 0)
-        a->o.id = (uint32_t)(((uint64_t)getpid() * 2654435761u) ^ (uint64_t)time(NULL)) | 1u;
     if (a->o.commands) {
         if (ftm_script_load(a->o.commands, &a->cmds)) /* says FILE:LINE: why */
             return 2;
+        a->have_cmds = true;
         /* an instructor's probe feels nothing: refused, as by an instructor ftm-bot */
         if (a->cmds.nexpects > 0) {
             fprintf(stderr, "ftm-client: %s:%d: 'expect' is checked by a trainee ftm-bot only, "
                             "not by --commands\n", a->o.commands, (int)a->cmds.expects[0].e.line);
-            ftm_script_free(&a->cmds);
             return 2;
         }
-        a->have_cmds = true;
     }
+    if (a->role != FTM_WIRE_ROLE_TRAINEE)
+        return 0;
     /* a trainee's device before the window: a bad script is a bad
      * argument (status 2), said before anything opens */
-    if (a->role == FTM_WIRE_ROLE_TRAINEE) {
-        ftm_error derr = {0, ""};
-        struct stat st;
-        const char *file = a->o.device + 7;
-        int drc;
-        if (strcmp(a->o.device, "mouse") == 0)
-            drc = ftm_mouse_create(NULL, (ftm_vec3){0, 0, 1}, 0.0, -1.0, &a->dev, &derr);
-        else if (stat(file, &st) == 0 && S_ISDIR(st.st_mode))
-            drc = FTM_EIO, snprintf(derr.message, sizeof derr.message, "%s: is a directory", file);
-        else
-            drc = ftm_script_device_open(file, NULL, &a->dev, &derr); /* says FILE:LINE: why */
-        if (drc) {
-            fprintf(stderr, "ftm-client: --device %s: %s\n", a->o.device, derr.message);
-            if (a->have_cmds)
-                ftm_script_free(&a->cmds);
-            return drc == FTM_ENOMEM ? 3 : 2;
-        }
+    ftm_error derr = {0, ""};
+    struct stat st;
+    const char *file = a->o.device + 7;
+    int drc;
+    if (strcmp(a->o.device, "mouse") == 0)
+        drc = ftm_mouse_create(NULL, (ftm_vec3){0, 0, 1}, 0.0, -1.0, &a->dev, &derr);
+    else if (stat(file, &st) == 0 && S_ISDIR(st.st_mode))
+        drc = FTM_EIO, snprintf(derr.message, sizeof derr.message, "%s: is a directory", file);
+    else
+        drc = ftm_script_device_open(file, NULL, &a->dev, &derr); /* says FILE:LINE: why */
+    if (drc) {
+        fprintf(stderr, "ftm-client: --device %s: %s\n", a->o.device, derr.message);
+        return drc == FTM_ENOMEM ? 3 : 2;
     }
-    if (a->o.log_path) {
-        a->logf = fopen(a->o.log_path, "w");
-        if (!a->logf) {
-            fprintf(stderr, "ftm-client: cannot open %s: %s\n", a->o.log_path, strerror(errno));
-            ftm_device_destroy(a->dev);
-            if (a->have_cmds)
-                ftm_script_free(&a->cmds);
-            return 3;
-        }
-    }
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
-    a->ropts = ftm_render_default_opts();
-    a->ropts.colormap = a->o.colormap;
-    a->ropts.region = a->o.region;
-    a->ropts.hud = a->o.hud;
-    a->ropts.volume = a->o.volume;
-    a->ropts.cut = a->o.cut;
-    a->ropts.volume_step = a->o.volume_step;
-    a->ropts.colormap_full = a->o.colormap_full;
-    int rc = 3;
-    ftm_error err = {0, ""};
+    return 0;
+}
 
-    /* window and GL first: without a display there is nothing to join for */
+/* The GLFW window, OpenGL 3.3 core and the renderer; false after saying why. */
+static bool open_window(app *a)
+{
     glfwSetErrorCallback(on_glfw_error);
     if (!glfwInit()) {
         alog(a, FTM_LOG_ERROR, "cannot initialise GLFW (no display? try xvfb-run)");
-        goto out;
+        return false;
     }
     glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
     glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
@@ -1057,10 +744,10 @@ int main(int argc, char **argv)
     glfwWindowHint(GLFW_SAMPLES, a->o.msaa);
     char title[160];
     snprintf(title, sizeof title, "ftm-client: %s, session %s", a->o.role, a->o.session);
-    a->win = glfwCreateWindow(a->o.width, a->o.height, title, NULL, NULL);
+    a->win = glfwCreateWindow(a->o.size.width, a->o.size.height, title, NULL, NULL);
     if (!a->win) {
         alog(a, FTM_LOG_ERROR, "cannot open an OpenGL 3.3 core window");
-        goto out_glfw;
+        return false;
     }
     glfwMakeContextCurrent(a->win);
     glfwSwapInterval(a->o.bench > 0 ? 0 : a->o.swap_interval);
@@ -1068,69 +755,89 @@ int main(int argc, char **argv)
         glEnable(GL_MULTISAMPLE);
     alog(a, FTM_LOG_INFO, "OpenGL %s on %s", (const char *)glGetString(GL_VERSION),
          (const char *)glGetString(GL_RENDERER));
+    ftm_error err = {0, ""};
     if (ftm_render_create(&a->ren, &err)) {
         alog(a, FTM_LOG_ERROR, "%s", err.message);
-        goto out_win;
+        return false;
     }
     glfwSetWindowUserPointer(a->win, a);
     glfwSetKeyCallback(a->win, on_key);
     glfwSetMouseButtonCallback(a->win, on_button);
     glfwSetCursorPosCallback(a->win, on_cursor);
     glfwSetScrollCallback(a->win, on_scroll);
+    return true;
+}
 
-    /* trainee: the device and the 1 kHz haptic loop (highest priority) */
+/* A trainee's 1 kHz haptic loop (highest priority) on its device, and the
+ * session thread; false after saying why. */
+static bool start(app *a)
+{
+    ftm_error err = {0, ""};
     if (a->role == FTM_WIRE_ROLE_TRAINEE) {
         ftm_haptic_def hd = ftm_default_haptic_def();
-        hd.renderer = rkind;
+        hd.renderer = a->hap_def.renderer;
         hd.log = app_log;
         hd.log_user = a;
         a->hap_def = hd;
         if (ftm_haptic_create(&hd, a->dev, &a->hap, &err) || ftm_haptic_start(a->hap, &err)) {
             alog(a, FTM_LOG_ERROR, "haptic loop: %s", err.message);
-            goto out_hap;
+            return false;
         }
         ftm_haptic_set_connected(a->hap, false); /* no force before the replica is synced */
     }
-
-    ftm_client_config cc;
-    memset(&cc, 0, sizeof cc);
-    cc.role = a->role;
-    cc.scene = a->o.scene;
-    cc.session = a->o.session;
-    cc.dds_config = a->o.config;
-    cc.dds_security = a->o.security;
-    cc.domain = a->o.domain;
-    cc.id = a->o.id;
-    cc.name = a->o.name ? a->o.name : a->o.role;
-    cc.server_timeout = a->o.server_timeout;
-    cc.hold = a->o.shot_hold;
-    cc.hold_tick = a->o.shot_tick;
-    cc.log = app_log;
-    cc.log_user = a;
-    cc.on_force = on_force;
-    cc.force_user = a;
-    if (a->hap) {
-        cc.take_hips = take_hips;
-        cc.hip_user = a;
-    }
+    ftm_client_config cc = {
+        .role = a->role, .scene = a->o.scene, .session = a->o.session, .dds_config = a->o.config,
+        .dds_security = a->o.security, .domain = a->o.domain, .id = a->o.id,
+        .name = a->o.name ? a->o.name : a->o.role, .server_timeout = a->o.server_timeout,
+        .hold = a->o.shot_hold, .hold_tick = a->o.shot_tick, .log = app_log, .log_user = a,
+        .on_force = on_force, .force_user = a,
+        .take_hips = a->hap ? take_hips : NULL, .hip_user = a};
     if (ftm_client_session_start(&cc, &a->sess, &err)) {
         alog(a, FTM_LOG_ERROR, "%s", err.message);
-        goto out_hap;
+        return false;
     }
     ftm_client_session_want_region(a->sess, a->ropts.region);
     alog(a, FTM_LOG_INFO, "%s %u joining session '%s' on domain %u", a->o.role, a->o.id,
          a->o.session, a->o.domain);
-    rc = run(a);
-    ftm_client_session_stop(a->sess);
-out_hap:
-    ftm_haptic_destroy(a->hap);
-    ftm_client_view_free(&a->view);
-    ftm_render_destroy(a->ren);
-out_win:
-    glfwDestroyWindow(a->win);
-out_glfw:
-    glfwTerminate();
-out:
+    return true;
+}
+
+int main(int argc, char **argv)
+{
+    static app aa;
+    app *a = &aa;
+    a->t0 = ftm_clock_mono_ns();
+    int rc = ftm_client_options_parse(argc, argv, &a->o);
+    if (rc >= 0)
+        return rc;
+    if (a->o.id == 0)
+        a->o.id = (uint32_t)(((uint64_t)getpid() * 2654435761u) ^ (uint64_t)time(NULL)) | 1u;
+    rc = check_args(a);
+    if (rc == 0 && a->o.log_path && !(a->logf = fopen(a->o.log_path, "w"))) {
+        fprintf(stderr, "ftm-client: cannot open %s: %s\n", a->o.log_path, strerror(errno));
+        rc = 3;
+    }
+    if (rc == 0) {
+        signal(SIGINT, on_signal);
+        signal(SIGTERM, on_signal);
+        a->ropts = ftm_render_default_opts();
+        a->ropts.colormap = !a->o.no_colormap;
+        a->ropts.region = a->o.region;
+        a->ropts.hud = !a->o.no_hud;
+        a->ropts.volume = !a->o.no_volume;
+        a->ropts.cut = a->o.cut;
+        a->ropts.volume_step = a->o.volume_step;
+        a->ropts.colormap_full = a->o.colormap_full;
+        /* window and GL first: without a display there is nothing to join for */
+        rc = open_window(a) && start(a) ? run(a) : 3;
+        ftm_client_session_stop(a->sess);
+        ftm_haptic_destroy(a->hap);
+        ftm_client_view_free(&a->view);
+        ftm_render_destroy(a->ren);
+        if (a->win)
+            glfwDestroyWindow(a->win);
+        glfwTerminate();
+    }
     ftm_device_destroy(a->dev); /* (the haptic loop, its user, is gone) */
     if (a->have_cmds)
         ftm_script_free(&a->cmds);

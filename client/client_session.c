@@ -1,9 +1,15 @@
-/* The client's session thread; see client_session.h and docs/client.md. */
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* The client's session thread; see client_session.h and docs/client.md.
+ * The participant's side of the protocol is the participant core's
+ * (participant.h), shared with ftm-bot; what is here is the client's own:
+ * the view for the render thread, force for the haptic loop, the others'
+ * HIPs and the live report, the banner and the watchdog. */
 #include "client_session.h"
 #include "parts.h"
+#include "participant.h"
 #include "report.h"
 
-#include "replay.h"
+#include "ftm/clock.h"
 
 #include <inttypes.h>
 #include <pthread.h>
@@ -12,18 +18,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
-#define SEC 1000000000LL
+#define SEC FTM_NS_PER_S
 #define PUBLISH_EVERY_NS (4 * 1000000LL) /* view updates: 250 Hz is plenty for 60 Hz drawing */
 #define HIP_STALE_NS (2 * SEC)            /* a remote HIP not updated for this long is dropped */
 #define REJECT_BANNER_NS (5 * SEC)
-/* frames replayed per turn of the loop, at most this long: a replica that
- * replays slower than the ticks come must still send its status, its probe
- * input and its view in time (the server takes a participant whose status
- * is 2 s late as lost and releases its probes) */
-#define DRAIN_NS (10 * 1000000LL)
-#define SERVER_STATUS_DEADLINE_NS (2 * SEC) /* the server's (docs/protocol.md) */
 
 typedef struct remote_hip {
     uint32_t participant;
@@ -34,33 +33,13 @@ typedef struct remote_hip {
 
 struct ftm_client_session {
     ftm_client_config cfg;
-    ftm_wire_transport *wire;
+    ftm_participant *part; /* joining, statuses, ids, the server, commands */
     pthread_t thread;
     atomic_bool stop;
     atomic_bool want_region;
-    atomic_uint_fast64_t command_id;
 
     /* session thread only */
-    ftm_scene *scene;
-    ftm_scene *retired[8]; /* scenes of servers before a restart: the render
-                              thread may still draw them; freed at stop */
-    int32_t nretired;
-    ftm_replay *rep;
-    char failed_scene[FTM_WIRE_NAME_MAX]; /* announced id we could not load */
-    ftm_wire_announce ann;
-    bool have_ann;
-    uint32_t server_id; /* 0 until the first announcement */
-    /* the server's process (ftm_wire_received.origin of its announcement):
-     * another process under the server's id is not the server (from_server) */
-    uint64_t server_origin;
-    uint64_t foreign;   /* messages ignored: not from the server */
-    bool server_left;
-    /* server_left by a `gone` event (its lease expired: a stall or a cut
-     * link on either side), not by its LEAVING status: whatever the same
-     * process sends afterwards brings it back (server_heard) */
-    bool server_gone;
-    uint64_t server_start; /* the announced start of the server process we replay */
-    int64_t last_frame_ns, last_status_ns, last_input_ns, last_publish_ns;
+    int64_t last_input_ns, last_publish_ns;
     uint64_t newest_rx_tick;
     int64_t last_latency_ns;
     remote_hip hips[FTM_CLIENT_MAX_PROBES];
@@ -74,41 +53,17 @@ struct ftm_client_session {
     char reject_msg[200];
     bool silent_reported;
     int64_t unlisted_ns; /* last status of a participant the full table could not list */
-    /* what the server said of our id (on_status); id_told.taken: it hears
-     * another process with our id, not us */
-    ftm_id_told id_told;
-    /* the newest server status lists this process as the one it hears
-     * under our id (ftm_replay_id_held): until then no probe input, no
-     * force, no figures of our own. held_since_ns: when the wait began (0:
-     * no server yet); held_late_told: the wait's bound was logged */
-    bool id_held, held_late_told;
-    int64_t held_since_ns;
     bool force_valid;
-    bool synced, ever_synced; /* the replica is synced; was once */
     uint64_t contact_ticks, counted_tick;
     bool dirty;
-    ftm_wire_state last_state;
 
     /* shared with the render thread: under lock */
     pthread_mutex_t lock;
     ftm_client_view shared;
-    ftm_pending pending; /* commands sent (any thread), waiting for their reply */
 };
 
-static int64_t mono_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * SEC + ts.tv_nsec;
-}
-
-static int64_t real_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    return (int64_t)ts.tv_sec * SEC + ts.tv_nsec;
-}
-
+static void slog(ftm_client_session *s, ftm_log_level level, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
 static void slog(ftm_client_session *s, ftm_log_level level, const char *fmt, ...)
 {
     if (!s->cfg.log)
@@ -121,167 +76,69 @@ static void slog(ftm_client_session *s, ftm_log_level level, const char *fmt, ..
     s->cfg.log(s->cfg.log_user, level, buf);
 }
 
-static void force_off(ftm_client_session *s, const char *why)
+static uint64_t applied_tick(ftm_client_session *s)
 {
+    ftm_replay *rep = ftm_participant_replica(s->part);
+    return rep ? ftm_replay_tick(rep) : 0;
+}
+
+/* Force to zero at once (hooks.force_off, and the watchdog's findings). */
+static void force_off(void *user, const char *why)
+{
+    ftm_client_session *s = user;
     if (s->force_valid && s->cfg.role == FTM_WIRE_ROLE_TRAINEE)
         slog(s, FTM_LOG_WARN, "force off: %s", why);
     s->force_valid = false;
     if (s->cfg.on_force)
-        s->cfg.on_force(s->cfg.force_user, s->rep ? ftm_replay_tick(s->rep) : 0, 0.0, NULL, false,
-                        why);
+        s->cfg.on_force(s->cfg.force_user, applied_tick(s), 0.0, NULL, false, why);
 }
 
-/* Whether rx is from the server process we follow (ftm_replay_from_server:
- * the trust rule); anything else is counted and logged, rate-limited. */
-static bool from_server(ftm_client_session *s, const ftm_wire_received *rx)
+/* Under s->lock: a banner that stays (the scene cannot be replayed). */
+static void banner_locked(ftm_client_session *s, const char *text)
 {
-    if (ftm_replay_from_server(&s->server_id, &s->server_origin, rx, s->server_left))
-        return true;
-    if (s->server_id == 0)
-        return false;
-    s->foreign++;
-    if (s->foreign <= 3 || (s->foreign & (s->foreign - 1)) == 0)
-        slog(s, FTM_LOG_WARN, "%s from participant %u ignored (%" PRIu64 " so far): not from the server %u%s",
-             ftm_wire_kind_name((int)rx->msg.kind), rx->sender, s->foreign, s->server_id,
-             rx->sender == s->server_id ? "'s process: another process uses its id" : "");
-    return false;
+    snprintf(s->shared.banner, sizeof s->shared.banner, "%s", text);
+    s->shared.banner_error = true;
+    s->shared.version++;
 }
 
-/* ---- messages ----------------------------------------------------------------------- */
+/* ---- what the participant core tells (participant.h, hooks) --------------------------- */
 
-static void publish_status(ftm_client_session *s, ftm_wire_state state)
+static void on_scene_loaded(void *user, const ftm_scene *scene, const char *name)
 {
-    ftm_wire_msg m;
-    memset(&m, 0, sizeof m);
-    m.kind = FTM_WIRE_STATUS;
-    ftm_wire_status *st = &m.u.status;
-    st->participant = s->cfg.id;
-    st->role = s->cfg.role;
-    st->state = state;
-    if (s->rep) {
-        ftm_replay_stats rs;
-        ftm_replay_get_stats(s->rep, &rs);
-        st->last_applied_tick = ftm_replay_tick(s->rep);
-        st->state_hash = ftm_replay_hash(s->rep);
-        uint64_t n = rs.frames_applied + rs.idle_ticks;
-        st->replay_ns_per_tick = n ? rs.replay_ns_total / (double)n : 0.0;
-        st->replay_ns_max = ftm_replay_take_max(s->rep);
-    }
-    snprintf(st->name, sizeof st->name, "%s", s->cfg.name ? s->cfg.name : "ftm-client");
-    ftm_error err = {0, ""};
-    if (ftm_wire_publish(s->wire, &m, &err))
-        slog(s, FTM_LOG_WARN, "status: %s", err.message);
-    int64_t now = mono_ns();
-    if (s->last_status_ns && now - s->last_status_ns > SERVER_STATUS_DEADLINE_NS)
-        slog(s, FTM_LOG_WARN, "no status sent for %.1f s, past the server's %.0f s deadline: it has "
-             "probably declared this client lost and released its probes",
-             (double)(now - s->last_status_ns) * 1e-9, (double)SERVER_STATUS_DEADLINE_NS * 1e-9);
-    s->last_status_ns = now;
+    ftm_client_session *s = user;
+    pthread_mutex_lock(&s->lock);
+    s->shared.mesh = ftm_scene_mesh(scene);
+    s->shared.volume = ftm_scene_volume(scene);
+    s->shared.ffd = ftm_scene_ffd(scene);
+    snprintf(s->shared.scene_name, sizeof s->shared.scene_name, "%s", name);
+    pthread_mutex_unlock(&s->lock);
 }
 
-static void drop_scene(ftm_client_session *s)
+static void on_scene_refused(void *user, bool loading, const char *name, const ftm_error *err)
 {
-    /* the mesh pointer may be in the render thread's view: keep the scene
-     * (scenes are only destroyed at stop); just stop replaying */
-    ftm_replay_destroy(s->rep);
-    s->rep = NULL;
+    ftm_client_session *s = user;
+    char text[256];
+    if (loading)
+        snprintf(text, sizeof text, "CANNOT LOAD SCENE '%.60s': %.180s", name, err->message);
+    else
+        snprintf(text, sizeof text, "%s: %.230s",
+                 err->code == FTM_EVERSION ? "VERSION MISMATCH" : "SCENE MISMATCH", err->message);
+    pthread_mutex_lock(&s->lock);
+    banner_locked(s, text);
+    pthread_mutex_unlock(&s->lock);
 }
 
-static void on_announce(ftm_client_session *s, const ftm_wire_announce *a)
+/* A new server process: its ticks and its figures start again. */
+static void on_restarted(void *user)
 {
-    ftm_error err = {0, ""};
-    if (!s->have_ann || s->ann.paused != a->paused)
-        s->last_frame_ns = mono_ns(); /* frames stop (paused) or start again from now */
-    s->ann = *a;
-    s->have_ann = true;
-    s->dirty = true;
-    /* another process under the server's id (a service restarted it): its
-     * state starts afresh, so does the replica; the scene is checked below */
-    if (s->rep && a->server_start_ns && s->server_start && a->server_start_ns != s->server_start) {
-        slog(s, FTM_LOG_INFO,
-             "server %u restarted (a new process, announcing tick %" PRIu64 "; we were at tick %"
-             PRIu64 "): rejoining", s->server_id, a->tick, ftm_replay_tick(s->rep));
-        force_off(s, "server restarted");
-        bool same = ftm_replay_check_announce(s->rep, a, NULL) == FTM_OK;
-        ftm_replay_destroy(s->rep);
-        s->rep = NULL;
-        s->server_left = s->server_gone = s->silent_reported = false;
-        s->ever_synced = false; /* no probe input before it knows us (send_probe) */
-        /* which process holds our id is the new server's to say */
-        s->id_told = (ftm_id_told){0};
-        s->id_held = s->held_late_told = false;
-        s->held_since_ns = 0;
-        s->last_frame_ns = mono_ns();
-        s->newest_rx_tick = 0;
-        ftm_report_free(&s->live); /* a new session: its ticks start again */
-        s->live_tick = 0;
-        ftm_parts_forget_departed(s->parts, &s->nparts); /* their figures went with it */
-        if (!same && !s->cfg.scene && s->nretired < (int32_t)(sizeof s->retired / sizeof *s->retired)) {
-            /* it serves another scene: load that one below, as on joining */
-            slog(s, FTM_LOG_INFO, "the restarted server has another scene: '%s'", a->scene_id);
-            s->retired[s->nretired++] = s->scene;
-            s->scene = NULL;
-            s->failed_scene[0] = '\0';
-        } else {
-            if (ftm_replay_create(s->scene, s->cfg.log, s->cfg.log_user, &s->rep, &err)) {
-                slog(s, FTM_LOG_ERROR, "replay: %s", err.message);
-                return;
-            }
-            publish_status(s, FTM_WIRE_STATE_JOINING);
-        }
-    }
-    if (s->scene && !s->rep)
-        return; /* rejected before (digest mismatch): the banner stays */
-    if (!s->scene) {
-        const char *name = s->cfg.scene ? s->cfg.scene : a->scene_id;
-        if (strcmp(s->failed_scene, name) == 0)
-            return;
-        char path[1024];
-        if (ftm_wire_open_scene(name, &s->scene, path, sizeof path, &err)) {
-            snprintf(s->failed_scene, sizeof s->failed_scene, "%s", name);
-            slog(s, FTM_LOG_ERROR, "cannot load scene '%s': %s", name, err.message);
-            pthread_mutex_lock(&s->lock);
-            snprintf(s->shared.banner, sizeof s->shared.banner, "CANNOT LOAD SCENE '%.60s': %.180s",
-                     name, err.message);
-            s->shared.banner_error = true;
-            s->shared.version++;
-            pthread_mutex_unlock(&s->lock);
-            force_off(s, "no scene");
-            return;
-        }
-        if (ftm_replay_create(s->scene, s->cfg.log, s->cfg.log_user, &s->rep, &err)) {
-            slog(s, FTM_LOG_ERROR, "replay: %s", err.message);
-            return;
-        }
-        if (strcmp(path, name) != 0)
-            slog(s, FTM_LOG_INFO, "scene '%s': %s", name, path);
-        /* (the announcement's tick is when it was made, not where we sync:
-         * "synced at tick" says that) */
-        slog(s, FTM_LOG_INFO, "joined session: scene '%s', %u Hz%s; syncing from a keyframe",
-             a->scene_id, a->tick_rate_hz, a->paused ? " (paused)" : "");
-        const ftm_mesh *m = ftm_scene_mesh(s->scene);
-        pthread_mutex_lock(&s->lock);
-        s->shared.mesh = m;
-        s->shared.volume = ftm_scene_volume(s->scene);
-        s->shared.ffd = ftm_scene_ffd(s->scene);
-        snprintf(s->shared.scene_name, sizeof s->shared.scene_name, "%s", name);
-        pthread_mutex_unlock(&s->lock);
-        publish_status(s, FTM_WIRE_STATE_JOINING); /* ask for a fresh keyframe */
-    }
-    if (ftm_replay_check_announce(s->rep, a, &err)) {
-        slog(s, FTM_LOG_ERROR, "%s", err.message);
-        pthread_mutex_lock(&s->lock);
-        snprintf(s->shared.banner, sizeof s->shared.banner, "%s: %.230s",
-                 err.code == FTM_EVERSION ? "VERSION MISMATCH" : "SCENE MISMATCH", err.message);
-        s->shared.banner_error = true;
-        s->shared.version++;
-        pthread_mutex_unlock(&s->lock);
-        drop_scene(s);
-        force_off(s, "scene mismatch");
-    }
-    if (s->rep)
-        s->server_start = a->server_start_ns;
+    ftm_client_session *s = user;
+    s->silent_reported = false;
+    s->newest_rx_tick = 0;
+    ftm_report_free(&s->live);
+    s->live_tick = 0;
+    ftm_parts_forget_departed(s->parts, &s->nparts); /* their figures went with it */
 }
+
 
 /* Each new frame's reaction forces into the live report: the figures the
  * server's --report will give, seen from here (frames before joining are
@@ -303,6 +160,7 @@ static void count_reactions(ftm_client_session *s, const ftm_wire_tick *t)
     }
 }
 
+
 /* Probe 0 of participant id in the live report (the figures the HUD shows),
  * or NULL before any frame or status from it. */
 static const ftm_report_probe *live_probe0(const ftm_client_session *s, uint32_t id)
@@ -311,97 +169,28 @@ static const ftm_report_probe *live_probe0(const ftm_client_session *s, uint32_t
     return k >= 0 ? &s->live.parts[k].probes[0] : NULL;
 }
 
-static void server_gone(ftm_client_session *s, bool lease, const char *why)
-{
-    if (s->server_left && !(s->server_gone && !lease))
-        return; /* (a LEAVING status after a lease expiry still says it left) */
-    s->server_left = true;
-    s->server_gone = lease;
-    slog(s, FTM_LOG_WARN, "server %u %s", s->server_id, why);
-    force_off(s, "server gone");
-}
 
-/* A message from the server's own process (from_server). After a `gone`
- * event it is alive after all: a lease expires when either side stalls
- * (SIGSTOP, a loaded machine) or the link is cut for longer than the lease,
- * and the same process is heard again afterwards. Force and probe input
- * come back with the next frame once the replica is synced and the server
- * confirms our id again (after_frames, send_probe). */
-static void server_heard(ftm_client_session *s)
+static void on_status(void *user, const ftm_wire_received *rx, bool from_server)
 {
-    if (!s->server_left || !s->server_gone)
-        return;
-    slog(s, FTM_LOG_INFO, "server %u is back (its lease had expired): rejoining", s->server_id);
-    s->server_left = s->server_gone = false;
-    s->last_frame_ns = mono_ns();
-    if (!s->id_held)
-        s->held_since_ns = s->last_frame_ns; /* the wait for our id starts again */
-    s->dirty = true;
-}
-
-static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
-{
+    ftm_client_session *s = user;
     s->dirty = true;
     if (rx->gone) {
         /* one that touched the tissue stays listed, for the debriefing */
         const ftm_report_probe *q = live_probe0(s, rx->sender);
         ftm_parts_gone(s->parts, &s->nparts, rx->sender, q && q->contact_ticks > 0);
-        /* (origin 0: no longer known; gone only turns the force off) */
-        if (s->server_id != 0 && rx->sender == s->server_id &&
-            (!rx->origin || rx->origin == s->server_origin))
-            server_gone(s, true, "gone (lease expired or left)");
         return;
     }
     const ftm_wire_status *st = &rx->msg.u.status;
-    if (rx->sender == s->cfg.id) /* another process with our id: the server says which it hears */
-        return;
-    if (st->role == FTM_WIRE_ROLE_SERVER && from_server(s, rx)) {
-        const ftm_id_claim c = ftm_replay_id_verdict(&s->id_told, st, s->cfg.id,
-                                                     ftm_wire_transport_origin(s->wire));
-        if (c == FTM_ID_TAKEN) {
-            slog(s, FTM_LOG_ERROR,
-                 "participant id %u is taken: another process in session '%s' uses it and the "
-                 "server listens to that one; restart with another --id",
-                 s->cfg.id, s->cfg.session);
-            force_off(s, "participant id taken");
-        } else if (c == FTM_ID_NEWCOMER) {
-            slog(s, FTM_LOG_WARN, "another process joined as participant %u: the server ignores it",
-                 s->cfg.id);
-        } else if (c == FTM_ID_OURS_AGAIN) {
-            slog(s, FTM_LOG_INFO, "participant id %u is ours again: the process that held it left "
-                 "and the server hears this one", s->cfg.id);
-            /* the force comes back with the next frame once the server
-             * also confirms we hold the id (after_frames) */
-        }
-        const bool held = ftm_replay_id_held(st, s->cfg.id, ftm_wire_transport_origin(s->wire));
-        if (held && !s->id_held) {
-            slog(s, FTM_LOG_INFO, "participant id %u is confirmed: the server hears this process "
-                 "under it%s", s->cfg.id, s->held_late_told ? " (late)" : "");
-        } else if (!held && s->id_held) {
-            slog(s, FTM_LOG_WARN, "the server no longer confirms participant id %u as this "
-                 "process's: no probe input or force until it does", s->cfg.id);
-            force_off(s, "participant id not confirmed");
-            s->held_since_ns = mono_ns();
-            s->held_late_told = false;
-        }
-        s->id_held = held;
-        if (st->state != FTM_WIRE_STATE_LEAVING)
-            server_heard(s);
-        if (st->state == FTM_WIRE_STATE_LEAVING) {
-            server_gone(s, false, "leaving");
-        } else if (s->have_ann && s->ann.paused) {
-            /* a paused server sends no frames: its statuses (every 0.5 s)
-             * are what says it is alive */
-            s->last_frame_ns = mono_ns();
-            if (s->silent_reported) {
-                slog(s, FTM_LOG_INFO, "the server is back (the session is paused)");
-                s->silent_reported = false;
-            }
-        }
+    const ftm_participant_info *in = ftm_participant_get_info(s->part);
+    /* a paused server sends no frames: its statuses say it is alive */
+    if (from_server && st->state != FTM_WIRE_STATE_LEAVING && in->have_ann && in->ann.paused &&
+        s->silent_reported) {
+        slog(s, FTM_LOG_INFO, "the server is back (the session is paused)");
+        s->silent_reported = false;
     }
     ftm_client_part *p = ftm_parts_find(s->parts, &s->nparts, rx->sender, true);
     if (!p)
-        s->unlisted_ns = mono_ns();
+        s->unlisted_ns = ftm_clock_mono_ns();
     if (p) {
         p->left = false;
         p->role = st->role;
@@ -413,8 +202,10 @@ static void on_status(ftm_client_session *s, const ftm_wire_received *rx)
                     st->last_applied_tick);
 }
 
-static void on_probe_input(ftm_client_session *s, const ftm_wire_received *rx)
+
+static void on_probe_input(void *user, const ftm_wire_received *rx)
 {
+    ftm_client_session *s = user;
     const ftm_wire_probe_input *in = &rx->msg.u.probe_input;
     if (in->sample_count <= 0)
         return;
@@ -428,35 +219,31 @@ static void on_probe_input(ftm_client_session *s, const ftm_wire_received *rx)
             return;
         s->nhips++;
     }
-    s->hips[k] = (remote_hip){rx->sender, smp->probe, smp->position, mono_ns()};
+    s->hips[k] = (remote_hip){rx->sender, smp->probe, smp->position, ftm_clock_mono_ns()};
     s->dirty = true;
 }
 
-/* The server has confirmed that it hears this process under our id, and
- * has not said since that another process holds it. */
-static bool id_ours(const ftm_client_session *s) { return s->id_held && !s->id_told.taken; }
 
+/* After the replica moved: force for the haptic loop, the contact count. */
 static void after_frames(ftm_client_session *s)
 {
-    const ftm_wire_tick *t = ftm_replay_last_frame(s->rep);
+    ftm_replay *rep = ftm_participant_replica(s->part);
+    const ftm_participant_info *in = ftm_participant_get_info(s->part);
+    const ftm_wire_tick *t = ftm_replay_last_frame(rep);
     const ftm_wire_reaction *mine = NULL;
     for (int32_t i = 0; i < t->reaction_count; i++)
         if (t->reactions[i].participant == s->cfg.id && t->reactions[i].probe == 0)
             mine = &t->reactions[i];
-    uint64_t tick = ftm_replay_tick(s->rep);
-    bool synced = ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED;
-    if (synced && !s->synced)
-        slog(s, FTM_LOG_INFO, "synced at tick %" PRIu64, tick);
-    s->synced = synced;
-    s->ever_synced = s->ever_synced || synced;
+    uint64_t tick = ftm_replay_tick(rep);
     /* with our id taken, or not yet confirmed ours, the reaction under it
      * may be another process's: evaluated at our HIP it is no force of ours
      * (up to the clamp) */
-    if (ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED && !s->server_left && id_ours(s)) {
+    if (ftm_replay_state(rep) == FTM_WIRE_STATE_SYNCED && !in->server_left &&
+        ftm_participant_id_ours(s->part)) {
         if (!s->force_valid && s->cfg.role == FTM_WIRE_ROLE_TRAINEE)
             slog(s, FTM_LOG_INFO, "force on at tick %" PRIu64, tick);
         s->force_valid = true;
-        double rate = s->ann.tick_rate_hz ? (double)s->ann.tick_rate_hz : 1.0; /* (> 0 when valid) */
+        double rate = in->ann.tick_rate_hz ? (double)in->ann.tick_rate_hz : 1.0; /* (> 0 when valid) */
         if (s->cfg.on_force)
             s->cfg.on_force(s->cfg.force_user, t->tick, (double)t->tick / rate,
                             t->tick == tick ? mine : NULL, true, NULL);
@@ -471,10 +258,10 @@ static void after_frames(ftm_client_session *s)
     s->dirty = true;
 }
 
-static void on_tick(ftm_client_session *s, const ftm_wire_received *rx)
+static void on_frame(void *user, const ftm_wire_received *rx, int64_t taken_ns, bool stepped,
+                     bool new_frame)
 {
-    server_heard(s);
-    s->last_frame_ns = mono_ns();
+    ftm_client_session *s = user;
     if (s->silent_reported) {
         slog(s, FTM_LOG_INFO, "tick frames again from the server");
         s->silent_reported = false;
@@ -482,58 +269,30 @@ static void on_tick(ftm_client_session *s, const ftm_wire_received *rx)
     const ftm_wire_tick *t = &rx->msg.u.tick;
     if (t->tick > s->newest_rx_tick)
         s->newest_rx_tick = t->tick;
-    if (s->rep)
+    if (ftm_participant_replica(s->part))
         count_reactions(s, t);
-    s->last_latency_ns = real_ns() - rx->source_time_ns;
-    if (!s->rep)
-        return;
-    uint64_t before = ftm_replay_tick(s->rep);
-    if (ftm_replay_on_tick(s->rep, rx))
-        slog(s, FTM_LOG_ERROR, "replay: out of memory");
-    if (ftm_replay_tick(s->rep) != before)
+    s->last_latency_ns = taken_ns - rx->source_time_ns;
+    if (stepped)
         after_frames(s);
 }
 
-static void on_keyframe(ftm_client_session *s, const ftm_wire_keyframe *k)
+static void on_keyframe(void *user, bool stepped)
 {
-    if (!s->rep)
-        return;
-    uint64_t before = ftm_replay_tick(s->rep);
-    if (ftm_replay_on_keyframe(s->rep, k))
-        slog(s, FTM_LOG_ERROR, "replay: out of memory");
-    if (ftm_replay_tick(s->rep) != before)
+    ftm_client_session *s = user;
+    if (stepped)
         after_frames(s);
     s->dirty = true;
 }
 
-#define HIP_BATCH 64
-
 static void send_probe(ftm_client_session *s)
 {
-    ftm_wire_probe_sample smp[HIP_BATCH];
-    int n = s->cfg.take_hips(s->cfg.hip_user, smp, HIP_BATCH);
-    /* (taken all the same, so that none goes out stale later) Not before
-     * the first sync: the server may not have our first status yet (sent
-     * as the session thread starts) and would reject the input of an
-     * unknown participant; there is no force before it anyway. Only with
-     * our id confirmed ours: the server might take our HIP for another
-     * process's. Nor while the server is gone: a restarted one would not
-     * know us yet. */
-    if (n <= 0 || !s->ever_synced || !id_ours(s) || s->server_left)
-        return;
-    ftm_wire_msg m;
-    memset(&m, 0, sizeof m);
-    m.kind = FTM_WIRE_PROBE_INPUT;
-    m.u.probe_input.participant = s->cfg.id;
-    m.u.probe_input.last_tick_seen = s->rep ? ftm_replay_tick(s->rep) : 0;
-    m.u.probe_input.sample_count = n;
-    m.u.probe_input.samples = smp;
-    ftm_error err = {0, ""};
-    if (ftm_wire_publish(s->wire, &m, &err))
-        slog(s, FTM_LOG_WARN, "probe input: %s", err.message);
+    ftm_wire_probe_sample smp[64];
+    /* taken all the same, so that none goes out stale later; the core sends
+     * them only when the server knows us under an id it confirms ours */
+    int n = s->cfg.take_hips(s->cfg.hip_user, smp, 64);
+    ftm_participant_send_probe(s->part, smp, n);
 }
 
-/* ---- watchdog: silent server, malformed frames ----------------------------------------- */
 
 /* Under s->lock: a command's outcome for the view and the log. */
 static void outcome_locked(ftm_client_session *s, const char *text, bool bad)
@@ -545,39 +304,64 @@ static void outcome_locked(ftm_client_session *s, const char *text, bool bad)
     v->version++;
 }
 
-static void on_reply(ftm_client_session *s, const ftm_wire_control_reply *r)
+static void on_outcome(void *user, const char *text, int outcome, bool known)
 {
-    if (r->issuer != s->cfg.id || s->id_told.taken)
-        return; /* another instructor's (or the process holding our id) */
-    char text[FTM_OUTCOME_TEXT];
+    ftm_client_session *s = user;
     pthread_mutex_lock(&s->lock);
-    bool known = ftm_pending_reply(&s->pending, r, text, sizeof text);
-    bool bad = r->outcome == FTM_WIRE_OUTCOME_REFUSED;
-    outcome_locked(s, text, bad);
+    outcome_locked(s, text, outcome == 0 || outcome == FTM_WIRE_OUTCOME_REFUSED);
     pthread_mutex_unlock(&s->lock);
-    slog(s, bad ? FTM_LOG_WARN : FTM_LOG_INFO, "command %s%s", text,
-         known ? "" : " (no such command waiting)");
 }
 
-static void expire_commands(ftm_client_session *s, int64_t now)
+
+/* ---- watchdog: silent server, malformed frames; the banner ------------------------------ */
+
+/* The banner: the most serious condition wins ("" when all is well). */
+static bool banner_text(ftm_client_session *s, int64_t now, char *banner, size_t cap)
 {
-    char text[FTM_OUTCOME_TEXT];
-    for (;;) {
-        pthread_mutex_lock(&s->lock);
-        bool late = ftm_pending_expired(&s->pending, now, FTM_REPLY_TIMEOUT_NS, text, sizeof text);
-        if (late)
-            outcome_locked(s, text, true);
-        pthread_mutex_unlock(&s->lock);
-        if (!late)
-            return;
-        slog(s, FTM_LOG_WARN, "command %s", text);
+    const ftm_participant_info *in = ftm_participant_get_info(s->part);
+    ftm_replay *rep = ftm_participant_replica(s->part);
+    const bool trainee = s->cfg.role == FTM_WIRE_ROLE_TRAINEE;
+    const double silent_s = (double)(now - in->last_frame_ns) * 1e-9;
+    banner[0] = '\0';
+    if (in->id_taken)
+        snprintf(banner, cap,
+                 "PARTICIPANT ID %u TAKEN BY ANOTHER PROCESS: THE SERVER IGNORES THIS ONE; "
+                 "RESTART WITH ANOTHER --id", s->cfg.id);
+    else if (in->server_left)
+        snprintf(banner, cap, "SERVER LEFT THE SESSION: FORCE OFF");
+    else if (s->silent_reported)
+        snprintf(banner, cap, "SERVER SILENT FOR %.0f S: FORCE OFF", silent_s);
+    else if (now < s->reject_until_ns)
+        snprintf(banner, cap, "%s", s->reject_msg);
+    else if (!in->have_ann) {
+        snprintf(banner, cap, "WAITING FOR SESSION '%s'...", s->cfg.session);
+        return false;
+    } else if (rep && ftm_replay_state(rep) != FTM_WIRE_STATE_SYNCED) {
+        snprintf(banner, cap, "%s...",
+                 ftm_replay_state(rep) == FTM_WIRE_STATE_JOINING ? "JOINING" : "RESYNCING");
+        return false;
+    } else if (trainee && in->id_late) {
+        snprintf(banner, cap,
+                 "THE SERVER HAS NOT CONFIRMED PARTICIPANT ID %u FOR THIS PROCESS (AN OLDER SERVER "
+                 "NEVER DOES): NO FORCE", s->cfg.id);
+    } else if (trainee && !in->id_held) {
+        snprintf(banner, cap,
+                 "WAITING FOR THE SERVER TO CONFIRM PARTICIPANT ID %u: NO FORCE YET", s->cfg.id);
+        return false;
+    } else if (in->ann.paused) {
+        /* no frames, so no force samples: the haptic loop fades to zero */
+        snprintf(banner, cap, "SESSION PAUSED%s", trainee ? ": NO FORCE UNTIL IT RESUMES" : "");
+        return false;
     }
+    return true;
 }
 
 static void watchdog(ftm_client_session *s, int64_t now)
 {
+    const ftm_participant_info *in = ftm_participant_get_info(s->part);
+    ftm_replay *rep = ftm_participant_replica(s->part);
     ftm_wire_stats ws;
-    if (ftm_wire_get_stats(s->wire, FTM_WIRE_TICK, &ws, NULL) == FTM_OK &&
+    if (ftm_wire_get_stats(ftm_participant_wire(s->part), FTM_WIRE_TICK, &ws, NULL) == FTM_OK &&
         ws.rejected > s->rejected_seen) {
         slog(s, FTM_LOG_ERROR, "malformed tick frame rejected (%" PRIu64 " so far): %s",
              ws.rejected, ws.last_reject);
@@ -588,73 +372,26 @@ static void watchdog(ftm_client_session *s, int64_t now)
         force_off(s, "malformed frame");
         s->dirty = true;
     }
-    double silent_s = (double)(now - s->last_frame_ns) * 1e-9;
-    if (s->have_ann && !s->server_left && silent_s > s->cfg.server_timeout && !s->silent_reported) {
+    double silent_s = (double)(now - in->last_frame_ns) * 1e-9;
+    if (in->have_ann && !in->server_left && silent_s > s->cfg.server_timeout &&
+        !s->silent_reported) {
         s->silent_reported = true;
-        if (s->ann.paused)
+        if (in->ann.paused)
             slog(s, FTM_LOG_WARN, "no status from the paused server for %.1f s", silent_s);
         else
             slog(s, FTM_LOG_WARN, "no tick frames from the server for %.1f s", silent_s);
         force_off(s, "server silent");
         s->dirty = true;
     }
-    if (s->rep && ftm_replay_state(s->rep) != FTM_WIRE_STATE_SYNCED && s->force_valid)
+    if (rep && ftm_replay_state(rep) != FTM_WIRE_STATE_SYNCED && s->force_valid)
         force_off(s, "replica not synced");
-    /* the wait for the server to confirm our id starts with its first
-     * announcement (or its restart, or the confirmation's loss) */
-    if (s->have_ann && !s->held_since_ns)
-        s->held_since_ns = now;
-    const bool trainee = s->cfg.role == FTM_WIRE_ROLE_TRAINEE;
-    const bool id_late = trainee && !s->id_held && !s->id_told.taken && s->held_since_ns &&
-                         now - s->held_since_ns > FTM_ID_CONFIRM_WAIT_NS;
-    if (id_late && !s->held_late_told) {
-        s->held_late_told = true;
-        slog(s, FTM_LOG_ERROR,
-             "the server %u has not confirmed participant id %u as this process's for %.0f s (a "
-             "server older than this client never does): no probe input, no force",
-             s->server_id, s->cfg.id, (double)FTM_ID_CONFIRM_WAIT_NS * 1e-9);
-    }
-
-    /* the banner: the most serious condition wins */
-    char banner[256] = "";
-    bool error = true;
-    if (s->have_ann && !s->scene && s->failed_scene[0])
-        return; /* the scene banner set in on_announce stays */
-    if (s->scene && !s->rep)
-        return; /* scene mismatch banner stays */
-    if (s->id_told.taken)
-        snprintf(banner, sizeof banner,
-                 "PARTICIPANT ID %u TAKEN BY ANOTHER PROCESS: THE SERVER IGNORES THIS ONE; "
-                 "RESTART WITH ANOTHER --id", s->cfg.id);
-    else if (s->server_left)
-        snprintf(banner, sizeof banner, "SERVER LEFT THE SESSION: FORCE OFF");
-    else if (s->silent_reported)
-        snprintf(banner, sizeof banner, "SERVER SILENT FOR %.0f S: FORCE OFF", silent_s);
-    else if (now < s->reject_until_ns)
-        snprintf(banner, sizeof banner, "%s", s->reject_msg);
-    else if (!s->have_ann) {
-        snprintf(banner, sizeof banner, "WAITING FOR SESSION '%s'...", s->cfg.session);
-        error = false;
-    } else if (s->rep && ftm_replay_state(s->rep) != FTM_WIRE_STATE_SYNCED) {
-        snprintf(banner, sizeof banner, "%s...",
-                 ftm_replay_state(s->rep) == FTM_WIRE_STATE_JOINING ? "JOINING" : "RESYNCING");
-        error = false;
-    } else if (id_late) {
-        snprintf(banner, sizeof banner,
-                 "THE SERVER HAS NOT CONFIRMED PARTICIPANT ID %u FOR THIS PROCESS (AN OLDER SERVER "
-                 "NEVER DOES): NO FORCE", s->cfg.id);
-    } else if (trainee && !s->id_held) {
-        snprintf(banner, sizeof banner,
-                 "WAITING FOR THE SERVER TO CONFIRM PARTICIPANT ID %u: NO FORCE YET", s->cfg.id);
-        error = false;
-    } else if (s->ann.paused) {
-        /* no frames, so no force samples: the haptic loop fades to zero */
-        snprintf(banner, sizeof banner, "SESSION PAUSED%s",
-                 s->cfg.role == FTM_WIRE_ROLE_TRAINEE ? ": NO FORCE UNTIL IT RESUMES" : "");
-        error = false;
-    }
+    /* a scene that cannot be replayed: its banner (on_scene_refused) stays */
+    if (!ftm_participant_scene(s->part) ? in->scene_failed : !rep)
+        return;
+    char banner[256];
+    bool error = banner_text(s, now, banner, sizeof banner);
     pthread_mutex_lock(&s->lock);
-    bool away = s->server_left || s->silent_reported;
+    bool away = in->server_left || s->silent_reported;
     if (away != s->shared.server_away) {
         s->shared.server_away = away;
         s->shared.version++;
@@ -710,8 +447,11 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
     int32_t n = 0;
     const int32_t *order = NULL, *start = NULL;
     int32_t layers = 0;
-    if (s->rep) {
-        ftm_sim *sim = ftm_replay_sim(s->rep);
+    ftm_replay *rep = ftm_participant_replica(s->part);
+    const ftm_participant_info *in = ftm_participant_get_info(s->part);
+    const bool ours = ftm_participant_id_ours(s->part);
+    if (rep) {
+        ftm_sim *sim = ftm_replay_sim(rep);
         x = ftm_sim_positions(sim);
         n = ftm_mesh_node_count(ftm_sim_mesh(sim));
         if (atomic_load(&s->want_region))
@@ -728,15 +468,15 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
         memcpy(v->region, order, (size_t)start[layers] * sizeof(int32_t));
         v->region_count = start[layers];
     }
-    v->announced = s->have_ann;
-    if (s->have_ann) {
-        v->paused = s->ann.paused;
-        v->depth_min = s->ann.depth_min;
-        v->depth_max = s->ann.depth_max;
-        v->rate_hz = s->ann.tick_rate_hz;
-        v->tissue = s->ann.tissue;
+    v->announced = in->have_ann;
+    if (in->have_ann) {
+        v->paused = in->ann.paused;
+        v->depth_min = in->ann.depth_min;
+        v->depth_max = in->ann.depth_max;
+        v->rate_hz = in->ann.tick_rate_hz;
+        v->tissue = in->ann.tissue;
     }
-    v->state = s->rep ? ftm_replay_state(s->rep) : FTM_WIRE_STATE_JOINING;
+    v->state = ftm_participant_state(s->part);
     if (v->state == FTM_WIRE_STATE_SYNCED)
         v->synced_once = true;
     v->caught_up = caught_up;
@@ -744,16 +484,16 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
     v->force_valid = s->force_valid;
     v->nprobes = 0;
     v->own_force = (ftm_vec3){0, 0, 0};
-    if (s->rep) {
-        const ftm_wire_tick *t = ftm_replay_last_frame(s->rep);
-        v->tick = ftm_replay_tick(s->rep);
+    if (rep) {
+        const ftm_wire_tick *t = ftm_replay_last_frame(rep);
+        v->tick = ftm_replay_tick(rep);
         v->depth = t->depth;
         int64_t lat = s->last_latency_ns > 0 ? s->last_latency_ns : 0;
         v->latency_ms = (double)lat * 1e-6;
         int64_t behind = s->newest_rx_tick > v->tick ? (int64_t)(s->newest_rx_tick - v->tick) : 0;
         v->lag_ticks = behind + (int64_t)((double)lat * 1e-9 * v->rate_hz + 0.5);
         ftm_replay_stats rs;
-        ftm_replay_get_stats(s->rep, &rs);
+        ftm_replay_get_stats(rep, &rs);
         v->frames = rs.frames_received;
         v->mismatches = rs.mismatches;
         v->resyncs = rs.resyncs;
@@ -764,7 +504,7 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
             memset(p, 0, sizeof *p);
             p->participant = r->participant;
             p->probe = r->probe;
-            p->own = r->participant == s->cfg.id && id_ours(s); /* else another's */
+            p->own = r->participant == s->cfg.id && ours; /* else another's */
             p->force = r->force;
             p->push_limited = r->push_limited;
             p->contact = contact_centroid(x, t, r->group, &p->in_contact);
@@ -796,7 +536,7 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
     memcpy(v->parts, s->parts, (size_t)s->nparts * sizeof s->parts[0]);
     /* heard within the status deadline (statuses come every 0.5 s) */
     v->parts_unlisted = s->unlisted_ns && now - s->unlisted_ns < 2 * SEC;
-    const ftm_report_probe *own = id_ours(s) ? live_probe0(s, s->cfg.id) : NULL;
+    const ftm_report_probe *own = ours ? live_probe0(s, s->cfg.id) : NULL;
     v->own_contact_ticks = own ? own->contact_ticks : 0;
     v->own_peak_force = own ? own->peak_force : 0.0;
     for (int32_t i = 0; i < v->nparts; i++) {
@@ -812,93 +552,26 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
     s->dirty = false;
 }
 
-/* ---- the thread -------------------------------------------------------------------------- */
 
-static bool hold_reached(const ftm_client_session *s)
-{
-    return s->cfg.hold && s->rep && ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED &&
-           ftm_replay_tick(s->rep) >= s->cfg.hold_tick;
-}
+/* ---- the thread -------------------------------------------------------------------------- */
 
 static void *session_main(void *arg)
 {
     ftm_client_session *s = arg;
-    int64_t t0 = mono_ns();
-    s->last_frame_ns = t0;
-    publish_status(s, FTM_WIRE_STATE_JOINING);
+    ftm_participant_join(s->part);
     while (!atomic_load(&s->stop)) {
-        ftm_wire_received rx;
-        if (ftm_wire_receive(s->wire, FTM_WIRE_ANNOUNCE, &rx, 0, NULL) == FTM_OK) {
-            if (from_server(s, &rx))
-                on_announce(s, &rx.msg.u.announce);
-            ftm_wire_received_free(&rx);
-        }
-        for (int i = 0; i < 64 && ftm_wire_receive(s->wire, FTM_WIRE_STATUS, &rx, 0, NULL) == FTM_OK;
-             i++) {
-            on_status(s, &rx);
-            ftm_wire_received_free(&rx);
-        }
-        for (int i = 0;
-             i < 256 && ftm_wire_receive(s->wire, FTM_WIRE_PROBE_INPUT, &rx, 0, NULL) == FTM_OK;
-             i++) {
-            on_probe_input(s, &rx);
-            ftm_wire_received_free(&rx);
-        }
-        if (s->cfg.role == FTM_WIRE_ROLE_INSTRUCTOR) {
-            for (int i = 0;
-                 i < 64 && ftm_wire_receive(s->wire, FTM_WIRE_CONTROL_REPLY, &rx, 0, NULL) == FTM_OK;
-                 i++) {
-                if (from_server(s, &rx))
-                    on_reply(s, &rx.msg.u.control_reply);
-                ftm_wire_received_free(&rx);
-            }
-            expire_commands(s, mono_ns());
-        }
-        if (!hold_reached(s) &&
-            ftm_wire_receive(s->wire, FTM_WIRE_KEYFRAME, &rx, 0, NULL) == FTM_OK) {
-            if (from_server(s, &rx))
-                on_keyframe(s, &rx.msg.u.keyframe);
-            ftm_wire_received_free(&rx);
-        }
-        bool caught_up = false;
-        if (hold_reached(s)) {
-            struct timespec ts = {0, 1000000};
-            nanosleep(&ts, NULL);
-            caught_up = true;
-        } else {
-            const int64_t until = mono_ns() + DRAIN_NS;
-            bool more = false; /* frames left for the next turn */
-            for (int n = 0; !hold_reached(s); n++) {
-                if (n > 0 && mono_ns() >= until) {
-                    more = true;
-                    break;
-                }
-                if (ftm_wire_receive(s->wire, FTM_WIRE_TICK, &rx, n == 0 ? SEC / 1000 : 0, NULL) !=
-                    FTM_OK)
-                    break;
-                if (from_server(s, &rx))
-                    on_tick(s, &rx);
-                ftm_wire_received_free(&rx);
-            }
-            caught_up = !more && s->rep && ftm_replay_state(s->rep) == FTM_WIRE_STATE_SYNCED &&
-                        ftm_replay_tick(s->rep) >= s->newest_rx_tick;
-        }
-        int64_t now = mono_ns();
+        const bool more = ftm_participant_turn(s->part, SEC / 1000);
+        ftm_replay *rep = ftm_participant_replica(s->part);
+        const bool caught_up = ftm_participant_held(s->part) ||
+                               (!more && rep && ftm_replay_state(rep) == FTM_WIRE_STATE_SYNCED &&
+                                ftm_replay_tick(rep) >= s->newest_rx_tick);
+        int64_t now = ftm_clock_mono_ns();
         if (s->cfg.take_hips && now - s->last_input_ns >= SEC / 1000) {
             send_probe(s);
             s->last_input_ns = now;
         }
-        ftm_wire_state st = s->rep ? ftm_replay_state(s->rep) : FTM_WIRE_STATE_JOINING;
-        /* a change is told at once, but for the first second a joiner's
-         * status stays the JOINING it sent (as ftm-bot's): what another
-         * process with our id hears first then says we came after it */
-        if (s->synced && st != FTM_WIRE_STATE_SYNCED)
-            s->synced = false; /* (a resync: "synced at tick" again when it ends) */
-        if (now - t0 >= SEC && (st != s->last_state || now - s->last_status_ns >= SEC / 2)) {
-            s->last_state = st;
-            publish_status(s, st);
+        if (ftm_participant_status_due(s->part, now))
             s->dirty = true;
-        }
         watchdog(s, now);
         if (s->dirty && (now - s->last_publish_ns >= PUBLISH_EVERY_NS || caught_up))
             publish_view(s, now, caught_up);
@@ -906,6 +579,7 @@ static void *session_main(void *arg)
             publish_view(s, now, caught_up); /* (read without lock: only this thread writes it) */
     }
     force_off(s, "client stopping");
+    const uint32_t rate = ftm_participant_get_info(s->part)->ann.tick_rate_hz;
     for (int32_t i = 0; i < s->live.count; i++)
         for (int k = 0; k < FTM_REPORT_PROBES; k++) {
             const ftm_report_probe *q = &s->live.parts[i].probes[k];
@@ -913,11 +587,9 @@ static void *session_main(void *arg)
                 slog(s, FTM_LOG_INFO,
                      "participant %u probe %d, from the frames received: %.2f s in contact, "
                      "peak %.17g N at tick %" PRIu64, s->live.parts[i].id, k,
-                     (double)q->contact_ticks / (s->ann.tick_rate_hz ? s->ann.tick_rate_hz : 1),
-                     q->peak_force, q->peak_tick);
+                     (double)q->contact_ticks / (rate ? rate : 1), q->peak_force, q->peak_tick);
         }
-    publish_status(s, FTM_WIRE_STATE_LEAVING);
-    ftm_wire_flush(s->wire, SEC, NULL);
+    ftm_participant_leave(s->part);
     return NULL;
 }
 
@@ -937,42 +609,30 @@ int ftm_client_session_start(const ftm_client_config *cfg, ftm_client_session **
         s->cfg.session = "ftm";
     if (!(s->cfg.server_timeout > 0))
         s->cfg.server_timeout = 3.0;
-    s->last_state = FTM_WIRE_STATE_JOINING;
     atomic_init(&s->stop, false);
     atomic_init(&s->want_region, false);
-    atomic_init(&s->command_id, 0);
     pthread_mutex_init(&s->lock, NULL);
     s->shared.state = FTM_WIRE_STATE_JOINING;
-
-    ftm_wire_transport_def wd;
-    memset(&wd, 0, sizeof wd);
-    wd.config = s->cfg.dds_config;
-    wd.security = s->cfg.dds_security;
-    wd.role = s->cfg.role;
-    wd.domain_id = s->cfg.domain;
-    wd.session = s->cfg.session;
-    wd.participant_id = s->cfg.id;
-    wd.publish = FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS);
-    if (s->cfg.role == FTM_WIRE_ROLE_TRAINEE)
-        wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT);
-    /* probe input of the others, to draw their HIPs */
-    wd.subscribe = FTM_WIRE_KIND_BIT(FTM_WIRE_ANNOUNCE) | FTM_WIRE_KIND_BIT(FTM_WIRE_TICK) |
-                   FTM_WIRE_KIND_BIT(FTM_WIRE_KEYFRAME) | FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) |
-                   FTM_WIRE_KIND_BIT(FTM_WIRE_PROBE_INPUT);
-    if (s->cfg.role == FTM_WIRE_ROLE_INSTRUCTOR) {
-        wd.publish |= FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL);
-        wd.subscribe |= FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL_REPLY);
-    }
-    wd.log = s->cfg.log;
-    wd.log_user = s->cfg.log_user;
-    int rc = ftm_wire_transport_create(&wd, &s->wire, err);
+    ftm_participant_def pd = {
+        .role = s->cfg.role, .id = s->cfg.id, .domain = s->cfg.domain, .session = s->cfg.session,
+        .name = s->cfg.name ? s->cfg.name : "ftm-client", .scene = s->cfg.scene,
+        .dds_config = s->cfg.dds_config, .dds_security = s->cfg.dds_security,
+        .watch_probes = true, /* the others' HIPs, to draw them */
+        .hold = s->cfg.hold, .hold_tick = s->cfg.hold_tick,
+        .log = s->cfg.log, .log_user = s->cfg.log_user,
+        .hooks = {.force_off = force_off, .scene_loaded = on_scene_loaded,
+                  .scene_refused = on_scene_refused, .restarted = on_restarted,
+                  .frame = on_frame, .keyframe = on_keyframe, .status = on_status,
+                  .probe_input = on_probe_input, .outcome = on_outcome},
+        .hooks_user = s};
+    int rc = ftm_participant_create(&pd, &s->part, err);
     if (rc) {
         pthread_mutex_destroy(&s->lock);
         free(s);
         return rc;
     }
     if (pthread_create(&s->thread, NULL, session_main, s) != 0) {
-        ftm_wire_transport_destroy(s->wire);
+        ftm_participant_destroy(s->part);
         pthread_mutex_destroy(&s->lock);
         free(s);
         if (err) {
@@ -991,12 +651,9 @@ void ftm_client_session_stop(ftm_client_session *s)
         return;
     atomic_store(&s->stop, true);
     pthread_join(s->thread, NULL);
-    ftm_wire_transport_destroy(s->wire);
-    ftm_replay_destroy(s->rep);
+    /* (the scenes go with the core: the render thread draws no more) */
+    ftm_participant_destroy(s->part);
     ftm_report_free(&s->live);
-    for (int32_t k = 0; k < s->nretired; k++)
-        ftm_scene_destroy(s->retired[k]);
-    ftm_scene_destroy(s->scene);
     ftm_client_view_free(&s->shared);
     pthread_mutex_destroy(&s->lock);
     free(s);
@@ -1050,27 +707,5 @@ void ftm_client_session_want_region(ftm_client_session *s, bool on)
 int ftm_client_session_control(ftm_client_session *s, ftm_wire_control *c, const char *what,
                                ftm_error *err)
 {
-    c->issuer = s->cfg.id;
-    c->command_id = (uint64_t)atomic_fetch_add(&s->command_id, 1) + 1;
-    ftm_wire_msg m;
-    memset(&m, 0, sizeof m);
-    m.kind = FTM_WIRE_CONTROL;
-    m.u.control = *c;
-    /* waiting before it is out: the reply may come before this returns */
-    char text[FTM_OUTCOME_TEXT];
-    pthread_mutex_lock(&s->lock);
-    bool gave_up = ftm_pending_add(&s->pending, c->command_id, what ? what : "command", mono_ns(),
-                                   text, sizeof text);
-    if (gave_up)
-        outcome_locked(s, text, true);
-    pthread_mutex_unlock(&s->lock);
-    if (gave_up)
-        slog(s, FTM_LOG_WARN, "command %s", text);
-    int rc = ftm_wire_publish(s->wire, &m, err);
-    if (rc) { /* not sent: nothing to wait for */
-        pthread_mutex_lock(&s->lock);
-        ftm_pending_forget(&s->pending, c->command_id);
-        pthread_mutex_unlock(&s->lock);
-    }
-    return rc;
+    return ftm_participant_send_control(s->part, c, what, err);
 }

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The client's session thread ("replay" in the paper's Fig. 14): joins a
  * session over DDS, replays the server's tick frames with ftm_replay, sends
  * the trainee's probe input and the instructor's commands, watches for bad
@@ -10,7 +11,7 @@
 
 #include "ftm/scene.h"
 #include "ftm/wire.h"
-#include "replay.h" /* ftm_pending: commands waiting for their reply */
+#include "pending.h" /* ftm_pending: commands waiting for their reply */
 
 #define FTM_CLIENT_MAX_PROBES 64
 #define FTM_CLIENT_MAX_PARTS 32

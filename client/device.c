@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The device wrapper (device.h): driver table plus the mapping between the
  * device's workspace and the scene. */
 #include "device.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Haptic devices: where the haptic loop (haptic.h) reads the haptic
  * interface point (HIP) and writes the force (docs/haptics.md, "Devices").
  *

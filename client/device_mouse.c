@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The mouse probe (device.h): cursor events from the GL thread move a target
  * HIP; the haptic thread follows it through a first-order low-pass. */
 #include "device.h"

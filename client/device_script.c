@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The scripted device (device.h): a HIP trajectory in the ftm-bot script
  * format, replayed against the haptic clock; records what it is sent. */
 #include "device.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The HUD font; see font.h. Each glyph is 7 rows of 5 bits, bit 4 the
  * leftmost column. Designed on a 5x7 grid for this project. */
 #include "font.h"

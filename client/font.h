@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* A small bitmap font for the HUD: 5x7 glyphs in 6x8 cells, designed for
  * this project (no font data from elsewhere). Printable ASCII; lower-case
  * letters are drawn as capitals. No GL here: render.c builds a texture from

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The force renderers and their safety stage (haptic.h): pure functions of
  * the samples, the time and the HIP, so tests can drive them exactly. */
 #include "haptic.h"

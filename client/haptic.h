@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Haptic force rendering and the 1 kHz haptic loop (docs/haptics.md).
  *
  * The server produces a reaction force per probe each tick (paper Eq. 19);

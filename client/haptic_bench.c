@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-haptic-bench: haptic benchmarks (docs/haptics.md).
  *
  *   timing     the haptic loop thread against a scripted device for S
@@ -13,15 +14,19 @@
  *              does on the hand over the closed path (> 0: energy injected).
  *
  * Not a test: figures depend on the machine and its load. */
+#include "cli.h"
 #include "haptic.h"
-#include "replay.h"
 #include "script_text.h"
+#include "step.h"
 
+#include "ftm/clock.h"
+#include "ftm/options.h"
 #include "ftm/scene.h"
 #include "ftm/sim.h"
 
 #include <errno.h>
 #include <math.h>
+#include <stddef.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -74,111 +79,87 @@ typedef struct options {
     bool no_fifo;
 } options;
 
-static void usage(FILE *f)
+/* --delays: a comma list of up to MAX_DELAYS delays in ms, each 0..10000 */
+static int parse_delays(const ftm_option *o, const char *v, void *field, char *why, size_t cap)
 {
-    fprintf(f,
-            "usage: ftm-haptic-bench [timing|renderers|all] [options]\n"
-            "  --seconds S      timing: run the loop S seconds (default 10)\n"
-            "  --repeat N       timing: N runs, medians reported (default 1)\n"
-            "  --no-fifo        timing: do not ask for SCHED_FIFO (default scheduling)\n"
-            "  --delays LIST    renderers: injected delays in ms (default 0,20,50,100)\n"
-            "  --scene NAME     renderers: scene (default: default)\n"
-            "  --path NAME      renderers: built-in closed path: press (default) or circle\n"
-            "  --script FILE    renderers: closed probe path, ftm-bot format, instead\n"
-            "                   (at most 600 s long)\n"
-            "  --trace FILE     renderers: CSV of truth and rendered force per tick\n"
-            "  --stiffness-scale S  renderers: multiply the model's K by S (experiment; default 1)\n"
-            "  --json           JSON instead of tables\n");
+    options *op = (options *)((char *)field - offsetof(options, ndelays));
+    int n = 0;
+    for (const char *p = v; *p;) {
+        if (n == MAX_DELAYS) {
+            snprintf(why, cap, "has more than %d delays (got '%s')", MAX_DELAYS, v);
+            return -1;
+        }
+        char *e;
+        double d = strtod(p, &e);
+        if (e == p || !(d >= 0 && d <= 10000) || (*e && *e != ',')) {
+            snprintf(why, cap, "must be a comma list of delays in ms, each 0..10000 (got '%s')", v);
+            return -1;
+        }
+        op->delays[n++] = d;
+        p = *e == ',' ? e + 1 : e;
+    }
+    if (n == 0) {
+        snprintf(why, cap, "must be a comma list of delays in ms, each 0..10000 (got '%s')", v);
+        return -1;
+    }
+    op->ndelays = n;
+    return 0;
 }
 
+static int parse_path(const ftm_option *o, const char *v, void *field, char *why, size_t cap)
+{
+    if (strcmp(v, "press") && strcmp(v, "circle")) {
+        snprintf(why, cap, "must be press or circle (got '%s')", v);
+        return -1;
+    }
+    memcpy(field, &v, sizeof v);
+    return 0;
+}
+
+#define O options
+static const ftm_option option_table[] = {
+    FTM_OPT_DOUBLE("seconds", "S", O, seconds, 0, 3600, FTM_OPTION_ABOVE_LO, "seconds",
+                   "timing: run the loop S seconds (default 10)"),
+    FTM_OPT_INT("repeat", "N", O, repeat, 1, 100, "timing: N runs, medians reported (default 1)"),
+    FTM_OPT_FLAG("no-fifo", O, no_fifo, "timing: do not ask for SCHED_FIFO (default scheduling)"),
+    FTM_OPT_CUSTOM("delays", "LIST", O, ndelays, parse_delays,
+                   "renderers: injected delays in ms (default 0,20,50,100)"),
+    FTM_OPT_STRING("scene", "NAME", O, scene, "renderers: scene (default: default)"),
+    FTM_OPT_CUSTOM("path", "NAME", O, path, parse_path,
+                   "renderers: built-in closed path: press (default) or circle"),
+    FTM_OPT_STRING("script", "FILE", O, script,
+                   "renderers: closed probe path, ftm-bot format, instead\n(at most 600 s long)"),
+    FTM_OPT_STRING("trace", "FILE", O, trace, "renderers: CSV of truth and rendered force per tick"),
+    FTM_OPT_DOUBLE("stiffness-scale", "S", O, kscale, 0, 100, 0, NULL,
+                   "renderers: multiply the model's K by S (experiment; default 1)"),
+    FTM_OPT_FLAG("json", O, json, "JSON instead of tables"),
+    {0}};
+#undef O
+
+static const ftm_option_set option_set = {
+    "ftm-haptic-bench", "usage: ftm-haptic-bench [timing|renderers|all] [options]", option_table,
+    NULL};
+
+/* 0 to go on, or the exit status: -1 after --help (0), 2 refused. */
 static int parse_args(int argc, char **argv, options *o)
 {
     *o = (options){.what = "all", .seconds = 10, .repeat = 1, .ndelays = 4,
                    .delays = {0, 20, 50, 100}, .scene = "default", .kscale = 1.0,
                    .path = "press"};
-    for (int i = 1; i < argc; i++) {
+    int first = argc;
+    int rc = ftm_options_parse(&option_set, argc, argv, o, NULL, &first);
+    if (rc == FTM_OPTIONS_HELP)
+        return -1;
+    if (rc != FTM_OPTIONS_OK)
+        return 2;
+    for (int i = first; i < argc; i++) {
         const char *a = argv[i];
-        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
-        if (!strcmp(a, "timing") || !strcmp(a, "renderers") || !strcmp(a, "all")) {
-            o->what = a;
-        } else if (!strcmp(a, "--no-fifo")) {
-            o->no_fifo = true;
-        } else if (!strcmp(a, "--json")) {
-            o->json = true;
-        } else if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-            usage(stdout);
-            exit(0);
-        } else if (v && !strcmp(a, "--seconds")) {
-            char *e;
-            o->seconds = strtod(v, &e);
-            i++;
-            if (*e || !(o->seconds > 0 && o->seconds <= 3600)) {
-                fprintf(stderr, "ftm-haptic-bench: --seconds %s: must be in (0, 3600]\n", v);
-                return 2;
-            }
-        } else if (v && !strcmp(a, "--repeat")) {
-            long long n = 0;
-            i++;
-            if (ftm_option_int_arg("ftm-haptic-bench", a, v, 1, 100, &n))
-                return 2;
-            o->repeat = (int)n;
-        } else if (v && !strcmp(a, "--delays")) {
-            o->ndelays = 0;
-            const char *p = v;
-            while (*p) {
-                if (o->ndelays == MAX_DELAYS) {
-                    fprintf(stderr, "ftm-haptic-bench: --delays %s: at most %d delays\n", v,
-                            MAX_DELAYS);
-                    return 2;
-                }
-                char *e;
-                double d = strtod(p, &e);
-                if (e == p || !(d >= 0 && d <= 10000)) {
-                    fprintf(stderr, "ftm-haptic-bench: --delays %s: bad number at '%s'\n", v, p);
-                    return 2;
-                }
-                o->delays[o->ndelays++] = d;
-                p = *e == ',' ? e + 1 : e;
-                if (*e && *e != ',') {
-                    fprintf(stderr, "ftm-haptic-bench: --delays %s: expected a comma list\n", v);
-                    return 2;
-                }
-            }
-            if (o->ndelays == 0) {
-                fprintf(stderr, "ftm-haptic-bench: --delays '%s': expected a comma list of delays "
-                                "in ms\n", v);
-                return 2;
-            }
-            i++;
-        } else if (v && !strcmp(a, "--scene")) {
-            o->scene = v;
-            i++;
-        } else if (v && !strcmp(a, "--path")) {
-            o->path = v;
-            i++;
-            if (strcmp(v, "press") && strcmp(v, "circle")) {
-                fprintf(stderr, "ftm-haptic-bench: --path %s: press or circle\n", v);
-                return 2;
-            }
-        } else if (v && !strcmp(a, "--script")) {
-            o->script = v;
-            i++;
-        } else if (v && !strcmp(a, "--stiffness-scale")) {
-            char *e;
-            o->kscale = strtod(v, &e);
-            i++;
-            if (*e || !(o->kscale >= 0 && o->kscale <= 100)) {
-                fprintf(stderr, "ftm-haptic-bench: --stiffness-scale %s: must be in [0, 100]\n", v);
-                return 2;
-            }
-        } else if (v && !strcmp(a, "--trace")) {
-            o->trace = v;
-            i++;
-        } else {
-            fprintf(stderr, "ftm-haptic-bench: unknown or incomplete argument '%s'\n", a);
-            usage(stderr);
+        if (i > first || (strcmp(a, "timing") && strcmp(a, "renderers") && strcmp(a, "all"))) {
+            fprintf(stderr, "ftm-haptic-bench: unexpected argument '%s' (one of timing, "
+                            "renderers, all; options start with --)\n", a);
             return 2;
         }
+        o->what = a;
     }
     return 0;
 }
@@ -449,7 +430,7 @@ static int make_truth(const options *o, truth *tr)
         ftm_script_device_position(path, k * tr->h, &hip);
         tr->x[k] = hip;
         const double *x = ftm_sim_positions(sim);
-        /* server/server.c probe_contacts: sticky contact on the collided
+        /* server/tick.c probe_contacts: sticky contact on the collided
          * triangle, released when the HIP is back on the side it came from */
         if (contact) {
             if (vdot(vsub(hip, anchor), normal) >= 0.0)
@@ -483,16 +464,14 @@ static int make_truth(const options *o, truth *tr)
                     c[nc++] = (ftm_contact){tri[3 * ct + q], 0, FTM_CONTACT_DISPLACEMENT, pen};
         }
         rc = ftm_sim_set_contacts(sim, c, nc, &err);
-        struct timespec a, b;
-        clock_gettime(CLOCK_MONOTONIC, &a);
+        const int64_t t0 = ftm_clock_mono_ns();
         if (!rc)
             rc = ftm_sim_step(sim);
-        clock_gettime(CLOCK_MONOTONIC, &b);
-        t_sim += (double)(b.tv_sec - a.tv_sec) + 1e-9 * (double)(b.tv_nsec - a.tv_nsec);
+        t_sim += (double)(ftm_clock_mono_ns() - t0) * 1e-9;
         tr->contact[k] = contact;
         if (contact) {
             tr->f[k] = ftm_sim_reaction(sim, 0);
-            /* exactly what the server sends (server/server.c run_tick) */
+            /* exactly what the server sends (server/tick.c fill_reactions) */
             if (ftm_sim_contact_stiffness(sim, 0, tr->K + 9 * k) > 0) {
                 ftm_stiffness_make_passive(tr->K + 9 * k);
                 double S[9];
@@ -707,7 +686,7 @@ int main(int argc, char **argv)
     options o;
     int rc = parse_args(argc, argv, &o);
     if (rc)
-        return rc;
+        return rc < 0 ? 0 : rc;
     bool timing = strcmp(o.what, "renderers") != 0, rend = strcmp(o.what, "timing") != 0;
     if (timing) {
         timing_result t;

@@ -1,8 +1,11 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The haptic loop thread (haptic.h): device in, renderer, device out, at
  * absolute CLOCK_MONOTONIC deadlines. Exchange with other threads through
  * one mutex held for a few hundred nanoseconds per tick: new samples in,
  * HIP / force / timing out. The loop never blocks on anything else. */
 #include "haptic.h"
+
+#include "ftm/clock.h"
 
 #include <errno.h>
 #include <math.h>
@@ -42,12 +45,7 @@ struct ftm_haptic {
     ftm_force_renderer r; /* haptic thread only */
 };
 
-double ftm_haptic_clock(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
+double ftm_haptic_clock(void) { return (double)ftm_clock_mono_ns() * 1e-9; }
 
 static void hlog(ftm_haptic *h, ftm_log_level level, const char *fmt, const char *a)
 {

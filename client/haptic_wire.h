@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* From the wire to the haptic loop: a probe's ProbeReaction (ftm/wire.h,
  * found with ftm_replay_find_reaction) as an ftm_haptic_sample, with the
  * server's local force model and contact plane when it sent them

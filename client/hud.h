@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The HUD's text: what the client shows in the top-left corner. */
 #ifndef FTM_CLIENT_HUD_H
 #define FTM_CLIENT_HUD_H

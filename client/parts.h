@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The client's list of participants (the instructor's "participants:"
  * rows). A trainee that leaves after touching the tissue keeps its row,
  * marked left, so the instructor can still debrief it. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* OpenGL 3.3 core drawing; see render.h. Mesa provides the entry points
  * directly (GL_GLEXT_PROTOTYPES), so no loader is needed. */
 #include "render.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* OpenGL 3.3 core drawing of the client: the deformed surface (normals
  * recomputed from the replayed positions), an optional colour map of the
  * displacement magnitude, the probes (HIPs) and their contacts, the active

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* What the client's drawing code shares between its files (render.c, the
  * surface, probes and HUD; volume_render.c, the embedded volume): shader
  * programs and the displacement colour map. Render thread only, with the

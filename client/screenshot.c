@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* PNG writing with libpng; see screenshot.h. */
 #include "screenshot.h"
 

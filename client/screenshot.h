@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* PNG output of the client's window (--screenshot). No GL here: the caller
  * reads the pixels (glReadPixels gives rows bottom-up) and this writes them
  * top-down with libpng. */

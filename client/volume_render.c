@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Embedded volume drawn as deformed, textured slices; see volume_render.h. */
 #include "volume_render.h"
 

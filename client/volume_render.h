@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Drawing of a volume embedded in its control lattice (paper section 4.2):
  * the image is a 3D texture, drawn as slices perpendicular to the lattice
  * axis most aligned with the view, the node planes and 9 slices between

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Installs the Debian 12 packages FTM needs to build and test. Idempotent:
 # does nothing when everything is already installed. Run as root or with sudo.
 #
@@ -30,6 +31,7 @@ packages=(
   xvfb xauth                                      # headless X server for client tests
   python3                                         # test scripts' checks, ftm-plot-forces' names
   iproute2                                        # test_two_hosts: network namespaces, veth
+  tcpdump                                         # test_net_secure_capture: what a listener records
 )
 
 missing=()

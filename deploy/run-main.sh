@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # The main job, from a fresh clone: installs dependencies, builds, and runs a
 # training session on loopback — ftm-server with two scripted trainees, a
 # scripted instructor and an observer (deploy/run-session.sh) — printing

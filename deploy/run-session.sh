@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # A headless training session on this machine, over loopback DDS:
 # ftm-server with the default scene at 1 kHz, two scripted trainees pressing
 # the tissue (docs/sessions/trainee*.bot), an instructor who makes the tissue
@@ -24,7 +25,7 @@ case ${1:-} in -h|--help) usage; exit 0 ;; esac
 cd "$(dirname "$0")/.."
 build=${1:-build/release}
 server="$build/server/ftm-server"
-bot="$build/client/ftm-bot"
+bot="$build/bot/ftm-bot"
 client="$build/client/ftm-client"
 gui=
 case ${FTM_HEADLESS:-0} in 0|'') headless= ;; *) headless=1 ;; esac

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # All tests, from a fresh clone: installs dependencies, then builds and runs
 # the test suite twice, as a release build with warnings as errors and as an
 # AddressSanitizer + UndefinedBehaviorSanitizer build; then the whole tree is

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Uniform grid over the deformed surface triangles; see collide.h. */
 #include "collide.h"
 

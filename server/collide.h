@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Point-based collision of a haptic interface point (HIP) with the deformed
  * surface (paper section 3.3), through a uniform grid over the surface
  * triangles that is kept current as the surface deforms.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Adaptive penetration depth: the control law of depth_ctl.h. */
 #include "depth_ctl.h"
 

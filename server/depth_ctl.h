@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Adaptive penetration depth (docs/server.md, "Adaptive penetration depth").
  *
  * The depth n decides how many layers around a contact the simulation

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Prometheus text exposition over libmicrohttpd (metrics.h). */
 #include "metrics.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Prometheus metrics of ftm-server over HTTP, on 127.0.0.1 unless told (libmicrohttpd;
  * docs/server.md, "Metrics"). The tick thread hands a snapshot over with
  * ftm_metrics_update (copied under a mutex, every 100 ms); the HTTP thread

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Session recording file: writer and bounded reader (record.h). */
 #include "record.h"
 #include "depth_ctl.h" /* FTM_DEPTH_CTL_MAX */

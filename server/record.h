@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Session recording file (docs/server.md, "Session recording"): the magic
  * "FTMREC1\n", then length-delimited ftm.v1.RecordEntry messages; the first
  * holds the RecordHeader. Writer for ftm-server --record, reader for

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-server --replay FILE: re-simulates a recorded session from its scene
  * with libftm and checks every recorded tick frame's state hash
  * (docs/server.md, "Session recording").
@@ -10,7 +11,9 @@
  * check is of the physics and the frames, see the docs. */
 #include "record.h"
 #include "record_replay.h"
-#include "replay.h"
+#include "digest.h"
+#include "step.h"
+#include "tissue.h"
 
 #include "ftm/scene.h"
 #include "ftm/wire.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-server --replay FILE (record_replay.c). */
 #ifndef FTM_SERVER_RECORD_REPLAY_H
 #define FTM_SERVER_RECORD_REPLAY_H

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 # shellcheck shell=sh
 # Sourced by the command-line tests: a tally of named checks. Needs $tmp (a
 # scratch directory the test made) and $FTM (the program run by `run`).

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 # shellcheck shell=sh
 # Sourced by the option tests. refused_by WANT PROGRAM ARGS...: runs PROGRAM
 # with ARGS (no display, at most 20 s) and calls the test's own fail unless

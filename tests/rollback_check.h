@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Test helper shared by the core's tests (include after cmocka.h and
  * ftm/ftm.h): the exact rollback of steps the stability guard rejects. */
 #ifndef FTM_TESTS_ROLLBACK_CHECK_H

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # End-to-end tests of the ftm command-line tool.
 # Environment: FTM = path to the ftm binary, FTM_TEST_DATA = tests/data.
 set -eu
@@ -70,7 +71,7 @@ short=$(hash_of "$tmp/out")
 check "--steps changes the run" differ "$short" "$first"
 
 # The built-ins must run stably: no step rolled back by the stability guard.
-for name in default table3 membrane head; do
+for name in default table3 membrane head palpation; do
     run sim "$name"
     check "$name runs without guard events" grep -q '^guard  *0 events' "$tmp/out"
 done
@@ -102,7 +103,7 @@ done
 
 # The documented copies of the built-ins must stay identical to them.
 docs="$FTM_TEST_DATA/../../docs/scenes"
-for name in default table3 membrane head; do
+for name in default table3 membrane head palpation; do
     if [ -f "$docs/$name.scene" ]; then
         run sim "$name" --steps 300 --quiet
         builtin_hash=$(hash_of "$tmp/out")

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Golden hashes: fixed scenarios whose final ftm_sim_hash is written down
  * here. The same inputs must give the same bits on every machine, compiler
  * version and build type; a change of numerics (even one ulp anywhere) shows

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Tests of the force transmittal layers (paper section 3.1.2-3.1.6): the
  * depth-synchronised breadth-first search from the contact nodes, its node
  * counts (Eqs. 9 and 10), merging of several sources, the layer cache, and

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Mesh loader tests: OBJ, Gmsh MSH 4.1 ASCII and TetGen .node/.ele.
  *
  * Good files must give the expected node, spring, triangle and tetrahedron

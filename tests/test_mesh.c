@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Tests of the mesh builder, the node reordering, the lattice generators, the
  * critical time step and the surface extraction, against the contracts in
  * common/include/ftm/mesh.h and generate.h. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Tests of the force transmittal integrator (sim.h) against closed-form
  * static equilibria, the depth semantics, determinism, the intra-layer
  * order (paper section 3.1.4), anisotropy (paper Fig. 12), release and sleep,

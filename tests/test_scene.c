@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Scene parser tests: good scenes give the right mesh, simulation definition
  * and loads; every malformed scene gives a negative code and a message that
  * names the file and the offending line; scripted loads ramp as documented. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The vector sweeps' kernels (AVX where the CPU has it, the baseline one
  * otherwise; in the colored order link data read from the mesh's padded rows
  * on a schedule's first use, from the schedule's slot-major copy after) must

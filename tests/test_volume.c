@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Volumes (paper section 4.2): the phantom, trilinear sampling, the control
  * lattice with air trimming and hard-tissue fixing, the FFD embedding, the
  * `head` built-in under a press, the NIfTI-1 reader on good and malformed

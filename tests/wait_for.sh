@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 # shellcheck shell=sh
 # Sourced by the shell tests. wait_for FILE PATTERN WHAT [TRIES]: polls FILE
 # every 0.05 s until grep finds PATTERN (a basic regular expression) in it;

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Benchmarks of `ftm bench` and the timing helpers they share. */
 #ifndef FTM_TOOLS_BENCH_H
 #define FTM_TOOLS_BENCH_H

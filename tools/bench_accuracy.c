@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm bench accuracy`: run time against error (docs/accuracy.md).
  *
  * On two bodies, the paper's elastin cube and a kidney-shaped organ of

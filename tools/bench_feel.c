@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm bench feel`: what a trainee feels, per body, force model, far field
  * and penetration depth (docs/feel.md). Each body is pressed by displacing
  * its contact nodes (ramped in, then held) until it is at rest; a row

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm bench net`: a whole session on loopback DDS, measured from outside
  * (docs/bench-net.md). It runs the real programs — ftm-server and N ftm-bot
  * trainees, plus Cyclone's ddsperf ping/pong beside them — and reads what
@@ -671,7 +672,7 @@ static void usage(FILE *f)
             "  --bots N            trainee bots (default 8, at most %d)\n"
             "  --rate HZ           tick rate (default 1000)\n"
             "  --server PATH       ftm-server (default: beside this ftm, ../server/ftm-server)\n"
-            "  --bot PATH          ftm-bot (default: ../client/ftm-bot)\n"
+            "  --bot PATH          ftm-bot (default: ../bot/ftm-bot)\n"
             "  --config FILE       Cyclone DDS configuration (default: %s/deploy/"
             "cyclonedds-loopback.xml)\n"
             "  --domain N          first DDS domain to use (default 150; uses N .. N+4)\n"
@@ -797,7 +798,7 @@ static int parse(int argc, char **argv, net_options *o)
     if (!o->server)
         o->server = exe_sibling("../server/ftm-server");
     if (!o->bot)
-        o->bot = exe_sibling("../client/ftm-bot");
+        o->bot = exe_sibling("../bot/ftm-bot");
     if (!o->server || !o->bot || access(o->server, X_OK) || access(o->bot, X_OK)) {
         fprintf(stderr, "ftm bench net: cannot find ftm-server/ftm-bot (%s, %s); use --server "
                         "and --bot\n",

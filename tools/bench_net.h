@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm bench net`: the session benchmark (docs/bench-net.md). Only built with
  * the wire layer (FTM_BUILD_WIRE), whose programs ftm-server and ftm-bot it
  * runs; it links neither DDS nor the wire layer itself. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm bench table3`: the paper's Table 3 timing experiment.
  *
  * 50 x 50 2D triangular lattice (paper Fig. 3), border fixed, a constant force

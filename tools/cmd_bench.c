@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm bench NAME`: benchmark programs. Each prints a table (or JSON with
  * --json) of medians measured in one run. */
 #include "bench.h"

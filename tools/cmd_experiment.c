@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm experiment NAME`: the paper's mechanical experiments (Figs. 9-12),
  * printed as tables (or JSON) and written as CSV for docs/bench/experiments.sh.
  * See docs/experiments.md. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm fem: the linear static FEM reference for a scene (docs/fem.md). */
 #include "commands.h"
 

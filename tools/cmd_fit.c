@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm fit: parameter identification against the FEM reference (docs/fit.md,
  * paper section 3.2 and Tables 1-2). */
 #include "commands.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm sim: runs a scene's scripted load and reports the outcome. */
 #include "commands.h"
 

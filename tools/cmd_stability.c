@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm stability`: the numerical stability sweep (docs/stability.md).
  * For each configuration: the theoretical critical step (the Gershgorin bound
  * the core uses, and the spectral limit 2/sqrt(lambda_max)), the measured

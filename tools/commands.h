@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Subcommands of the `ftm` tool. Each takes the arguments from the
  * subcommand's name on (argv[0] is "sim", "bench", ...) and returns the
  * process exit status: 0 success, 2 bad arguments or input or an output that

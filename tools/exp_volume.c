@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm experiment volume`: the paper's section 4.2. A volume (an MRI scan, or
  * the core's synthetic head) is embedded in a mass-spring control lattice
  * (10 x 10 x 10 points by default, as the paper), the lattice points inside

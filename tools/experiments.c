@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The paper's mechanical experiments and the stability sweep (experiments.h). */
 #include "experiments.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The paper's mechanical experiments (Choi, Sun, Heng 2004, §4.1, Figs. 9-12)
  * and the numerical stability sweep, as library functions that fill result
  * structs: `ftm experiment` and `ftm stability` print and write them, the

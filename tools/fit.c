@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Parameter identification: optimisers and the mass-spring cost (fit.h). */
 #include "fit.h"
 

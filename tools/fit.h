@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Parameter identification for `ftm fit` (docs/fit.md, paper section 3.2).
  *
  * Two layers:

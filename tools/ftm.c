@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm: the headless FTM tool. Dispatches to subcommands (tools/commands.h). */
 #include "commands.h"
 

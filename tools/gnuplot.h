@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Running gnuplot for the commands' pictures: a script the command wrote is
  * drawn if gnuplot is there, and skipped with a message if not. */
 #ifndef FTM_TOOLS_GNUPLOT_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Generated surface organ models (organs.h).
  *
  * A shape is a map P(q, phi) = c(q) + rho(q) (u(q, phi) n(q) + v(q, phi) b(q)):

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Generated surface organ models for the paper's section 4.4 (`ftm
  * experiment organs`): closed triangle surfaces with exactly the node and
  * triangle counts of the paper's lung (1769 nodes, 3534 triangles) and

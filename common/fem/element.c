@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Materials and element matrices of the linear FEM reference: the isotropic
  * D matrix, the trilinear hexahedron with 2x2x2 Gauss integration and the
  * constant-strain tetrahedron (computed by the core, element.c). The

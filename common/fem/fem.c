@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Linear static FEM: sparse assembly of K over the mesh's hexahedra and
  * tetrahedra, elimination of the constrained dofs, one CHOLMOD factorisation
  * reused by every load case. docs/fem.md describes the method. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* A small sparse symmetric positive definite solver on CHOLMOD, for implicit
  * models other than the FEM reference (the backward-Euler mass-spring model
  * of `ftm bench accuracy`): the pattern is analysed once (fill-reducing

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The compliance of a held body (compliance.h says what and why): its
  * stiffness at rest assembled and factorised (profile LDL^T), Green's
  * columns solved for, shared within the process and cached on disk. */
@@ -249,11 +250,17 @@ __attribute__((target("avx2"))) static void solve_avx2(const ftm_compliance *g, 
 
 static void solve_plain(const ftm_compliance *g, double *b, int32_t nb) { solve_body(g, b, nb); }
 
+/* the widest kernel allowed (tests compare them): 2 AVX-512, 1 AVX2, 0 plain */
+static _Atomic int kernel_limit = 2;
+
+void ftm_compliance_limit_kernel(int widest) { kernel_limit = widest; }
+
 static void solve(const ftm_compliance *g, double *b, int32_t nb)
 {
-    if (__builtin_cpu_supports("avx512f"))
+    const int limit = kernel_limit;
+    if (limit >= 2 && __builtin_cpu_supports("avx512f"))
         solve_avx512(g, b, nb);
-    else if (__builtin_cpu_supports("avx2"))
+    else if (limit >= 1 && __builtin_cpu_supports("avx2"))
         solve_avx2(g, b, nb);
     else
         solve_plain(g, b, nb);

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: the compliance G = K^-1 of a held body, for the elastic far
  * field (farfield.h). K is the stiffness at rest with the fixed nodes
  * clamped: the springs' tangent, or the assembled linear element stiffness.
@@ -42,6 +43,10 @@ static inline void ftm_compliance_block(const float *const *cols, int32_t a, int
     for (int e = 0; e < 9; e++)
         out[e] = (double)g[e];
 }
+
+/* Tests: the widest solve kernel used from now on in this process (2:
+ * AVX-512, 1: AVX2, 0: plain C); each gives the same bits. */
+void ftm_compliance_limit_kernel(int widest);
 
 /* The columns (entry b: NULL until present); entries, once set, never change. */
 const float *const *ftm_compliance_columns(const ftm_compliance *c);

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Linear elastic element matrices: the isotropic D matrix, the trilinear
  * hexahedron with 2x2x2 Gauss integration and the constant-strain
  * tetrahedron, plus lumped masses. They live in the core because the

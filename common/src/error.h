@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: clearing ftm_error, logging. ftm_error_set is public (ftm/base.h). */
 #ifndef FTM_SRC_ERROR_H
 #define FTM_SRC_ERROR_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The elastic far field: the ring of nodes just beyond the contact region,
  * placed each step from the body's compliance (farfield.h says what and
  * why; compliance.c computes G). */
@@ -14,8 +15,10 @@
 struct ftm_far {
     ftm_compliance *g;
     int32_t n;     /* mesh nodes */
-    /* the current K is kscale times the one G was computed for */
+    /* the current K is kscale times the one G was computed for, whose links
+     * had the stiffness ref_k (springs) */
     double kscale;
+    double *ref_k;
 
     /* the ring of the current region: nodes, their displacement (3 each) */
     int32_t *ring;
@@ -38,6 +41,7 @@ void ftm_far_free(ftm_far *f)
     if (!f)
         return;
     ftm_compliance_release(f->g);
+    free(f->ref_k);
     free(f->ring);
     free(f->u);
     free(f->moves);
@@ -56,7 +60,11 @@ int ftm_far_create(ftm_sim *sim, ftm_error *err)
     f->n = n;
     f->kscale = 1.0;
     f->mark = calloc((size_t)n + 1, sizeof *f->mark);
-    if (!f->mark) {
+    const size_t links = (size_t)sim->m->link_count;
+    f->ref_k = malloc((links + 1) * sizeof *f->ref_k);
+    if (f->ref_k)
+        memcpy(f->ref_k, sim->m->link_k, links * sizeof *f->ref_k);
+    if (!f->mark || !f->ref_k) {
         ftm_far_free(f);
         return ftm_error_set(err, FTM_ENOMEM, "far_field = elastic: out of memory");
     }
@@ -332,22 +340,26 @@ void ftm_far_impose(ftm_sim *sim)
     }
 }
 
+void ftm_far_set_scale(ftm_far *f, double scale) { f->kscale = scale; }
+
 int ftm_far_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err)
 {
     ftm_far *f = sim->far;
-    const ftm_mesh *old = sim->m;
-    /* one factor on every link: the columns scale by its inverse */
+    /* every link times one factor against the stiffness G was computed for:
+     * G scales by its inverse. The factor comes from the two meshes alone,
+     * not from the changes in between, so a replica that starts from the
+     * scene's mesh and the new one gets the server's bits. */
     double ratio = 0.0;
-    bool uniform = !sim->elem && m->link_count == old->link_count;
+    bool uniform = !sim->elem && m->link_count == sim->m->link_count;
     for (int32_t l = 0; uniform && l < m->link_count; l++) {
-        double q = m->link_k[l] / old->link_k[l];
+        double q = m->link_k[l] / f->ref_k[l];
         if (l == 0)
             ratio = q;
         else if (q != ratio)
             uniform = false;
     }
     if (uniform && ratio > 0.0 && isfinite(ratio)) {
-        f->kscale *= ratio;
+        f->kscale = ratio;
         return FTM_OK;
     }
     /* otherwise the compliance of the new stiffness */
@@ -357,6 +369,7 @@ int ftm_far_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err)
         return rc;
     ftm_compliance_release(f->g);
     f->g = g;
+    memcpy(f->ref_k, m->link_k, (size_t)m->link_count * sizeof *f->ref_k);
     f->kscale = 1.0;
     f->dd_valid = false;
     return FTM_OK;

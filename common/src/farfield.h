@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: the elastic far field (ftm_sim_def.far_field = FTM_FAR_FIELD_ELASTIC).
  *
  * The paper holds every node beyond the penetration depth at rest, so the
@@ -61,5 +62,8 @@ void ftm_far_impose(ftm_sim *sim);
  * stiffness is the old one times one factor, the columns are rescaled;
  * otherwise recomputed. */
 int ftm_far_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err);
+/* Element forces: the stiffness is `scale` times the one G was computed
+ * for (a factor on E). */
+void ftm_far_set_scale(ftm_far *f, double scale);
 
 #endif

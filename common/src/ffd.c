@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Free-form deformation of a volume by its control lattice (volume.h): the
  * displacement of a rest point is the trilinear blend of the displacements
  * of its cell's corners. Displacements, not positions, are blended, so a

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Lattice generators: the paper's 2D triangular lattice and 3D cubic lattices. */
 #include "ftm/generate.h"
 

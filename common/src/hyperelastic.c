@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The compressible neo-Hookean solid (CalculiX's *HYPERELASTIC, NEO HOOKE):
  *     W = C10 (J^(-2/3) I1 - 3) + (J - 1)^2 / D1,  C10 = mu/2, D1 = 2/kappa,
  * I1 = tr(F^T F), J = det F, and its first Piola-Kirchhoff stress

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: the compressible neo-Hookean solid of CalculiX's *HYPERELASTIC,
  * NEO HOOKE (hyperelastic.c), for the element forces of sim_elem.c. */
 #ifndef FTM_SRC_HYPERELASTIC_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: what the cubic lattice generators (generate.c, volume_lattice.c)
  * share, so that a volume's control lattice has exactly the links,
  * stiffness, cells and surface faces a lattice3d of the same size would. */

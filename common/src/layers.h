@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: depth-synchronised multi-source breadth-first layering (paper
  * Fig. 5), optionally with each layer split into independent sets (the
  * update schedule of FTM_ORDER_LAYER_COLORED). */

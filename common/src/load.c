@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Mesh loading: dispatch by file extension, plus the pieces every loader
  * shares (argument checks, bounded file reading, array growth, and the final
  * commit of parsed data into the builder).

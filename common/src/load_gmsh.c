@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Gmsh MSH 4.1 ASCII loader.
  *
  * Reads $MeshFormat, $Nodes and $Elements; every other section is skipped.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: what the mesh loaders (load_obj.c, load_gmsh.c, load_tetgen.c)
  * share, defined in load.c. Each loader parses into its own arrays and
  * validates everything before ftm_load_commit(), so a malformed file never

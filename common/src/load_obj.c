@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Wavefront OBJ loader: vertices ("v") and polygonal faces ("f").
  *
  * Faces may only use vertices defined above them (this is what makes

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* TetGen .node/.ele loader.
  *
  * .node: "<#points> [<dim=3> [<#attributes> [<boundary markers 0|1>]]]", then

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* A mesh with another material (tissue parameters changed during a session). */
 #include "ftm/generate.h"
 #include "error.h"

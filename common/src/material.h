@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Checks of a material definition, shared by the generators, the loaders
  * and ftm_mesh_with_material, so that every way to make a mesh accepts the
  * same materials. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Mesh builder and the immutable mesh: validation, link de-duplication,
  * surface extraction from tetrahedra, locality ordering, CSR adjacency. */
 #include "mesh_internal.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal layout of ftm_mesh, shared by the core's source files.
  * Adjacency is CSR: the neighbours of node i are adj_node[adj_start[i] ..
  * adj_start[i+1]-1], with the link's stiffness and rest length alongside. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Scene files: INI-like text ("[section]", "key = value", "#" comments)
  * describing a mesh, its material, simulation parameters and scripted loads.
  * The format is documented in docs/scene-format.md.
@@ -1572,7 +1573,8 @@ int ftm_scene_load_file(const char *path, ftm_scene **out, ftm_error *err)
 
 /* Built-in scenes are scene text, so they read exactly like files
  * (docs/scenes/ has copies of them). builtin_texts[i] belongs to builtin_names[i]. */
-static const char *const builtin_names[] = {"default", "table3", "membrane", "head", NULL};
+static const char *const builtin_names[] = {"default", "table3", "membrane", "head", "palpation",
+                                            NULL};
 
 static const char *const builtin_texts[] = {
     /* default */
@@ -1697,6 +1699,62 @@ static const char *const builtin_texts[] = {
     "value = 0 0 -0.005\n"
     "start = 0\n"
     "release = 0.5\n",
+    /* palpation */
+    "# A block of soft tissue to palpate, the main job's training scene: a\n"
+    "# 12x12x12 lattice of 1 cm hexahedra (11 cm a side) resting on its bottom\n"
+    "# face, in the accurate model (docs/feel.md): neo-Hookean element forces\n"
+    "# (E = 12 kPa, nu = 0.45: soft tissue, about 1.2 N at a 5 mm press by a\n"
+    "# probe and 2.2 N at 9 mm) and the elastic far field, so what a trainee\n"
+    "# feels does not depend on the depth the server picks. A probe's triangle\n"
+    "# presses the top face's centre 5 mm over 0.3 s, holds, lets go at 1 s.\n"
+    "[scene]\n"
+    "name = palpation\n"
+    "[mesh]\n"
+    "generator = lattice3d\n"
+    "nx = 12\n"
+    "ny = 12\n"
+    "nz = 12\n"
+    "spacing = 0.01\n"
+    "stencil = 18\n"
+    "fixed_faces = zmin\n"
+    "[material]\n"
+    "# the links shape the layers and the stability guard; the forces are the\n"
+    "# elements'. Nodal damping: its masses are the elements' (1 g inside).\n"
+    "mass = 0.001\n"
+    "damping = 0.3\n"
+    "stiffness = 50\n"
+    "[fem]\n"
+    "young = 12e3\n"
+    "poisson = 0.45\n"
+    "density = 1000\n"
+    "[sim]\n"
+    "time_step = 1e-3\n"
+    "depth = 4\n"
+    "forces = neo-hookean\n"
+    "far_field = elastic\n"
+    "steps = 2000\n"
+    "[load]\n"
+    "# lattice points (6, 6, 11), (7, 6, 11) and (6, 7, 11): a top-face triangle\n"
+    "node = 1662\n"
+    "kind = displacement\n"
+    "value = 0 0 -0.005\n"
+    "ramp = linear\n"
+    "end = 0.3\n"
+    "release = 1\n"
+    "[load]\n"
+    "node = 1663\n"
+    "kind = displacement\n"
+    "value = 0 0 -0.005\n"
+    "ramp = linear\n"
+    "end = 0.3\n"
+    "release = 1\n"
+    "[load]\n"
+    "node = 1674\n"
+    "kind = displacement\n"
+    "value = 0 0 -0.005\n"
+    "ramp = linear\n"
+    "end = 0.3\n"
+    "release = 1\n",
 };
 
 #define BUILTIN_COUNT (sizeof builtin_texts / sizeof builtin_texts[0])

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The force transmittal integrator: contacts, cached layers and update
  * schedule, Gauss-Seidel central differences, relaxation and sleep, the
  * stability guard, reactions and the state hash. */
@@ -234,14 +235,28 @@ int ftm_sim_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err)
 {
     if (!sim || !m)
         return ftm_error_set(err, FTM_EINVAL, "sim set mesh: null argument");
-    if (sim->elem)
-        return ftm_error_set(err, FTM_EINVAL,
-                             "sim set mesh: element forces take their material from young, "
-                             "poisson and density, not from the mesh");
     if (!ftm_mesh_same_shape(sim->m, m))
         return ftm_error_set(err, FTM_EINVAL,
                              "sim set mesh: the new mesh differs in shape (nodes, rest positions, "
                              "fixed nodes, links or surface)");
+    if (sim->elem) { /* a factor on E from the links, the mesh's damping */
+        int rc = ftm_elem_set_mesh(sim, m, err);
+        if (rc)
+            return rc;
+        if (sim->far)
+            ftm_far_set_scale(sim->far, ftm_elem_scale(sim->elem));
+        sim->m = m;
+        set_substep_length(sim, sim->h_sub);
+        sim->layers_dirty = true;
+        const double h = sim->def.time_step, hc = ftm_sim_critical_time_step(sim);
+        if (h > hc)
+            ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_WARN,
+                     "time step %g s exceeds the critical time step %g s of the new material: "
+                     "the stability guard will substep",
+                     h, hc);
+        ftm_error_clear(err);
+        return FTM_OK;
+    }
     const double h = sim->def.time_step, hc = ftm_mesh_critical_time_step(m);
     const int32_t most = sim->def.guard ? sim->def.max_substeps : 1;
     if (h > hc * most)

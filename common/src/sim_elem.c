@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Element forces in the force transmittal integrator (beyond the paper).
  *
  * Instead of springs, a node's internal force is the sum over its elements of
@@ -53,6 +54,13 @@ struct ftm_elem {
     double *row_k;      /* 9 per entry: the 3x3 block K_ij */
     double *mass;
     double h_crit;
+    /* An instructor's stiffness change (ftm_sim_set_mesh): every element
+     * model's forces are linear in E (K_e, and mu and kappa of the
+     * neo-Hookean form, scale with it), so a factor on E is a factor on the
+     * sum of a node's element forces. ref_k: the links the elements were
+     * made with, against which a new mesh's links give the factor. */
+    double scale;
+    double *ref_k;
     /* set-up: element e's data for the blocks (elem_kernel.h) at gp + goff[e] */
     double *gp;
     size_t *goff;
@@ -113,6 +121,7 @@ void ftm_elem_free(ftm_elem *el)
     free(el->row_node);
     free(el->row_k);
     free(el->mass);
+    free(el->ref_k);
     free(el->gp);
     free(el->goff);
     free(el->eb.lanes);
@@ -212,6 +221,11 @@ static inline void node_force(const ftm_elem *el, const ftm_mesh *m, const doubl
         linear_force(el, m, x, i, f);
     else
         element_force(el, el->eb.fe, i, f);
+    if (el->scale != 1.0) {
+        f[0] *= el->scale;
+        f[1] *= el->scale;
+        f[2] *= el->scale;
+    }
 }
 
 static void note_inversion(ftm_elem *el, int32_t e, double det)
@@ -514,7 +528,8 @@ void ftm_elem_reactions(ftm_sim *sim)
 
 double ftm_sim_critical_time_step(const ftm_sim *sim)
 {
-    return sim->elem ? sim->elem->h_crit : ftm_mesh_critical_time_step(sim->m);
+    return sim->elem ? sim->elem->h_crit / sqrt(sim->elem->scale)
+                     : ftm_mesh_critical_time_step(sim->m);
 }
 
 const double *ftm_sim_masses(const ftm_sim *sim)
@@ -522,7 +537,7 @@ const double *ftm_sim_masses(const ftm_sim *sim)
     return sim->elem ? sim->elem->mass : sim->m->mass;
 }
 
-int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f)
+static int element_forces(const ftm_sim *sim, const double *x, double *f)
 {
     const ftm_mesh *m = sim->m;
     const ftm_elem *el = sim->elem;
@@ -573,6 +588,55 @@ int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f)
     free(eb.ok);
     free(all);
     return rc;
+}
+
+int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f)
+{
+    int rc = element_forces(sim, x, f);
+    const ftm_elem *el = sim->elem;
+    if (rc == FTM_OK && el && el->scale != 1.0)
+        for (size_t k = 0; k < 3 * (size_t)sim->m->node_count; k++)
+            f[k] *= el->scale;
+    return rc;
+}
+
+double ftm_elem_scale(const ftm_elem *el) { return el->scale; }
+
+int ftm_elem_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err)
+{
+    ftm_elem *el = sim->elem;
+    double ratio = 0.0;
+    for (int32_t l = 0; l < m->link_count; l++) {
+        double q = m->link_k[l] / el->ref_k[l];
+        if (l == 0)
+            ratio = q;
+        else if (q != ratio)
+            return ftm_error_set(err, FTM_EINVAL,
+                                 "sim set mesh: element forces change by one factor on E (every "
+                                 "link's stiffness times the same factor); link %d changes by %g, "
+                                 "link 0 by %g",
+                                 (int)l, q, ratio);
+    }
+    if (!(ratio > 0.0) || !isfinite(ratio))
+        return ftm_error_set(err, FTM_EINVAL, "sim set mesh: stiffness factor %g", ratio);
+    if (sim->def.density > 0.0)
+        for (int32_t i = 0; i < m->node_count; i++)
+            if (m->mass[i] != sim->m->mass[i])
+                return ftm_error_set(err, FTM_EINVAL,
+                                     "sim set mesh: with element forces the masses come from the "
+                                     "density (%g kg/m^3), not from the mesh (node %d: %g kg)",
+                                     sim->def.density, (int)i, m->mass[i]);
+    const double h = sim->def.time_step, hc = el->h_crit / sqrt(ratio);
+    const int32_t most = sim->def.guard ? sim->def.max_substeps : 1;
+    if (h > hc * most)
+        return ftm_error_set(err, FTM_EINVAL,
+                             "sim set mesh: E times %g gives a critical time step of %g s, too "
+                             "short for time step %g s with at most %d substeps",
+                             ratio, hc, h, (int)most);
+    el->scale = ratio;
+    if (!(sim->def.density > 0.0)) /* the mesh's masses, not lumped element ones */
+        memcpy(el->mass, m->mass, (size_t)m->node_count * sizeof *el->mass);
+    return FTM_OK;
 }
 
 /* ---- set-up ---- */
@@ -945,6 +1009,12 @@ int ftm_elem_create(ftm_sim *sim, ftm_error *err)
                                (int)i, (int)m->input_of_node[i]);
     if (!rc && d->forces != FTM_FORCES_LINEAR_FEM)
         rc = build_blocks(el, m, d, err);
+    el->scale = 1.0;
+    el->ref_k = malloc(((size_t)m->link_count + 1) * sizeof *el->ref_k);
+    if (!rc && !el->ref_k)
+        rc = ftm_error_set(err, FTM_ENOMEM, "sim: out of memory");
+    if (!rc)
+        memcpy(el->ref_k, m->link_k, (size_t)m->link_count * sizeof *el->ref_k);
     if (rc) {
         ftm_elem_free(el);
         return rc;

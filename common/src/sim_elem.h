@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: element forces of the integrator (sim_elem.c), the alternative to
  * springs selected by ftm_sim_def.forces. */
 #ifndef FTM_SRC_SIM_ELEM_H
@@ -26,6 +27,13 @@ void ftm_elem_rows(const ftm_elem *el, const int32_t **start, const int32_t **no
  * (the same bits; ftm_sim_select_kernel asks for the best or the portable
  * one, tests for each). */
 void ftm_elem_select_kernel(ftm_elem *el, ftm_elem_kernel which);
+
+/* ftm_sim_set_mesh with element forces: the new links' stiffness over the
+ * ones the elements were made with must be one factor, which then scales E
+ * (and the critical step by its inverse square root); the mesh's damping
+ * (and masses, without a density) take effect through the caller. */
+int ftm_elem_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err);
+double ftm_elem_scale(const ftm_elem *el);
 
 /* The sweeps and reactions of sim_kernel.c with element forces. */
 bool ftm_elem_sweep(ftm_sim *sim, double *max_m2);

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: the state of an ftm_sim and the pieces of the integrator that
  * live in separate files: sim.c (API, contacts, the step, queries),
  * sim_schedule.c (layers -> update schedule, the relaxing set) and

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The hot loop of the integrator: spring forces (Eq. 6), the central
  * difference update (Eq. 8) and the sweeps over the schedule in each order,
  * plus reactions (Eq. 19). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* From layers to an update schedule: the order in which the region's nodes
  * are updated and its groups (a layer, or an independent set), the blocks'
  * slot-major copies, and the relaxing set kept when the region changes. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The contact stiffness of a probe (ftm_sim_contact_stiffness, sim.h): the
  * derivative of the reaction force (Eq. 19) with respect to the HIP, for the
  * haptic force model the server sends with each reaction (docs/haptics.md).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: reading text files line by line with positions for error messages.
  * Shared by the mesh loaders and the scene parser. */
 #ifndef FTM_SRC_TEXT_H

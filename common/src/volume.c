@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Volumes: a scalar image of intensities 0..255 on a regular grid (volume.h).
  * Made by the synthetic head phantom or read from a NIfTI-1 file (.nii, and
  * .nii.gz with zlib). Files are untrusted: every header field is checked

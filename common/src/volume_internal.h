@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: where the lattice points of a volume's control lattice are, so
  * that the generator (volume_lattice.c) and the embedding (ffd.c) agree to
  * the bit. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The control lattice of a volume (paper section 4.2): a cubic lattice over
  * the image's box whose cells of air are left out and whose points in hard
  * tissue are fixed. Links, stiffness, cells and surface faces follow the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The protocol codec: ftm_wire_msg <-> protobuf bytes (proto/ftm.proto).
  *
  * Decoding never trusts the input: the size is capped per kind, the bytes are

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The field tables at work: checks, decoding and encoding of the fields a
  * kind lists in its table (codec_internal.h, wire_field). The protobuf side
  * of a field (its name, where protobuf-c keeps it and its presence flag, its

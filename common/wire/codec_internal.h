@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internals of the codec: the descriptor of a message kind and the field
  * tables the codec walks (docs/protocol.md, "The codec").
  *

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The pieces several kinds share: checks and conversions of vectors, tissue
  * parameters, depth limits, the integrator's mode, display text and contact
  * columns. The field tables (codec_fields.c) and the kinds' hooks

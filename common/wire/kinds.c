@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The message kinds: one descriptor each (msg_<kind>.c), by ftm.v1.Kind.
  * A new kind is a line here once its descriptor exists. */
 #include "codec_internal.h"

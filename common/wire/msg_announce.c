@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* SceneAnnounce (kind 1, server -> all): plain fields only. */
 #include "codec_internal.h"
 

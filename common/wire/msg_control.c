@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* SessionControl (kind 6, instructor -> server): the command, a oneof, is
  * the hooks'. */
 #include "codec_internal.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ControlReply (kind 7, server -> all, read by the issuer): a reason is
  * needed unless the command was applied (the hook). The reason is shown on
  * an instructor's HUD and written to logs and terminals: WF_PLAIN. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Keyframe (kind 4, server -> late joiners, resync): the node columns and
  * the contacts are the hooks', checked against the keyframe's own mesh. */
 #include "codec_internal.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ProbeInput (kind 2, trainee -> server): the samples are the hooks'. */
 #include "codec_internal.h"
 

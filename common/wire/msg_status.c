@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ParticipantStatus (kind 5, everyone -> all): the replay times' values,
  * the name and the server's lists of ignored and listened-to processes are
  * the hooks'. */

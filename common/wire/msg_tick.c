@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* TickFrame (kind 3, server -> all): the contact columns and the probes'
  * reactions are the hooks'. */
 #include "codec_internal.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Names of roles, participant states and reply outcomes, for logs and
  * displays; and the old name of ftm_strerror. (Kinds' names are in their
  * descriptors, kinds.c.) */

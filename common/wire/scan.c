@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* A structural check of a protobuf encoding against its descriptor, used to
  * say where and why a payload is malformed (protobuf-c's unpack only says
  * that it failed). Allocates nothing; bounded recursion. */

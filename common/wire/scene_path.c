@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Where FTM programs look for a scene named by another machine
  * (ftm_wire_open_scene): the search list is the deployment's business, so it
  * lives here, beside the protocol, and libftm only walks the list it is given. */

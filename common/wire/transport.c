@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The DDS transport: one Cyclone DDS participant, one topic per message kind
  * (type ftm::wire::Envelope, keyed by session and sender), writers and
  * readers with the QoS of docs/protocol.md, and a publishing thread so that

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internals of ftm_wire shared by the codec, scan.c, security.c and transport.c. */
 #ifndef FTM_WIRE_INTERNAL_H
 #define FTM_WIRE_INTERNAL_H
@@ -8,10 +9,6 @@
 
 #include <limits.h>
 #include <stdbool.h>
-
-/* The old name of ftm_error_set (ftm/base.h), still used by security.c;
- * every other file says ftm_error_set. */
-#define wire_err ftm_error_set
 
 /* Walks a protobuf encoding against its descriptor without allocating and
  * reports the first structural problem with its byte offset and field:

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Reproduces docs/accuracy.md: runs `ftm bench accuracy` once (both bodies),
 # keeps its table, JSON and gnuplot data under docs/bench/, and draws
 # docs/img/accuracy.png (error against time to equilibrium, Pareto fronts).

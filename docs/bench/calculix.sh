@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Reproduces the cube figures of docs/calculix.md: the paper's elastin cube
 # at full depth pressed 10 mm (and 2 mm), each force model run to equilibrium
 # against the stored CalculiX results (tests/calculix/ref), with steps and

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Screenshots of ftm-client for docs/client.md and the README, taken the way
 # the tests take them: a real ftm-server on loopback DDS, scripted trainees
 # (ftm-bot), and ftm-client under Xvfb with Mesa's software renderer.
@@ -33,7 +34,7 @@ shot() { # file, then client options
 # 1. the default scene, one trainee pressing 6 mm off-centre: colour map of
 #    displacement and the HUD, seen by an observer
 session_start press default
-"$B/client/ftm-bot" --role trainee --script tests/client_gl/hold.bot $common --id 11 \
+"$B/bot/ftm-bot" --role trainee --script tests/client_gl/hold.bot $common --id 11 \
     --duration 50 >/dev/null 2>&1 &
 pids="$pids $!"
 shot docs/img/client-press.png --role observer --screenshot-contact 300
@@ -52,7 +53,7 @@ printf '0 0.035 0.035 0.12\n2.5 0.035 0.035 0.12\n3.5 0.035 0.035 0.105\n60 0.03
 printf '0 0.065 0.055 0.12\n2.5 0.065 0.055 0.12\n3.5 0.065 0.055 0.107\n60 0.065 0.055 0.107\n' \
     >"$dir/t2.bot"
 for i in 1 2; do
-    "$B/client/ftm-bot" --role trainee --script "$dir/t$i.bot" $common --id 1$i \
+    "$B/bot/ftm-bot" --role trainee --script "$dir/t$i.bot" $common --id 1$i \
         --duration 50 >/dev/null 2>&1 &
     pids="$pids $!"
 done
@@ -64,7 +65,7 @@ sleep 1
 # 4. the built-in head scene: a volume embedded in its control lattice (paper
 #    4.2), drawn as deformed slices, a trainee pressing the top of the head
 session_start volume head
-"$B/client/ftm-bot" --role trainee --script tests/client_gl/head.bot $common --id 11 \
+"$B/bot/ftm-bot" --role trainee --script tests/client_gl/head.bot $common --id 11 \
     --duration 50 >/dev/null 2>&1 &
 pids="$pids $!"
 shot docs/img/client-volume.png --role observer --screenshot-contact 300

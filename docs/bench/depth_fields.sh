@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Draws docs/img/depth_fields.png: the displacement field of the table3 scene
 # (50x50 lattice, force on the centre node) at equilibrium for penetration
 # depths 2, 5, 10 and 20 — the region the force reaches, and what lies beyond

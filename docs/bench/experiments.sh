@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Reproduces docs/experiments.md and docs/stability.md: runs the paper's
 # experiments and the stability sweep, keeps their tables and CSV under
 # docs/bench/experiments/, and draws docs/img/{depth,tissue,anisotropy,stability}.png;

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # What a trainee feels: `ftm bench feel` (docs/feel.md), the table, its JSON
 # and the plot of force error against step time.
 #   docs/bench/feel.sh [FTM]     (FTM: build/release/tools/ftm by default)

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Reproduces docs/fit.md's table and plot: runs `ftm fit elastin-cube --json
 # --trace` (seed 1, settle mode, both models), keeps the JSON and the
 # optimiser trace under docs/bench/fit/, and draws docs/img/fit_elastin_cube.png.

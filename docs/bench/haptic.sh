@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Haptic benchmarks (docs/haptics.md): the loop's timing and the two force
 # renderers against a 1 kHz ground-truth force trace under injected delay.
 # Usage: docs/bench/haptic.sh [path/to/ftm-haptic-bench]

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Reproduces docs/bench-net.md: runs `ftm bench net` once (8 trainee bots at
 # 1 kHz for 60 s on the 1k-node scene, the 100k-node scene, the adaptive
 # phase under loss), keeps its table and JSON under docs/bench/, and draws

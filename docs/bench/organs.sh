@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Reproduces docs/experiments.md's section on surface organs (paper 4.4):
 # runs `ftm experiment organs` (the generated lung and stomach pressed by a
 # probe, depths 1..12 and the whole organ), keeping the table and the JSON

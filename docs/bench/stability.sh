@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Reproduces docs/stability.md: runs the stability sweep (`ftm stability`),
 # keeps its table and CSV under docs/bench/experiments/, and draws
 # docs/img/stability.png. Also called by docs/bench/experiments.sh.

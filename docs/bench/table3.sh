@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Reproduces docs/benchmarks.md's Table 3 section: runs `ftm bench table3`,
 # keeps its table and JSON under docs/bench/, and draws docs/img/table3.png.
 #   docs/bench/table3.sh [path/to/ftm] [--steps N]

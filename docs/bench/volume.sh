@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Reproduces docs/experiments.md's section on volumes (paper 4.2): runs
 # `ftm experiment volume` on the synthetic head phantom and, when it is at
 # hand, on a real head MRI (Colin27's brain, ch2bet.nii.gz, from Debian's

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # `ftm bench feel --quick --json` (docs/feel.md): the JSON parses; the elastic
 # far field gives the linear FEM's force at depth 2 where the fixed one is
 # over 50 % stiff, and the neo-Hookean force at depth 2 is within 5 % of the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Test helpers of tests/accuracy (include after cmocka.h, ftm/fem.h and
  * ftm/ftm.h): the elastin cube of the paper as a lattice or Kuhn
  * tetrahedra, loads on its top face, the FEM reference, settling. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Element forces in the force transmittal integrator (docs/accuracy.md):
  *   - linear FEM forces at full depth reach the FEM static solution (ftm_fem,
  *     CHOLMOD) to < 1e-3 relative error, on hexahedra and on tetrahedra, in

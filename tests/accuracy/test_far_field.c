@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The elastic far field (ftm_sim_def.far_field, docs/core.md "Far field"):
  *   - with linear element forces, a press held by displacement reaches the
  *     whole body's FEM solution at every depth: the contact force and the
@@ -20,6 +21,7 @@
 #include "ftm/fem.h"
 #include "ftm/ftm.h"
 
+#include "compliance.h"
 #include "cube.h"
 
 #include <stdio.h>
@@ -373,6 +375,29 @@ static void test_scaled_stiffness(void **state)
     }
     print_message("scaled stiffness: %.4e m, then %.4e m\n", dz[0], dz[1]);
     assert_true(fabs(dz[1] - 0.5 * dz[0]) < 1e-3 * fabs(dz[0]));
+    /* the scale depends on the meshes, not on the changes in between: a
+     * simulation taken through 1300 N/m to 1700 N/m ends on the hash of one
+     * set straight to 1700 N/m (a late joiner starts from the scene's mesh) */
+    ftm_material_def mid = from, last = from;
+    mid.stiffness = 1300;
+    last.stiffness = 1700;
+    ftm_mesh *m_mid = NULL, *m_last = NULL;
+    assert_int_equal(ftm_mesh_with_material(m, &from, &mid, &m_mid, &err), FTM_OK);
+    assert_int_equal(ftm_mesh_with_material(m, &from, &last, &m_last, &err), FTM_OK);
+    uint64_t h[2];
+    for (int k = 0; k < 2; k++) {
+        ftm_sim *sim = spring_sim(m, 1);
+        if (k == 0)
+            assert_int_equal(ftm_sim_set_mesh(sim, m_mid, &err), FTM_OK);
+        assert_int_equal(ftm_sim_set_mesh(sim, m_last, &err), FTM_OK);
+        assert_int_equal(ftm_sim_set_contacts(sim, &c, 1, &err), FTM_OK);
+        assert_int_equal(ftm_sim_run(sim, 200), FTM_OK);
+        h[k] = ftm_sim_hash(sim);
+        ftm_sim_destroy(sim);
+    }
+    assert_true(h[0] == h[1]);
+    ftm_mesh_destroy(m_mid);
+    ftm_mesh_destroy(m_last);
     ftm_mesh_destroy(stiff);
     ftm_mesh_destroy(m);
 }
@@ -395,6 +420,75 @@ static void log_damage(void *user, ftm_log_level level, const char *msg)
     (void)user;
     if (level == FTM_LOG_WARN && strstr(msg, "cached column") && strstr(msg, "damaged"))
         damaged_said++;
+}
+
+/* An instructor's stiffness change on element forces (ftm_sim_set_mesh with
+ * every link times 2: E times 2): linear and neo-Hookean forces, with the
+ * elastic far field, settle where a body made with twice E settles; links
+ * changed by different factors are refused. */
+static void test_element_stiffness_factor(void **state)
+{
+    (void)state;
+    const int n = 6;
+    ftm_mesh *m = cube(n, false, true, 0.0);
+    int32_t nn = ftm_mesh_node_count(m);
+    double *f = malloc(sizeof(double) * 3 * (size_t)nn);
+    ftm_contact c[4];
+    int nc = top_load(m, n, 2.0, c, f);
+    double *u = fem_solution(m, f);
+    ftm_material_def from = ftm_default_material_def();
+    from.node_mass = 1e-3;
+    from.stiffness = 1000;
+    ftm_material_def to = from, aniso = from;
+    to.stiffness = 2000;
+    aniso.axis_scale = (ftm_vec3){1.0, 1.0, 2.0};
+    static const ftm_forces models[] = {FTM_FORCES_LINEAR_FEM, FTM_FORCES_NEO_HOOKEAN};
+    for (int k = 0; k < 2; k++) {
+        double dz[2] = {0.0, 0.0};
+        for (int v = 0; v < 2; v++) { /* v = 0: E doubled by the mesh; 1: made so */
+            ftm_mesh *dm = NULL;
+            ftm_sim_def d = elem_def(models[k], FTM_ORDER_LAYER_COLORED);
+            d.far_field = FTM_FAR_FIELD_ELASTIC;
+            d.depth = 2;
+            if (v == 1)
+                d.young *= 2.0;
+            ftm_sim *sim = damped_sim(m, d, u, f, &dm);
+            ftm_error err;
+            if (v == 0) {
+                ftm_mesh *stiff = NULL, *bad = NULL;
+                /* damped_sim's mesh carries the damping: scale it, not m */
+                ftm_material_def df = from;
+                df.node_damping = ftm_mesh_damping(dm, 0);
+                df.node_mass = ftm_mesh_mass(dm, 0);
+                ftm_material_def dt = df, da = df;
+                dt.stiffness = to.stiffness;
+                da.axis_scale = aniso.axis_scale;
+                assert_int_equal(ftm_mesh_with_material(dm, &df, &da, &bad, &err), FTM_OK);
+                assert_int_equal(ftm_sim_set_mesh(sim, bad, &err), FTM_EINVAL);
+                assert_contains(err.message, "one factor on E");
+                assert_int_equal(ftm_mesh_with_material(dm, &df, &dt, &stiff, &err), FTM_OK);
+                assert_int_equal(ftm_sim_set_mesh(sim, stiff, &err), FTM_OK);
+                assert_int_equal(ftm_sim_set_contacts(sim, c, nc, &err), FTM_OK);
+                settle(sim, SIDE / (n - 1), 1e-12, 100000);
+                dz[v] = ftm_sim_position(sim, c[0].node).z - ftm_mesh_rest_position(m, c[0].node).z;
+                ftm_sim_destroy(sim);
+                ftm_mesh_destroy(stiff);
+                ftm_mesh_destroy(bad);
+            } else {
+                assert_int_equal(ftm_sim_set_contacts(sim, c, nc, &err), FTM_OK);
+                settle(sim, SIDE / (n - 1), 1e-12, 100000);
+                dz[v] = ftm_sim_position(sim, c[0].node).z - ftm_mesh_rest_position(m, c[0].node).z;
+                ftm_sim_destroy(sim);
+            }
+            ftm_mesh_destroy(dm);
+        }
+        print_message("%s: E x 2 by the mesh %.6e m, made so %.6e m\n",
+                      k ? "neo-hookean" : "linear-fem", dz[0], dz[1]);
+        assert_true(fabs(dz[0] - dz[1]) < 1e-6 * fabs(dz[1]));
+    }
+    free(u);
+    free(f);
+    ftm_mesh_destroy(m);
 }
 
 /* The cache: written once and read back with the same result; a column
@@ -471,6 +565,35 @@ static void test_cache(void **state)
     ftm_mesh_destroy(m);
 }
 
+/* The AVX-512, AVX2 and plain solves give the same columns: a press on a
+ * body computed with each (not shared, not cached) ends on one hash. */
+static void test_kernels_same_bits(void **state)
+{
+    (void)state;
+    const int n = 6;
+    ftm_mesh *m = cube(n, false, true, 2.0);
+    ftm_contact c[4];
+    int nc = top_press(m, n, 1e-3, c);
+    uint64_t hash[3];
+    for (int k = 2; k >= 0; k--) {
+        ftm_compliance_limit_kernel(k);
+        evict(); /* the body's compliance computed again */
+        evict();
+        ftm_sim *sim = spring_sim(m, 1);
+        ftm_error err;
+        assert_int_equal(ftm_sim_set_contacts(sim, c, nc, &err), FTM_OK);
+        assert_int_equal(ftm_sim_run(sim, 80), FTM_OK);
+        hash[k] = ftm_sim_hash(sim);
+        ftm_sim_destroy(sim);
+    }
+    ftm_compliance_limit_kernel(2);
+    print_message("avx-512 %016llx, avx2 %016llx, plain %016llx (as the CPU allows)\n",
+                  (unsigned long long)hash[2], (unsigned long long)hash[1],
+                  (unsigned long long)hash[0]);
+    assert_true(hash[0] == hash[1] && hash[1] == hash[2]);
+    ftm_mesh_destroy(m);
+}
+
 static void test_refusals(void **state)
 {
     (void)state;
@@ -505,7 +628,9 @@ int main(void)
         cmocka_unit_test(test_springs_depth_two),
         cmocka_unit_test(test_state_release_depth),
         cmocka_unit_test(test_scaled_stiffness),
+        cmocka_unit_test(test_element_stiffness_factor),
         cmocka_unit_test(test_cache),
+        cmocka_unit_test(test_kernels_same_bits),
         cmocka_unit_test(test_refusals),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

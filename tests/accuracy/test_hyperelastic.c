@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Neo-Hookean element forces (forces = neo-hookean, docs/calculix.md):
  *   - the cube root of the core against long double cbrtl, in ulps;
  *   - the stress: exactly 0 at rest, dW/dF by finite differences of W,

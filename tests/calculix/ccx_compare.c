@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Compares FTM with the CalculiX references kept in tests/calculix/ref
  * (docs/calculix.md). The references are ccx's .dat output of the decks
  * ccx_deck wrote from the same scenes: the displacement U of every node and

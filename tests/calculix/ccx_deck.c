@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Writes CalculiX input decks from FTM scenes, so that the independent
  * reference solves exactly FTM's mesh (docs/calculix.md):
  *

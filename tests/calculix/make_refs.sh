@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Regenerates the CalculiX references of tests/calculix (docs/calculix.md):
 # writes each deck from its scene with ccx_deck, runs ccx (Debian package
 # calculix-ccx) on it and keeps the deck (.inp) and ccx's printed results

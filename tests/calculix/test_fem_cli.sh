@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # `ftm fem` end to end against CalculiX's linear references: the
 # displacements it writes with --csv, every node, to 1e-6 of the largest
 # (ccx prints 7 digits). Environment: FTM (the ftm binary), CCX_COMPARE.

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Where CalculiX is installed: the stored decks are what ccx_deck writes from
 # the scenes now, and ccx run on them gives the stored results (to 1e-5 of
 # the largest value: ccx's solvers may round differently on another CPU).

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-client refuses out-of-range options with a message naming them, and
 # exits 2 before it opens a window or joins anything (no display needed:
 # every run also names a Cyclone configuration that does not exist).
@@ -23,20 +24,35 @@ refused "--id must be an integer in 0..4294967295 (got '4294967297')" --id 42949
 refused "--msaa must be an integer in 0..16 (got '17')" --msaa 17
 refused "--msaa must be an integer in 0..16 (got '4x')" --msaa 4x
 refused "--swap-interval must be an integer in -1..8 (got '4294967297')" --swap-interval 4294967297
-refused "--volume-step: 1, 2, 5 or 10 (a divisor of the 10 slices per lattice cell), got 3" \
+refused "--volume-step must be 1, 2, 5 or 10, a divisor of the 10 slices per lattice cell (got '3')" \
     --volume-step 3
-refused "--volume-step must be an integer in 1..10 (got '20')" --volume-step 20
+refused "--volume-step must be 1, 2, 5 or 10, a divisor of the 10 slices per lattice cell (got '20')" \
+    --volume-step 20
 refused "--screenshot-contact must be an integer in 0..9223372036854775807 (got '-5')" \
     --screenshot-contact -5
 refused "--screenshot-tick must be an integer in 0..9223372036854775807 (got ' 7')" \
     --screenshot-tick " 7"
 # times that would wrap when cast to nanoseconds
 for v in 1e300 1e10 inf nan -1; do
-    refused "--duration, --bench, --screenshot-after in [0, 1e+09] s" --duration "$v"
+    for o in --duration --bench --screenshot-after; do
+        refused "$o must be a number of seconds in [0, 1e+09] (got '$v')" $o "$v"
+    done
 done
 for v in 0 1e10 inf; do
-    refused "--server-timeout, --screenshot-timeout must be in (0, 1e+09] s" --server-timeout "$v"
+    for o in --server-timeout --screenshot-timeout; do
+        refused "$o must be a number of seconds in (0, 1e+09] (got '$v')" $o "$v"
+    done
 done
+refused "--colormap-full must be a number of millimetres >= 0 (got '-1')" --colormap-full -1
+# the option table's parser (getopt_long): a value that is itself an
+# option is missing, not taken; flags take no value; prefixes must be unique
+refused "--scene needs a value (NAME|FILE), not the option --duration" --scene --duration 2
+refused "--screenshot needs a value (FILE.png)" --screenshot
+refused "--cut takes no value" --cut=yes
+refused "option --screenshot-t is ambiguous: --screenshot-tick, --screenshot-timeout" \
+    --screenshot-t 5
+refused "unknown option --colourmap" --colourmap
+refused "--role must be trainee, instructor or observer (got 'viewer')" --role viewer
 # outputs: never a file the client reads (by device and inode: another name,
 # a hard link), nor a path it cannot write; refused before anything is
 # opened for writing, the input left as it was
@@ -80,9 +96,9 @@ if [ ! -w "$tmp/ro" ]; then # (root writes anyway)
 fi
 [ -z "$(ls -A "$tmp/ro")" ] || fail "a file was left in $tmp/ro"
 # --size: two whole numbers and an x, nothing more
-refused "--size: expected WxH (64..8192), got '100x100junk'" --size 100x100junk
-refused "--size: expected WxH (64..8192), got ' 100x 100'" --size " 100x 100"
-refused "--size: expected WxH (64..8192), got '100'" --size 100
+refused "--size must be WxH, each 64..8192 (got '100x100junk')" --size 100x100junk
+refused "--size must be WxH, each 64..8192 (got ' 100x 100')" --size " 100x 100"
+refused "--size must be WxH, each 64..8192 (got '100')" --size=100
 # a bad device script is a bad argument: status 2, before any window
 printf '0 0.03 0.03\n' >"$tmp/bad.bot"
 refused "--device script:$tmp/bad.bot: $tmp/bad.bot:1:" --role trainee --device "script:$tmp/bad.bot"

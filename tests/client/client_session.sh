@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-client's session thread without GL (test_session.c) against a real
 # ftm-server on loopback (its own DDS domain and session):
 #   idtaken: a bot presses under participant id 33; a trainee started

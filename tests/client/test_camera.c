@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The client's camera (client/camera.c), no GL: the view is framed in the
  * rows below the HUD, and what the camera frames there is what it
  * projects there; panning follows the cursor in that view. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The force renderers and their safety stage (client/haptic.c), driven with
  * explicit times: exact on linear signals, bounded on steps, fade on stale
  * data, clamp, rate limit, zero on disconnect. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The haptic loop thread and the devices: start/stop (and restart) cleanly,
  * samples from another thread reach the device, disconnect writes zero, the
  * last force is zero after stop; the scripted device's format and the mouse

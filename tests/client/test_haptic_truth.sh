@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # The benchmark's offline ground truth (ftm-haptic-bench, the server's probe
 # contact logic reproduced with libftm) against the server itself
 # (ftm-server --offline): the same reaction force at every tick.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The HUD's text (client/hud.c): what trainees and instructors read,
  * including the debriefing figures (time in contact, peak force). */
 #include "hud.h"

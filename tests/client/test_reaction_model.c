@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The server's local force model: the contact stiffness K = dF/dx of the
  * reaction force (ftm_sim_contact_stiffness) against finite differences of
  * the simulation's own reaction (Eq. 19), its passive projection, and the
@@ -12,7 +13,8 @@
 #include "ftm/v1/ftm.pb-c.h"
 #include "ftm/wire.h"
 #include "haptic_wire.h"
-#include "replay.h"
+#include "replica.h"
+#include "step.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The client's PNG writer (client/screenshot.c): a screenshot is written
  * under a temporary name and renamed, so a failed write leaves neither a
  * partial file nor a spoiled one that was there, nor its temporary file. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The bot script format (client/script_text.h, docs/bot-script.md): one
  * parser for ftm-bot, ftm-server --offline and the scripted haptic device.
  * Points, commands, every refusal with its file and line, and the same
@@ -42,6 +43,7 @@ static void test_parse(void **state)
     assert_int_equal(st.npts, 4);
     assert_true(st.pts[1].t == 0.5 && st.pts[1].p.z == 0.106 && st.pts[3].p.z == 0.12);
     assert_true(st.join == 0.5 && st.leave == 3.0);
+    assert_false(st.session_clock); /* the default: times from the process' start */
     assert_int_equal(st.ncmds, 3);
     assert_int_equal(st.cmds[0].keyword, FTM_SCRIPT_KW_STIFFNESS);
     assert_true(st.cmds[0].t == 1.0 && st.cmds[0].value[0] == 80 && st.cmds[0].line == 6);
@@ -68,6 +70,12 @@ static void test_parse(void **state)
     assert_true(ftm_script_points_at(st.pts, st.npts, 99).x == 0.045);
     ftm_script_text_free(&st);
     assert_null(st.pts);
+    /* `clock session`; the last `clock` line holds */
+    static const char cs[] = "clock process\n0 0 0 0.1\nclock session # from the session\n";
+    if (ftm_script_text_parse(cs, sizeof cs - 1, "c.bot", &st, &err))
+        fail_msg("%s", err.message);
+    assert_true(st.session_clock && st.npts == 1);
+    ftm_script_text_free(&st);
 }
 
 /* The bot's loader and the device read a file to the same trajectory. */
@@ -123,7 +131,10 @@ static void test_refusals(void **state)
         {"0 0 0 0\n-1 0 0 0\n", "b.bot:2: time -1 is negative (times are seconds from the start)", 0},
         {"1 0 0 0\n1 0 0 0\n", "b.bot:2: time 1 does not increase (previous point at 1)", 0},
         {"0 0 0 0\njump 1\n", "b.bot:2: unknown keyword 'jump' (join, leave, pause, resume, "
-                              "reset, stiffness, damping, mass, depth, expect)", 0},
+                              "reset, stiffness, damping, mass, depth, expect, clock)", 0},
+        {"clock\n", "b.bot:1: expected 'clock process|session'", 0},
+        {"clock later\n", "b.bot:1: expected 'clock process|session'", 0},
+        {"clock session 1\n", "b.bot:1: expected 'clock process|session'", 0},
         {"pause\n", "b.bot:1: expected '<keyword> <time> [values]'", 0},
         {"pause x\n", "b.bot:1: expected '<keyword> <time> [values]'", 0},
         {"join -2\n", "b.bot:1: time -2 is negative (times are seconds from the start)", 0},

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-client's session thread (client/client_session.c) without GL, against
  * a real ftm-server on loopback; tests/client/client_session.sh starts the
  * server (and a bot) and then this program:
@@ -51,7 +52,10 @@
 #include "device.h"
 #include "haptic.h"
 #include "haptic_wire.h"
-#include "replay.h"
+#include "digest.h"
+#include "keyframe.h"
+#include "step.h"
+#include "tissue.h"
 
 #include "ftm/sim.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* client-badframe: publishes malformed tick frames into a session, for the
  * client's bad-input test (tests/client_gl/client_gl.sh, mode badinput).
  * Waits until a tick frame reader (the client) has matched, then sends

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Frame rate of ftm-client under Xvfb + Mesa llvmpipe on the organ-like
 # scene (client-organ: 20480 triangles), while a scripted trainee presses
 # into it over loopback DDS (docs/client.md, "Frame rate").
@@ -17,7 +18,7 @@ common="--session bench-fps-$$ --domain $(( 230 - $$ % 5 )) --config $cfg"
     --log "$dir/server.log" >/dev/null 2>&1 &
 server=$!
 sleep 1
-"$B/client/ftm-bot" --role trainee --script "$dir/press.bot" $common --id 11 \
+"$B/bot/ftm-bot" --role trainee --script "$dir/press.bot" $common --id 11 \
     --duration $(( (secs + 8) * runs + 15 )) >/dev/null 2>"$dir/bot.err" &
 bot=$!
 sleep 2

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-client under Xvfb with Mesa's software renderer, against a real
 # ftm-server on loopback (its own DDS domain and session, like tests/net).
 #   screenshot: an undeformed frame (no trainee yet), then a scripted trainee

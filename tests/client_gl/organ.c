@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* client-organ: writes an organ-like test scene for the client's frame-rate
  * measurement (docs/client.md): a closed surface of 20480 triangles and
  * 10242 nodes shaped like a liver lobe (a flattened ellipsoid with a bulge

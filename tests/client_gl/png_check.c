@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Checks on ftm-client screenshots (tests/client_gl/client_gl.sh).
  *
  *   client-png-check compare BEFORE.png AFTER.png X Y R

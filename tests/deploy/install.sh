@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # The installed tree, end to end (docs/deploy.md): `cmake --install` of this
 # build into a scratch prefix, then, from a directory that is neither the
 # source nor the build tree:

@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # deploy/run-session.sh, the main job's session (README), as an operator
 # meets it:
 #   - SECONDS that is not a whole number of seconds in 3..86400 is refused

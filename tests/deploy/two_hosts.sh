@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # The shipped network configurations between two "hosts" (test_two_hosts):
 # two network namespaces made here, a server host (10.77.0.1) and a station
 # host (10.77.0.2), joined by a veth pair with a 1500-byte MTU, as an

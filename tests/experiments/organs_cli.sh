@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # `ftm experiment organs` end to end (paper 4.4, docs/experiments.md): a
 # quick run of the generated stomach and lung pressed by a probe, the OBJ
 # and scene files it writes (and docs/scenes' copies) loaded by `ftm sim`,

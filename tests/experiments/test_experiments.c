@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Qualitative facts of the paper's experiments (Choi, Sun, Heng 2004, 4.1):
  * optimum penetration depth, tissue responses (Fig. 11), anisotropy (Fig. 12).
  * Quick-sized runs of tools/experiments.c. */

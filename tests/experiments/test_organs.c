@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The generated surface organs of `ftm experiment organs` (paper 4.4,
  * tools/organs.c): the paper's exact node and triangle counts, closed and
  * consistently oriented surfaces of well-shaped triangles, and meshes that

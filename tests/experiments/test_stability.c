@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The reduced stability sweep (`ftm stability --quick`): every configuration
  * that is unstable with the guard off is, with the guard on, caught by it
  * (recovered or still large but rolled back) or reported as FTM_EUNSTABLE;

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # `ftm experiment volume` end to end (paper 4.2, docs/experiments.md): the
 # synthetic head phantom pressed through a small control lattice, a small
 # NIfTI file written here, and the refusals of bad options and files.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Linear FEM reference (ftm_fem) against analytic answers and against an
  * independent dense implementation:
  *   - element matrices: symmetry, rigid-body modes, and agreement with a

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # End-to-end tests of `ftm fem`. Environment: FTM = the ftm binary,
 # FTM_TEST_DATA = tests/data, FTM_DOCS = docs/ (for docs/scenes/elastin-cube.scene).
 set -eu

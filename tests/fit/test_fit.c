@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Parameter identification (tools/fit.c, docs/fit.md):
  *   - the PRNG is seeded and reproducible;
  *   - Lundy-Mees cooling: T_n = T0 / (1 + n beta T0), and the derived beta

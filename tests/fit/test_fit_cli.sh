@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # End-to-end tests of `ftm fit`. Environment: FTM = the ftm binary,
 # FIT_DIR = tests/fit (for small-cube.scene).
 set -eu

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Fuzz targets: each file defines LLVMFuzzerTestOneInput for one parser of
  * untrusted input. Built two ways (tests/fuzz/CMakeLists.txt): with clang's
  * libFuzzer for campaigns (tests/fuzz/run.sh), and with fuzz_replay.c as a

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Mesh loaders (OBJ, Gmsh MSH 4.1, TetGen .node/.ele): files a user gives.
  * Input: byte 0 picks the loader; for TetGen the rest is the .node text, a
  * NUL byte, then the .ele text. Properties: a rejected file gets a message

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* NIfTI-1 volumes (ftm_volume_parse_nifti, ftm_volume_load): scans a user
  * gives. Input: byte 0 picks the way in, even = bytes in memory, odd = a
  * file (which may be gzip-compressed); the rest is the file. Properties: a

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Session recordings (ftm-server --replay FILE): a file that may be
  * truncated, corrupted or not a recording at all. Properties: open and each
  * entry either fail with a message or give entries in file order, each

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Runs a fuzz target over files and directories of inputs, without
  * libFuzzer: the corpus regression test of every build. Exit 0 when every
  * input ran (the target aborts on a finding). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* A replica fed by a rogue or broken publisher: what reaches ftm_replay (the
  * bots' and the GL client's replay) after the decoder accepted it. Input: a
  * sequence of messages, each a selector byte (bits 0-1: announcement, tick
@@ -7,7 +8,7 @@
  * hang, and the replica's state never holds a NaN or infinity. */
 #include "fuzz.h"
 
-#include "replay.h"
+#include "replica.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Scene files (ftm_scene_parse), then a short run of what they describe:
  * the parameters a user may get wrong reach the core. Properties: a rejected
  * scene gets a negative code and a message naming the file; an accepted one

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-bot scripts: the format's parser (ftm_script_text_parse) and its
  * three readers: the bot's loader (ftm_script_load, a path), and the
  * scripted haptic device (ftm_script_device_parse). Properties: a refusal

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The server's side of a session under hostile or broken peers: the message
  * handlers (status, probe input, session control, gone and lost events), the
  * probe collision and the tick logic of ftm-server, which no other target
@@ -8,7 +9,9 @@
  *   ftm-server --inputs IN --record OUT   runs them through the handlers and
  *                                         records the frames it publishes;
  *   ftm-server --replay OUT               applies those frames as a replica
- *                                         does and re-runs the inputs.
+ *                                         does and re-runs the inputs
+ *
+ * (each a server of its own from an ftm_server_def, server.h).
  *
  * Properties: the server takes every input without a crash or a hang, and
  * whatever the peers sent, its frames bring a replica to its exact state at
@@ -25,7 +28,7 @@
 #include "fuzz.h"
 
 #include "record.h"
-#include "replay.h"
+#include "digest.h"
 #include "server.h"
 
 #include "ftm/scene.h"
@@ -227,13 +230,20 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     char rep_run[512], rep_check[512];
     snprintf(rep_run, sizeof rep_run, "%s", fuzz_write_file("run.json", "", 0));
     snprintf(rep_check, sizeof rep_check, "%s", fuzz_write_file("check.json", "", 0));
-    char a0[] = "ftm-server", a1[] = "--inputs", a3[] = "--record", a5[] = "--scene",
-         a7[] = "--report";
-    char *run[] = {a0, a1, in_path, a3, out_path, a5, (char *)scene_path, a7, rep_run, NULL};
-    fuzz_check(ftm_server_main(9, run) == 0);
-    char r1[] = "--replay";
-    char *check[] = {a0, r1, out_path, a5, (char *)scene_path, a7, rep_check, NULL};
-    fuzz_check(ftm_server_main(7, check) == 0);
+    /* ftm-server --inputs IN --record OUT --scene S --report R, then
+     * ftm-server --replay OUT --scene S --report R2: two servers from
+     * definitions of their own, in one process */
+    ftm_server_def run = ftm_default_server_def();
+    run.inputs = in_path;
+    run.record = out_path;
+    run.scene = scene_path;
+    run.report = rep_run;
+    fuzz_check(ftm_server_run(&run) == 0);
+    ftm_server_def check = ftm_default_server_def();
+    check.replay = out_path;
+    check.scene = scene_path;
+    check.report = rep_check;
+    fuzz_check(ftm_server_run(&check) == 0);
     /* the session report of the run and of its replay: the same bytes */
     fuzz_check(same_file(rep_run, rep_check));
     return 0;

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Scratch files for the targets whose parsers read paths. */
 #include "fuzz.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Wire decoder (ftm_wire_decode): what a peer sends. Input: byte 0 picks
  * the kind (mod 8: 0 is an unknown kind, 7 the control reply), byte 1 the
  * mesh size the indices are checked against (0: unknown), the rest is the

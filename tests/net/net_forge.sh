@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # A process that passes itself off as the server (ftm-rogue --forge): it
 # uses the server's participant id (a copied --id) and another id, claims
 # role SERVER under both, and sends server statuses and control replies of

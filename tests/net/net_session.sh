@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Session tests on loopback: ftm-server + ftm-bot processes.
 #   basic: server + 2 trainees + 1 observer; every bot ends on the server's
 #          final tick and hash, and each trainee's reaction-force profile
@@ -109,11 +110,12 @@ script_t0() {
 # so the bot's and the server's scheduling shift it in time (by tens of ms
 # on a loaded machine); the force at tick T must therefore lie within the
 # range the offline forces take over ticks T-k .. T+k (k: 50 ms of ticks),
-# component by component. Ticks missing on one side count as zero force.
+# component by component (k rounded up: 3 ticks at 50 Hz, not 2). Ticks
+# missing on one side count as zero force.
 # Prints: ticks in contact offline, offline peak, largest pointwise
 # difference, largest distance outside the window's range, that over peak.
 profile_diff() {
-    awk -F, -v id=$2 -v k=$(( rate / 20 )) '
+    awk -F, -v id=$2 -v k=$(( (rate + 19) / 20 )) '
         FNR == 1 { file++; next }
         file == 1 && $5 == 2 { ox[$2] = $7; oy[$2] = $8; oz[$2] = $9; on[$2] = 1; if ($2 > hi) hi = $2 }
         file == 2 && $2 == id { fx[$1] = $4; fy[$1] = $5; fz[$1] = $6; off[$1] = 1; n++

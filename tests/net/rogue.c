@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-rogue: a hostile participant for the session tests (tests/net,
  * mode rogue). It joins a running session and sends, one after the other,
  * every kind of bad input the protocol must survive: garbage bytes, a
@@ -11,11 +12,15 @@
  * server statuses and control replies of its own making, see forge(). With
  * --impersonate it is a certified participant of a secured session that
  * writes, in its own name, messages naming another participant or the
- * server's role (tests/net/net_secure.sh), see impersonate().
+ * server's role (tests/net/net_secure.sh), see impersonate(). With
+ * --elevated it is a certified trainee that signed itself a server's or an
+ * instructor's permissions and hands them to Cyclone past ftm_wire's check
+ * (tests/net/net_secure.sh), see elevated().
  *
  * The wrong-kind envelope needs a raw DDS writer (ftm_wire always writes a
  * kind on its own topic); everything else goes through ftm_wire, raw
  * payloads with ftm_wire_publish_raw. */
+#include "ftm/clock.h"
 #include "ftm/wire.h"
 
 #include "ftm_envelope.h"
@@ -157,6 +162,10 @@ static void status(ftm_wire_transport *t, uint32_t id, uint32_t named, ftm_wire_
 /* --security DIR: the identity every transport of this process uses (a
  * rogue with a certificate of another room); NULL: unsecured. */
 static const char *g_security;
+/* --cyclone FILE: a Cyclone DDS <Security> configuration of the rogue's own
+ * making, which this process's domain gets instead of the one ftm_wire
+ * makes from g_security after checking it (see elevated()). */
+static const char *g_cyclone;
 
 /* A participant of the session under id that publishes and subscribes to
  * the kinds given (bit masks); exits 3 if DDS will not have it. */
@@ -174,6 +183,19 @@ static ftm_wire_transport *transport(const char *config, uint32_t domain, const 
     d.subscribe = subscribe;
     ftm_wire_transport *t = NULL;
     ftm_error err = {0, ""};
+    if (g_cyclone) {
+        /* the domain made first, with the rogue's own security settings: the
+         * transport then finds it made and shares it (ftm_wire's make_domain) */
+        char uri[4200];
+        snprintf(uri, sizeof uri, "%s%s,file://%s", config ? "file://" : "", config ? config : "",
+                 g_cyclone);
+        const dds_entity_t dom = dds_create_domain(domain, uri);
+        if (dom < 0 && dom != DDS_RETCODE_PRECONDITION_NOT_MET) {
+            fprintf(stderr, "rogue: dds_create_domain with %s: %s\n", g_cyclone,
+                    dds_strretcode(dom));
+            exit(3);
+        }
+    }
     if (ftm_wire_transport_create(&d, &t, &err)) {
         fprintf(stderr, "rogue: %s\n", err.message);
         exit(3);
@@ -282,13 +304,6 @@ static ftm_wire_transport *forger(const char *config, uint32_t domain, const cha
                      FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL));
 }
 
-static int64_t now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000000LL + ts.tv_nsec;
-}
-
 static int forge(const char *config, uint32_t domain, const char *session, uint32_t server_id,
                  uint32_t taken, uint32_t innocent, double seconds)
 {
@@ -300,11 +315,11 @@ static int forge(const char *config, uint32_t domain, const char *session, uint3
     uint64_t replies = 0, statuses = 0, heard_status = 0, heard_control = 0;
     uint32_t heard[FORGE_HEARD];
     int nheard = 0;
-    const int64_t end = now_ns() + (int64_t)(seconds * 1e9);
+    const int64_t end = ftm_clock_mono_ns() + (int64_t)(seconds * 1e9);
     int64_t next_status = 0;
     ftm_wire_msg m;
     ftm_error err = {0, ""};
-    while (now_ns() < end) {
+    while (ftm_clock_mono_ns() < end) {
         ftm_wire_received rx;
         /* whose processes there are: what the statuses' origins say */
         while (ftm_wire_receive(t[0], FTM_WIRE_STATUS, &rx, 0, NULL) == FTM_OK) {
@@ -350,9 +365,9 @@ static int forge(const char *config, uint32_t domain, const char *session, uint3
             }
             ftm_wire_received_free(&rx);
         }
-        if (now_ns() < next_status)
+        if (ftm_clock_mono_ns() < next_status)
             continue;
-        next_status = now_ns() + 20000000; /* 50 Hz: between any two of the server's */
+        next_status = ftm_clock_mono_ns() + 20000000; /* 50 Hz: between any two of the server's */
         for (int i = 0; i <= ntaken; i++) {
             memset(&m, 0, sizeof m);
             m.kind = FTM_WIRE_STATUS;
@@ -419,9 +434,9 @@ static int impersonate(const char *config, uint32_t domain, const char *session,
         exit(3);
     }
     ftm_wire_probe_sample smp = {.probe = 0, .device_time_ns = 1, .position = {0, 0, 0.2}};
-    const int64_t end = now_ns() + (int64_t)(seconds * 1e9);
+    const int64_t end = ftm_clock_mono_ns() + (int64_t)(seconds * 1e9);
     uint64_t sent = 0;
-    while (now_ns() < end) {
+    while (ftm_clock_mono_ns() < end) {
         ftm_wire_msg m;
         memset(&m, 0, sizeof m);
         m.kind = FTM_WIRE_STATUS;
@@ -453,9 +468,110 @@ static int impersonate(const char *config, uint32_t domain, const char *session,
     return 0;
 }
 
+/* The most remote endpoints kind has matched since the last call. */
+static int32_t matched_max(ftm_wire_transport *t, int kind, int32_t seen)
+{
+    ftm_wire_stats st;
+    if (ftm_wire_get_stats(t, kind, &st, NULL) == FTM_OK && st.matched > seen)
+        return st.matched;
+    return seen;
+}
+
+/* --elevated ROLE (server or instructor): a trainee of a secured room that
+ * signed itself ROLE's permissions with its own key and certificate (what
+ * CVE-2023-24011 lets pass where one CA signs both identities and
+ * permissions), and hands them to Cyclone directly (--cyclone FILE, a
+ * <Security> configuration naming the forged documents). ftm_wire would
+ * refuse them: its check runs instead on --security DIR, a bundle of its
+ * own whose role file says ROLE (the check vets the files it is shown; that
+ * file only names the partition ftm.ROLE.ID its writers use). For
+ * `seconds`:
+ * - instructor: its status (role instructor) every 300 ms, and pause,
+ *   resume, stiffness 200 N/m, reset, one every 200 ms, over and over;
+ * - server: statuses claiming role server at a tick far ahead, every 50 ms
+ *   (the later of two servers stops).
+ * It reads nothing another rogue writes, so what its writer matched is the
+ * session's, and prints it with what was answered. */
+static int elevated(const char *config, uint32_t domain, const char *session, uint32_t id,
+                    const char *role, double seconds)
+{
+    const bool server = strcmp(role, "server") == 0;
+    if (!server && strcmp(role, "instructor") != 0) {
+        fprintf(stderr, "rogue: --elevated %s: server or instructor\n", role);
+        return 2;
+    }
+    const int kind = server ? FTM_WIRE_STATUS : FTM_WIRE_CONTROL;
+    ftm_wire_transport *t =
+        server ? transport(config, domain, session, id, FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS), 0)
+               : transport(config, domain, session, id,
+                           FTM_WIRE_KIND_BIT(FTM_WIRE_STATUS) | FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL),
+                           FTM_WIRE_KIND_BIT(FTM_WIRE_CONTROL_REPLY));
+    printf("rogue: elevated to %s\n", role);
+    fflush(stdout);
+    static const ftm_wire_command cycle[4] = {FTM_WIRE_CMD_PAUSE, FTM_WIRE_CMD_RESUME,
+                                              FTM_WIRE_CMD_TISSUE, FTM_WIRE_CMD_RESET};
+    const int64_t start = ftm_clock_mono_ns(), end = start + (int64_t)(seconds * 1e9);
+    int64_t next_status = start, next_command = start + 300000000LL;
+    uint64_t statuses = 0, commands = 0, answered = 0, applied = 0;
+    int32_t matched = 0;
+    ftm_error err = {0, ""};
+    ftm_wire_msg m;
+    while (ftm_clock_mono_ns() < end) {
+        matched = matched_max(t, kind, matched);
+        const int64_t now = ftm_clock_mono_ns();
+        if (now >= next_status) {
+            next_status = now + (server ? 50000000LL : 300000000LL);
+            memset(&m, 0, sizeof m);
+            m.kind = FTM_WIRE_STATUS;
+            m.u.status.participant = id;
+            m.u.status.role = server ? FTM_WIRE_ROLE_SERVER : FTM_WIRE_ROLE_INSTRUCTOR;
+            m.u.status.state = FTM_WIRE_STATE_SYNCED;
+            m.u.status.last_applied_tick = server ? 1000000000u : 0;
+            snprintf(m.u.status.name, sizeof m.u.status.name, "rogue %s", role);
+            if (ftm_wire_publish(t, &m, &err))
+                fprintf(stderr, "rogue: status: %s\n", err.message);
+            statuses++;
+        }
+        if (!server && now >= next_command) {
+            next_command = now + 200000000LL;
+            memset(&m, 0, sizeof m);
+            m.kind = FTM_WIRE_CONTROL;
+            m.u.control.issuer = id;
+            m.u.control.command_id = commands + 1;
+            m.u.control.command = cycle[commands % 4];
+            m.u.control.tissue = (ftm_wire_tissue){.node_mass = 0.001,
+                                                   .node_damping = 0.3,
+                                                   .stiffness = 200,
+                                                   .axis_scale = {1, 1, 1}};
+            if (ftm_wire_publish(t, &m, &err))
+                fprintf(stderr, "rogue: control: %s\n", err.message);
+            commands++;
+        }
+        ftm_wire_received rx;
+        while (!server && ftm_wire_receive(t, FTM_WIRE_CONTROL_REPLY, &rx, 0, NULL) == FTM_OK) {
+            if (rx.msg.u.control_reply.issuer == id) {
+                answered++;
+                applied += rx.msg.u.control_reply.outcome == FTM_WIRE_OUTCOME_APPLIED;
+            }
+            ftm_wire_received_free(&rx);
+        }
+        pause_ms(10);
+    }
+    ftm_wire_flush(t, 1000000000LL, NULL);
+    ftm_wire_transport_destroy(t);
+    if (server)
+        printf("rogue: elevated server %u: its status matched by %d readers at most; %" PRIu64
+               " statuses sent\n", id, (int)matched, statuses);
+    else
+        printf("rogue: elevated instructor %u: its session control matched by %d readers at most; "
+               "%" PRIu64 " commands sent, %" PRIu64 " answered, %" PRIu64 " applied\n",
+               id, (int)matched, commands, answered, applied);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
-    const char *config = NULL, *session = "ftm";
+    const char *config = NULL, *session = "ftm", *elevate = NULL;
     uint32_t domain = 0, id = 0, victim = 0, taken = 0, innocent = 0, impersonated = 0;
     double forge_s = 0, impersonate_s = 0;
     for (int i = 1; i + 1 < argc; i += 2) {
@@ -466,6 +582,10 @@ int main(int argc, char **argv)
             config = v;
         else if (strcmp(a, "--security") == 0)
             g_security = v;
+        else if (strcmp(a, "--cyclone") == 0)
+            g_cyclone = v;
+        else if (strcmp(a, "--elevated") == 0)
+            elevate = v;
         else if (strcmp(a, "--session") == 0)
             session = v;
         else if (strcmp(a, "--domain") == 0)
@@ -493,6 +613,9 @@ int main(int argc, char **argv)
             return 2;
         }
     }
+    if (argc % 2 == 1 && elevate && g_cyclone && g_security && id && impersonate_s > 0 &&
+        impersonate_s < 60)
+        return elevated(config, domain, session, id, elevate, impersonate_s);
     if (argc % 2 == 1 && forge_s > 0 && forge_s < 60 && id && taken && innocent)
         return forge(config, domain, session, id, taken, innocent, forge_s);
     if (argc % 2 == 1 && impersonated && impersonate_s > 0 && impersonate_s < 60 && id &&
@@ -505,7 +628,10 @@ int main(int argc, char **argv)
                         "       ftm-rogue --forge SECONDS --id SERVER --taken T --innocent I "
                         "[--config F] [--security DIR] [--domain D] [--session S]\n"
                         "       ftm-rogue --impersonate VICTIM --for SECONDS --id N "
-                        "[--config F] [--security DIR] [--domain D] [--session S]\n");
+                        "[--config F] [--security DIR] [--domain D] [--session S]\n"
+                        "       ftm-rogue --elevated server|instructor --for SECONDS --id N "
+                        "--cyclone SECURITY.xml --security DIR [--config F] [--domain D] "
+                        "[--session S]\n");
         return 2;
     }
 

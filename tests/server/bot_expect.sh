@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-bot's expectations (docs/bot-script.md) on loopback: ftm-server with
 # two trainees pressing. Trainee 11 (expect-hold.bot) states what must
 # hold and exits 0, each expectation reported ok; trainee 12

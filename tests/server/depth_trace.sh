@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # The adaptive depth at work (docs/server.md, docs/img/adaptive-depth.png):
 # ftm-server at 1 kHz with --adaptive 1, trainee 11 pressing and holding,
 # observer 13 stopped with SIGSTOP for 1.5 s; the server's control log (one
@@ -16,10 +17,10 @@ session="trace-$$"; common="--session $session --domain $((220 + $$ % 12)) --con
 server=$!
 until grep -q "session '$session'" "$out/server.log" 2>/dev/null; do sleep 0.05; done
 t0=$(date +%s.%N)
-"$build/client/ftm-bot" --role trainee --script "$here/press-hold.bot" $common --id 11 \
+"$build/bot/ftm-bot" --role trainee --script "$here/press-hold.bot" $common --id 11 \
     --duration 30 >"$out/bot11.out" 2>"$out/bot11.err" &
 b11=$!
-"$build/client/ftm-bot" --role observer $common --id 13 --duration 30 \
+"$build/bot/ftm-bot" --role observer $common --id 13 --duration 30 \
     >"$out/bot13.out" 2>"$out/bot13.err" &
 b13=$!
 sleep 3.5

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
 """Reading and writing the protobuf of session recordings (docs/server.md,
 "Session recording") in the tests that alter a recording on purpose
 (server_session.sh, record mode): just the wire format, no generated code."""

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # One session, one server, one process per id (loopback, a DDS domain and
 # session of its own, `timeout` around every process):
 #   - two trainee bots given the same --id, started together: the server

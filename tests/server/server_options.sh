@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-server refuses out-of-range options with a message naming them, and
 # accepts the limits themselves (--offline: no DDS involved; where a build
 # without the check would start a session, a configuration that does not
@@ -14,19 +15,18 @@ refused() { # expected-text options...
     if out=$(timeout 20 "$FTM_SERVER" "$@" 2>&1); then fail "accepted: $*"; fi
     case $out in *"$want"*) ;; *) fail "$*: no '$want' in: $out" ;; esac
 }
-refused "--heartbeat must be in (0, 10] seconds (got 10.5)" --heartbeat 10.5 --offline 1
-refused "--heartbeat must be in (0, 10] seconds (got 0)" --heartbeat 0 --offline 1
+refused "--heartbeat must be a number of seconds in (0, 10] (got '10.5')" --heartbeat 10.5 --offline 1
+refused "--heartbeat must be a number of seconds in (0, 10] (got '0')" --heartbeat 0 --offline 1
 # whole hertz, as announced and recorded (0.1 Hz was announced as 0); the
 # message names the rate alone (it used to blame a valid --heartbeat too)
 for v in 100001 0 0.1 0.9 333.3; do
-    refused "--rate must be a whole number of hertz in 1..100000 (got $v)" --rate "$v" --offline 1
+    refused "--rate must be a whole number of hertz in [1, 100000] (got '$v')" --rate "$v" --offline 1
     out=$(timeout 20 "$FTM_SERVER" --rate "$v" --offline 1 2>&1)
     case $out in *heartbeat*) fail "--rate $v: the message blames --heartbeat: $out" ;; esac
 done
-for v in 0 -0.01 nan inf 1e999 1e-999; do
-    refused "--max-penetration must be a length > 0 in metres (got '$v')" --max-penetration "$v" --offline 1
+for v in 0 -0.01 nan inf 1e999 1e-999 5cm; do
+    refused "--max-penetration must be a number of metres > 0 (got '$v')" --max-penetration "$v" --offline 1
 done
-refused "--max-penetration: bad number '5cm'" --max-penetration 5cm --offline 1
 refused "--replay, --inputs and --offline exclude each other" --replay a.rec --inputs b.rec
 refused "--record goes with a session or --inputs" --offline 5 --record x.rec
 refused "--record goes with a session or --inputs" --replay a.rec --record x.rec
@@ -43,7 +43,7 @@ done
 refused "--check checks a session's set-up: not with --replay" --offline 5 --check
 t="--trainee 1:0:a.bot"
 # shellcheck disable=SC2086 # nine options
-refused "at most 8 --trainee options" --offline 5 $t $t $t $t $t $t $t $t $t
+refused "--trainee given more than 8 times: at most 8 trainees" --offline 5 $t $t $t $t $t $t $t $t $t
 # integers: range-checked, never cast to 32 bits (4294967376 is 80 mod 2^32,
 # 4294967297 is 1, 4294967304 is 8) nor read unsigned from a sign
 refused "--metrics-port must be an integer in 0..65535 (got '4294967376')" --metrics-port 4294967376 --offline 1
@@ -74,11 +74,21 @@ refused "--trainee '11:0:$dir/nohip.bot': $dir/nohip.bot has no HIP positions" \
     --offline 5 --trainee "11:0:$dir/nohip.bot"
 # times that would wrap to 0 ns when cast: a keyframe every tick, a stop at once
 for v in 1e11 inf nan 0; do
-    refused "--keyframe-every must be in (0, 1e+09] seconds" --keyframe-every $v --offline 1
+    refused "--keyframe-every must be a number of seconds in (0, 1e+09] (got '$v')" --keyframe-every $v --offline 1
 done
 for v in 1e17 1000000001 inf nan -1; do
-    refused "--duration must be in [0, 1e+09] seconds" --duration $v --offline 1
+    refused "--duration must be a number of seconds in [0, 1e+09] (got '$v')" --duration $v --offline 1
 done
+# the option table's parser (getopt_long): a value that is itself an
+# option is missing, not taken (issue 28: it used to say "2 needs a value");
+# prefixes must be unique; flags take no value; no stray words
+refused "--scene needs a value (NAME|FILE), not the option --duration" --scene --duration 2
+refused "--report needs a value (FILE)" --offline 1 --report
+refused "option --depth- is ambiguous: --depth-floor, --depth-hold-up" --depth- 2 --offline 1
+refused "--check takes no value" --check=1
+refused "unknown option --ofline" --ofline 5
+refused "unexpected argument 'default'" --scene default default --offline 1
+refused "--depth-floor must be at most --depth" --depth 4 --depth-floor 5 --offline 1
 # metrics on an address nothing can connect to
 for v in 224.0.0.1 239.255.255.250 255.255.255.255 ff02::1 ::ffff:224.0.0.1; do
     refused "--metrics-addr $v is a multicast or broadcast address" --metrics-addr $v --offline 1
@@ -90,6 +100,11 @@ refused "--log $dir is a directory" --offline 3 --log "$dir"
 [ -z "$(ls "$dir"/*.json 2>/dev/null)" ] || fail "a report was written"
 timeout 20 "$FTM_SERVER" --heartbeat 10 --rate 100000 --offline 5 >/dev/null 2>&1 ||
     fail "--heartbeat 10 --rate 100000 refused"
+# --opt=value and unambiguous prefixes (--heart, --off) are the options
+timeout 20 "$FTM_SERVER" --heart=10 --rate=100000 --off 5 >/dev/null 2>&1 ||
+    fail "--heart=10 --rate=100000 --off 5 refused"
+out=$(timeout 20 "$FTM_SERVER" --help) || fail "--help: exit status $?"
+case $out in *"--rt-cpu start|any|N"*"-h, --help"*) ;; *) fail "--help lacks the options: $out" ;; esac
 timeout 20 "$FTM_SERVER" --keyframe-every 1e9 --duration 1e9 --depth 1000000 --depth-floor 0 \
     --metrics-port 65535 --id 4294967295 --domain 4294967294 --adaptive 1 --rt-priority 0 \
     --offline 1 >/dev/null 2>&1 || fail "the limits of the time and integer options refused"

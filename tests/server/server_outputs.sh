@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-server's output files against what it reads (loopback, a DDS domain
 # and session of its own, `timeout` around every process):
 #   - a real recording (a 1 s session with --record) survives byte for byte

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # The probe push limit (--max-penetration, docs/server.md "Collision"),
 # offline so no DDS is involved. A trainee's HIP that jumps 1 km into the
 # default scene (1728 nodes, 0.11 m across, top face at z = 0.11 m):

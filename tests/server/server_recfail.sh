@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-server's recording and report when things go wrong (loopback, a DDS
 # domain and session of its own, `timeout` around every process):
 #   killed:  a session with a pressing trainee, the server SIGKILLed after

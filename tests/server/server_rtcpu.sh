@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-server --rt-cpu: where the real-time tick and publishing threads run.
 #   - --check says whether the CPU can be used (a CPU that is not there
 #     cannot), and a session started with it says so in its log (warn);

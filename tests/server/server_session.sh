@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # ftm-server session tests on loopback (tests/server/CMakeLists.txt):
 #   adaptive: trainee 11 presses and holds; observer 13 is stopped (SIGSTOP)
 #             for 1.2 s. Before that the depth must not move, and the observer

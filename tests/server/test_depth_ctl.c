@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Adaptive penetration depth controller (server/depth_ctl.h): overload,
  * recovery, noise around the thresholds, instructor limits. Pure logic: the
  * tests drive it with synthetic measurements every 100 ms. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Session recording file (server/record.h): round trip, the reader's
  * clear errors on truncated, oversized and corrupted files and headers, and
  * the writer's 1 MiB buffer. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Status codes: one list (FTM_ERROR_CODES in ftm/base.h) makes the enum,
  * ftm_strerror and ftm_err_name, for the core's codes and the wire's alike;
  * ftm_error_set is the one formatter of ftm_error. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The wire codec: round trips of every kind, and hostile payloads (truncated,
  * random, wrong wire types, oversized, inflating, wrong version, missing
  * fields, NaN, bad indices) that must be rejected with the right code and a

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The codec's bytes do not change: a fixed set of messages (every kind,
  * every optional field present and absent, every command and outcome) is
  * encoded and compared byte for byte with tests/wire/codec_golden.txt, which

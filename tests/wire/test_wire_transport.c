@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The DDS transport over loopback (deploy/cyclonedds-loopback.xml: no
  * multicast, peer 127.0.0.1). The remote side is this executable run again
  * as a child process (`--peer ROLE DOMAIN SESSION IN_FD OUT_FD`), so data

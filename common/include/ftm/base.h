@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* FTM base types: vectors, status codes, error reports, logging hook.
  *
  * Every fallible call returns an int: FTM_OK (0) or a negative FTM_E* code.

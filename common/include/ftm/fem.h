@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Linear static finite-element reference (paper section 3.2, Eqs. 11-16).
  *
  * Small-strain, isotropic linear elasticity on the hexahedra and tetrahedra of

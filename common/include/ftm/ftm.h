@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* FTM: force transmittal model core (libftm). Umbrella header. */
 #ifndef FTM_FTM_H
 #define FTM_FTM_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Mesh generators: the paper's 2D triangular lattice and 3D cubic lattices.
  *
  * Stiffness of a link with unit direction n is

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Mesh loaders. Each reads a file into a builder; nodes get the material's
  * mass and damping, every mesh edge becomes a spring with the material's
  * stiffness (axis scaling as in generate.h) and its rest length.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Mass-spring meshes: nodes, Voigt links, compact adjacency, surface triangles.
  *
  * A mesh is built once with an ftm_mesh_builder and is immutable afterwards,

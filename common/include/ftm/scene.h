@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Scenes: a mesh (generator or file), material, simulation parameters and a
  * scripted load, from a human-readable text file (docs/scene-format.md) or a
  * built-in name. Used by `ftm sim`, and later by the server and clients, which

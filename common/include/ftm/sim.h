@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The force transmittal simulation (Choi, Sun, Heng 2004).
  *
  * Each step:
@@ -217,9 +218,13 @@ double ftm_sim_potential_energy(const ftm_sim *sim);
 /* Switches to another mesh of the same shape (ftm_mesh_same_shape), e.g. one
  * with changed tissue parameters (ftm_mesh_with_material), keeping the state:
  * positions, contacts, depth, substeps. Takes effect at the next step; the
- * caller keeps the mesh alive while the simulation uses it. Springs only.
- * FTM_EINVAL (nothing changed) for element forces, another shape, or a
- * material too stiff for the time step even at max_substeps. */
+ * caller keeps the mesh alive while the simulation uses it. With element
+ * forces the new links' stiffness must be the original links' times one
+ * factor, which multiplies Young's modulus (every element model's forces
+ * are linear in E); the mesh's damping takes effect, and its masses unless
+ * the elements' density gives them. FTM_EINVAL (nothing changed) for
+ * another shape, element forces whose links change by different factors,
+ * or a material too stiff for the time step even at max_substeps. */
 int ftm_sim_set_mesh(ftm_sim *sim, const ftm_mesh *mesh, ftm_error *err);
 
 /* Puts every node back at rest and forgets contacts; keeps the definition. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Volumes: a scalar image (an MRI or CT scan) embedded in a mass-spring
  * control lattice and deformed with it (paper section 4.2).
  *

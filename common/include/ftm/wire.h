@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* FTM wire layer: the protocol codec (protobuf, proto/ftm.proto) and the DDS
  * transport (Cyclone DDS, one topic per message kind). docs/protocol.md is
  * the protocol's reference; this header is the C API over it.
@@ -298,10 +299,12 @@ typedef struct ftm_wire_transport_def {
      * i.e. $CYCLONEDDS_URI or built-in defaults. */
     const char *config;
     /* DDS Security: the directory of this participant's identity and
-     * permissions (deploy/ftm-security issue: ca.pem, cert.pem, key.pem,
-     * governance.p7s, permissions.p7s), checked here and added to the
-     * configuration; NULL: no security (docs/deploy.md, "Securing a
-     * session"). Errors name the file and the cause; an endpoint the
+     * permissions (deploy/ftm-security issue: identity_ca.pem,
+     * permissions_ca.pem, cert.pem, key.pem, governance.p7s,
+     * permissions.p7s), checked here and added to the configuration; NULL:
+     * no security (docs/deploy.md, "Securing a session"). Errors name the
+     * file and the cause; a bundle of a room with one CA (ca.pem), or whose
+     * two CAs are one, is refused (CVE-2023-24011); an endpoint the
      * permissions do not grant fails with FTM_EACCESS. */
     const char *security;
     /* secured: the role this program runs as (0: not checked); an identity

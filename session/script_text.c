@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The ftm-bot script format: one parser for every reader (script_text.h).
  * Lines, tokens and numbers come from libftm's text reader (common/src/text.h),
  * the one the scene and mesh parsers use. */
@@ -52,7 +53,7 @@ static int command(ftm_script_text *sc, const token *tok, int ntok, const char *
     if (k == sizeof keywords / sizeof *keywords)
         return ftm_text_error(err, FTM_EPARSE, name, line,
                     "unknown keyword '%.*s' (join, leave, pause, resume, reset, stiffness, "
-                    "damping, mass, depth, expect)",
+                    "damping, mass, depth, expect, clock)",
                     (int)(tok[0].n < 32 ? tok[0].n : 32), tok[0].p);
     const char *word = keywords[k].word;
     double t;
@@ -132,6 +133,16 @@ static int expectation(ftm_script_text *sc, const token *tok, int ntok, const ch
     return FTM_OK;
 }
 
+/* clock process|session: what a script's times count from */
+static int clock_base(ftm_script_text *sc, const token *tok, int ntok, const char *name,
+                      int32_t line, ftm_error *err)
+{
+    if (ntok != 2 || !(token_is(tok[1], "process") || token_is(tok[1], "session")))
+        return ftm_text_error(err, FTM_EPARSE, name, line, "expected 'clock process|session'");
+    sc->session_clock = token_is(tok[1], "session");
+    return FTM_OK;
+}
+
 static int point(ftm_script_text *sc, int32_t *cap, const token *tok, int ntok,
                  const char *name, int32_t line, ftm_error *err)
 {
@@ -194,6 +205,8 @@ int ftm_script_text_parse(const char *text, size_t length, const char *name,
             continue;
         if (token_is(tok[0], "expect"))
             rc = expectation(out, tok, ntok, name, txt.line, err);
+        else if (token_is(tok[0], "clock"))
+            rc = clock_base(out, tok, ntok, name, txt.line, err);
         else if (isalpha((unsigned char)tok[0].p[0]))
             rc = command(out, tok, ntok, name, txt.line, err);
         else
@@ -246,57 +259,4 @@ ftm_vec3 ftm_script_points_at(const ftm_script_point *p, int32_t n, double t)
     double w = (t - p[lo].t) / (p[hi].t - p[lo].t);
     ftm_vec3 a = p[lo].p, b = p[hi].p;
     return (ftm_vec3){a.x + w * (b.x - a.x), a.y + w * (b.y - a.y), a.z + w * (b.z - a.z)};
-}
-
-bool ftm_option_int(const char *v, size_t len, long long lo, long long hi, long long *out)
-{
-    int64_t x = 0;
-    if (ftm_text_read_int(v, len, &x) != NULL || x < lo || x > hi)
-        return false;
-    *out = (long long)x;
-    return true;
-}
-
-int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
-                       long long hi, long long *out)
-{
-    if (ftm_option_int(v, strlen(v), lo, hi, out))
-        return 0;
-    fprintf(stderr, "%s: %s must be an integer in %lld..%lld (got '%s')\n", program, opt, lo, hi,
-            v);
-    return -1;
-}
-
-int ftm_option_name_arg(const char *program, const char *v)
-{
-    const size_t n = strlen(v);
-    if (n == 0 || n > 63) {
-        fprintf(stderr, "%s: --name must be 1..63 bytes (got %zu)\n", program, n);
-        return -1;
-    }
-    for (size_t i = 0; i < n; i++)
-        if ((unsigned char)v[i] < 0x20 || (unsigned char)v[i] == 0x7f) {
-            fprintf(stderr, "%s: --name has control character 0x%02x at byte %zu\n", program,
-                    (unsigned char)v[i], i);
-            return -1;
-        }
-    return 0;
-}
-
-bool ftm_option_output_is_input(const ftm_option_path *in, int nin, const ftm_option_path *out,
-                                int nout, int *in_i, int *out_i)
-{
-    for (int k = 0; k < nin; k++) {
-        struct stat si, so;
-        if (stat(in[k].path, &si) != 0)
-            continue; /* nothing to destroy; reading it fails with its own error */
-        for (int i = 0; i < nout; i++) {
-            if (stat(out[i].path, &so) == 0 && so.st_dev == si.st_dev && so.st_ino == si.st_ino) {
-                *in_i = k;
-                *out_i = i;
-                return true;
-            }
-        }
-    }
-    return false;
 }

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The session report (ftm-server --report FILE, docs/server.md): what each
  * participant did, for the instructor's debriefing. ftm-client keeps the
  * same figures live from the frames it receives, for an instructor's HUD. Trainees' probes count
@@ -5,8 +6,8 @@
  * impulse) and how deep they pushed. Everything is counted in ticks from
  * the tick logic alone, never from the clock, so a --replay or --inputs run
  * of a recording reports exactly what the live session did. */
-#ifndef FTM_CLIENT_REPORT_H
-#define FTM_CLIENT_REPORT_H
+#ifndef FTM_SESSION_REPORT_H
+#define FTM_SESSION_REPORT_H
 
 #include "ftm/base.h"
 

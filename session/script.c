@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-bot scripts: parsing and interpolation (script.h, docs/bot-script.md). */
 #include "script.h"
 
@@ -27,6 +28,7 @@ int ftm_script_load(const char *path, ftm_script *sc)
     sc->npts = text.npts;
     sc->join = text.join;
     sc->leave = text.leave;
+    sc->session_clock = text.session_clock;
     return 0;
 }
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The ftm-bot script format (docs/bot-script.md), parsed in one place for
  * every reader: ftm-bot, ftm-client --commands and ftm-server --offline
  * (script.h), and the scripted haptic device (device.h), so that a file
@@ -6,8 +7,8 @@
  *
  * Library ftm_script_text: libftm only (its base types, and the text reader
  * its scene and mesh parsers use). */
-#ifndef FTM_CLIENT_SCRIPT_TEXT_H
-#define FTM_CLIENT_SCRIPT_TEXT_H
+#ifndef FTM_SESSION_SCRIPT_TEXT_H
+#define FTM_SESSION_SCRIPT_TEXT_H
 
 #include "ftm/base.h"
 
@@ -69,6 +70,8 @@ typedef struct ftm_script_text {
     int32_t nexpects;
     double join;  /* `join t`, default 0 */
     double leave; /* `leave t`, -1: none */
+    bool session_clock; /* `clock session`: times but join's count from the
+                         * first moment the bot may act in the session */
 } ftm_script_text;
 
 /* Parses a script held in memory; name is used in error messages
@@ -85,34 +88,5 @@ void ftm_script_text_free(ftm_script_text *s);
 /* The HIP at time t: linear between points (exactly a point at its time),
  * held before the first and after the last. n >= 1. */
 ftm_vec3 ftm_script_points_at(const ftm_script_point *p, int32_t n, double t);
-
-/* Command-line values, read alike by ftm-server, ftm-bot and ftm-client.
- * An integer option's value v[0..len): a whole base-10 number in lo..hi,
- * nothing cast or wrapped ("-1" is not 4294967295, 4294967376 is not 80).
- * The largest DDS domain an option may name: UINT32_MAX is Cyclone's "the
- * configuration's default", which no wrapped "-1" may pick by accident. */
-bool ftm_option_int(const char *v, size_t len, long long lo, long long hi, long long *out);
-/* The same for a whole argument v of option opt; if it is no such integer,
- * says "PROGRAM: OPT must be an integer in LO..HI (got 'V')" and returns -1. */
-int ftm_option_int_arg(const char *program, const char *opt, const char *v, long long lo,
-                       long long hi, long long *out);
-#define FTM_OPTION_DOMAIN_MAX 4294967294LL
-/* A display name (--name) as the protocol carries it: 1..63 bytes, no
- * control characters (the codec refuses them: they would reach others'
- * terminals). If not, says "PROGRAM: --name ..." and returns -1. */
-int ftm_option_name_arg(const char *program, const char *v);
-/* A file a program reads or writes, with the option that names it. */
-typedef struct ftm_option_path {
-    const char *opt, *path;
-} ftm_option_path;
-/* Whether an output is one of the inputs, the same file by device and
- * inode (another name, a symlink, a hard link): writing it would destroy
- * the input before it is read. If so, *in_i and *out_i say which; inputs
- * or outputs that do not exist are never the same. */
-bool ftm_option_output_is_input(const ftm_option_path *in, int nin, const ftm_option_path *out,
-                                int nout, int *in_i, int *out_i);
-/* The longest time an option may give [s], about 31.7 years: in nanoseconds
- * it still fits 64-bit clock arithmetic (a larger double wraps when cast). */
-#define FTM_OPTION_SECONDS_MAX 1e9
 
 #endif

@@ -1,9 +1,10 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm-bot scripts (docs/bot-script.md): a probe's HIP trajectory over time
  * and timed session commands. Shared by ftm-bot, which plays a script on
  * the wall clock, and ftm-server --offline, which plays it on the tick
  * clock without DDS (the reference the session tests compare against). */
-#ifndef FTM_CLIENT_SCRIPT_H
-#define FTM_CLIENT_SCRIPT_H
+#ifndef FTM_SESSION_SCRIPT_H
+#define FTM_SESSION_SCRIPT_H
 
 #include "ftm/wire.h"
 #include "script_text.h" /* the format's parser, ftm_script_point */
@@ -34,6 +35,7 @@ typedef struct ftm_script {
     ftm_script_check expects[FTM_SCRIPT_EXPECTS_MAX];
     int32_t nexpects;
     double join, leave; /* leave < 0: none */
+    bool session_clock; /* `clock session` (script_text.h) */
 } ftm_script;
 
 /* Reads a script file. On error prints `FILE:LINE: reason` to stderr and

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm_sim_load_state and the replay library, in one process (no network):
  * a simulation restored from another's keyframe continues bit-identically;
  * a replica follows frames with idle ticks left out, resyncs on a gap, a
@@ -8,7 +9,12 @@
 #include <stddef.h>
 #include <cmocka.h>
 
-#include "replay.h"
+#include "claims.h"
+#include "digest.h"
+#include "keyframe.h"
+#include "replica.h"
+#include "step.h"
+#include "tissue.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -504,19 +510,33 @@ static void test_set_mesh_refusals(void **state)
     assert_non_null(strstr(err.message, "differs in shape"));
     assert_true(ftm_sim_mesh(sim) == ftm_scene_mesh(sc));
     ftm_sim_destroy(sim);
-    /* element forces take their material from young/poisson/density */
+    /* element forces: a stiffness change is a factor on E; a change the
+     * elements cannot take (links by different factors, masses that the
+     * density gives) is refused, changing nothing */
     def.forces = FTM_FORCES_LINEAR_FEM;
     def.young = 3e3;
     def.poisson = 0.45;
+    def.density = 1000;
     assert_int_equal(ftm_sim_create(ftm_scene_mesh(sc), &def, &sim, &err), FTM_OK);
     ftm_replay_material mat = {.scene = sc};
     ftm_wire_tissue t = ftm_replay_scene_tissue(sc);
-    t.stiffness *= 2.0;
+    t.axis_scale.z *= 2.0;
     assert_int_equal(ftm_replay_set_tissue(&mat, sim, &t, &err), FTM_EINVAL);
-    assert_non_null(strstr(err.message, "element forces"));
+    assert_non_null(strstr(err.message, "one factor on E"));
     assert_false(mat.changed);
     assert_null(mat.mesh);
+    t = ftm_replay_scene_tissue(sc);
+    t.node_mass *= 2.0;
+    assert_int_equal(ftm_replay_set_tissue(&mat, sim, &t, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "density"));
+    assert_false(mat.changed);
+    t = ftm_replay_scene_tissue(sc);
+    t.stiffness *= 2.0;
+    assert_int_equal(ftm_replay_set_tissue(&mat, sim, &t, &err), FTM_OK);
+    assert_true(mat.changed);
+    assert_true(ftm_sim_mesh(sim) == mat.mesh);
     ftm_sim_destroy(sim);
+    ftm_replay_material_free(&mat);
     ftm_scene_destroy(sc);
     ftm_scene_destroy(other);
 }

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The session report (server/report.h): accumulation, the participant cap,
  * and JSON that stays valid whatever names the peers send. */
 #include "report.h"

@@ -1,0 +1,364 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* One tick (docs/server.md, The tick loop): the trainees' probes become
+ * contacts by point collision with the deformed surface (collide.h), the
+ * simulation steps exactly as every replica will (ftm_replay_step), the
+ * reactions go into the frame, the report and --reactions. */
+#include "rooms.h"
+#include "step.h"
+
+#include <inttypes.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MAX_CATCHUP 50 /* ticks run in one timer callback before we call them missed */
+
+static void hist_add(uint32_t *h, double ns)
+{
+    int64_t b = ns > 0 ? (int64_t)(ns / 10000.0) : 0;
+    h[b < TICK_HIST_BINS ? b : TICK_HIST_BINS - 1]++;
+}
+
+/* The q-quantile [ms] of a 10 us histogram (upper edge of its bin). */
+double srv_hist_quantile(const uint32_t *h, double q)
+{
+    uint64_t n = 0, acc = 0;
+    for (int i = 0; i < TICK_HIST_BINS; i++)
+        n += h[i];
+    for (int i = 0; i < TICK_HIST_BINS && n; i++)
+        if ((acc += h[i]) >= (uint64_t)ceil(q * (double)n))
+            return (i + 1) * 0.01;
+    return 0.0;
+}
+
+static ftm_vec3 v_sub(ftm_vec3 a, ftm_vec3 b) { return (ftm_vec3){a.x - b.x, a.y - b.y, a.z - b.z}; }
+static double v_dot(ftm_vec3 a, ftm_vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+static int reserve_contacts(server *s, int32_t need)
+{
+    if (need <= s->tk.contact_cap)
+        return 0;
+    int32_t cap = s->tk.contact_cap ? 2 * s->tk.contact_cap : 64;
+    while (cap < need)
+        cap *= 2;
+    ftm_contact *c = realloc(s->tk.contacts, (size_t)cap * sizeof *c);
+    if (!c)
+        return -1;
+    s->tk.contacts = c;
+    ftm_wire_reaction *r = realloc(s->tk.reactions, (size_t)cap * sizeof *r);
+    if (!r)
+        return -1;
+    s->tk.reactions = r;
+    s->tk.contact_cap = cap;
+    return 0;
+}
+
+/* Outward normal of a surface triangle at rest (not normalised): surface
+ * triangles are oriented outward (generators, tetrahedra boundaries; OBJ
+ * files must be too). */
+static ftm_vec3 rest_normal(server *s, int32_t tr)
+{
+    const int32_t *v = ftm_mesh_triangles(s->mesh) + 3 * tr;
+    ftm_vec3 X0 = ftm_mesh_rest_position(s->mesh, v[0]);
+    ftm_vec3 e1 = v_sub(ftm_mesh_rest_position(s->mesh, v[1]), X0);
+    ftm_vec3 e2 = v_sub(ftm_mesh_rest_position(s->mesh, v[2]), X0);
+    return (ftm_vec3){e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z,
+                      e1.x * e2.y - e1.y * e2.x};
+}
+
+/* Whether a HIP moving by d crosses the triangle from outside to inside. */
+static bool entering(server *s, int32_t tr, ftm_vec3 d) { return v_dot(rest_normal(s, tr), d) < 0.0; }
+
+/* A probe's push: HIP - anchor, shortened along itself to the limit. A HIP
+ * far inside the tissue (a device glitch, a forged input) would otherwise
+ * impose a displacement no step can follow: the guard would give up and the
+ * tissue be reset for every participant. The replicas get the shortened
+ * push in the frame, so they need not know the limit. */
+static ftm_vec3 probe_push(server *s, const participant *p, int k, probe *pr)
+{
+    ftm_vec3 pen = v_sub(pr->hip, pr->anchor);
+    double len = sqrt(v_dot(pen, pen));
+    pr->limited = len > s->tk.max_push;
+    if (pr->limited) {
+        double f = s->tk.max_push / len; /* 0 if len overflowed: no push rather than NaN */
+        pen = (ftm_vec3){pen.x * f, pen.y * f, pen.z * f};
+        s->tk.push_limited++;
+        if (!pr->limit_told)
+            srv_log(s, "warn",
+                    "participant %u probe %d: HIP %.4g m from its contact point; push limited to "
+                    "%.4g m (--max-penetration) while it is further",
+                    p->id, k, len, s->tk.max_push);
+        pr->limit_told = true;
+    }
+    pr->push = pen;
+    return pen;
+}
+
+/* Probe HIPs -> displacement contacts on the collided triangles' vertices.
+ * Returns the contact count; *nreact the probes in contact. */
+static int32_t probe_contacts(server *s, int32_t *nreact)
+{
+    const double *x = ftm_sim_positions(s->tk.sim);
+    const int32_t *tris = ftm_mesh_triangles(s->mesh);
+    int32_t n = 0, nr = 0;
+    for (int i = 0; i < MAX_PARTICIPANTS; i++) {
+        participant *p = &s->parts.parts[i];
+        if (!p->used || p->role != FTM_WIRE_ROLE_TRAINEE)
+            continue;
+        for (int k = 0; k < MAX_PROBES; k++) {
+            probe *pr = &p->probes[k];
+            if (!pr->have)
+                continue;
+            if (pr->contact) {
+                ftm_vec3 pen = v_sub(pr->hip, pr->anchor);
+                if (v_dot(pen, pr->normal) >= 0.0)
+                    pr->contact = false; /* back on the side it came from: released */
+            } else if (pr->have_prev) {
+                double t, w[3];
+                int32_t tr = ftm_collide_segment(s->tk.collide, x, pr->prev, pr->hip, &t, w);
+                if (tr >= 0 && !entering(s, tr, v_sub(pr->hip, pr->prev)))
+                    tr = -1; /* leaving the tissue through the surface: no contact */
+                if (tr >= 0) {
+                    const int32_t *v = tris + 3 * tr;
+                    ftm_vec3 X[3];
+                    for (int q = 0; q < 3; q++)
+                        X[q] = ftm_mesh_rest_position(s->mesh, v[q]);
+                    pr->anchor = (ftm_vec3){w[0] * X[0].x + w[1] * X[1].x + w[2] * X[2].x,
+                                            w[0] * X[0].y + w[1] * X[1].y + w[2] * X[2].y,
+                                            w[0] * X[0].z + w[1] * X[1].z + w[2] * X[2].z};
+                    pr->normal = rest_normal(s, tr);
+                    pr->tri = tr;
+                    pr->contact = true;
+                    pr->limit_told = false;
+                    if (p->report >= 0)
+                        s->rec.report.parts[p->report].probes[k].touches++;
+                    srv_log(s, "info", "participant %u probe %d: contact on triangle %d", p->id, k,
+                            (int)tr);
+                }
+            }
+            pr->prev = pr->hip;
+            pr->have_prev = true;
+            if (!pr->contact)
+                continue;
+            if (reserve_contacts(s, n + 3))
+                return n;
+            int32_t group = i * MAX_PROBES + k;
+            ftm_vec3 pen = probe_push(s, p, k, pr);
+            const int32_t *v = tris + 3 * pr->tri;
+            for (int q = 0; q < 3; q++) {
+                bool taken = ftm_mesh_fixed(s->mesh, v[q]);
+                for (int32_t j = 0; j < n && !taken; j++)
+                    taken = s->tk.contacts[j].node == v[q]; /* an earlier probe has it */
+                if (!taken)
+                    s->tk.contacts[n++] = (ftm_contact){v[q], group, FTM_CONTACT_DISPLACEMENT, pen};
+            }
+            s->tk.reactions[nr++] = (ftm_wire_reaction){.group = group, .participant = p->id, .probe = k};
+        }
+    }
+    *nreact = nr;
+    return n;
+}
+
+/* At the end of a run: what kept the tissue in bounds, if anything did. */
+void srv_log_limits(server *s)
+{
+    if (s->tk.push_limited || s->tk.unstable)
+        srv_log(s, "info",
+                "%" PRIu64 " probe-ticks with the push limited to %.4g m; %" PRIu64
+                " unstable ticks (tissue reset)",
+                s->tk.push_limited, s->tk.max_push, s->tk.unstable);
+}
+
+static void note_step(server *s, double ns)
+{
+    int b = 0;
+    while (b < FTM_METRICS_STEP_BUCKETS && ns * 1e-9 > ftm_metrics_step_bounds[b])
+        b++;
+    s->tk.step_bucket[b]++;
+    s->tk.step_count++;
+    s->tk.step_sum_ns += ns;
+}
+
+/* When the tick started: its period and its lateness against the tick
+ * clock (base_ns + k / rate), for the closing statistics. */
+static void note_start(server *s, uint64_t begin)
+{
+    srv_tick *tk = &s->tk;
+    if (tk->last_tick_ns)
+        hist_add(tk->period_hist, (double)(begin - tk->last_tick_ns));
+    tk->last_tick_ns = begin;
+    hist_add(tk->late_hist, (double)begin - ((double)tk->base_ns +
+                                             (double)(tk->tick + 1 - tk->base_tick) * tk->period_ns));
+}
+
+/* The reactions of the probes in contact after the step: the force, the
+ * local force model for the client's haptic loop (docs/haptics.md), the
+ * contact plane; counted in the report and written to --reactions. */
+static void fill_reactions(server *s, int32_t nreact)
+{
+    srv_tick *tk = &s->tk;
+    for (int32_t r = 0; r < nreact; r++) {
+        ftm_wire_reaction *re = &tk->reactions[r];
+        re->force = ftm_sim_reaction(tk->sim, re->group);
+        const probe *pb = &s->parts.parts[re->group / MAX_PROBES].probes[re->group % MAX_PROBES];
+        re->hip = pb->hip;
+        /* a limited push does not follow the HIP: no local model, the client
+         * holds the force */
+        re->push_limited = pb->limited;
+        re->has_model = !pb->limited &&
+                        ftm_sim_contact_stiffness(tk->sim, re->group, re->stiffness) > 0;
+        if (re->has_model) {
+            ftm_stiffness_make_passive(re->stiffness);
+            ftm_stiffness_secant_scale(re->stiffness, re->force, pb->push);
+        }
+        double nl = sqrt(v_dot(pb->normal, pb->normal));
+        re->has_plane = nl > 0.0; /* the release rule of probe_contacts, for the client */
+        re->contact_point = pb->anchor;
+        if (re->has_plane)
+            re->contact_normal = (ftm_vec3){pb->normal.x / nl, pb->normal.y / nl, pb->normal.z / nl};
+        const participant *rp = &s->parts.parts[re->group / MAX_PROBES];
+        const double push = sqrt(v_dot(pb->push, pb->push));
+        if (rp->report >= 0) {
+            ftm_report_part *part = &s->rec.report.parts[rp->report];
+            ftm_report_contact(&part->probes[re->probe], tk->tick, re->force, push, pb->limited);
+            part->last_tick = tk->tick;
+        }
+        if (tk->reactions_csv) /* --reactions: what the frame carries, and the push */
+            fprintf(tk->reactions_csv, "%" PRIu64 ",%u,%d,%.17g,%.17g,%.17g,%.17g,%.17g,%d\n",
+                    tk->tick, re->participant, (int)re->probe, re->force.x, re->force.y,
+                    re->force.z, (double)tk->tick / s->o.rate, push, pb->limited ? 1 : 0);
+    }
+}
+
+void srv_run_tick(server *s)
+{
+    srv_tick *tk = &s->tk;
+    const uint64_t tick_t0 = srv_now(); /* the whole tick, for the depth controller */
+    note_start(s, tick_t0);
+    int32_t nreact = 0;
+    int32_t n = probe_contacts(s, &nreact);
+    uint64_t t0 = srv_now();
+    ftm_error err = {0, ""};
+    int rc = ftm_replay_step(tk->sim, tk->depth, tk->contacts, n, &err);
+    double dt = (double)(srv_now() - t0);
+    tk->step_ns_total += dt;
+    if (dt > tk->step_ns_max)
+        tk->step_ns_max = dt;
+    tk->tick++;
+    if (rc) {
+        /* Deterministic, so every replica fails the same way; start over from
+         * rest at the next tick number and send the state as a keyframe. */
+        tk->unstable++;
+        srv_log(s, "error", "tick %" PRIu64 ": %s; tissue reset to rest", tk->tick, err.message);
+        srv_reset(s, false);
+        n = nreact = 0;
+    }
+    fill_reactions(s, nreact);
+    if (tk->depth_lo == 0 || tk->depth < tk->depth_lo)
+        tk->depth_lo = tk->depth;
+    if (tk->depth > tk->depth_hi)
+        tk->depth_hi = tk->depth;
+    /* keep the collision grid current: the region's nodes may have moved */
+    const int32_t *order = NULL, *start = NULL;
+    int32_t layers = ftm_sim_layers(tk->sim, &order, &start);
+    ftm_collide_update(tk->collide, ftm_sim_positions(tk->sim), order,
+                       layers > 0 && order ? start[layers] : 0);
+    ftm_sim_stats st;
+    ftm_sim_get_stats(tk->sim, &st);
+    srv_publish_tick(s, n, nreact, st.updated_nodes > 0);
+    note_step(s, (double)(srv_now() - tick_t0));
+}
+
+/* The ticks that are due by the monotonic clock (tick k at start + k /
+ * rate); more than MAX_CATCHUP at once are not run in a burst but counted
+ * as missed, and the clock re-based. */
+void srv_run_due_ticks(server *s)
+{
+    srv_tick *tk = &s->tk;
+    uint64_t now = srv_now();
+    uint64_t due = tk->base_tick + (uint64_t)((double)(now - tk->base_ns) / tk->period_ns);
+    int32_t ran = 0;
+    while (tk->tick < due && ran < MAX_CATCHUP) {
+        srv_run_tick(s);
+        ran++;
+    }
+    if (tk->tick < due) { /* fell behind: skip, do not burst */
+        tk->missed_ticks += due - tk->tick;
+        tk->base_ns = now;
+        tk->base_tick = tk->tick;
+    }
+}
+
+/* Puts the tissue back at rest, keeping the tick counter. With publish_now
+ * (between ticks): first the frame of the current tick if it was not sent
+ * (replicas must reach it), then the keyframe of the reset state at that tick,
+ * which replicas restore because its hash differs from the frame's. */
+void srv_reset(server *s, bool publish_now)
+{
+    if (publish_now)
+        srv_publish_tick_frame(s);
+    ftm_error err = {0, ""};
+    if (ftm_sim_load_state(s->tk.sim, s->tk.tick, s->tk.depth, NULL, NULL, NULL, 0, NULL, 0, NULL, &err))
+        srv_log(s, "error", "reset: %s", err.message);
+    for (int i = 0; i < MAX_PARTICIPANTS; i++)
+        for (int k = 0; k < MAX_PROBES; k++)
+            s->parts.parts[i].probes[k].contact = false;
+    ftm_collide_update(s->tk.collide, ftm_sim_positions(s->tk.sim), NULL, 0);
+    s->pub.pub_n = 0; /* replicas restore the keyframe: no contacts */
+    s->pub.keyframe_due = true;
+    if (publish_now && srv_publish_keyframe(s)) {
+        s->pub.keyframe_due = false;
+        s->pub.next_keyframe_ns = srv_now() + (uint64_t)(s->o.keyframe_every * 1e9);
+    }
+}
+
+
+/* The simulation of the scene, its collision grid and the push limit. The
+ * depth: --depth, else the scene's. Returns 0, or the exit status (2 a
+ * depth floor above the depth, 3 a simulation that cannot be made). */
+int srv_tick_setup(server *s)
+{
+    srv_tick *tk = &s->tk;
+    ftm_sim_def def = ftm_replay_sim_def(s->scene);
+    def.log = srv_log_hook;
+    def.log_user = s;
+    tk->depth = s->o.depth >= 0 ? s->o.depth : def.depth;
+    if (s->o.depth_floor > tk->depth) {
+        srv_log(s, "error", "--depth-floor %d is above the depth %d", (int)s->o.depth_floor,
+                (int)tk->depth);
+        return 2;
+    }
+    ftm_error err = {0, ""};
+    tk->mat.scene = s->scene;
+    if (ftm_sim_create(s->mesh, &def, &tk->sim, &err) ||
+        ftm_collide_create(s->mesh, &tk->collide, &err)) {
+        srv_log(s, "error", "%s", err.message);
+        return 3;
+    }
+    ftm_collide_stats cs;
+    ftm_collide_get_stats(tk->collide, &cs);
+    /* the default push limit, the scene's size: a probe pushing the surface
+     * further than the whole tissue is deep is passing through it */
+    tk->max_push = s->o.max_penetration > 0 ? s->o.max_penetration
+                   : cs.extent > 0          ? cs.extent
+                                            : INFINITY;
+    char limit[32] = "none (the recording has none)";
+    if (isfinite(tk->max_push))
+        snprintf(limit, sizeof limit, "%.4g m", tk->max_push);
+    srv_log(s, "info",
+            "scene '%s': %d nodes, %d surface triangles; collision grid %dx%dx%d cells of %.4g m; "
+            "probe push limit %s",
+            ftm_scene_name(s->scene), (int)ftm_mesh_node_count(s->mesh), (int)cs.triangles,
+            (int)cs.dims[0], (int)cs.dims[1], (int)cs.dims[2], cs.cell_size, limit);
+    tk->period_ns = 1e9 / s->o.rate;
+    return 0;
+}
+
+void srv_tick_free(server *s)
+{
+    ftm_collide_destroy(s->tk.collide);
+    ftm_sim_destroy(s->tk.sim);
+    ftm_replay_material_free(&s->tk.mat);
+    free(s->tk.contacts);
+    free(s->tk.reactions);
+}
