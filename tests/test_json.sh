@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Every --json of the ftm tool is JSON: each command runs in its quickest
 # form and its standard output goes through python3's json module, which
 # here refuses NaN and Infinity (JSON has neither; a non-finite value must

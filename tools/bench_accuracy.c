@@ -892,12 +892,14 @@ static void print_row(FILE *out, const row *r)
 static void print_json_row(FILE *out, const row *r, bool first)
 {
     fprintf(out,
-            "%s{\"mesh\":\"%s\",\"method\":\"%s\",\"depth\":%d,\"nodes\":%d,\"h\":%.6g,"
-            "\"step_us\":%.4g,\"steps\":%d,\"time_s\":%.6g,\"setup_s\":%.6g,\"wall_s\":%.6g,"
-            "\"error\":%.6g,\"converged\":%s,\"guard_events\":%llu}",
-            first ? "" : ",", r->mesh, r->method, (int)r->depth, (int)r->nodes, r->h, r->step_us,
-            (int)r->steps, r->time_s, r->setup_s, r->wall_s, r->error,
-            r->converged ? "true" : "false", (unsigned long long)r->guard_events);
+            "%s{\"mesh\":\"%s\",\"method\":\"%s\",\"depth\":%d,\"nodes\":%d,\"h\":%s,"
+            "\"step_us\":%s,\"steps\":%d,\"time_s\":%s,\"setup_s\":%s,\"wall_s\":%s,"
+            "\"error\":%s,\"converged\":%s,\"guard_events\":%llu}",
+            first ? "" : ",", r->mesh, r->method, (int)r->depth, (int)r->nodes,
+            FTM_JN("%.6g", r->h), FTM_JN("%.4g", r->step_us), (int)r->steps,
+            FTM_JN("%.6g", r->time_s), FTM_JN("%.6g", r->setup_s), FTM_JN("%.6g", r->wall_s),
+            FTM_JN("%.6g", r->error), r->converged ? "true" : "false",
+            (unsigned long long)r->guard_events);
 }
 
 static void print_body(FILE *out, const body *b, const options *o)
@@ -917,13 +919,16 @@ static void print_body_json(FILE *out, const body *b, bool first)
 {
     fprintf(out,
             "%s{\"name\":\"%s\",\"nodes\":%d,\"free_nodes\":%d,\"hexahedra\":%d,\"springs\":%d,"
-            "\"k\":%.6g,\"spacing\":%.6g,\"w1\":%.6g,\"zeta\":%.6g,\"u_max\":%.6g,\"max_depth\":%d,"
-            "\"fem_dofs\":%lld,\"fem_factor_nnz\":%lld,\"fem_assemble_s\":%.6g,"
-            "\"fem_factor_s\":%.6g,\"fem_solve_s\":%.6g}",
+            "\"k\":%s,\"spacing\":%s,\"w1\":%s,\"zeta\":%s,\"u_max\":%s,\"max_depth\":%d,"
+            "\"fem_dofs\":%lld,\"fem_factor_nnz\":%lld,\"fem_assemble_s\":%s,"
+            "\"fem_factor_s\":%s,\"fem_solve_s\":%s}",
             first ? "" : ",", b->name, (int)b->n, (int)b->free_nodes,
-            (int)ftm_mesh_hexahedron_count(b->mesh), (int)ftm_mesh_link_count(b->mesh), b->k,
-            b->spacing, b->w1, b->zeta, b->u_max, (int)b->max_depth, (long long)b->fem_dofs,
-            (long long)b->fem_factor_nnz, b->fem_assemble_s, b->fem_factor_s, b->fem_solve_s);
+            (int)ftm_mesh_hexahedron_count(b->mesh), (int)ftm_mesh_link_count(b->mesh),
+            FTM_JN("%.6g", b->k), FTM_JN("%.6g", b->spacing), FTM_JN("%.6g", b->w1),
+            FTM_JN("%.6g", b->zeta), FTM_JN("%.6g", b->u_max), (int)b->max_depth,
+            (long long)b->fem_dofs, (long long)b->fem_factor_nnz,
+            FTM_JN("%.6g", b->fem_assemble_s), FTM_JN("%.6g", b->fem_factor_s),
+            FTM_JN("%.6g", b->fem_solve_s));
 }
 
 static const char *header =
@@ -1228,9 +1233,10 @@ int ftm_bench_accuracy(int argc, char **argv)
         FILE *f = k == 0 ? (o.json ? stdout : NULL) : outs[1];
         if (!f)
             continue;
-        fprintf(f, "{\"bench\":\"accuracy\",\"tol\":%.6g,\"young\":%.6g,\"poisson\":%.6g,"
-                   "\"density\":%.6g,\"k_fit\":%.6g,\"be_step\":%.6g,\"meshes\":[",
-                o.tol, YOUNG, POISSON, DENSITY, FIT_K, o.be_step);
+        fprintf(f, "{\"bench\":\"accuracy\",\"tol\":%s,\"young\":%s,\"poisson\":%s,"
+                   "\"density\":%s,\"k_fit\":%s,\"be_step\":%s,\"meshes\":[",
+                FTM_JN("%.6g", o.tol), FTM_JN("%.6g", YOUNG), FTM_JN("%.6g", POISSON),
+                FTM_JN("%.6g", DENSITY), FTM_JN("%.6g", FIT_K), FTM_JN("%.6g", o.be_step));
         for (int i = 0; i < nb; i++)
             print_body_json(f, &bodies[i], i == 0);
         fprintf(f, "],\"rows\":[");

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm bench accuracy --speed`: the step cost of each force model on one
  * body, side by side (docs/benchmarks.md, "Element forces").
  *

@@ -337,29 +337,32 @@ int ftm_bench_table3(int argc, char **argv)
                 ROUNDS);
         for (int r = 0; r < NDEPTH; r++)
             fprintf(out,
-                    "%s{\"depth\":%d,\"nodes\":%d,\"paper_nodes\":%d,\"search_us\":%.3f,"
-                    "\"step_us\":%.3f,\"step_cached_us\":%.3f,\"paper_search_ms\":%.2f,"
-                    "\"paper_step_ms\":%.2f,\"node_updates_per_s\":%.4g,"
-                    "\"jacobi_search_us\":%.3f,\"jacobi_step_us\":%.3f,"
-                    "\"jacobi_step_cached_us\":%.3f}",
-                    r ? "," : "", depths[r], (int)nodes[r], paper_nodes[r], search[r], step[r],
-                    cached[r], paper_search_ms[r], paper_step_ms[r], nodes[r] / (step[r] * 1e-6),
-                    jsearch[r], jstep[r], jcached[r]);
+                    "%s{\"depth\":%d,\"nodes\":%d,\"paper_nodes\":%d,\"search_us\":%s,"
+                    "\"step_us\":%s,\"step_cached_us\":%s,\"paper_search_ms\":%s,"
+                    "\"paper_step_ms\":%s,\"node_updates_per_s\":%s,"
+                    "\"jacobi_search_us\":%s,\"jacobi_step_us\":%s,"
+                    "\"jacobi_step_cached_us\":%s}",
+                    r ? "," : "", depths[r], (int)nodes[r], paper_nodes[r],
+                    FTM_JN("%.3f", search[r]), FTM_JN("%.3f", step[r]), FTM_JN("%.3f", cached[r]),
+                    FTM_JN("%.2f", paper_search_ms[r]), FTM_JN("%.2f", paper_step_ms[r]),
+                    FTM_JN("%.4g", nodes[r] / (step[r] * 1e-6)), FTM_JN("%.3f", jsearch[r]),
+                    FTM_JN("%.3f", jstep[r]), FTM_JN("%.3f", jcached[r]));
         fprintf(out, "],\"orders\":[");
         for (int o = 0; o < 3; o++)
             fprintf(out,
-                    "%s{\"order\":\"%s\",\"depth\":%d,\"step_us\":%.3f,"
-                    "\"step_cached_us\":%.3f,\"max_diff_vs_bfs\":%.3e,\"residual\":%.3e}",
-                    o ? "," : "", order_name(orders[o]), dmax, ostep[o], ocached[o], odiff[o],
-                    ores[o]);
+                    "%s{\"order\":\"%s\",\"depth\":%d,\"step_us\":%s,"
+                    "\"step_cached_us\":%s,\"max_diff_vs_bfs\":%s,\"residual\":%s}",
+                    o ? "," : "", order_name(orders[o]), dmax, FTM_JN("%.3f", ostep[o]),
+                    FTM_JN("%.3f", ocached[o]), FTM_JN("%.3e", odiff[o]), FTM_JN("%.3e", ores[o]));
         fprintf(out,
-                "],\"full_sweep\":{\"depth\":%d,\"step_us\":%.3f,\"step_cached_us\":%.3f,"
-                "\"jacobi_step_us\":%.3f,\"jacobi_step_cached_us\":%.3f},\"moving\":[",
-                dmax, fullm[0], fullm[1], fullm[2], fullm[3]);
+                "],\"full_sweep\":{\"depth\":%d,\"step_us\":%s,\"step_cached_us\":%s,"
+                "\"jacobi_step_us\":%s,\"jacobi_step_cached_us\":%s},\"moving\":[",
+                dmax, FTM_JN("%.3f", fullm[0]), FTM_JN("%.3f", fullm[1]), FTM_JN("%.3f", fullm[2]),
+                FTM_JN("%.3f", fullm[3]));
         for (int e = 0; e < NMOVE; e++)
-            fprintf(out,
-                    "%s{\"depth\":%d,\"every\":%d,\"step_us\":%.3f,\"jacobi_step_us\":%.3f}",
-                    e ? "," : "", dmax, every[e], movm[e][0], movm[e][1]);
+            fprintf(out, "%s{\"depth\":%d,\"every\":%d,\"step_us\":%s,\"jacobi_step_us\":%s}",
+                    e ? "," : "", dmax, every[e], FTM_JN("%.3f", movm[e][0]),
+                    FTM_JN("%.3f", movm[e][1]));
         fprintf(out, "]}\n");
     }
     if (jf && ftm_close_output(jf, "ftm bench table3", json_file) != 0) {

@@ -115,21 +115,6 @@ static int parse_options(int argc, char **argv, fem_options *o)
     return 0;
 }
 
-/* JSON string body: the scene name may hold quotes or backslashes. */
-static void json_string(FILE *out, const char *s)
-{
-    fputc('"', out);
-    for (; *s; s++) {
-        unsigned char c = (unsigned char)*s;
-        if (c == '"' || c == '\\')
-            fprintf(out, "\\%c", c);
-        else if (c < 0x20)
-            fprintf(out, "\\u%04x", c);
-        else
-            fputc(c, out);
-    }
-    fputc('"', out);
-}
 
 typedef struct result {
     ftm_fem_stats st;
@@ -172,21 +157,24 @@ static void print_json(FILE *out, const char *name, const result *r)
 {
     const ftm_fem_stats *s = &r->st;
     fprintf(out, "{\"scene\":");
-    json_string(out, name);
+    ftm_json_string(out, name);
     fprintf(out,
-            ",\"nodes\":%d,\"hexahedra\":%d,\"tetrahedra\":%d,\"young\":%.17g,"
-            "\"poisson\":%.17g,\"dofs\":%lld,\"constrained_dofs\":%lld,\"free_dofs\":%lld,"
-            "\"nnz\":%lld,\"factor_nnz\":%lld,\"supernodal\":%s,\"assemble_seconds\":%.6f,"
-            "\"factor_seconds\":%.6f,\"solve_seconds\":%.6f,\"force_loads\":%d,"
-            "\"displacement_loads\":%d,\"total_force\":[%.17g,%.17g,%.17g],"
-            "\"reaction\":[%.17g,%.17g,%.17g],\"max_displacement\":%.17g,"
+            ",\"nodes\":%d,\"hexahedra\":%d,\"tetrahedra\":%d,\"young\":%s,"
+            "\"poisson\":%s,\"dofs\":%lld,\"constrained_dofs\":%lld,\"free_dofs\":%lld,"
+            "\"nnz\":%lld,\"factor_nnz\":%lld,\"supernodal\":%s,\"assemble_seconds\":%s,"
+            "\"factor_seconds\":%s,\"solve_seconds\":%s,\"force_loads\":%d,"
+            "\"displacement_loads\":%d,\"total_force\":[%s,%s,%s],"
+            "\"reaction\":[%s,%s,%s],\"max_displacement\":%s,"
             "\"max_displacement_node\":%d}\n",
-            (int)s->nodes, (int)s->hexahedra, (int)s->tetrahedra, r->young, r->poisson,
-            (long long)s->dofs, (long long)s->constrained, (long long)s->free_dofs,
-            (long long)s->nnz, (long long)s->factor_nnz, s->supernodal ? "true" : "false",
-            s->assemble_seconds, s->factor_seconds, s->solve_seconds, (int)r->force_loads,
-            (int)r->displacement_loads, r->total_force[0], r->total_force[1], r->total_force[2],
-            r->reaction[0], r->reaction[1], r->reaction[2], r->max_u, (int)r->max_node);
+            (int)s->nodes, (int)s->hexahedra, (int)s->tetrahedra, FTM_JN("%.17g", r->young),
+            FTM_JN("%.17g", r->poisson), (long long)s->dofs, (long long)s->constrained,
+            (long long)s->free_dofs, (long long)s->nnz, (long long)s->factor_nnz,
+            s->supernodal ? "true" : "false", FTM_JN("%.6f", s->assemble_seconds),
+            FTM_JN("%.6f", s->factor_seconds), FTM_JN("%.6f", s->solve_seconds),
+            (int)r->force_loads, (int)r->displacement_loads, FTM_JN("%.17g", r->total_force[0]),
+            FTM_JN("%.17g", r->total_force[1]), FTM_JN("%.17g", r->total_force[2]),
+            FTM_JN("%.17g", r->reaction[0]), FTM_JN("%.17g", r->reaction[1]),
+            FTM_JN("%.17g", r->reaction[2]), FTM_JN("%.17g", r->max_u), (int)r->max_node);
 }
 
 static int write_csv(FILE *out, const ftm_mesh *mesh, const double *u)

@@ -472,20 +472,23 @@ static void write_cases_json(FILE *out, const fit_options *o, const ftm_fit_eval
     for (int c = 0; c < o->nforces; c++) {
         const ftm_fit_case_eval *ce = &ev->c[c];
         fprintf(out,
-                "%s{\"force\":%.17g,\"avg_err_pct\":%.6g,\"max_err_pct\":%.6g,\"rel_err\":%.6g,"
-                "\"avg_err_m\":%.6g,\"max_err_m\":%.6g,\"mean_fem_u_m\":%.6g,\"steps\":%d,"
+                "%s{\"force\":%s,\"avg_err_pct\":%s,\"max_err_pct\":%s,\"rel_err\":%s,"
+                "\"avg_err_m\":%s,\"max_err_m\":%s,\"mean_fem_u_m\":%s,\"steps\":%d,"
                 "\"converged\":%s}",
-                c ? "," : "", o->forces[c], 100 * ce->avg_err / a, 100 * ce->max_err / a,
-                ce->mean_ref_u > 0 ? ce->avg_err / ce->mean_ref_u : 0.0, ce->avg_err, ce->max_err,
-                ce->mean_ref_u, (int)ce->steps, ce->converged ? "true" : "false");
+                c ? "," : "", FTM_JN("%.17g", o->forces[c]), FTM_JN("%.6g", 100 * ce->avg_err / a),
+                FTM_JN("%.6g", 100 * ce->max_err / a),
+                FTM_JN("%.6g", ce->mean_ref_u > 0 ? ce->avg_err / ce->mean_ref_u : 0.0),
+                FTM_JN("%.6g", ce->avg_err), FTM_JN("%.6g", ce->max_err),
+                FTM_JN("%.6g", ce->mean_ref_u), (int)ce->steps, ce->converged ? "true" : "false");
     }
     fprintf(out, "]");
 }
 
 static void write_params_json(FILE *out, const ftm_fit_params *p)
 {
-    fprintf(out, "\"k\":%.9g,\"d\":%.9g,\"class_scale\":[%.6g,%.6g,%.6g]", p->k, p->d,
-            p->scale[0], p->scale[1], p->scale[2]);
+    fprintf(out, "\"k\":%s,\"d\":%s,\"class_scale\":[%s,%s,%s]", FTM_JN("%.9g", p->k),
+            FTM_JN("%.9g", p->d), FTM_JN("%.6g", p->scale[0]), FTM_JN("%.6g", p->scale[1]),
+            FTM_JN("%.6g", p->scale[2]));
 }
 
 static bool paper_forces(const fit_options *o)
@@ -868,26 +871,29 @@ int ftm_cmd_fit(int argc, char **argv)
     if (o.json) {
         FILE *out = stdout;
         fprintf(out, "{\"target\":");
-        fprintf(out, "\"%s\"", cube ? "elastin-cube" : ftm_scene_name(scene));
+        ftm_json_string(out, cube ? "elastin-cube" : ftm_scene_name(scene));
         fprintf(out,
-                ",\"nodes\":%d,\"links\":%d,\"link_classes\":[%d,%d,%d],\"spring_length\":%.9g,"
-                "\"node_mass\":%.9g,\"density\":%.9g,\"young\":%.9g,\"poisson\":%.9g,"
+                ",\"nodes\":%d,\"links\":%d,\"link_classes\":[%d,%d,%d],\"spring_length\":%s,"
+                "\"node_mass\":%s,\"density\":%s,\"young\":%s,\"poisson\":%s,"
                 "\"depth\":%d,\"mode\":\"%s\",\"seed\":%llu,\"model\":\"%s\",",
                 (int)n, (int)ftm_mesh_link_count(mesh), (int)counts[0], (int)counts[1],
-                (int)counts[2], a_len, mass, density, mat.young, mat.poisson, depth,
+                (int)counts[2], FTM_JN("%.9g", a_len), FTM_JN("%.9g", mass),
+                FTM_JN("%.9g", density), FTM_JN("%.9g", mat.young), FTM_JN("%.9g", mat.poisson),
+                depth,
                 o.fixed_time ? "fixed-time" : "settle", (unsigned long long)o.seed, best->name);
         fprintf(out, "\"method\":\"%s\",", best_nm ? "nelder-mead" : "anneal");
         write_params_json(out, best_p);
-        fprintf(out, ",\"cost\":%.9g,\"cases\":", best_ev->cost);
+        fprintf(out, ",\"cost\":%s,\"cases\":", FTM_JN("%.9g", best_ev->cost));
         write_cases_json(out, &o, best_ev, a_len);
         if (paper) {
             fprintf(out, ",\"paper\":[");
             for (int ci = 0; ci < 3; ci++)
-                fprintf(out, "%s{\"force\":%g,\"avg_err_pct\":%g,\"max_err_pct\":%g}",
-                        ci ? "," : "", paper_force[ci], paper_avg[ci], paper_max[ci]);
-            fprintf(out, "],\"k_paper\":2575,\"d_paper\":2149,\"improvement\":%.4g,"
+                fprintf(out, "%s{\"force\":%s,\"avg_err_pct\":%s,\"max_err_pct\":%s}",
+                        ci ? "," : "", FTM_JN("%g", paper_force[ci]), FTM_JN("%g", paper_avg[ci]),
+                        FTM_JN("%g", paper_max[ci]));
+            fprintf(out, "],\"k_paper\":2575,\"d_paper\":2149,\"improvement\":%s,"
                          "\"target_5x_met\":%s",
-                    target_ratio, target_ratio >= 5 ? "true" : "false");
+                    FTM_JN("%.4g", target_ratio), target_ratio >= 5 ? "true" : "false");
         }
         fprintf(out, ",\"fits\":[");
         for (int mi = 0; mi < nmodels; mi++) {
@@ -898,24 +904,26 @@ int ftm_cmd_fit(int argc, char **argv)
                         m->name, which ? "nelder-mead" : "anneal");
                 write_params_json(out, which ? &m->p_nm : &m->p);
                 fprintf(out,
-                        ",\"cost\":%.9g,\"cost_normalised\":%.9g,\"evaluations\":%d,"
-                        "\"iterations\":%d,\"seconds\":%.3f",
-                        (which ? &m->ev_nm : &m->ev)->cost, r->f, r->evaluations, r->iterations,
-                        which ? m->nm_seconds : m->sa_seconds);
+                        ",\"cost\":%s,\"cost_normalised\":%s,\"evaluations\":%d,"
+                        "\"iterations\":%d,\"seconds\":%s",
+                        FTM_JN("%.9g", (which ? &m->ev_nm : &m->ev)->cost), FTM_JN("%.9g", r->f),
+                        r->evaluations, r->iterations,
+                        FTM_JN("%.3f", which ? m->nm_seconds : m->sa_seconds));
                 if (!which)
                     fprintf(out, ",\"unconverged_evaluations\":%d,\"failed_evaluations\":%d",
                             m->unconverged, m->failures);
                 if (!which)
                     fprintf(out,
-                            ",\"t0\":%.6g,\"t_final\":%.6g,\"beta\":%.6g,\"accepted\":%d,"
+                            ",\"t0\":%s,\"t_final\":%s,\"beta\":%s,\"accepted\":%d,"
                             "\"uphill_accepted\":%d",
-                            r->t0, r->t_final, r->beta, r->accepted, r->uphill_accepted);
+                            FTM_JN("%.6g", r->t0), FTM_JN("%.6g", r->t_final),
+                            FTM_JN("%.6g", r->beta), r->accepted, r->uphill_accepted);
                 else
                     fprintf(out, ",\"converged\":%s", r->converged ? "true" : "false");
                 if (!o.fixed_time && !which)
-                    fprintf(out, ",\"settle\":{\"d_over_sqrt_km\":%.6g,\"steps\":%d,"
+                    fprintf(out, ",\"settle\":{\"d_over_sqrt_km\":%s,\"steps\":%d,"
                                  "\"evaluations\":%d}",
-                            m->cd, m->settle_steps, m->settle_evals);
+                            FTM_JN("%.6g", m->cd), m->settle_steps, m->settle_evals);
                 fprintf(out, ",\"cases\":");
                 write_cases_json(out, &o, which ? &m->ev_nm : &m->ev, a_len);
                 fprintf(out, "}");

@@ -253,20 +253,6 @@ static void max_displacement(const ftm_sim *sim, const ftm_mesh *mesh, summary *
     }
 }
 
-static void json_string(FILE *out, const char *s)
-{
-    fputc('"', out);
-    for (; *s; s++) {
-        unsigned char c = (unsigned char)*s;
-        if (c == '"' || c == '\\')
-            fprintf(out, "\\%c", c);
-        else if (c < 0x20)
-            fprintf(out, "\\u%04x", c);
-        else
-            fputc(c, out);
-    }
-    fputc('"', out);
-}
 
 /* A JSON number that reads back exactly, or null (commands.h). */
 static void json_number(FILE *out, double v)
@@ -287,7 +273,7 @@ static void print_json(FILE *out, const summary *s, const ftm_sim *sim, const in
                        int32_t group_count, const ftm_contact *last, int32_t last_count)
 {
     fputs("{\"scene\": ", out);
-    json_string(out, s->scene);
+    ftm_json_string(out, s->scene);
     fprintf(out, ", \"nodes\": %d, \"links\": %d, \"triangles\": %d", (int)s->nodes,
             (int)s->links, (int)s->triangles);
     fputs(", \"time_step\": ", out);

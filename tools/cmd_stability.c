@@ -196,10 +196,10 @@ int ftm_cmd_stability(int argc, char **argv)
                 printf("%s{\"ratio\":", p ? "," : "");
                 jnum(stdout, r->probe_ratio[p]);
                 printf(",\"outcome\":\"%s\",\"guard_events\":%llu,\"substeps\":%d,"
-                       "\"unstable_steps\":%llu,\"reported\":%s,\"nan\":%s,\"max_u\":%.4g}",
+                       "\"unstable_steps\":%llu,\"reported\":%s,\"nan\":%s,\"max_u\":%s}",
                        r->outcome[p], (unsigned long long)r->guard_events[p], r->max_substeps[p],
                        (unsigned long long)r->unstable_steps[p], r->reported[p] ? "true" : "false",
-                       r->nan_seen[p] ? "true" : "false", r->max_u[p]);
+                       r->nan_seen[p] ? "true" : "false", FTM_JN("%.4g", r->max_u[p]));
             }
             printf("]}");
         }

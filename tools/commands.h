@@ -18,6 +18,17 @@ int ftm_close_output(FILE *f, const char *who, const char *path);
 /* A JSON number with that many significant digits, or null for a
  * non-finite value (JSON has no infinity or NaN). */
 void ftm_json_number(FILE *f, double v, int digits);
+/* The same as text for a printf argument: v printed with fmt (a format of
+ * one double, such as "%.6g"), or null for a non-finite value, written into
+ * buf (FTM_JSON_NUM bytes) and returned. FTM_JN(fmt, v) gives each use a
+ * buffer of its own, which lasts to the end of the enclosing block. */
+#define FTM_JSON_NUM 64
+const char *ftm_json_num(char *buf, const char *fmt, double v);
+#define FTM_JN(fmt, v) ftm_json_num((char[FTM_JSON_NUM]){0}, fmt, v)
+
+/* A JSON string: s in quotes, with quotes, backslashes and control
+ * characters escaped (scene names and paths may hold them). */
+void ftm_json_string(FILE *f, const char *s);
 
 /* Option values: all of s one finite number (strtod's syntax), or one
  * whole decimal integer in [lo, hi]; false (and *out untouched) if not. */

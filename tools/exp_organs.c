@@ -634,10 +634,12 @@ static void report_json(const org_opts *o, const org_run *runs, bool drawn)
         jkey("mean_edge_mm", q->mean_edge * 1e3);
         jkey("area_m2", q->area);
         jkey("volume_l", q->volume * 1e3);
-        printf(",\"extent_mm\":[%.4g,%.4g,%.4g],\"ok\":%s}", q->extent[0] * 1e3,
-               q->extent[1] * 1e3, q->extent[2] * 1e3, ftm_organ_quality_ok(q) ? "true" : "false");
+        printf(",\"extent_mm\":[%s,%s,%s],\"ok\":%s}", FTM_JN("%.4g", q->extent[0] * 1e3),
+               FTM_JN("%.4g", q->extent[1] * 1e3), FTM_JN("%.4g", q->extent[2] * 1e3),
+               ftm_organ_quality_ok(q) ? "true" : "false");
         printf(",\"fixed_nodes\":%d,\"pressed_triangle\":%d", (int)r->fixed, (int)r->tri);
-        printf(",\"normal\":[%.6g,%.6g,%.6g]", r->normal.x, r->normal.y, r->normal.z);
+        printf(",\"normal\":[%s,%s,%s]", FTM_JN("%.6g", r->normal.x), FTM_JN("%.6g", r->normal.y),
+               FTM_JN("%.6g", r->normal.z));
         jkey("node_mass", r->material.node_mass);
         jkey("stiffness", r->material.stiffness);
         jkey("damping", r->material.node_damping);
@@ -657,8 +659,8 @@ static void report_json(const org_opts *o, const org_run *runs, bool drawn)
             jkey("step_search_us", w->search_us);
             jkey("step_cached_us", w->cached_us);
             printf(",\"haptic_1khz\":%s", haptic_ok(w) ? "true" : "false");
-            printf(",\"reaction_n\":[%.6g,%.6g,%.6g]", w->reaction.x, w->reaction.y,
-                   w->reaction.z);
+            printf(",\"reaction_n\":[%s,%s,%s]", FTM_JN("%.6g", w->reaction.x),
+                   FTM_JN("%.6g", w->reaction.y), FTM_JN("%.6g", w->reaction.z));
             jkey("reaction_normal_n", w->reaction_normal);
             jkey("max_disp_mm", w->max_disp * 1e3);
             jkey("change", w->change);
@@ -667,9 +669,16 @@ static void report_json(const org_opts *o, const org_run *runs, bool drawn)
         printf("]}");
     }
     printf("],\"png\":");
-    if (drawn)
-        printf("[\"%s/organs.png\",\"%s/organs_depth.png\"]", o->out_dir, o->out_dir);
-    else
+    if (drawn) {
+        char path[2][4200];
+        snprintf(path[0], sizeof path[0], "%s/organs.png", o->out_dir);
+        snprintf(path[1], sizeof path[1], "%s/organs_depth.png", o->out_dir);
+        putchar('[');
+        ftm_json_string(stdout, path[0]);
+        putchar(',');
+        ftm_json_string(stdout, path[1]);
+        putchar(']');
+    } else
         printf("null");
     printf("}\n");
 }

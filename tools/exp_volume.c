@@ -830,19 +830,7 @@ static int write_outputs(const vol_opts *o, const vol_run *r, const vol_slice *s
 
 /* ---- report --------------------------------------------------------------- */
 
-static void jstr(const char *s)
-{
-    putchar('"');
-    for (; *s; s++) {
-        if (*s == '"' || *s == '\\')
-            printf("\\%c", *s);
-        else if ((unsigned char)*s < 0x20)
-            printf("\\u%04x", *s);
-        else
-            putchar(*s);
-    }
-    putchar('"');
-}
+static void jstr(const char *s) { ftm_json_string(stdout, s); }
 
 /* ,"key":value and ,"key":[a,b,c] */
 static void jkey(const char *key, double v)

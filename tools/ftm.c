@@ -95,6 +95,30 @@ void ftm_json_number(FILE *f, double v, int digits)
         fputs("null", f);
 }
 
+void ftm_json_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\')
+            fprintf(f, "\\%c", c);
+        else if (c < 0x20)
+            fprintf(f, "\\u%04x", c);
+        else
+            fputc(c, f);
+    }
+    fputc('"', f);
+}
+
+const char *ftm_json_num(char *buf, const char *fmt, double v)
+{
+    if (isfinite(v))
+        snprintf(buf, FTM_JSON_NUM, fmt, v);
+    else
+        snprintf(buf, FTM_JSON_NUM, "null");
+    return buf;
+}
+
 int ftm_close_output(FILE *f, const char *who, const char *path)
 {
     bool failed = ferror(f) != 0;

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The element block kernels (elem_kernel.h): elem_block.inc compiled for
  * 4 portable lanes, 4 lanes of AVX2 and 8 of AVX-512, chosen at run time as
  * the spring kernel is (sim_kernel.c). */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal: neo-Hookean and co-rotational element forces evaluated a block
  * of elements at a time, the elements in vector lanes (elem_kernel.c,
  * elem_block.inc), for sim_elem.c.

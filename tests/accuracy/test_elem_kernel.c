@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The element block kernels (common/src/elem_kernel.c): every kernel this
  * CPU runs (AVX-512, AVX2, portable) gives
  *   - neo-Hookean: exactly the bits of the scalar reference
