@@ -25,6 +25,9 @@
 
 #include <errno.h>
 #include <inttypes.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <math.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -953,6 +956,14 @@ int main(int argc, char **argv)
     static app aa;
     app *a = &aa;
     a->t0 = mono_ns();
+#ifdef __GLIBC__
+    /* Mesa's llvmpipe allocates and frees megabytes a frame (a volume's
+     * triangles in its bins); glibc would hand them back to the kernel and
+     * fault them in again the next frame, which took most of a frame's
+     * time on the head under a VM (docs/client.md, Frame rate): keep them */
+    mallopt(M_TRIM_THRESHOLD, 256 << 20);
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+#endif
     if (parse(argc, argv, &a->o)) {
         usage(stderr);
         return 2;
