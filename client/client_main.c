@@ -22,6 +22,7 @@
 #include "render.h"
 #include "screenshot.h"
 #include "script.h"
+#include "volume_render.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -403,8 +404,9 @@ static void usage(FILE *f)
             "  --no-colormap --region --no-hud   initial display toggles (keys c, b, h)\n"
             "  --no-volume              a scene's surface, not its volume (key v)\n"
             "  --cut                    the volume cut away through its middle (key x)\n"
-            "  --volume-step N          draw every Nth slice of a volume: 1 (default, 9 between\n"
-            "                           node planes, as the paper), 2, 5, 10 (key n)\n"
+            "  --volume-step N          a volume's planes per slice drawn: 1 (a slice per plane, 9\n"
+            "                           between node planes, as the paper), 2, 5 (default), 10\n"
+            "                           (key n); each slice samples its N planes: the same picture\n"
             "  --colormap-full MM       displacement at the top of the colour map\n"
             "  --swap-interval N        0: no vsync (default 1)\n"
             "  --msaa N                 multisample anti-aliasing samples (default 0; 4 looks\n"
@@ -434,7 +436,7 @@ static int parse(int argc, char **argv, options *o)
     o->shot_contact = -1;
     o->shot_timeout = 60.0;
     o->colormap = o->hud = o->volume = true;
-    o->volume_step = 1;
+    o->volume_step = FTM_VOLUME_STEP_DEFAULT;
     o->device = "mouse";
     o->renderer = "model";
     for (int i = 1; i < argc; i++) {
