@@ -3,7 +3,8 @@
 # every scene's figures; Bullet's static displacement of the loaded nodes is
 # FTM's springs' within 0.1 % (the stiffness was matched) and its whole field
 # within 10 %, at Bullet's default solver iterations (1); bad options are
-# refused with status 2; --plot draws a PNG when gnuplot is there. Exit 77
+# refused with status 2; --save writes the table and the JSON; --plot draws
+# a PNG when gnuplot is there. Exit 77
 # (skipped) when ftm was built without Bullet.
 set -u
 : "${FTM:?}"
@@ -38,6 +39,12 @@ rc=$?
 [ $? -eq 2 ] && grep -q -- "--scene must be" "$tmp/err" || { echo "FAIL: --scene ball"; exit 1; }
 "$FTM" bench peers --rounds 0 >/dev/null 2>"$tmp/err"
 [ $? -eq 2 ] && grep -q -- "--rounds" "$tmp/err" || { echo "FAIL: --rounds 0"; exit 1; }
+"$FTM" bench peers --scene tiny --save "$tmp/no/such/dir/p" >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && grep -q "no/such/dir/p.txt: cannot write" "$tmp/err" ||
+    { echo "FAIL: --save to a missing directory"; exit 1; }
+"$FTM" bench peers --scene tiny --rounds 1 --save "$tmp/p" >/dev/null 2>&1 &&
+    python3 -c 'import json, sys; json.load(open(sys.argv[1]))' "$tmp/p.json" &&
+    grep -q '^tiny ' "$tmp/p.txt" || { echo "FAIL: --save"; exit 1; }
 if command -v gnuplot >/dev/null 2>&1; then
     "$FTM" bench peers --scene tiny --rounds 1 --plot "$tmp/peers.png" >/dev/null 2>"$tmp/err" ||
         { echo "FAIL: --plot: exit $?"; cat "$tmp/err"; exit 1; }

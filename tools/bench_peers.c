@@ -27,6 +27,7 @@
 
 #include "ftm/ftm.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -65,7 +66,7 @@ typedef struct scene {
 typedef struct options {
     bool cube, organ, tiny, json;
     int rounds;
-    const char *plot;
+    const char *plot, *save;
 } options;
 
 /* ------------------------------------------------------------ bodies */
@@ -543,11 +544,25 @@ static int plot(const char *png, const scene *sc, int ns)
     return ftm_gnuplot_run(WHO, gp) < 0 ? -1 : 0;
 }
 
+static void print_header(FILE *f, const options *o)
+{
+#ifdef FTM_HAVE_BULLET
+    fprintf(f, "FTM (force transmittal, full depth) against Bullet %s's btSoftBody (%s):\n",
+            ftm_peer_bullet_version(), ftm_peer_bullet_scalar());
+#else
+    fprintf(f, "FTM (force transmittal, full depth); Bullet not built in: its columns empty.\n");
+#endif
+    fprintf(f, "The same nodes, lumped masses, links and loads. u: static displacement of the\n"
+               "loaded nodes along the load (Bullet's kLST = c k h^2 (1/m_a + 1/m_b), c tuned to\n"
+               "match; field: ||u_Bullet - u_FTM|| / ||u_FTM||). Median step [us] over %d\n"
+               "rounds of every method in turn.\n\n", o->rounds);
+}
+
 static void usage(FILE *f)
 {
     fprintf(f,
             "usage: ftm bench peers [--scene cube|organ|tiny|all] [--rounds N] [--json]\n"
-            "                       [--plot PNG]\n"
+            "                       [--plot PNG] [--save PREFIX]\n"
             "\n"
             "FTM against Bullet's soft body (btSoftBody) on the bodies of ftm bench accuracy:\n"
             "the same nodes, masses, links and loads; Bullet's link stiffness tuned until its\n"
@@ -558,8 +573,10 @@ static void usage(FILE *f)
             "  --rounds   rounds of every method in turn (default 9)\n"
             "  --json     print {\"scenes\":[{\"scene\",\"ftm_us\",\"bullet_us\",\"ratio\",...}]}\n"
             "  --plot PNG the median steps as bars (gnuplot; PNG.dat and PNG.gp beside it)\n"
+            "  --save P   also write the table to P.txt and the JSON to P.json\n"
             "Built without Bullet (Debian: libbullet-dev), it measures FTM's side and says so.\n"
-            "exit status: 0 success, 1 a run failed, 2 bad arguments\n");
+            "exit status: 0 success, 1 a run failed, 2 bad arguments or an output that cannot\n"
+            "be written\n");
 }
 
 int ftm_bench_peers(int argc, char **argv)
@@ -584,6 +601,8 @@ int ftm_bench_peers(int argc, char **argv)
             }
         } else if (strcmp(a, "--plot") == 0 && more) {
             o.plot = argv[++i];
+        } else if (strcmp(a, "--save") == 0 && more) {
+            o.save = argv[++i];
         } else {
             fprintf(stderr, "%s: unknown option '%s' (or it needs a value)\n", WHO, a);
             usage(stderr);
@@ -604,6 +623,18 @@ int ftm_bench_peers(int argc, char **argv)
     fprintf(stderr, "%s: built without Bullet (Debian: libbullet-dev, then configure again): "
                     "FTM's side only\n", WHO);
 #endif
+    /* the --save files first, so that a bad path fails before the runs */
+    FILE *outs[2] = {NULL, NULL};
+    char paths[2][4096];
+    for (int k = 0; k < 2 && o.save; k++) {
+        snprintf(paths[k], sizeof paths[k], "%s%s", o.save, k ? ".json" : ".txt");
+        if (!(outs[k] = fopen(paths[k], "w"))) {
+            fprintf(stderr, "%s: %s: cannot write: %s\n", WHO, paths[k], strerror(errno));
+            if (k)
+                fclose(outs[0]);
+            return 2;
+        }
+    }
     scene sc[3];
     int ns = 0, rc = FTM_OK;
     const char *names[3] = {o.tiny ? "tiny" : NULL, o.cube ? "cube" : NULL,
@@ -624,26 +655,29 @@ int ftm_bench_peers(int argc, char **argv)
                     (int)s->links);
         rc = run_scene(s, &o);
     }
+    int status = rc ? 1 : 0;
     if (!rc) {
         if (o.json) {
             print_json(stdout, sc, ns, &o, bullet);
         } else {
-#ifdef FTM_HAVE_BULLET
-            printf("FTM (force transmittal, full depth) against Bullet %s's btSoftBody (%s):\n",
-                   ftm_peer_bullet_version(), ftm_peer_bullet_scalar());
-#else
-            printf("FTM (force transmittal, full depth); Bullet not built in: its columns empty.\n");
-#endif
-            printf("The same nodes, lumped masses, links and loads. u: static displacement of the\n"
-                   "loaded nodes along the load (Bullet's kLST = c k h^2 (1/m_a + 1/m_b), c tuned to\n"
-                   "match; field: ||u_Bullet - u_FTM|| / ||u_FTM||). Median step [us] over %d\n"
-                   "rounds of every method in turn.\n\n", o.rounds);
+            print_header(stdout, &o);
             print_table(stdout, sc, ns, bullet);
+        }
+        for (int k = 0; k < 2 && outs[k]; k++) {
+            if (k)
+                print_json(outs[k], sc, ns, &o, bullet);
+            else {
+                print_header(outs[k], &o);
+                print_table(outs[k], sc, ns, bullet);
+            }
         }
         if (o.plot && plot(o.plot, sc, ns) < 0)
             fprintf(stderr, "%s: could not draw %s\n", WHO, o.plot);
     }
+    for (int k = 0; k < 2; k++)
+        if (outs[k] && ftm_close_output(outs[k], WHO, paths[k]))
+            status = 2;
     for (int k = 0; k < ns; k++)
         scene_free(&sc[k]);
-    return rc ? 1 : 0;
+    return status;
 }
