@@ -29,6 +29,9 @@
 
 #include <errno.h>
 #include <inttypes.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <math.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -807,6 +810,14 @@ int main(int argc, char **argv)
     static app aa;
     app *a = &aa;
     a->t0 = ftm_clock_mono_ns();
+#ifdef __GLIBC__
+    /* Mesa's llvmpipe allocates and frees megabytes a frame (a volume's
+     * triangles in its bins); glibc would hand them back to the kernel and
+     * fault them in again the next frame, which took most of a frame's
+     * time on the head under a VM (docs/client.md, Frame rate): keep them */
+    mallopt(M_TRIM_THRESHOLD, 256 << 20);
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+#endif
     int rc = ftm_client_options_parse(argc, argv, &a->o);
     if (rc >= 0)
         return rc;

@@ -2,6 +2,7 @@
 /* ftm-client's command line (client_options.h). */
 #include "client_options.h"
 #include "cli.h"
+#include "volume_render.h"
 
 #include "ftm/options.h"
 
@@ -89,8 +90,9 @@ static const ftm_option option_table[] = {
     FTM_OPT_FLAG("no-volume", O, no_volume, "a scene's surface, not its volume (key v)"),
     FTM_OPT_FLAG("cut", O, cut, "the volume cut away through its middle (key x)"),
     FTM_OPT_CUSTOM("volume-step", "N", O, volume_step, parse_volume_step,
-                   "draw every Nth slice of a volume: 1 (default, 9 between\n"
-                   "node planes, as the paper), 2, 5, 10 (key n)"),
+                   "a volume's planes per slice drawn: 1 (a slice per plane, 9\n"
+                   "between node planes, as the paper), 2, 5 (default), 10\n"
+                   "(key n); each slice samples its N planes: the same picture"),
     FTM_OPT_DOUBLE("colormap-full", "MM", O, colormap_full, 0, DBL_MAX, 0, "millimetres",
                    "displacement at the top of the colour map"),
     FTM_OPT_INT("swap-interval", "N", O, swap_interval, -1, 8,
@@ -128,7 +130,7 @@ int ftm_client_options_parse(int argc, char **argv, ftm_client_options *o)
 {
     *o = (ftm_client_options){.role = "observer", .session = "ftm", .server_timeout = 3.0,
                    .size = {1280, 800}, .swap_interval = 1, .shot_contact = -1,
-                   .shot_timeout = 60.0, .volume_step = 1, .device = "mouse", .renderer = "model"};
+                   .shot_timeout = 60.0, .volume_step = FTM_VOLUME_STEP_DEFAULT, .device = "mouse", .renderer = "model"};
     uint64_t given = 0;
     int rc = ftm_options_parse(&option_set, argc, argv, o, &given, NULL);
     if (rc != FTM_OPTIONS_OK)

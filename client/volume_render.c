@@ -5,39 +5,41 @@
 #include "render_gl.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#define SLICES_PER_CELL 10 /* a node plane and the 9 slices up to the next (paper 4.2) */
+#define SLICES_PER_CELL 10 /* a node plane and the 9 planes up to the next (paper 4.2) */
 #define SUB 2              /* quads per lattice cell along each in-plane axis */
-#define VFLOATS 7          /* position 3, texture coordinate 3, displacement 1 (ftm_gl_layout_331) */
-/* Intensity of air: transparent below (the shader), and cells with nothing
+#define VFLOATS 10         /* position 3, texture coordinate 3, displacement 1, ray 3 */
+/* Intensity of air: transparent below (the shader), and blocks with nothing
  * above it within a voxel get no quads. */
 #define AIR 0.08
-/* The slices are drawn at 1 / DOWNSAMPLE of the window's resolution: a
- * software renderer's fill rate is the limit (~90 slices over the image),
- * and a 64-voxel image drawn 400 pixels wide loses nothing. */
-#define DOWNSAMPLE 3
-
-typedef struct slice_axis {
-    int32_t ns, gb, gc; /* slices; vertices of a slice along its two in-plane axes */
-    GLuint ibo;
-    GLsizei *count;  /* per slice: indices */
-    size_t *first;   /* per slice: first index */
-} slice_axis;
+/* The slices are drawn at 1 / ds of the window's resolution, over the
+ * rectangle their quads cover on screen, then scaled up over the window:
+ * ds (DOWNSAMPLE_MIN..MAX) keeps about PX_PER_VOXEL framebuffer pixels per
+ * voxel, so that a volume drawn large costs what it costs small and still
+ * shows every voxel. */
+#define DOWNSAMPLE_MIN 2
+#define DOWNSAMPLE_MAX 8
+#define PX_PER_VOXEL 1.5
+#define REACH_MAX 4 /* blocks a slice's quads reach aside for its oblique rays */
 
 struct ftm_volume_render {
     GLuint prog;
-    GLint u_mvp, u_tex, u_air, u_density, u_usemap, u_full, u_eye, u_section;
-    /* the slices are drawn into a framebuffer of 1 / DOWNSAMPLE the window's
-     * size (with its depth), then blended over the window */
-    GLuint fbo, fbo_color, fbo_depth, comp, comp_vao;
-    GLint comp_tex;
+    GLint u_mvp, u_tex, u_depth, u_usedepth, u_air, u_usemap, u_full, u_eye, u_section;
+    GLint u_planes, u_axis, u_tscale, u_voxels, u_spacing, u_trange;
+    /* the slices are drawn into a framebuffer of 1 / ds the window's size
+     * (over the part they cover), then blended over the window; the
+     * window's depth is copied into a texture of the same size, which the
+     * slices' shader reads */
+    GLuint fbo, fbo_color, zfbo, fbo_depth, comp, comp_vao;
+    GLint comp_tex, comp_origin, comp_scale;
     int fw, fh;
-    bool depth_copy; /* the window's depth copies into it (false: not tested) */
-    GLuint vao, vbo, tex;
+    bool depth_copy; /* the window's depth copies (false: a format it cannot copy) */
+    GLuint vao, vbo, ibo, tex;
 
     const ftm_volume *vol;
     const ftm_ffd *ffd;
@@ -46,87 +48,161 @@ struct ftm_volume_render {
     double lo[3], hi[3];   /* the lattice's rest box */
     double tlo[3], tsz[3]; /* the image's box (texture coordinates) */
     double voxel[3];       /* voxel size */
+    int32_t nvox[3];       /* voxels per axis */
     float *u;          /* displacement of each lattice point, 3 each */
-    slice_axis ax[3];
+    /* blocks: the lattice's cells split SUB times along each axis */
+    int32_t nb[3];
+    uint8_t *occ;      /* per block (x fastest): tissue within a voxel of it */
+    double olo[3], ohi[3]; /* the rest box of the blocks with tissue */
 
-    float *verts;      /* ns * gb * gc vertices of the axis built */
+    /* the axis built: its planes (ns, gb x gc vertices each, in-plane axis
+     * b = a + 1 fastest), the vertices of the planes drawn, their quads */
+    int built;         /* -1: none */
+    int32_t ns, gb, gc;
+    float *verts;
     size_t verts_cap;
-    double *centre;    /* per slice: its deformed centroid along the axis */
-    double *key;       /* per slice: its distance from the eye along the axis */
-    int32_t *order;
+    uint8_t *used;     /* per vertex of the axis: in a quad drawn */
+    GLuint *idx;
+    size_t idx_cap;
+    int8_t *dir;       /* per plane: +1 or -1 drawn (its slice samples that way), 0 not */
+    double *centre;    /* per plane: its deformed centroid along the axis */
+    double *key;
+    int32_t *planes;   /* drawn, back to front */
+    GLsizei *count;    /* per plane: indices */
+    size_t *first;     /* per plane: first index */
     GLsizei *dcount;
     const void **doff;
-    int built;         /* axis whose vertices are in vbo (-1: none) */
-    int32_t slices;    /* of the axis drawn last (before any: the most along an axis) */
-    bool dirty;        /* displacements changed since */
+    /* what the quads and vertices were made for */
+    int quads_axis, quads_step, quads_reach;
+    int32_t quads_up, quads_face;
+    double verts_eye[3];
+    bool dirty;        /* displacements or planes changed since the vertices */
+    int32_t slices;    /* drawn last (before any: the most planes along an axis) */
 };
 
+/* v_ray: the ray from the eye through the vertex, in the rest space of the
+ * image (the inverse of the deformation's Jacobian applied to it), so that
+ * the fragment can step through the planes behind its slice. v_cz, v_dz:
+ * clip-space z and w of the vertex and of the ray's direction in world
+ * space, for the depth test of each sample (both linear across a
+ * triangle). */
 static const char *vol_vs =
     "#version 330 core\n"
     "layout(location=0) in vec3 a_pos;\n"
     "layout(location=1) in vec3 a_tex;\n"
     "layout(location=2) in float a_disp;\n"
-    "uniform mat4 u_mvp;\n"
-    "out vec3 v_pos; out vec3 v_tex; out float v_disp;\n"
+    "layout(location=3) in vec3 a_ray;\n"
+    "uniform mat4 u_mvp; uniform vec3 u_eye;\n"
+    "out vec3 v_pos; out vec3 v_tex; out float v_disp; out vec3 v_ray;\n"
+    "out vec2 v_cz, v_dz;\n"
     "void main() {\n"
-    "  v_pos = a_pos; v_tex = a_tex; v_disp = a_disp;\n"
+    "  v_pos = a_pos; v_tex = a_tex; v_disp = a_disp; v_ray = a_ray;\n"
     "  gl_Position = u_mvp * vec4(a_pos, 1.0);\n"
+    "  v_cz = gl_Position.zw;\n"
+    "  v_dz = (u_mvp * vec4(a_pos - u_eye, 0.0)).zw;\n"
     "}\n";
 
-/* The transfer function, for intensities as on CT or the phantom (air 0,
+/* Each slice stands for u_planes planes: its own and those behind it along
+ * the ray through the fragment, composited front to back here and blended
+ * as one (premultiplied) over the slices behind: the same samples, in the
+ * same order, as drawing every plane, with fewer triangles to set up and
+ * fragments to blend. The samples stop at the end of the lattice's box
+ * along the axis and at the opaque parts (the window's depth, u_depth).
+ * The transfer function, for intensities as on CT or the phantom (air 0,
  * soft tissue about 0.2 to 0.6, bone 1): air transparent; low soft tissue
  * a faint grey; the skin (about 0.45) a warm, half-transparent shell;
  * brain-like tissue pink and faint; hard tissue white and the most opaque.
  * Boundaries (a strong gradient) are more opaque than the inside of a
  * tissue, so the head reads as solid and the structures inside show;
  * they are lit by a head light, the gradient standing for the normal.
- * Opacities are per voxel and corrected for the slices' spacing
- * (u_density: the path through one slice, in voxels). */
+ * Opacities are per voxel and corrected for the path between two planes
+ * along the ray, in voxels (density d): 1 - (1 - a)^d by its series to
+ * a^2, for the opacities here (a <= 0.21) within 0.6 % at d = 0.5..2 and
+ * 4 % at the steepest rays (d = 3.5). */
 static const char *vol_fs =
     "#version 330 core\n"
-    "in vec3 v_pos; in vec3 v_tex; in float v_disp;\n"
-    "uniform sampler3D u_tex; uniform float u_air, u_density, u_full; uniform int u_usemap;\n"
-    "uniform vec3 u_eye; uniform int u_section;\n"
+    "in vec3 v_pos; in vec3 v_tex; in float v_disp; in vec3 v_ray; in vec2 v_cz, v_dz;\n"
+    "uniform sampler3D u_tex; uniform sampler2D u_depth; uniform int u_usedepth;\n"
+    "uniform float u_air, u_full; uniform int u_usemap;\n"
+    "uniform vec3 u_eye; uniform int u_section, u_planes;\n"
+    "uniform vec3 u_axis, u_tscale, u_voxels; uniform float u_spacing; uniform vec2 u_trange;\n"
     "out vec4 o_color;\n"
     FTM_GL_RAMP_GLSL
-    "void main() {\n"
-    "  vec4 s = texture(u_tex, v_tex);\n"
-    "  float v = s.r;\n"
-    "  if (v < u_air) discard;\n"
-    "  vec3 g = s.gba - 0.5;\n"
-    "  float gm = length(g);\n"
-    "  float a = 0.05 * smoothstep(u_air, 0.40, v) + 0.16 * smoothstep(0.65, 1.0, v);\n"
-    "  a *= mix(0.12, 1.0, smoothstep(0.02, 0.15, gm));\n"
+    "vec3 base(float v) {\n"
     "  vec3 c = mix(vec3(0.55, 0.56, 0.62), vec3(0.96, 0.62, 0.42), smoothstep(0.12, 0.42, v));\n"
     "  c = mix(c, vec3(0.90, 0.50, 0.52), smoothstep(0.48, 0.58, v));\n"
-    "  c = mix(c, vec3(1.0, 0.96, 0.88), smoothstep(0.68, 0.95, v));\n"
-    "  if (u_section != 0) c = mix(vec3(min(1.0, 1.15 * v)), c, 0.3);\n"
+    "  return mix(c, vec3(1.0, 0.96, 0.88), smoothstep(0.68, 0.95, v));\n"
+    "}\n"
+    "void main() {\n"
+    "  float map = 0.0; vec3 mapc = vec3(0.0);\n"
     "  if (u_usemap != 0) {\n"
     "    float t = v_disp / u_full;\n"
-    "    c = mix(c, ramp(t), 0.85 * smoothstep(0.03, 0.25, t));\n"
+    "    mapc = ramp(t); map = 0.85 * smoothstep(0.03, 0.25, t);\n"
     "  }\n"
-    "  if (u_section != 0) { o_color = vec4(c, 1.0); return; }\n"
+    "  if (u_section != 0) {\n"
+    "    float v = texture(u_tex, v_tex).r;\n"
+    "    if (v < u_air) discard;\n"
+    "    vec3 c = mix(vec3(min(1.0, 1.15 * v)), base(v), 0.3);\n"
+    "    o_color = vec4(mix(c, mapc, map), 1.0);\n"
+    "    return;\n"
+    "  }\n"
+    /* one plane further along the ray: in texture coordinates, in voxels */
+    "  float ra = max(abs(dot(v_ray, u_axis)), 0.2 * length(v_ray));\n"
+    "  vec3 st = v_ray * (u_spacing / ra) * u_tscale;\n"
+    "  float density = length(st * u_voxels);\n"
+    /* the planes left before the box's end along the axis */
+    "  float ta = dot(v_tex, u_axis), sa = dot(st, u_axis);\n"
+    "  float left = sa > 0.0 ? (u_trange.y - ta) / sa : sa < 0.0 ? (u_trange.x - ta) / sa : 1e9;\n"
+    "  int planes = min(u_planes, int(floor(left)) + 1);\n"
+    /* and before the opaque parts: clip-space z - w zd along the ray is
+     * linear in the plane count (the step in world space taken as the rest
+     * space's) */
+    "  if (u_usedepth != 0) {\n"
+    "    float zd = 2.0 * texelFetch(u_depth, ivec2(gl_FragCoord.xy), 0).r - 1.0;\n"
+    "    vec3 d = v_pos - u_eye;\n"
+    "    float w = u_spacing / max(abs(dot(d, u_axis)), 0.2 * length(d));\n"
+    "    float b = zd * v_cz.y - v_cz.x, g = w * (v_dz.x - zd * v_dz.y);\n"
+    "    if (b <= 0.0) discard;\n"
+    "    if (g > 0.0) planes = min(planes, int(ceil(b / g)));\n"
+    "  }\n"
     "  vec3 l = normalize(u_eye - v_pos);\n"
-    "  float d = gm > 1e-4 ? abs(dot(g / gm, l)) : 1.0;\n"
-    "  float lit = 0.4 + 0.6 * d;\n"
-    "  c = c * mix(1.0, lit, smoothstep(0.01, 0.06, gm)) + vec3(0.12 * pow(d, 24.0) * smoothstep(0.02, 0.1, gm));\n"
-    "  o_color = vec4(c, 1.0 - pow(1.0 - a, u_density));\n"
+    "  float da = 0.5 * (density - 1.0);\n"
+    "  vec4 acc = vec4(0.0);\n"
+    "  vec3 t = v_tex;\n"
+    "  for (int k = 0; k < planes; k++, t += st) {\n"
+    "    vec4 s = texture(u_tex, t);\n"
+    "    float v = s.r;\n"
+    "    if (v < u_air) continue;\n"
+    "    vec3 g = s.gba - 0.5;\n"
+    "    float gm = length(g);\n"
+    "    float a = 0.05 * smoothstep(u_air, 0.40, v) + 0.16 * smoothstep(0.65, 1.0, v);\n"
+    "    a *= mix(0.12, 1.0, smoothstep(0.02, 0.15, gm));\n"
+    "    vec3 c = mix(base(v), mapc, map);\n"
+    "    float dl = gm > 1e-4 ? abs(dot(g, l)) / gm : 1.0;\n"
+    "    float d4 = dl * dl; d4 *= d4;\n"
+    "    float d24 = d4 * d4; d24 *= d24 * d4 * d4;\n"
+    "    c = c * mix(1.0, 0.4 + 0.6 * dl, smoothstep(0.01, 0.06, gm)) +\n"
+    "        vec3(0.12 * d24 * smoothstep(0.02, 0.1, gm));\n"
+    "    a = density * a * (1.0 - da * a);\n"
+    "    acc += (1.0 - acc.a) * vec4(c * a, a);\n"
+    "  }\n"
+    "  if (acc.a <= 0.0) discard;\n"
+    "  o_color = acc;\n"
     "}\n";
 
 /* The slices' framebuffer over the window: premultiplied colour, scaled up
- * (bilinear) with a triangle that covers the window. */
+ * (bilinear), a triangle over the window cut to the rectangle drawn. */
 static const char *comp_vs =
     "#version 330 core\n"
-    "out vec2 v_uv;\n"
     "void main() {\n"
     "  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));\n"
-    "  v_uv = p; gl_Position = vec4(2.0 * p - 1.0, 0.0, 1.0);\n"
+    "  gl_Position = vec4(2.0 * p - 1.0, 0.0, 1.0);\n"
     "}\n";
 
 static const char *comp_fs =
     "#version 330 core\n"
-    "in vec2 v_uv; uniform sampler2D u_tex; out vec4 o_color;\n"
-    "void main() { o_color = texture(u_tex, v_uv); }\n";
+    "uniform sampler2D u_tex; uniform vec2 u_origin, u_scale; out vec4 o_color;\n"
+    "void main() { o_color = texture(u_tex, (gl_FragCoord.xy - u_origin) * u_scale); }\n";
 
 int ftm_volume_render_create(ftm_volume_render **out, ftm_error *err)
 {
@@ -141,21 +217,43 @@ int ftm_volume_render_create(ftm_volume_render **out, ftm_error *err)
         return FTM_EINVAL;
     }
     vr->comp_tex = glGetUniformLocation(vr->comp, "u_tex");
+    vr->comp_origin = glGetUniformLocation(vr->comp, "u_origin");
+    vr->comp_scale = glGetUniformLocation(vr->comp, "u_scale");
     glGenVertexArrays(1, &vr->comp_vao);
     vr->depth_copy = true;
-    vr->u_mvp = glGetUniformLocation(vr->prog, "u_mvp");
-    vr->u_tex = glGetUniformLocation(vr->prog, "u_tex");
-    vr->u_air = glGetUniformLocation(vr->prog, "u_air");
-    vr->u_density = glGetUniformLocation(vr->prog, "u_density");
-    vr->u_usemap = glGetUniformLocation(vr->prog, "u_usemap");
-    vr->u_full = glGetUniformLocation(vr->prog, "u_full");
-    vr->u_section = glGetUniformLocation(vr->prog, "u_section");
-    vr->u_eye = glGetUniformLocation(vr->prog, "u_eye");
+    static const struct {
+        const char *name;
+        size_t at;
+    } uni[] = {
+        {"u_mvp", offsetof(ftm_volume_render, u_mvp)},
+        {"u_tex", offsetof(ftm_volume_render, u_tex)},
+        {"u_depth", offsetof(ftm_volume_render, u_depth)},
+        {"u_usedepth", offsetof(ftm_volume_render, u_usedepth)},
+        {"u_air", offsetof(ftm_volume_render, u_air)},
+        {"u_usemap", offsetof(ftm_volume_render, u_usemap)},
+        {"u_full", offsetof(ftm_volume_render, u_full)},
+        {"u_eye", offsetof(ftm_volume_render, u_eye)},
+        {"u_section", offsetof(ftm_volume_render, u_section)},
+        {"u_planes", offsetof(ftm_volume_render, u_planes)},
+        {"u_axis", offsetof(ftm_volume_render, u_axis)},
+        {"u_tscale", offsetof(ftm_volume_render, u_tscale)},
+        {"u_voxels", offsetof(ftm_volume_render, u_voxels)},
+        {"u_spacing", offsetof(ftm_volume_render, u_spacing)},
+        {"u_trange", offsetof(ftm_volume_render, u_trange)},
+    };
+    for (size_t i = 0; i < sizeof uni / sizeof uni[0]; i++)
+        *(GLint *)((char *)vr + uni[i].at) = glGetUniformLocation(vr->prog, uni[i].name);
     glGenVertexArrays(1, &vr->vao);
     glGenBuffers(1, &vr->vbo);
+    glGenBuffers(1, &vr->ibo);
     glBindVertexArray(vr->vao);
     glBindBuffer(GL_ARRAY_BUFFER, vr->vbo);
-    ftm_gl_layout_331();
+    static const int sizes[4] = {3, 3, 1, 3};
+    for (int i = 0, at = 0; i < 4; at += sizes[i], i++) {
+        glEnableVertexAttribArray((GLuint)i);
+        glVertexAttribPointer((GLuint)i, sizes[i], GL_FLOAT, GL_FALSE, VFLOATS * sizeof(float),
+                              (const void *)(uintptr_t)(at * sizeof(float)));
+    }
     glBindVertexArray(0);
     vr->built = -1;
     *out = vr;
@@ -164,29 +262,24 @@ int ftm_volume_render_create(ftm_volume_render **out, ftm_error *err)
 
 static void clear(ftm_volume_render *vr)
 {
-    for (int a = 0; a < 3; a++) {
-        if (vr->ax[a].ibo)
-            glDeleteBuffers(1, &vr->ax[a].ibo);
-        free(vr->ax[a].count);
-        free(vr->ax[a].first);
-    }
-    memset(vr->ax, 0, sizeof vr->ax);
     if (vr->tex)
         glDeleteTextures(1, &vr->tex);
     vr->tex = 0;
-    free(vr->u);
-    free(vr->verts);
-    free(vr->centre);
-    free(vr->key);
-    free(vr->order);
-    free(vr->dcount);
-    free(vr->doff);
+    void *arrays[] = {vr->u,      vr->occ,  vr->verts,  vr->used,  vr->idx,    vr->dir,
+                      vr->centre, vr->key,  vr->planes, vr->count, vr->first, vr->dcount,
+                      (void *)vr->doff};
+    for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++)
+        free(arrays[i]);
     vr->u = vr->verts = NULL;
+    vr->occ = vr->used = NULL;
+    vr->idx = NULL;
+    vr->dir = NULL;
     vr->centre = vr->key = NULL;
-    vr->order = NULL;
-    vr->dcount = NULL;
+    vr->planes = NULL;
+    vr->count = vr->dcount = NULL;
+    vr->first = NULL;
     vr->doff = NULL;
-    vr->verts_cap = 0;
+    vr->verts_cap = vr->idx_cap = 0;
     vr->vol = NULL;
     vr->ffd = NULL;
     vr->built = -1;
@@ -198,11 +291,13 @@ void ftm_volume_render_destroy(ftm_volume_render *vr)
         return;
     clear(vr);
     glDeleteBuffers(1, &vr->vbo);
+    glDeleteBuffers(1, &vr->ibo);
     glDeleteVertexArrays(1, &vr->vao);
     glDeleteVertexArrays(1, &vr->comp_vao);
     glDeleteFramebuffers(1, &vr->fbo);
+    glDeleteFramebuffers(1, &vr->zfbo);
     glDeleteTextures(1, &vr->fbo_color);
-    glDeleteRenderbuffers(1, &vr->fbo_depth);
+    glDeleteTextures(1, &vr->fbo_depth);
     glDeleteProgram(vr->prog);
     glDeleteProgram(vr->comp);
     free(vr);
@@ -216,17 +311,16 @@ int32_t ftm_volume_render_slices(const ftm_volume_render *vr)
 }
 
 /* Which blocks hold more than air, within a voxel of their faces (trilinear
- * filtering reaches that far): the lattice's cells split SUB times along
- * each axis (a slice's quads, SUB slabs of slices); 1 per block, x fastest. */
+ * filtering reaches that far); 1 per block, x fastest. */
 static uint8_t *occupied_blocks(const ftm_volume_render *vr)
 {
-    const int32_t c0 = (vr->n[0] - 1) * SUB, c1 = (vr->n[1] - 1) * SUB, c2 = (vr->n[2] - 1) * SUB;
-    uint8_t *occ = calloc((size_t)c0 * c1 * c2, 1);
+    const int32_t *nc = vr->nb;
+    uint8_t *occ = calloc((size_t)nc[0] * nc[1] * nc[2], 1);
     if (!occ)
         return NULL;
     ftm_volume_info in = ftm_volume_get_info(vr->vol);
     const uint8_t *d = ftm_volume_data(vr->vol);
-    const int32_t nv[3] = {in.nx, in.ny, in.nz}, nc[3] = {c0, c1, c2};
+    const int32_t nv[3] = {in.nx, in.ny, in.nz};
     const uint8_t air = (uint8_t)(AIR * 255.0);
     /* per axis and voxel index: the range of blocks within a voxel of it */
     int32_t *range[3];
@@ -256,71 +350,18 @@ static uint8_t *occupied_blocks(const ftm_volume_render *vr)
                 for (int32_t z = range[2][2 * k]; z <= range[2][2 * k + 1]; z++)
                     for (int32_t y = range[1][2 * j]; y <= range[1][2 * j + 1]; y++)
                         for (int32_t x = range[0][2 * i]; x <= range[0][2 * i + 1]; x++)
-                            occ[x + (size_t)c0 * (y + (size_t)c1 * z)] = 1;
+                            occ[x + (size_t)nc[0] * (y + (size_t)nc[1] * z)] = 1;
             }
     for (int a = 0; a < 3; a++)
         free(range[a]);
     return occ;
 }
 
-/* The index buffer of the slices perpendicular to axis a: slice s is
- * vertices s * gb * gc .. (a grid, in-plane axis b = a + 1 fastest, then
- * c = a + 2), its quads over occupied cells. */
-static int build_axis(ftm_volume_render *vr, int a, const uint8_t *occ)
-{
-    slice_axis *x = &vr->ax[a];
-    const int b = (a + 1) % 3, c = (a + 2) % 3;
-    x->ns = (vr->n[a] - 1) * SLICES_PER_CELL + 1;
-    x->gb = (vr->n[b] - 1) * SUB + 1;
-    x->gc = (vr->n[c] - 1) * SUB + 1;
-    size_t quads = (size_t)(x->gb - 1) * (x->gc - 1);
-    GLuint *idx = malloc((size_t)x->ns * quads * 6 * sizeof *idx + 1);
-    x->count = calloc((size_t)x->ns, sizeof *x->count);
-    x->first = calloc((size_t)x->ns, sizeof *x->first);
-    if (!idx || !x->count || !x->first) {
-        free(idx);
-        return -1;
-    }
-    const int32_t c0 = (vr->n[0] - 1) * SUB, c1 = (vr->n[1] - 1) * SUB;
-    size_t k = 0;
-    for (int32_t s = 0; s < x->ns; s++) {
-        x->first[s] = k;
-        /* the block along a the slice lies in; on a block's face, in two */
-        int32_t ka = s * SUB / SLICES_PER_CELL, kprev = ka - 1;
-        if (ka > (vr->n[a] - 1) * SUB - 1)
-            ka = (vr->n[a] - 1) * SUB - 1;
-        if ((s * SUB) % SLICES_PER_CELL != 0 || kprev < 0)
-            kprev = ka;
-        GLuint base = (GLuint)((size_t)s * x->gb * x->gc);
-        for (int32_t qc = 0; qc + 1 < x->gc; qc++)
-            for (int32_t qb = 0; qb + 1 < x->gb; qb++) {
-                int32_t cell[3], prev[3];
-                cell[a] = ka, prev[a] = kprev;
-                cell[b] = prev[b] = qb;
-                cell[c] = prev[c] = qc;
-                if (!occ[cell[0] + (size_t)c0 * (cell[1] + (size_t)c1 * cell[2])] &&
-                    !occ[prev[0] + (size_t)c0 * (prev[1] + (size_t)c1 * prev[2])])
-                    continue;
-                GLuint v00 = base + (GLuint)(qb + x->gb * qc), v10 = v00 + 1;
-                GLuint v01 = v00 + (GLuint)x->gb, v11 = v01 + 1;
-                const GLuint q[6] = {v00, v10, v11, v00, v11, v01};
-                memcpy(idx + k, q, sizeof q);
-                k += 6;
-            }
-        x->count[s] = (GLsizei)(k - x->first[s]);
-    }
-    glGenBuffers(1, &x->ibo);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, x->ibo);
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(k * sizeof *idx), idx, GL_STATIC_DRAW);
-    free(idx);
-    return 0;
-}
-
 /* The texels: R the intensity, smoothed a little (half its own, half its 6
  * neighbours', so that a voxelised boundary shows fewer terraces), GBA its
  * gradient (central differences, intensity per voxel, + 0.5), the normal
  * of the shading and the boundaries' opacity: one texture fetch per
- * fragment gives all four. */
+ * sample gives all four. */
 static uint8_t *shading_texels(const ftm_volume *volume)
 {
     ftm_volume_info in = ftm_volume_get_info(volume);
@@ -371,12 +412,19 @@ int ftm_volume_render_set(ftm_volume_render *vr, const ftm_volume *volume, const
     const double o[3] = {in.origin.x, in.origin.y, in.origin.z};
     const double sp[3] = {in.spacing.x, in.spacing.y, in.spacing.z};
     const int32_t nv[3] = {in.nx, in.ny, in.nz};
+    int32_t most = 0, grid = 0;
     for (int a = 0; a < 3; a++) {
         vr->lo[a] = l[a];
         vr->hi[a] = h[a];
         vr->tlo[a] = o[a];
         vr->voxel[a] = sp[a];
+        vr->nvox[a] = nv[a];
         vr->tsz[a] = nv[a] * sp[a];
+        vr->nb[a] = (vr->n[a] - 1) * SUB;
+        int32_t ns = (vr->n[a] - 1) * SLICES_PER_CELL + 1;
+        int32_t g = ((vr->n[(a + 1) % 3] - 1) * SUB + 1) * ((vr->n[(a + 2) % 3] - 1) * SUB + 1);
+        most = ns > most ? ns : most;
+        grid = ns * g > grid ? ns * g : grid;
     }
     GLint max3d = 0;
     glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
@@ -388,35 +436,41 @@ int ftm_volume_render_set(ftm_volume_render *vr, const ftm_volume *volume, const
         return ftm_gl_fail(err, "volume", msg);
     }
     size_t npts = (size_t)vr->n[0] * vr->n[1] * vr->n[2];
-    int32_t most = 0;
-    uint8_t *occ = occupied_blocks(vr);
-    vr->u = calloc(3 * npts, sizeof *vr->u);
-    bool ok = occ && vr->u;
-    glBindVertexArray(vr->vao); /* (the index buffers are bound to a vertex array) */
-    for (int a = 0; a < 3 && ok; a++) {
-        ok = build_axis(vr, a, occ) == 0;
-        if (ok && vr->ax[a].ns > most)
-            most = vr->ax[a].ns;
-    }
     vr->slices = most;
-    glBindVertexArray(0);
-    free(occ);
-    if (ok) {
-        vr->centre = calloc((size_t)most, sizeof *vr->centre);
-        vr->key = calloc((size_t)most, sizeof *vr->key);
-        vr->order = calloc((size_t)most, sizeof *vr->order);
-        vr->dcount = calloc((size_t)most, sizeof *vr->dcount);
-        vr->doff = calloc((size_t)most, sizeof *vr->doff);
-        ok = vr->centre && vr->key && vr->order && vr->dcount && vr->doff;
-    }
-    if (!ok) {
-        clear(vr);
-        return ftm_gl_fail(err, "volume", "out of memory");
-    }
+    vr->u = calloc(3 * npts, sizeof *vr->u);
+    vr->occ = occupied_blocks(vr);
+    vr->used = calloc((size_t)grid, 1);
+    vr->dir = calloc((size_t)most, sizeof *vr->dir);
+    vr->centre = calloc((size_t)most, sizeof *vr->centre);
+    vr->key = calloc((size_t)most, sizeof *vr->key);
+    vr->planes = calloc((size_t)most, sizeof *vr->planes);
+    vr->count = calloc((size_t)most, sizeof *vr->count);
+    vr->first = calloc((size_t)most, sizeof *vr->first);
+    vr->dcount = calloc((size_t)most, sizeof *vr->dcount);
+    vr->doff = calloc((size_t)most, sizeof *vr->doff);
     uint8_t *texels = shading_texels(volume);
-    if (!texels) {
+    if (!vr->u || !vr->occ || !vr->used || !vr->dir || !vr->centre || !vr->key || !vr->planes ||
+        !vr->count || !vr->first || !vr->dcount || !vr->doff || !texels) {
+        free(texels);
         clear(vr);
         return ftm_gl_fail(err, "volume", "out of memory");
+    }
+    /* the rest box of the blocks with tissue (the whole box if none) */
+    int32_t bl[3] = {vr->nb[0], vr->nb[1], vr->nb[2]}, bh[3] = {-1, -1, -1};
+    for (int32_t k = 0; k < vr->nb[2]; k++)
+        for (int32_t j = 0; j < vr->nb[1]; j++)
+            for (int32_t i = 0; i < vr->nb[0]; i++)
+                if (vr->occ[i + (size_t)vr->nb[0] * (j + (size_t)vr->nb[1] * k)]) {
+                    const int32_t at[3] = {i, j, k};
+                    for (int a = 0; a < 3; a++) {
+                        bl[a] = at[a] < bl[a] ? at[a] : bl[a];
+                        bh[a] = at[a] > bh[a] ? at[a] : bh[a];
+                    }
+                }
+    for (int a = 0; a < 3; a++) {
+        bool none = bh[0] < 0;
+        vr->olo[a] = vr->lo[a] + (vr->hi[a] - vr->lo[a]) * (none ? 0 : bl[a]) / vr->nb[a];
+        vr->ohi[a] = vr->lo[a] + (vr->hi[a] - vr->lo[a]) * (none ? vr->nb[a] : bh[a] + 1) / vr->nb[a];
     }
     glGenTextures(1, &vr->tex);
     glBindTexture(GL_TEXTURE_3D, vr->tex);
@@ -472,14 +526,16 @@ static void locate(double t, int32_t n, int32_t *cell, double *f)
     *f = t - i;
 }
 
-/* The vertices of every slice perpendicular to axis a: the free-form
+/* The vertices of the drawn planes perpendicular to axis a: the free-form
  * deformation of each rest point (the trilinear blend of its cell's corner
- * displacements, as ftm_ffd_map), with the slices' centroids along a. */
-static int fill_axis(ftm_volume_render *vr, int a)
+ * displacements, as ftm_ffd_map) and the ray from the eye taken back to the
+ * rest space through the deformation's Jacobian there (J = I + du/dX; its
+ * adjugate gives J^-1 up to the factor det J > 0), with the planes'
+ * centroids along a. */
+static int fill_vertices(ftm_volume_render *vr, int a, const double eye[3])
 {
-    const slice_axis *x = &vr->ax[a];
     const int b = (a + 1) % 3, c = (a + 2) % 3;
-    size_t nvert = (size_t)x->ns * x->gb * x->gc;
+    size_t nvert = (size_t)vr->ns * vr->gb * vr->gc;
     if (nvert * VFLOATS > vr->verts_cap) {
         float *q = realloc(vr->verts, nvert * VFLOATS * sizeof *q);
         if (!q)
@@ -488,44 +544,67 @@ static int fill_axis(ftm_volume_render *vr, int a)
         vr->verts_cap = nvert * VFLOATS;
     }
     const int32_t *n = vr->n;
-    float *o = vr->verts;
-    for (int32_t s = 0; s < x->ns; s++) {
+    double cellsz[3];
+    for (int k = 0; k < 3; k++)
+        cellsz[k] = (vr->hi[k] - vr->lo[k]) / (n[k] - 1);
+    for (int32_t s = 0; s < vr->ns; s++) {
+        if (!vr->count[s])
+            continue;
+        float *o = vr->verts + (size_t)s * vr->gb * vr->gc * VFLOATS;
         double t[3], f[3], sum = 0;
         int32_t cell[3];
         t[a] = (double)s / SLICES_PER_CELL;
         locate(t[a], n[a], &cell[a], &f[a]);
-        for (int32_t qc = 0; qc < x->gc; qc++) {
+        for (int32_t qc = 0; qc < vr->gc; qc++) {
             t[c] = (double)qc / SUB;
             locate(t[c], n[c], &cell[c], &f[c]);
-            for (int32_t qb = 0; qb < x->gb; qb++, o += VFLOATS) {
+            for (int32_t qb = 0; qb < vr->gb; qb++, o += VFLOATS) {
                 t[b] = (double)qb / SUB;
                 locate(t[b], n[b], &cell[b], &f[b]);
-                double d[3] = {0, 0, 0};
+                double d[3] = {0, 0, 0}, J[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
                 for (int corner = 0; corner < 8; corner++) {
                     int32_t p[3];
-                    double w = 1;
+                    double w = 1, wd[3] = {1, 1, 1}; /* the weight, its derivatives */
                     for (int k = 0; k < 3; k++) {
                         int up = (corner >> k) & 1;
                         p[k] = cell[k] + up;
-                        w *= up ? f[k] : 1 - f[k];
+                        double wk = up ? f[k] : 1 - f[k], dk = (up ? 1.0 : -1.0) / cellsz[k];
+                        for (int m = 0; m < 3; m++)
+                            wd[m] *= m == k ? dk : wk;
+                        w *= wk;
                     }
-                    if (w == 0)
-                        continue;
                     const float *u = vr->u + 3 * (p[0] + (size_t)n[0] * (p[1] + (size_t)n[1] * p[2]));
-                    d[0] += w * u[0];
-                    d[1] += w * u[1];
-                    d[2] += w * u[2];
+                    for (int i = 0; i < 3; i++) {
+                        d[i] += w * u[i];
+                        for (int m = 0; m < 3; m++)
+                            J[i][m] += wd[m] * u[i];
+                    }
                 }
+                double pos[3];
                 for (int k = 0; k < 3; k++) {
                     double rest = vr->lo[k] + t[k] / (n[k] - 1) * (vr->hi[k] - vr->lo[k]);
-                    o[k] = (float)(rest + d[k]);
+                    pos[k] = rest + d[k];
+                    o[k] = (float)pos[k];
                     o[3 + k] = (float)((rest - vr->tlo[k]) / vr->tsz[k]);
                 }
                 o[6] = (float)sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                /* adj(J) (pos - eye) */
+                const double r[3] = {pos[0] - eye[0], pos[1] - eye[1], pos[2] - eye[2]};
+                double adj[3][3];
+                for (int i = 0; i < 3; i++)
+                    for (int m = 0; m < 3; m++) {
+                        int i1 = (m + 1) % 3, i2 = (m + 2) % 3, m1 = (i + 1) % 3, m2 = (i + 2) % 3;
+                        adj[i][m] = J[i1][m1] * J[i2][m2] - J[i1][m2] * J[i2][m1];
+                    }
+                double det = J[0][0] * adj[0][0] + J[0][1] * adj[1][0] + J[0][2] * adj[2][0];
+                for (int i = 0; i < 3; i++) {
+                    double v = adj[i][0] * r[0] + adj[i][1] * r[1] + adj[i][2] * r[2];
+                    o[7 + i] = (float)(det > 1e-6 ? v : r[i]); /* inverted or flat: the ray as is */
+                }
                 sum += o[a];
             }
         }
-        vr->centre[s] = sum / ((double)x->gb * x->gc);
+        vr->centre[s] = sum / ((double)vr->gb * vr->gc);
     }
     glBindBuffer(GL_ARRAY_BUFFER, vr->vbo);
     glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(nvert * VFLOATS * sizeof(float)), vr->verts,
@@ -533,33 +612,178 @@ static int fill_axis(ftm_volume_render *vr, int a)
     return 0;
 }
 
-/* The slices' framebuffer at fw x fh; false when it cannot be made. */
+/* The blocks along axis a that planes p0..p1 touch (a plane on a block's
+ * face touches both). */
+static void block_span(const ftm_volume_render *vr, int a, int32_t p0, int32_t p1, int32_t *k0,
+                       int32_t *k1)
+{
+    int32_t lo = p0 < p1 ? p0 : p1, hi = p0 < p1 ? p1 : p0;
+    *k0 = (lo * SUB - 1) / SLICES_PER_CELL; /* (floors toward 0: -1 / 10 is 0) */
+    *k1 = hi * SUB / SLICES_PER_CELL;
+    *k1 = *k1 > vr->nb[a] - 1 ? vr->nb[a] - 1 : *k1;
+}
+
+/* The quads of the drawn planes (vr->dir) and the face: a slice's quad is
+ * kept when a block of tissue lies within its slab (the step planes it
+ * samples, along a) and reach blocks aside (where its oblique rays go);
+ * the face's by its own plane. Marks the vertices used. */
+static int build_quads(ftm_volume_render *vr, int a, int step, int reach, int32_t face)
+{
+    const int b = (a + 1) % 3, c = (a + 2) % 3;
+    size_t need = 0;
+    for (int32_t s = 0; s < vr->ns; s++)
+        need += vr->dir[s] || s == face ? (size_t)(vr->gb - 1) * (vr->gc - 1) * 6 : 0;
+    if (need > vr->idx_cap) {
+        GLuint *q = realloc(vr->idx, need * sizeof *q);
+        if (!q)
+            return -1;
+        vr->idx = q;
+        vr->idx_cap = need;
+    }
+    memset(vr->used, 0, (size_t)vr->ns * vr->gb * vr->gc);
+    const size_t sx = 1, sy = (size_t)vr->nb[0], sz = (size_t)vr->nb[0] * vr->nb[1];
+    const size_t stride[3] = {sx, sy, sz};
+    size_t k = 0;
+    for (int32_t s = 0; s < vr->ns; s++) {
+        vr->first[s] = k;
+        vr->count[s] = 0;
+        if (!vr->dir[s] && s != face)
+            continue;
+        int32_t end = s == face && !vr->dir[s] ? s : s + vr->dir[s] * (step - 1);
+        end = end < 0 ? 0 : end > vr->ns - 1 ? vr->ns - 1 : end;
+        int32_t ka0, ka1;
+        block_span(vr, a, s, end, &ka0, &ka1);
+        int r = s == face && !vr->dir[s] ? 0 : reach;
+        GLuint base = (GLuint)((size_t)s * vr->gb * vr->gc);
+        for (int32_t qc = 0; qc + 1 < vr->gc; qc++)
+            for (int32_t qb = 0; qb + 1 < vr->gb; qb++) {
+                bool any = false;
+                for (int32_t kc = qc - r; kc <= qc + r && !any; kc++)
+                    for (int32_t kb = qb - r; kb <= qb + r && !any; kb++) {
+                        if (kb < 0 || kc < 0 || kb >= vr->nb[b] || kc >= vr->nb[c])
+                            continue;
+                        size_t at = (size_t)kb * stride[b] + (size_t)kc * stride[c];
+                        for (int32_t ka = ka0; ka <= ka1 && !any; ka++)
+                            any = vr->occ[at + (size_t)ka * stride[a]];
+                    }
+                if (!any)
+                    continue;
+                GLuint v00 = base + (GLuint)(qb + vr->gb * qc), v10 = v00 + 1;
+                GLuint v01 = v00 + (GLuint)vr->gb, v11 = v01 + 1;
+                const GLuint q[6] = {v00, v10, v11, v00, v11, v01};
+                memcpy(vr->idx + k, q, sizeof q);
+                k += 6;
+                vr->used[v00] = vr->used[v10] = vr->used[v01] = vr->used[v11] = 1;
+            }
+        vr->count[s] = (GLsizei)(k - vr->first[s]);
+    }
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, vr->ibo);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(k * sizeof *vr->idx), vr->idx,
+                 GL_STATIC_DRAW);
+    return 0;
+}
+
+/* The slices' framebuffer (colour) and the depth copy's, fw x fh; false
+ * when they cannot be made. */
 static bool framebuffer(ftm_volume_render *vr, int fw, int fh)
 {
     if (vr->fbo && vr->fw == fw && vr->fh == fh)
         return true;
     if (!vr->fbo) {
         glGenFramebuffers(1, &vr->fbo);
+        glGenFramebuffers(1, &vr->zfbo);
         glGenTextures(1, &vr->fbo_color);
-        glGenRenderbuffers(1, &vr->fbo_depth);
+        glGenTextures(1, &vr->fbo_depth);
     }
+    /* 16 bits: a slice of faint tissue adds less than 8 bits resolve */
     glBindTexture(GL_TEXTURE_2D, vr->fbo_color);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, fw, fh, 0, GL_RGBA, GL_UNSIGNED_BYTE, NULL);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16, fw, fh, 0, GL_RGBA, GL_UNSIGNED_SHORT, NULL);
     ftm_gl_texture_params(GL_TEXTURE_2D, GL_LINEAR);
-    glBindTexture(GL_TEXTURE_2D, 0);
-    glBindRenderbuffer(GL_RENDERBUFFER, vr->fbo_depth);
     /* the window's own depth format (GLFW's default), for the depth copy */
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH24_STENCIL8, fw, fh);
-    glBindRenderbuffer(GL_RENDERBUFFER, 0);
+    glBindTexture(GL_TEXTURE_2D, vr->fbo_depth);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH24_STENCIL8, fw, fh, 0, GL_DEPTH_STENCIL,
+                 GL_UNSIGNED_INT_24_8, NULL);
+    ftm_gl_texture_params(GL_TEXTURE_2D, GL_NEAREST);
+    glBindTexture(GL_TEXTURE_2D, 0);
     glBindFramebuffer(GL_FRAMEBUFFER, vr->fbo);
     glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, vr->fbo_color, 0);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_STENCIL_ATTACHMENT, GL_RENDERBUFFER,
-                              vr->fbo_depth);
     bool ok = glCheckFramebufferStatus(GL_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE;
+    glBindFramebuffer(GL_FRAMEBUFFER, vr->zfbo);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_STENCIL_ATTACHMENT, GL_TEXTURE_2D,
+                           vr->fbo_depth, 0);
+    ok = ok && glCheckFramebufferStatus(GL_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE;
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     vr->fw = ok ? fw : 0;
     vr->fh = ok ? fh : 0;
     return ok;
+}
+
+/* The window's pixels the drawn quads cover ([x0, x1) x [y0, y1)); the
+ * whole window when a vertex is behind the eye or not finite. False: none. */
+static bool screen_rect(const ftm_volume_render *vr, const float m[16], int w, int h, double r[4])
+{
+    r[0] = r[1] = INFINITY;
+    r[2] = r[3] = -INFINITY;
+    const size_t per = (size_t)vr->gb * vr->gc;
+    for (int32_t s = 0; s < vr->ns; s++) {
+        if (!vr->count[s])
+            continue;
+        for (size_t i = (size_t)s * per; i < (size_t)(s + 1) * per; i++) {
+            if (!vr->used[i])
+                continue;
+            const float *p = vr->verts + i * VFLOATS;
+            double cx = (double)m[0] * p[0] + (double)m[4] * p[1] + (double)m[8] * p[2] + m[12];
+            double cy = (double)m[1] * p[0] + (double)m[5] * p[1] + (double)m[9] * p[2] + m[13];
+            double cw = (double)m[3] * p[0] + (double)m[7] * p[1] + (double)m[11] * p[2] + m[15];
+            if (!(cw > 1e-9) || !isfinite(cx) || !isfinite(cy)) {
+                r[0] = r[1] = 0;
+                r[2] = w;
+                r[3] = h;
+                return true;
+            }
+            double px = (cx / cw * 0.5 + 0.5) * w, py = (cy / cw * 0.5 + 0.5) * h;
+            r[0] = fmin(r[0], px);
+            r[2] = fmax(r[2], px);
+            r[1] = fmin(r[1], py);
+            r[3] = fmax(r[3], py);
+        }
+    }
+    r[0] = fmax(r[0], 0.0);
+    r[1] = fmax(r[1], 0.0);
+    r[2] = fmin(r[2], (double)w);
+    r[3] = fmin(r[3], (double)h);
+    return r[2] > r[0] && r[3] > r[1];
+}
+
+/* Which planes to draw (vr->dir): every step-th from the first beyond the
+ * eye, away from it on both sides (each one's slice samples the step
+ * planes behind it); a cut-away keeps the middle plane and those beyond it
+ * from the eye, and draws the middle plane (*face; -1: none) as the
+ * section. Returns the first plane beyond the eye along +a (at rest). */
+static int32_t choose_planes(ftm_volume_render *vr, int a, const double e[3], bool cut, int step,
+                             int32_t *face)
+{
+    const double span = vr->hi[a] - vr->lo[a], mid = 0.5 * (vr->lo[a] + vr->hi[a]);
+    memset(vr->dir, 0, (size_t)vr->ns);
+    double at = floor((e[a] - vr->lo[a]) / span * (vr->ns - 1)) + 1;
+    int32_t up = at < 0 ? 0 : at > vr->ns ? vr->ns : (int32_t)at;
+    int32_t from_up = up, from_down = up - 1;
+    *face = -1;
+    if (cut) {
+        *face = (vr->ns - 1) / 2;
+        if (e[a] >= mid) {
+            from_up = vr->ns;
+            from_down = *face < from_down ? *face : from_down;
+        } else {
+            from_down = -1;
+            from_up = *face > from_up ? *face : from_up;
+        }
+    }
+    for (int32_t s = from_up; s < vr->ns; s += step)
+        vr->dir[s] = 1;
+    for (int32_t s = from_down; s >= 0; s -= step)
+        vr->dir[s] = -1;
+    return up;
 }
 
 void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3 eye, bool colormap,
@@ -569,112 +793,196 @@ void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3
         return;
     /* the lattice axis most aligned with the view of the box's centre */
     const double e[3] = {eye.x, eye.y, eye.z};
-    double dir[3], len = 0;
-    for (int k = 0; k < 3; k++) {
+    double dir[3];
+    for (int k = 0; k < 3; k++)
         dir[k] = 0.5 * (vr->lo[k] + vr->hi[k]) - e[k];
-        len += dir[k] * dir[k];
-    }
-    len = sqrt(len);
     int a = 0;
     for (int k = 1; k < 3; k++)
         if (fabs(dir[k]) > fabs(dir[a]))
             a = k;
-    if (vr->dirty || vr->built != a) {
-        if (fill_axis(vr, a)) {
-            vr->built = -1;
+    const int b = (a + 1) % 3, c = (a + 2) % 3;
+    if (step < 1 || step > SLICES_PER_CELL)
+        step = 1;
+    if (vr->built != a) {
+        vr->built = a;
+        vr->ns = (vr->n[a] - 1) * SLICES_PER_CELL + 1;
+        vr->gb = (vr->n[b] - 1) * SUB + 1;
+        vr->gc = (vr->n[c] - 1) * SUB + 1;
+        vr->quads_axis = -1;
+    }
+    const double spacing = (vr->hi[a] - vr->lo[a]) / (vr->ns - 1);
+    /* how far aside a slice's rays go in its slab: the most oblique ray to
+     * a corner of the tissue's box, at most 5 planes aside per plane deep
+     * (the shader's limit too), in blocks */
+    double slope = 0;
+    for (int corner = 0; corner < 8; corner++) {
+        double d[3];
+        for (int k = 0; k < 3; k++)
+            d[k] = ((corner >> k) & 1 ? vr->ohi[k] : vr->olo[k]) - e[k];
+        double side = hypot(d[b], d[c]), along = fabs(d[a]);
+        slope = fmax(slope, along > 0.2 * side ? side / along : 5.0);
+    }
+    double block = fmin((vr->hi[b] - vr->lo[b]) / vr->nb[b], (vr->hi[c] - vr->lo[c]) / vr->nb[c]);
+    int reach = (int)ceil((step - 1) * spacing * slope / block - 1e-9);
+    reach = reach < 0 ? 0 : reach > REACH_MAX ? REACH_MAX : reach;
+    int32_t face = -1;
+    int32_t up = choose_planes(vr, a, e, cut, step, &face);
+    glBindVertexArray(vr->vao);
+    if (vr->quads_axis != a || vr->quads_step != step || vr->quads_reach != reach ||
+        vr->quads_up != up || vr->quads_face != face) {
+        if (build_quads(vr, a, step, reach, face)) {
+            vr->quads_axis = -1;
+            glBindVertexArray(0);
             return;
         }
-        vr->built = a;
+        vr->quads_axis = a;
+        vr->quads_step = step;
+        vr->quads_reach = reach;
+        vr->quads_up = up;
+        vr->quads_face = face;
+        vr->dirty = true;
+    }
+    if (vr->dirty || memcmp(vr->verts_eye, e, sizeof e) != 0) {
+        if (fill_vertices(vr, a, e)) {
+            vr->quads_axis = -1;
+            glBindVertexArray(0);
+            return;
+        }
+        memcpy(vr->verts_eye, e, sizeof e);
         vr->dirty = false;
     }
-    const slice_axis *x = &vr->ax[a];
-    /* a divisor of the slices per cell, so that the node planes stay */
-    if (step != 2 && step != 5 && step != 10)
-        step = 1;
-    vr->slices = (x->ns - 1) / step + 1;
     /* back to front: slices farther from the eye along the axis first */
-    /* (insertion sort: the slices come nearly in order, one way or the other) */
-    for (int32_t s = 0; s < x->ns; s++) {
-        double k = vr->key[s] = fabs(vr->centre[s] - e[a]);
-        int32_t i = s;
-        for (; i > 0 && vr->key[vr->order[i - 1]] < k; i--)
-            vr->order[i] = vr->order[i - 1];
-        vr->order[i] = s;
-    }
     int32_t nd = 0;
-    const double mid = 0.5 * (vr->lo[a] + vr->hi[a]);
-    /* a cut-away's face, the middle slice, is drawn last and opaque: the
-     * section through the tissue, as a scan viewer shows it */
-    const int32_t face = cut ? (x->ns - 1) / 2 : -1;
-    for (int32_t i = 0; i < x->ns; i++) {
-        int32_t s = vr->order[i];
-        /* a cut-away keeps the middle slice and those beyond it (by the
-         * slice's place at rest, so that the cut stays with the tissue) */
-        const double at = vr->lo[a] + (vr->hi[a] - vr->lo[a]) * s / (x->ns - 1);
-        if (!x->count[s] || s == face || s % step != 0 ||
-            (cut && (at - mid) * (e[a] - mid) > 1e-9 * (vr->hi[a] - vr->lo[a])))
+    for (int32_t s = 0; s < vr->ns; s++) {
+        if (!vr->dir[s] || !vr->count[s])
             continue;
-        vr->dcount[nd] = x->count[s];
-        vr->doff[nd] = (const void *)(uintptr_t)(x->first[s] * sizeof(GLuint));
-        nd++;
+        double k = fabs(vr->centre[s] - e[a]);
+        int32_t j = nd++;
+        for (; j > 0 && vr->key[j - 1] < k; j--) {
+            vr->key[j] = vr->key[j - 1];
+            vr->planes[j] = vr->planes[j - 1];
+        }
+        vr->key[j] = k;
+        vr->planes[j] = s;
     }
-    /* the path through one slice, in voxels, along the view */
-    double path = step * (vr->hi[a] - vr->lo[a]) / (x->ns - 1) / vr->voxel[a];
-    double cosv = len > 0 ? fabs(dir[a]) / len : 1;
+    for (int32_t i = 0; i < nd; i++) {
+        int32_t s = vr->planes[i];
+        vr->dcount[i] = vr->count[s];
+        vr->doff[i] = (const void *)(uintptr_t)(vr->first[s] * sizeof(GLuint));
+    }
+    vr->slices = nd;
+    double box[4];
+    if (!screen_rect(vr, mvp, w, h, box)) {
+        glBindVertexArray(0);
+        return;
+    }
+    /* ds: PX_PER_VOXEL framebuffer pixels per voxel along the rectangle's
+     * diagonal, taken as the tissue's box's */
+    double vox = 0, diag = hypot(box[2] - box[0], box[3] - box[1]);
+    for (int k = 0; k < 3; k++) {
+        double nv = (vr->ohi[k] - vr->olo[k]) / vr->voxel[k];
+        vox += nv * nv;
+    }
+    int ds = (int)floor(diag / (sqrt(vox) * PX_PER_VOXEL));
+    ds = ds < DOWNSAMPLE_MIN ? DOWNSAMPLE_MIN : ds > DOWNSAMPLE_MAX ? DOWNSAMPLE_MAX : ds;
+    /* the rectangle on the framebuffer's pixel grid, a pixel of margin for
+     * the bilinear scaling; a pixel of the framebuffer per ds x ds of the
+     * window's: a viewport transform after mvp */
+    int rect[4];
+    rect[0] = (int)fmax(0.0, (floor(box[0] / ds) - 1) * ds);
+    rect[1] = (int)fmax(0.0, (floor(box[1] / ds) - 1) * ds);
+    rect[2] = (int)fmin((double)w, (ceil(box[2] / ds) + 1) * ds);
+    rect[3] = (int)fmin((double)h, (ceil(box[3] / ds) + 1) * ds);
+    int fw = (w + DOWNSAMPLE_MIN - 1) / DOWNSAMPLE_MIN, fh = (h + DOWNSAMPLE_MIN - 1) / DOWNSAMPLE_MIN;
+    int rw = (rect[2] - rect[0] + ds - 1) / ds, rh = (rect[3] - rect[1] + ds - 1) / ds;
+    bool low = framebuffer(vr, fw, fh) && rw <= fw && rh <= fh;
+    float m[16];
+    memcpy(m, mvp, sizeof m);
+    if (low) {
+        double sx = (double)w / (ds * rw), sy = (double)h / (ds * rh);
+        double tx = (double)(w - 2 * rect[0]) / (ds * rw) - 1;
+        double ty = (double)(h - 2 * rect[1]) / (ds * rh) - 1;
+        for (int col = 0; col < 4; col++) {
+            m[4 * col] = (float)(sx * mvp[4 * col] + tx * mvp[4 * col + 3]);
+            m[4 * col + 1] = (float)(sy * mvp[4 * col + 1] + ty * mvp[4 * col + 3]);
+        }
+    }
     glUseProgram(vr->prog);
-    glUniformMatrix4fv(vr->u_mvp, 1, GL_FALSE, mvp);
+    glUniformMatrix4fv(vr->u_mvp, 1, GL_FALSE, m);
     glUniform1f(vr->u_air, (float)AIR);
-    glUniform1f(vr->u_density, (float)(path / (cosv > 0.2 ? cosv : 0.2)));
     glUniform1i(vr->u_usemap, colormap ? 1 : 0);
     glUniform1f(vr->u_full, (float)(full > 0 ? full : 1e-3));
     glUniform3f(vr->u_eye, (float)eye.x, (float)eye.y, (float)eye.z);
+    glUniform1i(vr->u_planes, step);
+    glUniform3f(vr->u_axis, a == 0 ? 1.0f : 0.0f, a == 1 ? 1.0f : 0.0f, a == 2 ? 1.0f : 0.0f);
+    glUniform3f(vr->u_tscale, (float)(1 / vr->tsz[0]), (float)(1 / vr->tsz[1]),
+                (float)(1 / vr->tsz[2]));
+    glUniform3f(vr->u_voxels, (float)vr->nvox[0], (float)vr->nvox[1], (float)vr->nvox[2]);
+    glUniform1f(vr->u_spacing, (float)spacing);
+    /* the planes' texture coordinates along a, a hair wider for rounding */
+    double t0 = (vr->lo[a] - vr->tlo[a]) / vr->tsz[a], t1 = (vr->hi[a] - vr->tlo[a]) / vr->tsz[a];
+    double eps = 1e-4 * (t1 - t0);
+    glUniform2f(vr->u_trange, (float)(t0 - eps), (float)(t1 + eps));
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_3D, vr->tex);
     glUniform1i(vr->u_tex, 1);
-    int fw = (w + DOWNSAMPLE - 1) / DOWNSAMPLE, fh = (h + DOWNSAMPLE - 1) / DOWNSAMPLE;
-    bool low = framebuffer(vr, fw, fh);
+    glUniform1i(vr->u_depth, 2);
     glEnable(GL_BLEND);
+    glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA); /* premultiplied */
     if (low) {
         /* the opaque parts' depth, so that they hide what is behind them */
-        glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-        glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vr->fbo);
-        glClearColor(0, 0, 0, 0);
-        glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+        glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vr->zfbo);
+        glClearDepth(1.0);
+        glClear(GL_DEPTH_BUFFER_BIT);
         if (vr->depth_copy) {
-            glBlitFramebuffer(0, 0, w, h, 0, 0, fw, fh, GL_DEPTH_BUFFER_BIT, GL_NEAREST);
+            glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+            glBlitFramebuffer(rect[0], rect[1], rect[0] + ds * rw, rect[1] + ds * rh, 0, 0, rw, rh,
+                              GL_DEPTH_BUFFER_BIT, GL_NEAREST);
             if (glGetError() != GL_NO_ERROR) /* another depth format, multisampling */
                 vr->depth_copy = false;
         }
         glBindFramebuffer(GL_FRAMEBUFFER, vr->fbo);
-        glViewport(0, 0, fw, fh);
-        /* colour premultiplied, alpha accumulated: blended over the window below */
-        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+        glViewport(0, 0, rw, rh);
+        glClearColor(0, 0, 0, 0);
+        glClear(GL_COLOR_BUFFER_BIT);
+        glDisable(GL_DEPTH_TEST); /* the shader tests each sample */
+        glActiveTexture(GL_TEXTURE2);
+        glBindTexture(GL_TEXTURE_2D, vr->fbo_depth);
+        glActiveTexture(GL_TEXTURE1);
+        glUniform1i(vr->u_usedepth, vr->depth_copy ? 1 : 0);
     } else {
-        glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+        glUniform1i(vr->u_usedepth, 0); /* the window's depth test, per slice */
     }
     glDepthMask(GL_FALSE);
-    glBindVertexArray(vr->vao);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, x->ibo);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, vr->ibo);
     glUniform1i(vr->u_section, 0);
     if (nd)
         glMultiDrawElements(GL_TRIANGLES, vr->dcount, GL_UNSIGNED_INT, vr->doff, nd);
-    if (face >= 0 && x->count[face]) {
+    /* a cut-away's face, the middle plane, last and opaque: the section
+     * through the tissue, as a scan viewer shows it */
+    if (face >= 0 && vr->count[face]) {
         glUniform1i(vr->u_section, 1);
-        glDrawElements(GL_TRIANGLES, x->count[face], GL_UNSIGNED_INT,
-                       (const void *)(uintptr_t)(x->first[face] * sizeof(GLuint)));
+        glDrawElements(GL_TRIANGLES, vr->count[face], GL_UNSIGNED_INT,
+                       (const void *)(uintptr_t)(vr->first[face] * sizeof(GLuint)));
     }
     glDepthMask(GL_TRUE);
     if (low) {
         glBindFramebuffer(GL_FRAMEBUFFER, 0);
         glViewport(0, 0, w, h);
-        glDisable(GL_DEPTH_TEST);
-        glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+        glEnable(GL_SCISSOR_TEST);
+        glScissor(rect[0], rect[1], rect[2] - rect[0], rect[3] - rect[1]);
         glUseProgram(vr->comp);
         glBindTexture(GL_TEXTURE_2D, vr->fbo_color); /* (unit 1) */
         glUniform1i(vr->comp_tex, 1);
+        glUniform2f(vr->comp_origin, (float)rect[0], (float)rect[1]);
+        glUniform2f(vr->comp_scale, 1.0f / (float)(ds * fw), 1.0f / (float)(ds * fh));
         glBindVertexArray(vr->comp_vao);
         glDrawArrays(GL_TRIANGLES, 0, 3);
         glBindTexture(GL_TEXTURE_2D, 0);
+        glActiveTexture(GL_TEXTURE2);
+        glBindTexture(GL_TEXTURE_2D, 0);
+        glActiveTexture(GL_TEXTURE1);
+        glDisable(GL_SCISSOR_TEST);
         glEnable(GL_DEPTH_TEST);
     }
     glBindVertexArray(0);

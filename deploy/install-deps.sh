@@ -21,6 +21,7 @@ packages=(
   gnuplot-nox                                     # benchmark plots in docs/
   libsuitesparse-dev                              # FEM reference (CHOLMOD)
   calculix-ccx                                    # CalculiX: re-runs the FEM references (tests/calculix)
+  libbullet-dev                                   # ftm bench peers: Bullet's soft body (optional)
   cyclonedds-dev cyclonedds-tools                 # DDS transport, idlc, ddsperf
   libddsc0debian                                  # DDS Security plugins (--security)
   openssl libssl-dev                              # deploy/ftm-security; bundle checks in ftm_wire

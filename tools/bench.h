@@ -13,6 +13,7 @@
 int ftm_bench_table3(int argc, char **argv);
 int ftm_bench_accuracy(int argc, char **argv); /* only with FTM_HAVE_FEM */
 int ftm_bench_feel(int argc, char **argv);     /* only with FTM_HAVE_FEM */
+int ftm_bench_peers(int argc, char **argv);    /* against Bullet when FTM_HAVE_BULLET */
 
 /* `ftm bench accuracy --speed` (bench_speed.c): the step of every force
  * model on one body, alternating in one run. */

@@ -26,6 +26,7 @@
  * bodies the floor, so both are overdamped, docs/accuracy.md) and half their
  * critical step. */
 #include "bench.h"
+#include "bench_bodies.h"
 #include "commands.h"
 
 #include "ftm/fem.h"
@@ -37,15 +38,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define YOUNG 0.6e6     /* elastin, docs/scenes/elastin-cube.scene */
-#define POISSON 0.45
-#define DENSITY 1040.0  /* paper Tables 1-2 */
-/* The uniform spring stiffness `ftm fit elastin-cube` identified (docs/fit.md:
- * 2615.8 N/m for the 18-neighbour lattice of spacing 0.1/9 m, E = 0.6 MPa).
- * A lattice's effective modulus is k / spacing, so other spacings (the organ)
- * get k = FIT_K_PER_ES * E * spacing. */
-#define FIT_K 2615.8
-#define FIT_K_PER_ES (FIT_K / (YOUNG * (0.1 / 9.0)))
+#define YOUNG FTM_BENCH_YOUNG
+#define POISSON FTM_BENCH_POISSON
+#define DENSITY FTM_BENCH_DENSITY
+#define FIT_K FTM_BENCH_FIT_K
+#define FIT_K_PER_ES FTM_BENCH_FIT_K_PER_ES
 #define TIGHT 1e-12     /* final equilibrium: motion per step / mean link length */
 
 typedef struct body {
@@ -96,165 +93,6 @@ typedef struct options {
 
 /* ------------------------------------------------------------ bodies */
 
-/* The elastin cube of docs/scenes/elastin-cube.scene: 10x10x10 nodes, 0.1 m,
- * 18-neighbour springs, bottom clamped, 10 N down on the top face's four
- * central nodes. */
-static int cube_geometry(ftm_mesh_builder *b, int32_t *loads, ftm_vec3 *load_force, int *nloads,
-                         double *spacing, ftm_error *err)
-{
-    ftm_lattice3d_def ld = ftm_default_lattice3d_def();
-    ld.nx = ld.ny = ld.nz = 10;
-    double s = 0.1 / 9.0;
-    ld.spacing = (ftm_vec3){s, s, s};
-    ld.stencil = FTM_STENCIL_18;
-    ld.material.node_mass = 1e-3;
-    ld.material.stiffness = 1.0;
-    ld.fixed_faces = FTM_FACE_ZMIN;
-    int rc = ftm_generate_lattice3d(b, &ld, err);
-    if (rc)
-        return rc;
-    static const int32_t top[4] = {944, 945, 954, 955};
-    for (int i = 0; i < 4; i++) {
-        loads[i] = top[i];
-        load_force[i] = (ftm_vec3){0, 0, -2.5};
-    }
-    *nloads = 4;
-    *spacing = s;
-    return FTM_OK;
-}
-
-/* Kidney-shaped organ: the cells of a cubic lattice (spacing s) inside an
- * ellipsoid of semi-axes 55 x 30 x 25 mm with a notch on its +y side (the
- * hilum: a sphere of radius 16.5 mm centred 33 mm from the middle). Nodes
- * within 1.5 s of the notch's sphere are clamped (the vessels hold the
- * organ); a probe presses the middle of the convex -y side with 1 N, spread
- * over the five surface nodes nearest to it. Springs on the hexahedra's
- * edges and face diagonals (the 18-neighbour stencil). */
-#define KID_A 0.055
-#define KID_B 0.030
-#define KID_C 0.025
-#define KID_S 0.0025
-
-static bool kidney_inside(double x, double y, double z)
-{
-    double e = (x / KID_A) * (x / KID_A) + (y / KID_B) * (y / KID_B) + (z / KID_C) * (z / KID_C);
-    double hy = y - 1.1 * KID_B, r = 0.55 * KID_B;
-    return e <= 1.0 && x * x + hy * hy + z * z > r * r;
-}
-
-static int organ_geometry(ftm_mesh_builder *b, int32_t *loads, ftm_vec3 *load_force, int *nloads,
-                          double *spacing, ftm_error *err)
-{
-    const double s = KID_S;
-    const int nx = (int)(2 * KID_A / s) + 3, ny = (int)(2 * KID_B / s) + 3,
-              nz = (int)(2 * KID_C / s) + 3;
-    const double x0 = -0.5 * (nx - 1) * s, y0 = -0.5 * (ny - 1) * s, z0 = -0.5 * (nz - 1) * s;
-    size_t np = (size_t)nx * ny * nz;
-    int32_t *id = malloc(np * sizeof *id);
-    uint8_t *in = calloc(np, 1), *used = calloc(np, 1);
-    if (!id || !in || !used) {
-        free(id);
-        free(in);
-        free(used);
-        snprintf(err->message, sizeof err->message, "organ: out of memory");
-        return FTM_ENOMEM;
-    }
-#define IDX(i, j, k) ((size_t)(i) + (size_t)nx * ((size_t)(j) + (size_t)ny * (size_t)(k)))
-    for (int k = 0; k < nz; k++)
-        for (int j = 0; j < ny; j++)
-            for (int i = 0; i < nx; i++)
-                in[IDX(i, j, k)] = kidney_inside(x0 + i * s, y0 + j * s, z0 + k * s);
-    static const int corner[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
-                                     {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
-    for (int k = 0; k + 1 < nz; k++) /* a cell is kept when all its corners are inside */
-        for (int j = 0; j + 1 < ny; j++)
-            for (int i = 0; i + 1 < nx; i++) {
-                bool all = true;
-                for (int c = 0; c < 8 && all; c++)
-                    all = in[IDX(i + corner[c][0], j + corner[c][1], k + corner[c][2])];
-                if (all)
-                    for (int c = 0; c < 8; c++)
-                        used[IDX(i + corner[c][0], j + corner[c][1], k + corner[c][2])] = 1;
-            }
-    int rc = FTM_OK;
-    const double hy = 1.1 * KID_B, hr = 0.55 * KID_B + 1.5 * s;
-    for (size_t p = 0; p < np && rc >= 0; p++) {
-        id[p] = -1;
-        if (!used[p])
-            continue;
-        int i = (int)(p % (size_t)nx), j = (int)(p / (size_t)nx % (size_t)ny),
-            k = (int)(p / ((size_t)nx * (size_t)ny));
-        ftm_node_def nd = ftm_default_node_def();
-        nd.position = (ftm_vec3){x0 + i * s, y0 + j * s, z0 + k * s};
-        nd.mass = 1e-3;
-        double dy = nd.position.y - hy;
-        nd.fixed = nd.position.x * nd.position.x + dy * dy + nd.position.z * nd.position.z <= hr * hr;
-        rc = id[p] = ftm_mesh_builder_add_node(b, &nd);
-    }
-    /* hexahedra, their 12 edges and 12 face diagonals */
-    static const int pairs[24][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6}, {6, 7}, {7, 4},
-                                     {0, 4}, {1, 5}, {2, 6}, {3, 7}, {0, 2}, {1, 3}, {4, 6}, {5, 7},
-                                     {0, 5}, {1, 4}, {1, 6}, {2, 5}, {2, 7}, {3, 6}, {3, 4}, {0, 7}};
-    for (int k = 0; rc >= 0 && k + 1 < nz; k++)
-        for (int j = 0; rc >= 0 && j + 1 < ny; j++)
-            for (int i = 0; rc >= 0 && i + 1 < nx; i++) {
-                int32_t v[8];
-                bool all = true;
-                for (int c = 0; c < 8 && all; c++) {
-                    size_t p = IDX(i + corner[c][0], j + corner[c][1], k + corner[c][2]);
-                    all = in[p];
-                    v[c] = id[p];
-                }
-                if (!all)
-                    continue;
-                rc = ftm_mesh_builder_add_hexahedron(b, v);
-                for (int e = 0; rc >= 0 && e < 24; e++) {
-                    ftm_link_def l = ftm_default_link_def();
-                    l.a = v[pairs[e][0]];
-                    l.b = v[pairs[e][1]];
-                    l.stiffness = 1.0;
-                    rc = ftm_mesh_builder_add_link(b, &l);
-                }
-            }
-    /* the probe: the five nodes nearest to the middle of the -y side */
-    double best[5] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY};
-    int32_t who[5] = {-1, -1, -1, -1, -1};
-    for (size_t p = 0; p < np; p++) {
-        if (id[p] < 0)
-            continue;
-        int i = (int)(p % (size_t)nx), j = (int)(p / (size_t)nx % (size_t)ny),
-            k = (int)(p / ((size_t)nx * (size_t)ny));
-        double dx = x0 + i * s, dy = y0 + j * s + KID_B, dz = z0 + k * s;
-        double d2 = dx * dx + dy * dy + dz * dz;
-        for (int q = 0; q < 5; q++)
-            if (d2 < best[q]) { /* insertion: ties keep the lower index */
-                for (int t = 4; t > q; t--) {
-                    best[t] = best[t - 1];
-                    who[t] = who[t - 1];
-                }
-                best[q] = d2;
-                who[q] = id[p];
-                break;
-            }
-    }
-#undef IDX
-    free(id);
-    free(in);
-    free(used);
-    if (rc < 0) {
-        snprintf(err->message, sizeof err->message, "organ: building the mesh: %s",
-                 ftm_strerror(rc));
-        return rc;
-    }
-    for (int q = 0; q < 5; q++) {
-        loads[q] = who[q];
-        load_force[q] = (ftm_vec3){0, 1.0 / 5, 0};
-    }
-    *nloads = 5;
-    *spacing = s;
-    return FTM_OK;
-}
-
 static void body_free(body *b)
 {
     ftm_mesh_destroy(b->mesh);
@@ -264,50 +102,17 @@ static void body_free(body *b)
     memset(b, 0, sizeof *b);
 }
 
-/* The mesh of the runs: g's nodes in g's (already local) order, not
- * renumbered again, so indices stay valid; masses, damping 2 zeta m and the
- * springs' stiffness k. */
-static int final_mesh(const ftm_mesh *g, const double *mass, double k, double zeta,
-                      ftm_mesh **out, ftm_error *err)
-{
-    ftm_mesh_builder *b = ftm_mesh_builder_create();
-    int32_t n = ftm_mesh_node_count(g);
-    int rc = b ? FTM_OK : FTM_ENOMEM;
-    for (int32_t i = 0; i < n && rc >= 0; i++) {
-        ftm_node_def nd = ftm_default_node_def();
-        nd.position = ftm_mesh_rest_position(g, i);
-        nd.mass = mass[i];
-        nd.damping = 2.0 * zeta * mass[i];
-        nd.fixed = ftm_mesh_fixed(g, i);
-        rc = ftm_mesh_builder_add_node(b, &nd);
-    }
-    for (int32_t l = 0; l < ftm_mesh_link_count(g) && rc >= 0; l++) {
-        ftm_link_def ld;
-        ftm_mesh_link(g, l, &ld.a, &ld.b, &ld.stiffness, &ld.rest_length);
-        ld.stiffness = k;
-        rc = ftm_mesh_builder_add_link(b, &ld);
-    }
-    for (int32_t e = 0; e < ftm_mesh_hexahedron_count(g) && rc >= 0; e++)
-        rc = ftm_mesh_builder_add_hexahedron(b, ftm_mesh_hexahedra(g) + 8 * e);
-    ftm_mesh_build_def bdef = ftm_default_mesh_build_def();
-    bdef.reorder = false;
-    if (rc >= 0)
-        rc = ftm_mesh_build(b, &bdef, out, err);
-    ftm_mesh_builder_destroy(b);
-    return rc < 0 ? rc : FTM_OK;
-}
-
 /* Geometry -> FEM reference, lumped masses, w1, damping -> the final mesh. */
 static int body_make(body *bd, const char *name, bool organ, ftm_error *err)
 {
     memset(bd, 0, sizeof *bd);
     snprintf(bd->name, sizeof bd->name, "%s", name);
     ftm_mesh_builder *b = ftm_mesh_builder_create();
-    int32_t loads[8];
-    ftm_vec3 lf[8];
+    int32_t loads[FTM_BENCH_MAX_LOADS];
+    ftm_vec3 lf[FTM_BENCH_MAX_LOADS];
     int nl = 0;
-    int rc = organ ? organ_geometry(b, loads, lf, &nl, &bd->spacing, err)
-                   : cube_geometry(b, loads, lf, &nl, &bd->spacing, err);
+    int rc = organ ? ftm_bench_organ_geometry(b, loads, lf, &nl, &bd->spacing, err)
+                   : ftm_bench_cube_geometry(b, 10, loads, lf, &nl, &bd->spacing, err);
     ftm_mesh *g = NULL;
     if (!rc)
         rc = ftm_mesh_build(b, NULL, &g, err);
@@ -414,25 +219,15 @@ static int body_make(body *bd, const char *name, bool organ, ftm_error *err)
      * what the layer-by-layer update needs at half the critical step
      * (d/2m >= 0.055 lambda h = 0.11 / h_crit, docs/core.md "damping is
      * required"), for springs and element forces alike. */
-    rc = final_mesh(g, mass, bd->k, 0.0, &bd->mesh, err);
-    double hc_s = 0, hc_f = 0;
-    if (!rc) {
-        ftm_sim *probe = NULL;
-        ftm_sim_def d = ftm_default_sim_def();
-        d.forces = FTM_FORCES_LINEAR_FEM;
-        d.young = YOUNG;
-        d.poisson = POISSON;
-        hc_s = ftm_mesh_critical_time_step(bd->mesh);
-        rc = ftm_sim_create(bd->mesh, &d, &probe, err);
-        if (!rc)
-            hc_f = ftm_sim_critical_time_step(probe);
-        ftm_sim_destroy(probe);
-        ftm_mesh_destroy(bd->mesh);
-        bd->mesh = NULL;
-    }
-    bd->zeta = fmax(bd->w1, 0.11 / fmin(hc_s, hc_f));
+    double floor_zeta = 0;
+    rc = ftm_bench_final_mesh(g, mass, bd->k, 0.0, &bd->mesh, err);
     if (!rc)
-        rc = final_mesh(g, mass, bd->k, bd->zeta, &bd->mesh, err);
+        rc = ftm_bench_damping_floor(bd->mesh, &floor_zeta, err);
+    ftm_mesh_destroy(bd->mesh);
+    bd->mesh = NULL;
+    bd->zeta = fmax(bd->w1, floor_zeta);
+    if (!rc)
+        rc = ftm_bench_final_mesh(g, mass, bd->k, bd->zeta, &bd->mesh, err);
     free(mass);
     ftm_mesh_destroy(g);
     if (rc)

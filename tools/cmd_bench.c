@@ -16,6 +16,7 @@ static const struct {
     const char *what;
 } benches[] = {
     {"table3", ftm_bench_table3, "paper Table 3: 50x50 2D lattice, step and search time per depth"},
+    {"peers", ftm_bench_peers, "FTM against Bullet's soft body: the same bodies, step time"},
 #ifdef FTM_HAVE_NET
     {"net", ftm_bench_net, "a loopback DDS session: tick rate, bytes per tick, latency vs ddsperf"},
 #endif

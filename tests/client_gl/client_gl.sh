@@ -19,10 +19,12 @@
 #   volume: the built-in `head` scene (a head phantom embedded in a 10x10x10
 #       control lattice, paper 4.2): the client draws the volume (the middle
 #       of the view drawn, the corners background; unlike its --no-volume
-#       surface), and once a scripted trainee (head.bot) has pressed the top
-#       for 200 ticks, the pixels around the contact changed; cut away
-#       (--cut, key x) it shows something other than the whole volume, and
-#       its node planes alone (--volume-step 10, key n) are drawn.
+#       surface); drawn with a slice per plane (--volume-step 1) and a slice
+#       per 10 planes (key n), the picture is the default's (no banding);
+#       once a scripted trainee (head.bot) has pressed the top for 200
+#       ticks, the pixels around the contact changed, and a slice per plane
+#       draws the dent as the default does; cut away (--cut, key x) it shows
+#       something other than the whole volume.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
 set -u
 mode=${1:?mode}
@@ -223,6 +225,17 @@ volume)
     "$FTM_PNG_CHECK" drawn "$dir/before.png" $cx $cy 60 || fail "png check: volume not drawn"
     "$FTM_PNG_CHECK" compare "$dir/surface.png" "$dir/before.png" $cx $cy 60 ||
         fail "png check: the volume looks like the surface"
+    # a slice per plane (--volume-step 1, the paper's drawing) and a slice per
+    # 10 planes (key n): each slice samples the planes it stands for, so the
+    # picture is the default's (5), with no banding
+    client all --volume-step 1 --screenshot "$dir/all.png" --screenshot-timeout 40 ||
+        fail "client (--volume-step 1) exited with $?"
+    "$FTM_PNG_CHECK" similar "$dir/all.png" "$dir/before.png" $cx $cy 60 6 ||
+        fail "png check: the default slices do not draw what all planes draw"
+    client coarse --volume-step 10 --screenshot "$dir/coarse.png" --screenshot-timeout 40 ||
+        fail "client (--volume-step 10) exited with $?"
+    "$FTM_PNG_CHECK" similar "$dir/all.png" "$dir/coarse.png" $cx $cy 60 6 ||
+        fail "png check: a slice per 10 planes does not draw what all planes draw"
     timeout 100 "$FTM_BOT" --role trainee --script "$FTM_DATA/head.bot" $common --id 11 \
         --duration 80 >"$dir/bot.out" 2>"$dir/bot.err" &
     client after --screenshot "$dir/after.png" --screenshot-contact 200 --screenshot-timeout 60 ||
@@ -231,17 +244,17 @@ volume)
     [ $# -eq 2 ] || fail "no contact pixel in the client's screenshot line"
     "$FTM_PNG_CHECK" compare "$dir/before.png" "$dir/after.png" "$1" "$2" 40 ||
         fail "png check: the volume did not change at the contact"
+    # deformed too (the slices sample through the deformation's Jacobian)
+    client afterall --volume-step 1 --screenshot "$dir/afterall.png" --screenshot-contact 200 \
+        --screenshot-timeout 60 || fail "client (deformed, --volume-step 1) exited with $?"
+    "$FTM_PNG_CHECK" similar "$dir/afterall.png" "$dir/after.png" "$1" "$2" 60 6 ||
+        fail "png check: the default slices do not draw the dent as all planes do"
     # the cut-away (key x): the section through the middle, not the outside
     client cut --cut --screenshot "$dir/cut.png" --screenshot-contact 200 \
         --screenshot-timeout 60 || fail "client (cut away) exited with $?"
     "$FTM_PNG_CHECK" drawn "$dir/cut.png" $cx $cy 60 || fail "png check: cut-away not drawn"
     "$FTM_PNG_CHECK" compare "$dir/after.png" "$dir/cut.png" $cx $cy 60 ||
         fail "png check: the cut-away looks like the whole volume"
-    # every 10th slice only (the node planes, --volume-step 10, key n): still drawn
-    client coarse --volume-step 10 --screenshot "$dir/coarse.png" --screenshot-timeout 40 ||
-        fail "client (--volume-step 10) exited with $?"
-    "$FTM_PNG_CHECK" drawn "$dir/coarse.png" $cx $cy 60 ||
-        fail "png check: the volume's node planes not drawn"
     [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
     echo "PASS volume: $(cat "$dir/after.out")"
     ;;

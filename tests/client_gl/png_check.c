@@ -13,6 +13,11 @@
  *       at least 90% of the pixels within R of it differ from the
  *       background (the colour of the bottom corners, which must agree), and
  *       the image's corners below its top quarter are background.
+ *   client-png-check similar A.png B.png X Y R M
+ *       the two pictures of one scene agree within R pixels of (X, Y): their
+ *       mean difference is at most M per channel (0..255), and at most 2% of
+ *       the pixels differ by more than 4 M (mean over R, G, B). A volume
+ *       drawn with fewer slices against all of them: banding fails it.
  * Exit 0 pass, 1 fail (with the reason), 2 usage or unreadable file. */
 #include <math.h>
 #include <png.h>
@@ -166,6 +171,54 @@ static int compare(const char *pa, const char *pb, int cx, int cy, int r)
     return rc;
 }
 
+static int similar(const char *pa, const char *pb, int cx, int cy, int r, double m)
+{
+    image a, b;
+    if (load(pa, &a))
+        return 2;
+    if (load(pb, &b)) {
+        free(a.rgb);
+        return 2;
+    }
+    int rc = 1;
+    if (not_blank(pa, &a, 20) || not_blank(pb, &b, 20))
+        goto out;
+    if (a.w != b.w || a.h != b.h) {
+        printf("FAIL: sizes differ: %dx%d and %dx%d\n", a.w, a.h, b.w, b.h);
+        goto out;
+    }
+    double sum = 0;
+    long n = 0, off = 0;
+    for (int y = cy - r; y <= cy + r; y++)
+        for (int x = cx - r; x <= cx + r; x++) {
+            long dx = x - cx, dy = y - cy;
+            if (x < 0 || y < 0 || x >= a.w || y >= a.h || dx * dx + dy * dy > (long)r * r)
+                continue;
+            const unsigned char *p = a.rgb + ((size_t)y * a.w + x) * 3;
+            const unsigned char *q = b.rgb + ((size_t)y * a.w + x) * 3;
+            double d = (abs(p[0] - q[0]) + abs(p[1] - q[1]) + abs(p[2] - q[2])) / 3.0;
+            sum += d;
+            off += d > 4 * m;
+            n++;
+        }
+    if (!n) {
+        printf("FAIL: (%d, %d) radius %d outside the image\n", cx, cy, r);
+        goto out;
+    }
+    printf("within %d of (%d, %d): mean difference %.2f per channel, %.2f%% of pixels by more "
+           "than %g\n", r, cx, cy, sum / n, 100.0 * off / n, 4 * m);
+    if (sum / n > m || off > n / 50)
+        printf("FAIL: the pictures differ\n");
+    else {
+        printf("PASS\n");
+        rc = 0;
+    }
+out:
+    free(a.rgb);
+    free(b.rgb);
+    return rc;
+}
+
 static int banner(const char *path)
 {
     image a;
@@ -254,8 +307,12 @@ int main(int argc, char **argv)
         return banner(argv[2]);
     if (argc == 6 && strcmp(argv[1], "drawn") == 0)
         return drawn(argv[2], atoi(argv[3]), atoi(argv[4]), atoi(argv[5]));
+    if (argc == 8 && strcmp(argv[1], "similar") == 0)
+        return similar(argv[2], argv[3], atoi(argv[4]), atoi(argv[5]), atoi(argv[6]),
+                       atof(argv[7]));
     fprintf(stderr, "usage: client-png-check compare BEFORE.png AFTER.png X Y R\n"
                     "       client-png-check banner IMAGE.png\n"
-                    "       client-png-check drawn IMAGE.png X Y R\n");
+                    "       client-png-check drawn IMAGE.png X Y R\n"
+                    "       client-png-check similar A.png B.png X Y R M\n");
     return 2;
 }
