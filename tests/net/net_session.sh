@@ -37,9 +37,13 @@ config=$FTM_CONFIG
 common="--session $session --domain $domain --config $config"
 # reaction profile vs offline, beyond the timing window, as fractions of the
 # peak: for 95 % of the ticks in contact, and for every one (a scheduling
-# stall of a loaded host, longer than the window, shows in a few ticks only)
+# stall of a loaded host, longer than the window, shows in a few ticks only).
+# At a sanitizer build's 50 Hz a tick is 20 ms: trainee 12, pressing where
+# trainee 11's dent reaches, feels the other's timing too, and one tick of
+# 0.16..0.24 of the peak outside the window was seen on two busy cores while
+# the 95th percentile stayed 0: the bound for every tick is 0.3 there.
 PROFILE_TOL=${PROFILE_TOL:-0.02}
-PROFILE_MAX_TOL=${PROFILE_MAX_TOL:-0.15}
+if [ "$rate" -ge 100 ]; then PROFILE_MAX_TOL=${PROFILE_MAX_TOL:-0.15}; else PROFILE_MAX_TOL=${PROFILE_MAX_TOL:-0.3}; fi
 fail() { echo "FAIL: $*"; for f in "$dir"/*.out "$dir"/*.err; do echo "== $f"; tail -n 25 "$f"; done; exit 1; }
 
 timeout 30 "$FTM_SERVER" --scene default $common --rate $rate --duration $duration \
