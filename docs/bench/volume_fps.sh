@@ -30,7 +30,7 @@ until grep -q "session '$session'" "$dir/server.log" 2>/dev/null; do sleep 0.05;
 # head.bot holds its press until 120 s: loop it for a longer benchmark
 awk -v T="$total" 'NF && $1 !~ /^#/ { last = $0 } { print } END { split(last, f);
     printf("%d %s %s %s\n", T + 10, f[2], f[3], f[4]) }' tests/client_gl/head.bot >"$dir/head.bot"
-"$B/client/ftm-bot" --role trainee --script "$dir/head.bot" $common --id 11 \
+"$B/bot/ftm-bot" --role trainee --script "$dir/head.bot" $common --id 11 \
     --duration "$total" >/dev/null 2>"$dir/bot.err" &
 bot=$!
 sleep 5
