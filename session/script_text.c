@@ -1,9 +1,9 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The ftm-bot script format: one parser for every reader (script_text.h).
- * Lines, tokens and numbers come from libftm's text reader (common/src/text.h),
+ * Lines, tokens and numbers come from libftm's text reader (ftm/internal/text.h),
  * the one the scene and mesh parsers use. */
 #include "script_text.h"
-#include "text.h"
+#include "ftm/internal/text.h"
 
 #include <ctype.h>
 #include <math.h>

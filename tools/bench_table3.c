@@ -19,7 +19,7 @@
 #include "commands.h"
 
 #include "ftm/ftm.h"
-#include "layers.h"
+#include "ftm/internal/layers.h"
 
 #include <errno.h>
 #include <math.h>

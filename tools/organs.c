@@ -15,7 +15,7 @@
  * goes to the rings whose perimeter has the most room. */
 #include "organs.h"
 
-#include "load_internal.h" /* ftm_load_commit: the OBJ loader's rules for springs */
+#include "ftm/internal/load.h" /* ftm_load_commit: the OBJ loader's rules for springs */
 
 #include <math.h>
 #include <stdlib.h>

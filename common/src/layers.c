@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
-#include "layers.h"
+#include "ftm/internal/layers.h"
+#include "mesh_internal.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -9,7 +9,7 @@
 
 #include "error.h"
 #include "material.h"
-#include "text.h"
+#include "ftm/internal/text.h"
 
 #include <math.h>
 #include <stdio.h>

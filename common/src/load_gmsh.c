@@ -10,7 +10,7 @@
 #include "load_internal.h"
 
 #include "error.h"
-#include "text.h"
+#include "ftm/internal/text.h"
 
 #include <stdio.h>
 #include <stdlib.h>

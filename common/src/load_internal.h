@@ -6,7 +6,7 @@
 #ifndef FTM_SRC_LOAD_INTERNAL_H
 #define FTM_SRC_LOAD_INTERNAL_H
 
-#include "ftm/load.h"
+#include "ftm/internal/load.h"
 
 /* Checked before any file is read, so a bad material is reported as such. */
 int ftm_load_check_args(const ftm_mesh_builder *builder, const char *path,
@@ -15,12 +15,7 @@ int ftm_load_check_args(const ftm_mesh_builder *builder, const char *path,
 int ftm_load_read_file(const char *path, char **data, size_t *length, ftm_error *err);
 /* Grows array to hold needed elements (amortised doubling); NULL on failure. */
 void *ftm_load_grow(void *array, size_t *capacity, size_t needed, size_t elem_size);
-/* Adds parsed nodes (3 doubles each), triangles and tetrahedra to the
- * builder, with one spring per distinct edge (triangle edges only if
- * tri_edges). */
-int ftm_load_commit(ftm_mesh_builder *builder, const char *path, const ftm_material_def *material,
-                    const double *pos, size_t node_count, const int32_t *tris, size_t tri_count,
-                    bool tri_edges, const int32_t *tets, size_t tet_count, ftm_error *err);
+/* ftm_load_commit: ftm/internal/load.h */
 
 /* Finds a tetrahedron listed twice (the same four nodes in any order), which
  * would double its stiffness and hide its faces from the surface. Returns 1

@@ -11,7 +11,7 @@
 #include "load_internal.h"
 
 #include "error.h"
-#include "text.h"
+#include "ftm/internal/text.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm/options.h: one option table for the parser (getopt_long) and --help. */
 #include "ftm/options.h"
-#include "text.h"
+#include "ftm/internal/text.h"
 
 #include <float.h>
 #include <getopt.h>

@@ -13,7 +13,7 @@
 #include "ftm/load.h"
 
 #include "error.h"
-#include "text.h"
+#include "ftm/internal/text.h"
 
 #include <math.h>
 #include <stdarg.h>

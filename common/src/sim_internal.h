@@ -8,7 +8,7 @@
 
 #include "ftm/sim.h"
 
-#include "layers.h"
+#include "ftm/internal/layers.h"
 #include "mesh_internal.h"
 
 /* Added to a spring's length before dividing by it: exact for any length

@@ -1,11 +1,15 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
-/* Internal: depth-synchronised multi-source breadth-first layering (paper
+/* Internal to libftm, shared with the lab (ftm bench table3 times the bare
+ * search): depth-synchronised multi-source breadth-first layering (paper
  * Fig. 5), optionally with each layer split into independent sets (the
  * update schedule of FTM_ORDER_LAYER_COLORED). */
-#ifndef FTM_SRC_LAYERS_H
-#define FTM_SRC_LAYERS_H
+#ifndef FTM_INTERNAL_LAYERS_H
+#define FTM_INTERNAL_LAYERS_H
 
-#include "mesh_internal.h"
+#include "ftm/mesh.h"
+
+#include <stdbool.h>
+#include <stdint.h>
 
 /* The mesh colour (ftm_mesh.color) that may hold adjacent nodes: its sets
  * are not independent and must be updated one by one. */

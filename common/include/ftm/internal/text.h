@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
-/* Internal: reading text files line by line with positions for error messages.
- * Shared by the mesh loaders and the scene parser. */
-#ifndef FTM_SRC_TEXT_H
-#define FTM_SRC_TEXT_H
+/* Internal to libftm, shared with session/'s script parser: reading text
+ * files line by line with positions for error messages. Shared by the mesh
+ * loaders and the scene parser. */
+#ifndef FTM_INTERNAL_TEXT_H
+#define FTM_INTERNAL_TEXT_H
 
 #include "ftm/base.h"
 
