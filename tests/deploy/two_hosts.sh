@@ -162,7 +162,11 @@ session() {
     sec() { [ -z "$secured" ] || echo "--security $dir/room/$1"; }
     rx0=$(on "$sta" cat "/sys/class/net/f2h$$b/statistics/rx_bytes")
     # shellcheck disable=SC2046
-    on "$srv" timeout -k 5 40 "$FTM_SERVER" --scene default $common --rate "$rate" --duration 5 \
+    # secured: the handshakes take seconds in a sanitizer build on two busy
+    # cores, and the late observer (2.5 s) once had no keyframe by 5 s
+    dur=5
+    [ -z "$secured" ] || dur=8
+    on "$srv" timeout -k 5 40 "$FTM_SERVER" --scene default $common --rate "$rate" --duration $dur \
         $(sec server) --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
     server=$!
     wait_for "$dir/server.log" "session 'two-hosts-$name-$$'" "$name: the server did not start"

@@ -527,7 +527,7 @@ rogue=$!
 timeout 30 "$FTM_BOT" --role observer $common --id 14 --duration 5 \
     >"$dir/bot14.out" 2>"$dir/bot14.err" &
 b14=$!
-timeout 30 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
+timeout 30 "$FTM_BOT" --role trainee --script "$here/secure-trainee.bot" $common --id 11 \
     --security "$r/t11" --duration 15 >"$dir/bot11.out" 2>"$dir/bot11.err" &
 b11=$!
 timeout 30 "$FTM_BOT" --role observer $common --id 13 --security "$r/o13" --duration 15 \
