@@ -331,6 +331,18 @@ static const char *stop_reason(bot *b, int64_t now, int64_t joined_ns, int *rc_e
     return NULL;
 }
 
+/* Whether a reader (the server's) is matched with our probe input: with DDS
+ * Security each topic's endpoints are matched on their own, and in a
+ * sanitizer build on a busy host the probe input's came a second after the
+ * status topics' (what a writer sends before is lost). */
+static bool input_heard(bot *b)
+{
+    ftm_wire_stats st;
+    return ftm_wire_get_stats(ftm_participant_wire(b->part), FTM_WIRE_PROBE_INPUT, &st, NULL) ==
+               FTM_OK &&
+           st.matched > 0;
+}
+
 /* The session, from joining to the end of the script, --duration, a
  * signal or the server's departure. Returns why it stopped. */
 static const char *run(bot *b, int64_t end_ns, int *rc_exit)
@@ -342,11 +354,12 @@ static const char *run(bot *b, int64_t end_ns, int *rc_exit)
     const bool trainee = b->role == FTM_WIRE_ROLE_TRAINEE;
     while (!g_stop) {
         int64_t now = ftm_clock_mono_ns();
-        if (!g_script_t0 && (trainee ? ftm_participant_may_press(b->part)
+        if (!g_script_t0 && (trainee ? ftm_participant_may_press(b->part) && input_heard(b)
                                      : ftm_participant_get_info(b->part)->ever_synced)) {
             /* `clock session`: the script starts once the bot is in the
-             * session (a trainee: synced and heard under its id), however
-             * long joining took (a secured session on a loaded host) */
+             * session (a trainee: synced, heard under its id, its probe
+             * input matched by a reader), however long joining took (a
+             * secured session on a loaded host) */
             g_script_t0 = now;
             blog("script time 0 (clock session)");
         }
