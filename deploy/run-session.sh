@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: GPL-3.0-or-later
 # A headless training session on this machine, over loopback DDS:
-# ftm-server with the default scene at 1 kHz, two scripted trainees pressing
+# ftm-server with the palpation scene (neo-Hookean tissue, elastic far
+# field: docs/feel.md; FTM_SCENE=NAME runs another) at 1 kHz, two scripted trainees pressing
 # the tissue (docs/sessions/trainee*.bot), an instructor who makes the tissue
 # stiffer 1.5 s in (docs/sessions/instructor.bot) and an observer, for a few
 # seconds.
@@ -64,6 +65,9 @@ stop() {
 trap 'stop 130' INT
 trap 'stop 143' TERM
 trap 'stop 129' HUP
+# the accurate model by default; the scripts are written for the 12x12x12
+# lattice that palpation and default share
+scene=${FTM_SCENE:-palpation}
 common=(--session main-$$ --domain $((1 + $$ % 97)) --config deploy/cyclonedds-loopback.xml)
 
 script1=docs/sessions/trainee1.bot
@@ -74,14 +78,14 @@ if [ -n "$gui" ]; then
     END { for (k = 0; k < reps; k++) for (i = 0; i < n; i++) print t[i] + 3 * k, l[i] }' "$1" >"$2"; }
   loop "$script1" "$dir/t1.bot"; script1="$dir/t1.bot"
   loop "$script2" "$dir/t2.bot"; script2="$dir/t2.bot"
-  echo "FTM session on loopback with an instructor window: ftm-server (scene 'default', 1000 Hz, ${seconds} s)"
+  echo "FTM session on loopback with an instructor window: ftm-server (scene '$scene', 1000 Hz, ${seconds} s)"
 else
-  echo "FTM headless session on loopback: ftm-server (scene 'default', 1000 Hz, ${seconds} s)"
+  echo "FTM headless session on loopback: ftm-server (scene '$scene', 1000 Hz, ${seconds} s)"
 fi
 echo "  + trainee 11 (docs/sessions/trainee1.bot), trainee 12 (trainee2.bot), observer 13,"
 echo "    instructor 15 (instructor.bot: damping 0.3 -> 0.33 N s/m at 1.4 s, stiffness 50 -> 80 N/m at 1.5 s)"
 [ -n "$gui" ] && echo "  + instructor 14: ftm-client window (keys: docs/client.md)"
-timeout $((seconds + 20)) "$server" --scene default "${common[@]}" --duration "$seconds" \
+timeout $((seconds + 20)) "$server" --scene "$scene" "${common[@]}" --duration "$seconds" \
   --log "$dir/server.log" --report "$dir/report.json" --record "$dir/session.rec" \
   >"$dir/server.out" 2>&1 &
 spid=$!

@@ -110,6 +110,7 @@ typedef struct srv_parts {
 /* ---- tick.c ---- */
 
 #define TICK_HIST_BINS 5000 /* tick period and lateness, 10 us bins */
+#define WORK_HIST_BINS 20000 /* a tick's work, 1 us bins (the last: 20 ms or more) */
 
 typedef struct srv_tick {
     ftm_sim *sim;
@@ -131,6 +132,9 @@ typedef struct srv_tick {
     double step_ns_total, step_ns_max, step_sum_ns;
     uint64_t step_bucket[FTM_METRICS_STEP_BUCKETS + 1], step_count;
     uint32_t period_hist[TICK_HIST_BINS], late_hist[TICK_HIST_BINS];
+    /* a tick's work (collision, step, frame), in every tick and in the ticks
+     * with a probe in contact: what the tick budget must hold */
+    uint32_t work_hist[WORK_HIST_BINS], work_contact_hist[WORK_HIST_BINS];
     uint64_t last_tick_ns;
     FILE *reactions_csv; /* --reactions: one line per probe reaction */
 } srv_tick;
@@ -237,6 +241,8 @@ void srv_reset(server *s, bool publish_now);
 void srv_run_due_ticks(server *s);
 void srv_log_limits(server *s);
 double srv_hist_quantile(const uint32_t *h, double q);
+double srv_work_quantile(const uint32_t *h, double q);
+uint64_t srv_hist_count(const uint32_t *h, int bins);
 
 /* publish.c */
 int srv_send(server *s, const ftm_wire_msg *m, uint64_t *bytes);

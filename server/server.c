@@ -343,6 +343,14 @@ static void closing_lines(server *s)
             "(10 us bins)",
             srv_hist_quantile(tk->period_hist, 0.5), srv_hist_quantile(tk->period_hist, 0.99),
             srv_hist_quantile(tk->late_hist, 0.5), srv_hist_quantile(tk->late_hist, 0.99));
+    srv_log(s, "info",
+            "tick work p50 %.0f us p99 %.0f us over %" PRIu64 " ticks; with a probe in contact "
+            "p50 %.0f us p99 %.0f us over %" PRIu64 " ticks (1 us bins)",
+            srv_work_quantile(tk->work_hist, 0.5), srv_work_quantile(tk->work_hist, 0.99),
+            srv_hist_count(tk->work_hist, WORK_HIST_BINS),
+            srv_work_quantile(tk->work_contact_hist, 0.5),
+            srv_work_quantile(tk->work_contact_hist, 0.99),
+            srv_hist_count(tk->work_contact_hist, WORK_HIST_BINS));
     printf("ftm-server: final tick %" PRIu64 " hash %016" PRIx64 "\n", tk->tick,
            ftm_sim_hash(tk->sim));
     fflush(stdout);

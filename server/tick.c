@@ -19,16 +19,37 @@ static void hist_add(uint32_t *h, double ns)
     h[b < TICK_HIST_BINS ? b : TICK_HIST_BINS - 1]++;
 }
 
+/* The q-quantile of a histogram of `bins` bins `width` wide (upper edge of
+ * its bin, in the unit of width); 0 when it is empty. */
+static double quantile_of(const uint32_t *h, int bins, double width, double q)
+{
+    uint64_t n = 0, acc = 0;
+    for (int i = 0; i < bins; i++)
+        n += h[i];
+    for (int i = 0; i < bins && n; i++)
+        if ((acc += h[i]) >= (uint64_t)ceil(q * (double)n))
+            return (i + 1) * width;
+    return 0.0;
+}
+
 /* The q-quantile [ms] of a 10 us histogram (upper edge of its bin). */
 double srv_hist_quantile(const uint32_t *h, double q)
 {
-    uint64_t n = 0, acc = 0;
-    for (int i = 0; i < TICK_HIST_BINS; i++)
+    return quantile_of(h, TICK_HIST_BINS, 0.01, q);
+}
+
+/* The q-quantile [us] of a tick-work histogram (1 us bins). */
+double srv_work_quantile(const uint32_t *h, double q)
+{
+    return quantile_of(h, WORK_HIST_BINS, 1.0, q);
+}
+
+uint64_t srv_hist_count(const uint32_t *h, int bins)
+{
+    uint64_t n = 0;
+    for (int i = 0; i < bins; i++)
         n += h[i];
-    for (int i = 0; i < TICK_HIST_BINS && n; i++)
-        if ((acc += h[i]) >= (uint64_t)ceil(q * (double)n))
-            return (i + 1) * 0.01;
-    return 0.0;
+    return n;
 }
 
 static ftm_vec3 v_sub(ftm_vec3 a, ftm_vec3 b) { return (ftm_vec3){a.x - b.x, a.y - b.y, a.z - b.z}; }
@@ -169,8 +190,13 @@ void srv_log_limits(server *s)
                 s->tk.push_limited, s->tk.max_push, s->tk.unstable);
 }
 
-static void note_step(server *s, double ns)
+static void note_step(server *s, double ns, bool contact)
 {
+    int64_t w = ns > 0 ? (int64_t)(ns / 1000.0) : 0;
+    w = w < WORK_HIST_BINS ? w : WORK_HIST_BINS - 1;
+    s->tk.work_hist[w]++;
+    if (contact)
+        s->tk.work_contact_hist[w]++;
     int b = 0;
     while (b < FTM_METRICS_STEP_BUCKETS && ns * 1e-9 > ftm_metrics_step_bounds[b])
         b++;
@@ -266,7 +292,7 @@ void srv_run_tick(server *s)
     ftm_sim_stats st;
     ftm_sim_get_stats(tk->sim, &st);
     srv_publish_tick(s, n, nreact, st.updated_nodes > 0);
-    note_step(s, (double)(srv_now() - tick_t0));
+    note_step(s, (double)(srv_now() - tick_t0), n > 0);
 }
 
 /* The ticks that are due by the monotonic clock (tick k at start + k /
@@ -350,6 +376,9 @@ int srv_tick_setup(server *s)
             "probe push limit %s",
             ftm_scene_name(s->scene), (int)ftm_mesh_node_count(s->mesh), (int)cs.triangles,
             (int)cs.dims[0], (int)cs.dims[1], (int)cs.dims[2], cs.cell_size, limit);
+    char model[256];
+    ftm_scene_describe_model(s->scene, model, sizeof model);
+    srv_log(s, "info", "scene '%s' runs %s", ftm_scene_name(s->scene), model);
     tk->period_ns = 1e9 / s->o.rate;
     return 0;
 }

@@ -274,6 +274,13 @@ if "$FTM" bench --help | grep -q '^  net '; then
         grep -q -- '--rate must be above 0 and at most 10000' "$tmp/err"
     run bench net --bots 4294967297 # wrapped to 1 when cut to int
     check "bench net refuses --bots beyond int" grep -q -- '--bots must be in 1\.\.' "$tmp/err"
+    run bench tick --trainees 0
+    check "bench tick --trainees 0 exits 2" [ "$rc" -eq 2 ]
+    check "bench tick states the accepted --trainees" grep -q -- '--trainees must be a list of 1\.\.16' "$tmp/err"
+    run bench tick --scenes no-such-scene
+    check "bench tick names a scene it cannot open" grep -q "scene 'no-such-scene'" "$tmp/err"
+    run bench tick --duration
+    check "bench tick says --duration needs a value" grep -q -- '--duration needs a value' "$tmp/err"
 fi
 
 # ftm fem and ftm fit (built with the FEM library only)

@@ -81,6 +81,9 @@ if [ "$NET" = 1 ]; then
     ok_status=1
     json "bench net" bench net --duration 3 --size-duration 3 --bots 1 --rate 200 \
         --adaptive-duration 0 --no-ddsperf --domain $((160 + $$ % 20)) --json
+    # a 4 s session on the default scene with one trainee
+    json "bench tick" bench tick --scenes default --trainees 1 --duration 4 \
+        --domain $((180 + $$ % 20)) --json
     ok_status=0
 fi
 

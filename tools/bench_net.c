@@ -24,6 +24,7 @@
  * bot must end on the server's final tick and hash (exit status 1 if not). */
 #include "bench_net.h"
 #include "commands.h"
+#include "proc.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -88,95 +89,6 @@ typedef struct run_result {
     double max_lag_ticks;
 } run_result;
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static void sleep_s(double s)
-{
-    struct timespec ts = {(time_t)s, (long)((s - floor(s)) * 1e9)};
-    nanosleep(&ts, NULL);
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-/* q-quantile of v[0..n) by nearest rank (sorts v). */
-static double quantile(double *v, size_t n, double q)
-{
-    if (n == 0)
-        return NAN;
-    qsort(v, n, sizeof *v, cmp_double);
-    size_t k = (size_t)ceil(q * (double)n);
-    return v[k ? k - 1 : 0];
-}
-
-/* ---- processes ------------------------------------------------------------------------ */
-
-/* Starts argv[0] with stdout/stderr to files; with dds_uri, CYCLONEDDS_URI set to it. */
-static pid_t spawn(char *const argv[], const char *out, const char *err, const char *dds_uri)
-{
-    pid_t pid = fork();
-    if (pid != 0)
-        return pid;
-    int fo = open(out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    int fe = open(err, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fo < 0 || fe < 0 || dup2(fo, 1) < 0 || dup2(fe, 2) < 0)
-        _exit(126);
-    close(fo);
-    close(fe);
-    if (dds_uri)
-        setenv("CYCLONEDDS_URI", dds_uri, 1);
-    execv(argv[0], argv);
-    fprintf(stderr, "cannot run %s: %s\n", argv[0], strerror(errno));
-    _exit(127);
-}
-
-/* Waits for pid up to timeout s, then SIGKILLs it. Returns its exit status
- * (128 + signal if killed by one). */
-static int wait_for(pid_t pid, double timeout)
-{
-    double end = now_s() + timeout;
-    int st = 0;
-    for (;;) {
-        pid_t r = waitpid(pid, &st, WNOHANG);
-        if (r == pid)
-            break;
-        if (r < 0)
-            return -1;
-        if (now_s() > end) {
-            kill(pid, SIGKILL);
-            waitpid(pid, &st, 0);
-            break;
-        }
-        sleep_s(0.05);
-    }
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + (WIFSIGNALED(st) ? WTERMSIG(st) : 0);
-}
-
-static char *slurp(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *s = n >= 0 ? malloc((size_t)n + 1) : NULL;
-    if (s) {
-        size_t got = fread(s, 1, (size_t)n, f);
-        s[got] = '\0';
-    }
-    fclose(f);
-    return s;
-}
-
 /* Files this run could not write, each reported when it happened. The run
  * goes on (its sessions are what it measures) and then exits 2. */
 static int output_errors;
@@ -204,27 +116,13 @@ static int close_output(FILE *f, const char *path)
 /* Copies a text file (plot data into --plot DIR); a missing source is skipped. */
 static void copy_text(const char *src, const char *dst)
 {
-    char *d = slurp(src);
+    char *d = ftm_proc_slurp(src);
     FILE *g = d ? open_output(dst) : NULL;
     if (g) {
         fputs(d, g);
         close_output(g, dst);
     }
     free(d);
-}
-
-static bool wait_text(const char *path, const char *text, double timeout)
-{
-    double end = now_s() + timeout;
-    while (now_s() < end) {
-        char *s = slurp(path);
-        bool found = s && strstr(s, text);
-        free(s);
-        if (found)
-            return true;
-        sleep_s(0.05);
-    }
-    return false;
 }
 
 /* ---- inputs: scenes and trainee scripts --------------------------------------------- */
@@ -272,7 +170,7 @@ static int write_script(const char *path, int i, int n, double cx, double cy, do
 
 static void parse_server(const char *log, run_result *r)
 {
-    char *s = slurp(log);
+    char *s = ftm_proc_slurp(log);
     if (!s)
         return;
     const char *p = strstr(s, " ticks in ");
@@ -399,9 +297,9 @@ static double windowed(const run_result *r, double rate, double q)
             if (r->lat_tick[i] / (uint64_t)rate == w)
                 buf[n++] = r->lat[i];
         if (n >= 100)
-            per[nper++] = quantile(buf, n, q);
+            per[nper++] = ftm_proc_quantile(buf, n, q);
     }
-    double m = nper ? quantile(per, nper, 0.5) : NAN;
+    double m = nper ? ftm_proc_quantile(per, nper, 0.5) : NAN;
     free(per);
     free(buf);
     return m;
@@ -418,14 +316,14 @@ static void pooled_part(const double *x, const double *sub, size_t n, double *bu
         if (isfinite(v))
             buf[k++] = v;
     }
-    *p50 = quantile(buf, k, 0.5);
-    *p99 = quantile(buf, k, 0.99);
+    *p50 = ftm_proc_quantile(buf, k, 0.5);
+    *p99 = ftm_proc_quantile(buf, k, 0.99);
 }
 
 /* ddsperf ping's per-second lines: "... 50% Xus 90% Yus 99% Zus ...". */
 static int parse_ddsperf(const char *path, double *p50, double *p99, FILE *series)
 {
-    char *s = slurp(path);
+    char *s = ftm_proc_slurp(path);
     if (!s)
         return -1;
     double a[4096], b[4096];
@@ -444,8 +342,8 @@ static int parse_ddsperf(const char *path, double *p50, double *p99, FILE *serie
     free(s);
     /* the first second includes discovery */
     int skip = n > 3 ? 1 : 0;
-    *p50 = n > skip ? quantile(a + skip, (size_t)(n - skip), 0.5) : NAN;
-    *p99 = n > skip ? quantile(b + skip, (size_t)(n - skip), 0.5) : NAN;
+    *p50 = n > skip ? ftm_proc_quantile(a + skip, (size_t)(n - skip), 0.5) : NAN;
+    *p99 = n > skip ? ftm_proc_quantile(b + skip, (size_t)(n - skip), 0.5) : NAN;
     return n > skip ? 0 : -1;
 }
 
@@ -457,7 +355,7 @@ static void adaptive_traces(const net_options *o, const session_plan *pl, const 
                             const char *slog, run_result *r)
 {
     char path[700];
-    char *s = slurp(slog);
+    char *s = ftm_proc_slurp(slog);
     r->depth_min = -1;
     int cur = -1;
     const char *end = s ? strstr(s, "info: depth ") : NULL;
@@ -562,8 +460,8 @@ static int run_session(const net_options *o, const session_plan *pl, const char 
                      "--domain", dom, "--config", (char *)pl->config, "--rate", rate,
                      "--duration", dur, "--log", slog, "--adaptive", pl->adaptive ? "1" : "0",
                      "--control-log", sctl, NULL};
-    pid_t server = spawn(sargv, sout, serr, NULL);
-    if (server < 0 || !wait_text(slog, "session '", 20.0)) {
+    pid_t server = ftm_proc_spawn(sargv, sout, serr, NULL, -1);
+    if (server < 0 || !ftm_proc_wait_text(slog, "session '", 20.0)) {
         fprintf(stderr, "ftm bench net: %s: the server did not start (see %s)\n", tag, serr);
         if (server > 0)
             kill(server, SIGKILL), waitpid(server, NULL, 0);
@@ -585,7 +483,7 @@ static int run_session(const net_options *o, const session_plan *pl, const char 
         char *bargv[] = {(char *)o->bot, "--role", "trainee", "--script", script, "--scene",
                          (char *)scene, "--session", session, "--domain", dom, "--config",
                          (char *)pl->config, "--id", id, "--duration", bdur, "--log", log, NULL};
-        bots[i] = spawn(bargv, out, err, NULL);
+        bots[i] = ftm_proc_spawn(bargv, out, err, NULL, -1);
     }
     pid_t ping = -1, pong = -1;
     char ping_out[640];
@@ -602,30 +500,30 @@ static int run_session(const net_options *o, const session_plan *pl, const char 
         char *pongv[] = {"/usr/bin/ddsperf", "-i", pdom, "-D", pdur, "pong", NULL};
         char *pingv[] = {"/usr/bin/ddsperf", "-i", pdom, "-D", pdur, "-Qminmatch:1",
                          "-Qinitwait:10", "ping", "1000Hz", "size", "100", NULL};
-        pong = spawn(pongv, pong_out, e1, uri);
-        ping = spawn(pingv, ping_out, e2, uri);
+        pong = ftm_proc_spawn(pongv, pong_out, e1, uri, -1);
+        ping = ftm_proc_spawn(pingv, ping_out, e2, uri, -1);
     }
     if (pl->stop_bot >= 0 && pl->stop_bot < pl->bots && bots[pl->stop_bot] > 0) {
-        double t0 = now_s();
+        double t0 = ftm_proc_now_s();
         for (int k = 0; k < 2; k++) {
-            double wait = t0 + pl->stop_at[k] - now_s();
+            double wait = t0 + pl->stop_at[k] - ftm_proc_now_s();
             if (wait > 0)
-                sleep_s(wait);
+                ftm_proc_sleep_s(wait);
             kill(bots[pl->stop_bot], SIGSTOP);
-            sleep_s(pl->stop_for);
+            ftm_proc_sleep_s(pl->stop_for);
             kill(bots[pl->stop_bot], SIGCONT);
         }
     }
-    int rc = wait_for(server, duration + 30);
+    int rc = ftm_proc_wait(server, duration + 30);
     for (int i = 0; i < pl->bots; i++)
         if (bots[i] > 0)
-            wait_for(bots[i], 20);
+            ftm_proc_wait(bots[i], 20);
     if (with_ddsperf) {
-        wait_for(ping, 20);
-        wait_for(pong, 20);
+        ftm_proc_wait(ping, 20);
+        ftm_proc_wait(pong, 20);
     }
     parse_server(slog, r);
-    char *fin = slurp(sout);
+    char *fin = ftm_proc_slurp(sout);
     if (fin) {
         const char *p = strstr(fin, "final tick ");
         if (p)
@@ -634,7 +532,7 @@ static int run_session(const net_options *o, const session_plan *pl, const char 
     }
     for (int i = 0; i < pl->bots; i++) {
         snprintf(path, sizeof path, "%s/bot%d.out", sub, i);
-        char *b = slurp(path);
+        char *b = ftm_proc_slurp(path);
         char want[160];
         snprintf(want, sizeof want, "%s synced", r->final);
         if (b && r->final[0] && strstr(b, want))
@@ -687,23 +585,6 @@ static void usage(FILE *f)
             "exit status: 0 every bot ended on the server's tick and hash; 1 not; 2 usage, or\n"
             "an output (--plot, --keep, standard output) that cannot be written\n",
             MAX_BOTS, FTM_SOURCE_DIR, FTM_SOURCE_DIR);
-}
-
-static char *exe_sibling(const char *rel)
-{
-    static char buf[2][1024];
-    static int k;
-    char self[900];
-    ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
-    if (n <= 0)
-        return NULL;
-    self[n] = '\0';
-    char *slash = strrchr(self, '/');
-    if (slash)
-        *slash = '\0';
-    k ^= 1;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", self, rel);
-    return buf[k];
 }
 
 /* A long option value as an int for the range checks after it: values
@@ -796,9 +677,9 @@ static int parse(int argc, char **argv, net_options *o)
         return 2;
     }
     if (!o->server)
-        o->server = exe_sibling("../server/ftm-server");
+        o->server = ftm_proc_sibling("../server/ftm-server");
     if (!o->bot)
-        o->bot = exe_sibling("../bot/ftm-bot");
+        o->bot = ftm_proc_sibling("../bot/ftm-bot");
     if (!o->server || !o->bot || access(o->server, X_OK) || access(o->bot, X_OK)) {
         fprintf(stderr, "ftm bench net: cannot find ftm-server/ftm-bot (%s, %s); use --server "
                         "and --bot\n",
@@ -875,7 +756,7 @@ int ftm_bench_net(int argc, char **argv)
     double hand50 = NAN, hand99 = NAN, dds50 = NAN, dds99 = NAN, pick50 = NAN, pick99 = NAN;
     if (all) {
         memcpy(all, a.lat, a.nlat * sizeof *all);
-        pooled99 = quantile(all, a.nlat, 0.99);
+        pooled99 = ftm_proc_quantile(all, a.nlat, 0.99);
         latmax = all[a.nlat - 1];
         pooled_part(a.lat, a.dds, a.nlat, all, &hand50, &hand99); /* lat - dds */
         pooled_part(a.dds, NULL, a.nlat, all, &dds50, &dds99);
@@ -897,8 +778,8 @@ int ftm_bench_net(int argc, char **argv)
                     if (a.lat_tick[i] / w == k)
                         all[n++] = a.lat[i];
                 if (n >= 100)
-                    fprintf(f, "%" PRIu64 " %.1f %.1f\n", k, quantile(all, n, 0.5),
-                            quantile(all, n, 0.99));
+                    fprintf(f, "%" PRIu64 " %.1f %.1f\n", k, ftm_proc_quantile(all, n, 0.5),
+                            ftm_proc_quantile(all, n, 0.99));
             }
             close_output(f, path);
         }

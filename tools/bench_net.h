@@ -6,5 +6,7 @@
 #define FTM_TOOLS_BENCH_NET_H
 
 int ftm_bench_net(int argc, char **argv);
+/* `ftm bench tick`: the server's tick per training scene (bench_tick.c). */
+int ftm_bench_tick(int argc, char **argv);
 
 #endif

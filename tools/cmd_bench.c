@@ -19,6 +19,7 @@ static const struct {
     {"peers", ftm_bench_peers, "FTM against Bullet's soft body: the same bodies, step time"},
 #ifdef FTM_HAVE_NET
     {"net", ftm_bench_net, "a loopback DDS session: tick rate, bytes per tick, latency vs ddsperf"},
+    {"tick", ftm_bench_tick, "the server's tick per training scene and trainee count"},
 #endif
 #ifdef FTM_HAVE_FEM
     {"accuracy", ftm_bench_accuracy, "run time against error to equilibrium vs the FEM reference"},

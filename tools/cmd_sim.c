@@ -218,6 +218,7 @@ static int32_t displacement_groups(const ftm_scene *scene, int32_t *groups)
 
 typedef struct summary {
     const char *scene;
+    char model[256]; /* ftm_scene_describe_model */
     int32_t nodes, links, triangles;
     double h, h_crit;
     int32_t depth;
@@ -274,6 +275,8 @@ static void print_json(FILE *out, const summary *s, const ftm_sim *sim, const in
 {
     fputs("{\"scene\": ", out);
     ftm_json_string(out, s->scene);
+    fputs(", \"model\": ", out);
+    ftm_json_string(out, s->model);
     fprintf(out, ", \"nodes\": %d, \"links\": %d, \"triangles\": %d", (int)s->nodes,
             (int)s->links, (int)s->triangles);
     fputs(", \"time_step\": ", out);
@@ -320,6 +323,7 @@ static void print_human(FILE *out, const summary *s, const ftm_sim *sim, const i
                         int32_t group_count, const ftm_contact *last, int32_t last_count)
 {
     fprintf(out, "scene            %s\n", s->scene);
+    fprintf(out, "model            %s\n", s->model);
     fprintf(out, "mesh             %d nodes, %d links, %d triangles\n", (int)s->nodes,
             (int)s->links, (int)s->triangles);
     fprintf(out, "time step        %.6g s (critical %.6g s)\n", s->h, s->h_crit);
@@ -442,6 +446,7 @@ int ftm_cmd_sim(int argc, char **argv)
     summary s;
     memset(&s, 0, sizeof s);
     s.scene = ftm_scene_name(scene);
+    ftm_scene_describe_model(scene, s.model, sizeof s.model);
     s.nodes = ftm_mesh_node_count(mesh);
     s.links = ftm_mesh_link_count(mesh);
     s.triangles = ftm_mesh_triangle_count(mesh);

@@ -56,6 +56,11 @@ void ftm_scene_destroy(ftm_scene *scene);
 const char *ftm_scene_name(const ftm_scene *scene);
 const ftm_mesh *ftm_scene_mesh(const ftm_scene *scene);
 ftm_sim_def ftm_scene_sim_def(const ftm_scene *scene);
+/* The model the scene runs, in one line for a log or a summary: the force
+ * model and its material, the far field, the depth; for springs, whether
+ * the mesh could take element forces (volume elements) or not (a surface).
+ * snprintf's contract: the length the whole line needs. */
+int ftm_scene_describe_model(const ftm_scene *scene, char *buf, size_t size);
 /* The [material] the scene's mesh was built with (for ftm_mesh_with_material). */
 ftm_material_def ftm_scene_material(const ftm_scene *scene);
 int32_t ftm_scene_steps(const ftm_scene *scene); /* default number of steps to run */
