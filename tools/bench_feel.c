@@ -72,17 +72,6 @@ typedef struct options {
     int32_t max_steps;
 } options;
 
-static const char *model_name(ftm_forces f)
-{
-    switch (f) {
-    case FTM_FORCES_SPRINGS: return "springs";
-    case FTM_FORCES_LINEAR_FEM: return "linear-fem";
-    case FTM_FORCES_COROT_FEM: return "corot-fem";
-    case FTM_FORCES_NEO_HOOKEAN: return "neo-hookean";
-    }
-    return "?";
-}
-
 /* ---- bodies ---- */
 
 static void body_free(body *b)
@@ -356,7 +345,7 @@ static int run(const body *b, row *r, const options *o, double **x_out)
     int rc = ftm_sim_create(b->mesh, &d, &sim, &err);
     r->setup_s = (ftm_bench_now_us() - t0) * 1e-6;
     if (rc) {
-        fprintf(stderr, "ftm bench feel: %s %s %s depth %d: %s\n", b->name, model_name(r->model),
+        fprintf(stderr, "ftm bench feel: %s %s %s depth %d: %s\n", b->name, ftm_forces_name(r->model),
                 r->far == FTM_FAR_FIELD_ELASTIC ? "elastic" : "fixed", (int)r->depth,
                 err.message);
         r->failed = true;
@@ -463,12 +452,12 @@ static void print_row(FILE *f, const row *r)
 {
     if (r->failed) {
         fprintf(f, "%-11s %-11s %-7s %5d  refused or failed (see above)\n", r->b->name,
-                model_name(r->model), r->far == FTM_FAR_FIELD_ELASTIC ? "elastic" : "fixed",
+                ftm_forces_name(r->model), r->far == FTM_FAR_FIELD_ELASTIC ? "elastic" : "fixed",
                 (int)r->depth);
         return;
     }
     fprintf(f, "%-11s %-11s %-7s %5d %6d %5d %9.4f %+8.2f %8.3f %9.1f %7d %9.2f%s\n", r->b->name,
-            model_name(r->model), r->far == FTM_FAR_FIELD_ELASTIC ? "elastic" : "fixed",
+            ftm_forces_name(r->model), r->far == FTM_FAR_FIELD_ELASTIC ? "elastic" : "fixed",
             (int)r->depth, (int)r->region, (int)r->ring, r->force, 100.0 * r->force_err,
             r->dent_err, r->step_us, (int)r->settle_steps, r->settle_steps * r->step_us * 1e-3,
             r->settled ? "" : " (not at rest)");
@@ -481,7 +470,7 @@ static void print_json(FILE *f, const row *rows, int nrows)
         const row *r = &rows[i];
         fprintf(f, "%s{\"body\": \"%s\", \"model\": \"%s\", \"far_field\": \"%s\", \"depth\": %d, "
                    "\"failed\": %s",
-                i ? ", " : "", r->b->name, model_name(r->model),
+                i ? ", " : "", r->b->name, ftm_forces_name(r->model),
                 r->far == FTM_FAR_FIELD_ELASTIC ? "elastic" : "fixed", (int)r->depth,
                 r->failed ? "true" : "false");
         if (!r->failed) {

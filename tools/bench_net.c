@@ -676,16 +676,8 @@ static int parse(int argc, char **argv, net_options *o)
         fprintf(stderr, "ftm bench net: --bots must be in 1..%d\n", MAX_BOTS);
         return 2;
     }
-    if (!o->server)
-        o->server = ftm_proc_sibling("../server/ftm-server");
-    if (!o->bot)
-        o->bot = ftm_proc_sibling("../bot/ftm-bot");
-    if (!o->server || !o->bot || access(o->server, X_OK) || access(o->bot, X_OK)) {
-        fprintf(stderr, "ftm bench net: cannot find ftm-server/ftm-bot (%s, %s); use --server "
-                        "and --bot\n",
-                o->server ? o->server : "?", o->bot ? o->bot : "?");
+    if (ftm_proc_find_programs("ftm bench net", &o->server, &o->bot))
         return 2;
-    }
     if (access(o->config, R_OK) || (o->adaptive_duration > 0 && access(o->lossy_config, R_OK))) {
         fprintf(stderr, "ftm bench net: cannot read %s or %s\n", o->config, o->lossy_config);
         return 2;

@@ -15,10 +15,12 @@
 #include "proc.h"
 
 #include "ftm/ftm.h"
+#include "ftm/options.h"
 
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
+#include <stddef.h>
 #include <signal.h>
 #include <stdbool.h>
 #include <stdint.h>
@@ -38,10 +40,11 @@
 #define MAX_TRAINEES 16
 
 typedef struct tick_options {
+    const char *scenes_arg;
     const char *scenes[MAX_SCENES];
     int nscenes;
     int counts[MAX_COUNTS], ncounts;
-    double duration, rate, press;
+    double duration, rate, press_mm, press;
     int cpu, domain;
     const char *server, *bot, *config, *keep;
     bool json;
@@ -63,17 +66,6 @@ typedef struct tick_result {
     double seconds, p50, p99, contact_p50, contact_p99;
     bool ok; /* the run completed and was read */
 } tick_result;
-
-static const char *forces_name(ftm_forces f)
-{
-    switch (f) {
-    case FTM_FORCES_SPRINGS: return "springs";
-    case FTM_FORCES_LINEAR_FEM: return "linear-fem";
-    case FTM_FORCES_COROT_FEM: return "corot-fem";
-    case FTM_FORCES_NEO_HOOKEAN: return "neo-hookean";
-    }
-    return "?";
-}
 
 static int scene_info_of(const char *name, scene_info *si)
 {
@@ -241,124 +233,92 @@ static int run_one(const tick_options *o, const char *dir, const scene_info *si,
     return rc == 0 && r->ok ? 0 : -1;
 }
 
-static void usage(FILE *f)
+/* --trainees N,M: the counts, each 1..MAX_TRAINEES, at most MAX_COUNTS. */
+static int parse_counts(const ftm_option *opt, const char *v, void *field, char *why, size_t cap)
 {
-    fprintf(f,
-            "usage: ftm bench tick [--scenes A,B] [--trainees N,M] [--duration S] [--rate HZ]\n"
-            "                      [--press MM] [--cpu N] [--server PATH] [--bot PATH]\n"
-            "                      [--config FILE] [--domain N] [--keep DIR] [--json]\n"
-            "\n"
-            "The server's tick per training scene: ftm-server bound to one CPU at the\n"
-            "scene's own depth (--adaptive 0) with N ftm-bot trainees on the other CPUs,\n"
-            "each pressing the top face every 2 s; the work of a tick (collision, step,\n"
-            "frame) with a probe in contact, median and 99th percentile, from the server's\n"
-            "closing figures; ticks run and missed (docs/feel.md).\n"
-            "\n"
-            "  --scenes A,B     built-in names or scene files (default default,palpation)\n"
-            "  --trainees N,M   trainees per run, 1..%d each (default 1,2,8)\n"
-            "  --duration S     each run's server time, 4..3600 (default 8)\n"
-            "  --rate HZ        tick rate, 10..10000 (default 1000)\n"
-            "  --press MM       how far each press goes into the top face, 0.5..30 (default 5)\n"
-            "  --cpu N          the server's CPU (default: the last one; bots on the others)\n"
-            "  --server PATH    ftm-server (default: ../server/ftm-server beside this ftm)\n"
-            "  --bot PATH       ftm-bot (default: ../bot/ftm-bot)\n"
-            "  --config FILE    Cyclone DDS configuration (default: %s/deploy/cyclonedds-loopback.xml)\n"
-            "  --domain N       DDS domain, 0..226 (default 170)\n"
-            "  --keep DIR       keep scripts and logs in DIR (default: a temporary directory)\n"
-            "  --json           one JSON object (the table goes to standard error)\n"
-            "\n"
-            "exit status: 0 every run completed with every bot on the server's tick and hash;\n"
-            "1 not; 2 usage\n",
-            MAX_TRAINEES, FTM_SOURCE_DIR);
+    (void)opt;
+    tick_options *o = (tick_options *)((char *)field - offsetof(tick_options, counts));
+    int n = 0;
+    for (const char *p = v; *p;) {
+        size_t len = strcspn(p, ",");
+        long long x;
+        if (n == MAX_COUNTS || !ftm_option_int(p, len, 1, MAX_TRAINEES, &x)) {
+            snprintf(why, cap, "must be a list of 1..%d trainees, at most %d entries (got '%s')",
+                     MAX_TRAINEES, MAX_COUNTS, v);
+            return -1;
+        }
+        o->counts[n++] = (int)x;
+        p += len + (p[len] == ',');
+    }
+    if (!n) {
+        snprintf(why, cap, "must be a list of 1..%d trainees (got '%s')", MAX_TRAINEES, v);
+        return -1;
+    }
+    o->ncounts = n;
+    return 0;
 }
 
-static int parse_list_int(const char *v, int *out, int cap, int lo, int hi)
-{
-    int n = 0;
-    char buf[256];
-    snprintf(buf, sizeof buf, "%s", v);
-    for (char *save = NULL, *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
-        char *end;
-        errno = 0;
-        long x = strtol(t, &end, 10);
-        if (*end || errno || x < lo || x > hi || n >= cap)
-            return -1;
-        out[n++] = (int)x;
-    }
-    return n ? n : -1;
-}
+static const ftm_option tick_table[] = {
+    FTM_OPT_STRING("scenes", "A,B", tick_options, scenes_arg,
+                   "built-in names or scene files (default default,palpation)"),
+    FTM_OPT_CUSTOM("trainees", "N,M", tick_options, counts, parse_counts,
+                   "trainees per run, 1..16 each (default 1,2,8)"),
+    FTM_OPT_DOUBLE("duration", "S", tick_options, duration, 4, 3600, 0, "seconds",
+                   "each run's server time (default 8)"),
+    FTM_OPT_DOUBLE("rate", "HZ", tick_options, rate, 10, 10000, 0, "Hz",
+                   "tick rate (default 1000)"),
+    FTM_OPT_DOUBLE("press", "MM", tick_options, press_mm, 0.5, 30, 0, "millimetres",
+                   "how far each press goes into the top face (default 5)"),
+    FTM_OPT_INT("cpu", "N", tick_options, cpu, 0, 1023,
+                "the server's CPU (default: the last one; the bots on the others)"),
+    FTM_OPT_STRING("server", "PATH", tick_options, server,
+                   "ftm-server (default: ../server/ftm-server beside this ftm)"),
+    FTM_OPT_STRING("bot", "PATH", tick_options, bot, "ftm-bot (default: ../bot/ftm-bot)"),
+    FTM_OPT_STRING("config", "FILE", tick_options, config,
+                   "Cyclone DDS configuration (default: deploy/cyclonedds-loopback.xml\n"
+                   "of the source tree)"),
+    FTM_OPT_INT("domain", "N", tick_options, domain, 0, 226,
+                "DDS domain; runs use N .. N+3 (default 170)"),
+    FTM_OPT_STRING("keep", "DIR", tick_options, keep,
+                   "keep scripts and logs in DIR (default: a temporary directory)"),
+    FTM_OPT_FLAG("json", tick_options, json, "one JSON object (the table goes to standard error)"),
+    {0},
+};
+
+static const ftm_option_set tick_set = {
+    .program = "ftm bench tick",
+    .usage = "usage: ftm bench tick [options]\n"
+             "\n"
+             "The server's tick per training scene: ftm-server bound to one CPU at the\n"
+             "scene's own depth (--adaptive 0) with N ftm-bot trainees on the other CPUs,\n"
+             "each pressing the top face every 2 s; the work of a tick (collision, step,\n"
+             "frame) with a probe in contact, median and 99th percentile, from the server's\n"
+             "closing figures; ticks run and missed (docs/feel.md).\n",
+    .options = tick_table,
+    .epilogue = "\nexit status: 0 every run completed with every bot on the server's tick and hash;\n"
+                "1 not; 2 usage\n",
+};
 
 static int parse(int argc, char **argv, tick_options *o, char *scenes_buf, size_t cap)
 {
     static char config[1100];
     snprintf(config, sizeof config, "%s/deploy/cyclonedds-loopback.xml", FTM_SOURCE_DIR);
     long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
-    *o = (tick_options){.duration = 8, .rate = 1000, .press = 0.005, .domain = 170,
-                        .cpu = ncpu > 1 ? (int)ncpu - 1 : -1, .config = config};
-    snprintf(scenes_buf, cap, "default,palpation");
-    o->counts[0] = 1, o->counts[1] = 2, o->counts[2] = 8, o->ncounts = 3;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            usage(stdout);
-            return 1;
-        }
-        if (strcmp(a, "--json") == 0) {
-            o->json = true;
-            continue;
-        }
-        if (i + 1 >= argc) {
-            fprintf(stderr, "ftm bench tick: %s needs a value (or is unknown: try --help)\n", a);
-            return 2;
-        }
-        const char *v = argv[++i];
-        char *end = NULL;
-        errno = 0;
-        const char *bad = NULL;
-        if (strcmp(a, "--scenes") == 0) {
-            snprintf(scenes_buf, cap, "%s", v);
-        } else if (strcmp(a, "--trainees") == 0) {
-            if ((o->ncounts = parse_list_int(v, o->counts, MAX_COUNTS, 1, MAX_TRAINEES)) < 0)
-                bad = "a list of 1..16 trainees, at most 8 entries";
-        } else if (strcmp(a, "--duration") == 0) {
-            o->duration = strtod(v, &end);
-            if (*end || !(o->duration >= 4 && o->duration <= 3600))
-                bad = "4..3600 s";
-        } else if (strcmp(a, "--rate") == 0) {
-            o->rate = strtod(v, &end);
-            if (*end || !(o->rate >= 10 && o->rate <= 10000))
-                bad = "10..10000 Hz";
-        } else if (strcmp(a, "--press") == 0) {
-            o->press = strtod(v, &end) * 1e-3;
-            if (*end || !(o->press >= 0.5e-3 && o->press <= 30e-3))
-                bad = "0.5..30 mm";
-        } else if (strcmp(a, "--cpu") == 0) {
-            long c = strtol(v, &end, 10);
-            if (*end || c < 0 || c >= ncpu)
-                bad = "a CPU online (0..count-1)";
-            o->cpu = (int)c;
-        } else if (strcmp(a, "--domain") == 0) {
-            long d = strtol(v, &end, 10);
-            if (*end || d < 0 || d > 226)
-                bad = "0..226";
-            o->domain = (int)d;
-        } else if (strcmp(a, "--server") == 0) {
-            o->server = v;
-        } else if (strcmp(a, "--bot") == 0) {
-            o->bot = v;
-        } else if (strcmp(a, "--config") == 0) {
-            o->config = v;
-        } else if (strcmp(a, "--keep") == 0) {
-            o->keep = v;
-        } else {
-            fprintf(stderr, "ftm bench tick: unknown option '%s' (try --help)\n", a);
-            return 2;
-        }
-        if (bad) {
-            fprintf(stderr, "ftm bench tick: %s must be %s (got '%s')\n", a, bad, v);
-            return 2;
-        }
+    *o = (tick_options){.duration = 8, .rate = 1000, .press_mm = 5, .domain = 170,
+                        .cpu = ncpu > 1 ? (int)ncpu - 1 : -1, .config = config,
+                        .scenes_arg = "default,palpation", .counts = {1, 2, 8}, .ncounts = 3};
+    int rc = ftm_options_parse(&tick_set, argc, argv, o, NULL, NULL);
+    if (rc == FTM_OPTIONS_HELP)
+        return 1;
+    if (rc != FTM_OPTIONS_OK)
+        return 2;
+    if (o->cpu >= ncpu) {
+        fprintf(stderr, "ftm bench tick: --cpu must be a CPU online, 0..%ld (got %d)\n", ncpu - 1,
+                o->cpu);
+        return 2;
     }
+    o->press = o->press_mm * 1e-3;
+    snprintf(scenes_buf, cap, "%s", o->scenes_arg);
     char *save = NULL;
     for (char *t = strtok_r(scenes_buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
         if (o->nscenes == MAX_SCENES) {
@@ -371,16 +331,8 @@ static int parse(int argc, char **argv, tick_options *o, char *scenes_buf, size_
         fprintf(stderr, "ftm bench tick: --scenes names no scene\n");
         return 2;
     }
-    if (!o->server)
-        o->server = ftm_proc_sibling("../server/ftm-server");
-    if (!o->bot)
-        o->bot = ftm_proc_sibling("../bot/ftm-bot");
-    if (!o->server || !o->bot || access(o->server, X_OK) || access(o->bot, X_OK)) {
-        fprintf(stderr, "ftm bench tick: cannot find ftm-server/ftm-bot (%s, %s); use --server "
-                        "and --bot\n",
-                o->server ? o->server : "?", o->bot ? o->bot : "?");
+    if (ftm_proc_find_programs("ftm bench tick", &o->server, &o->bot))
         return 2;
-    }
     if (access(o->config, R_OK)) {
         fprintf(stderr, "ftm bench tick: cannot read --config %s\n", o->config);
         return 2;
@@ -392,7 +344,7 @@ static void print_row(FILE *f, const tick_result *r, double budget_us)
 {
     const scene_info *si = r->sc;
     fprintf(f, "%-10s %-11s %-7s %5d %8d %9" PRIu64 " %8.0f %8.0f %7.0f %6" PRIu64 " %6.2f %4d/%d%s\n",
-            si->name, forces_name(si->forces), si->far == FTM_FAR_FIELD_ELASTIC ? "elastic" : "fixed",
+            si->name, ftm_forces_name(si->forces), si->far == FTM_FAR_FIELD_ELASTIC ? "elastic" : "fixed",
             (int)si->depth, r->trainees, r->contact_ticks, r->contact_p50, r->contact_p99, r->p50,
             r->missed, r->contact_p50 / budget_us, r->synced, r->trainees,
             r->ok ? "" : "  (failed)");
@@ -457,7 +409,7 @@ int ftm_bench_tick(int argc, char **argv)
             printf("%s{\"scene\":\"%s\",\"model\":\"%s\",\"far_field\":\"%s\",\"depth\":%d,"
                    "\"nodes\":%d,\"trainees\":%d,\"ticks\":%" PRIu64 ",\"missed\":%" PRIu64
                    ",\"contact_ticks\":%" PRIu64,
-                   i ? "," : "", r->sc->name, forces_name(r->sc->forces),
+                   i ? "," : "", r->sc->name, ftm_forces_name(r->sc->forces),
                    r->sc->far == FTM_FAR_FIELD_ELASTIC ? "elastic" : "fixed", (int)r->sc->depth,
                    (int)r->sc->nodes, r->trainees, r->ticks, r->missed, r->contact_ticks);
             json_num(stdout, "contact_p50_us", r->ok ? r->contact_p50 : NAN);

@@ -162,3 +162,16 @@ int ftm_proc_remove_tree(const char *dir)
 {
     return nftw(dir, remove_one, 16, FTW_DEPTH | FTW_PHYS);
 }
+
+int ftm_proc_find_programs(const char *who, const char **server, const char **bot)
+{
+    if (!*server)
+        *server = ftm_proc_sibling("../server/ftm-server");
+    if (!*bot)
+        *bot = ftm_proc_sibling("../bot/ftm-bot");
+    if (*server && *bot && access(*server, X_OK) == 0 && access(*bot, X_OK) == 0)
+        return 0;
+    fprintf(stderr, "%s: cannot find ftm-server/ftm-bot (%s, %s); use --server and --bot\n", who,
+            *server ? *server : "?", *bot ? *bot : "?");
+    return -1;
+}

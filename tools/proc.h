@@ -37,6 +37,12 @@ const char *ftm_proc_sibling(const char *rel);
  * followed). 0, or -1 with errno. */
 int ftm_proc_remove_tree(const char *dir);
 
+/* ftm-server and ftm-bot for a benchmark: *server and *bot as given, or
+ * (NULL) the ones beside this executable (../server, ../bot). 0, or -1
+ * after saying on stderr, as `who`, what is missing and which options
+ * name them. */
+int ftm_proc_find_programs(const char *who, const char **server, const char **bot);
+
 /* q-quantile of v[0..n) by nearest rank (sorts v); NAN when n is 0. */
 double ftm_proc_quantile(double *v, size_t n, double q);
 

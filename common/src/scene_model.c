@@ -18,6 +18,17 @@ static const char *forces_words(ftm_forces f)
     return "?";
 }
 
+const char *ftm_forces_name(ftm_forces forces)
+{
+    switch (forces) {
+    case FTM_FORCES_SPRINGS: return "springs";
+    case FTM_FORCES_LINEAR_FEM: return "linear-fem";
+    case FTM_FORCES_COROT_FEM: return "corot-fem";
+    case FTM_FORCES_NEO_HOOKEAN: return "neo-hookean";
+    }
+    return "?";
+}
+
 int ftm_scene_describe_model(const ftm_scene *scene, char *buf, size_t size)
 {
     const ftm_mesh *m = ftm_scene_mesh(scene);

@@ -56,6 +56,9 @@ void ftm_scene_destroy(ftm_scene *scene);
 const char *ftm_scene_name(const ftm_scene *scene);
 const ftm_mesh *ftm_scene_mesh(const ftm_scene *scene);
 ftm_sim_def ftm_scene_sim_def(const ftm_scene *scene);
+/* The word a scene's `[sim] forces` uses for a force model ("springs",
+ * "linear-fem", "corot-fem", "neo-hookean"); "?" for no model. */
+const char *ftm_forces_name(ftm_forces forces);
 /* The model the scene runs, in one line for a log or a summary: the force
  * model and its material, the far field, the depth; for springs, whether
  * the mesh could take element forces (volume elements) or not (a surface).
