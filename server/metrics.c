@@ -3,22 +3,119 @@
 #include "metrics.h"
 
 #include <arpa/inet.h>
+#include <errno.h>
 #include <microhttpd.h>
 #include <netinet/in.h>
 #include <pthread.h>
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
+#include <time.h>
 
 const double ftm_metrics_step_bounds[FTM_METRICS_STEP_BUCKETS] = {
     25e-6, 50e-6, 100e-6, 200e-6, 500e-6, 1e-3, 2e-3, 5e-3, 10e-3};
+
+/* Slow clients must not keep a scraper out (a slowloris: connections that
+ * trickle their headers, each byte resetting an idle timeout). Three limits:
+ * many connections (MHD polls them, no FD_SETSIZE cap); an idle timeout;
+ * and a deadline: a connection must complete a request within
+ * FTM_METRICS_DEADLINE_S of opening or of its previous answer, or a sweeper
+ * shuts its socket down. Holding a slot then costs an attacker a new
+ * connection every 2 s: 256 slots need 128 new connections a second. */
+#define FTM_METRICS_CONNECTIONS 256
+#define FTM_METRICS_IDLE_S 2u
+#define FTM_METRICS_DEADLINE_S 2.0
+
+typedef struct conn_slot {
+    int fd;        /* -1: free */
+    double since;  /* opened, or last answered [s, monotonic] */
+    bool shut;     /* the sweeper shut it down; MHD closes it */
+} conn_slot;
 
 struct ftm_metrics {
     struct MHD_Daemon *daemon;
     pthread_mutex_t lock;
     ftm_metrics_snapshot snap; /* under lock */
+    /* the deadline's sweeper; slots under lock */
+    conn_slot slot[FTM_METRICS_CONNECTIONS];
+    pthread_t sweeper;
+    pthread_cond_t wake;
+    bool stopping, sweeping;
+    uint64_t deadline_closed; /* connections the sweeper shut down */
 };
+
+static double mono_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* MHD_OPTION_NOTIFY_CONNECTION: a slot per open connection, its index in
+ * the connection's socket context (+1, so NULL is "none"). MHD calls CLOSED
+ * before it closes the socket, so the sweeper never touches a closed fd. */
+static void on_connection(void *cls, struct MHD_Connection *c, void **ctx,
+                          enum MHD_ConnectionNotificationCode code)
+{
+    ftm_metrics *m = cls;
+    pthread_mutex_lock(&m->lock);
+    if (code == MHD_CONNECTION_NOTIFY_STARTED) {
+        const union MHD_ConnectionInfo *ci =
+            MHD_get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+        for (size_t i = 0; ci && i < FTM_METRICS_CONNECTIONS; i++)
+            if (m->slot[i].fd < 0) {
+                m->slot[i] = (conn_slot){.fd = ci->connect_fd, .since = mono_s()};
+                *ctx = (void *)(uintptr_t)(i + 1);
+                break;
+            }
+    } else if (*ctx) {
+        m->slot[(uintptr_t)*ctx - 1].fd = -1;
+        *ctx = NULL;
+    }
+    pthread_mutex_unlock(&m->lock);
+}
+
+/* A request answered: the deadline starts again (a kept-alive scraper). */
+static void answered(ftm_metrics *m, struct MHD_Connection *c)
+{
+    const union MHD_ConnectionInfo *ci =
+        MHD_get_connection_info(c, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    if (!ci || !ci->socket_context)
+        return;
+    pthread_mutex_lock(&m->lock);
+    m->slot[(uintptr_t)ci->socket_context - 1].since = mono_s();
+    pthread_mutex_unlock(&m->lock);
+}
+
+static void *sweep(void *arg)
+{
+    ftm_metrics *m = arg;
+    pthread_mutex_lock(&m->lock);
+    while (!m->stopping) {
+        double now = mono_s();
+        for (size_t i = 0; i < FTM_METRICS_CONNECTIONS; i++) {
+            conn_slot *sl = &m->slot[i];
+            if (sl->fd >= 0 && !sl->shut && now - sl->since > FTM_METRICS_DEADLINE_S) {
+                shutdown(sl->fd, SHUT_RDWR); /* MHD sees the end and closes it */
+                sl->shut = true;
+                m->deadline_closed++;
+            }
+        }
+        struct timespec until;
+        clock_gettime(CLOCK_REALTIME, &until);
+        until.tv_nsec += 100000000L; /* every 100 ms */
+        if (until.tv_nsec >= 1000000000L) {
+            until.tv_sec++;
+            until.tv_nsec -= 1000000000L;
+        }
+        pthread_cond_timedwait(&m->wake, &m->lock, &until);
+    }
+    pthread_mutex_unlock(&m->lock);
+    return NULL;
+}
 
 typedef struct textbuf {
     char *buf;
@@ -57,6 +154,9 @@ size_t ftm_metrics_render(const ftm_metrics_snapshot *s, char *buf, size_t size)
     put(&o, "ftm_missed_ticks_total %llu\n", (unsigned long long)s->missed_ticks);
     metric(&o, "ftm_idle_ticks_total", "counter", "Idle ticks not sent.");
     put(&o, "ftm_idle_ticks_total %llu\n", (unsigned long long)s->idle_ticks);
+    metric(&o, "ftm_metrics_slow_closed_total", "counter",
+           "Metrics connections closed for taking over 2 s to send a request.");
+    put(&o, "ftm_metrics_slow_closed_total %llu\n", (unsigned long long)s->slow_closed);
     metric(&o, "ftm_step_seconds", "histogram", "Server time per tick (collision, step, frame).");
     uint64_t cum = 0;
     for (int i = 0; i < FTM_METRICS_STEP_BUCKETS; i++) {
@@ -143,6 +243,7 @@ static enum MHD_Result handler(void *cls, struct MHD_Connection *c, const char *
             return MHD_NO;
         pthread_mutex_lock(&m->lock);
         *s = m->snap;
+        s->slow_closed = m->deadline_closed;
         pthread_mutex_unlock(&m->lock);
         size_t need = ftm_metrics_render(s, NULL, 0) + 1;
         char *buf = malloc(need);
@@ -159,6 +260,7 @@ static enum MHD_Result handler(void *cls, struct MHD_Connection *c, const char *
     }
     if (!r)
         return MHD_NO;
+    answered(m, c);
     enum MHD_Result ret = MHD_queue_response(c, status, r);
     MHD_destroy_response(r);
     return ret;
@@ -171,7 +273,8 @@ int ftm_metrics_start(const char *addr, uint16_t port, ftm_metrics **out, ftm_er
     memset(&ss, 0, sizeof ss);
     struct sockaddr_in *v4 = (struct sockaddr_in *)&ss;
     struct sockaddr_in6 *v6 = (struct sockaddr_in6 *)&ss;
-    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_ERROR_LOG;
+    /* MHD_USE_AUTO: epoll on Linux, so connections past FD_SETSIZE are polled too */
+    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_AUTO | MHD_USE_ERROR_LOG;
     if (!addr)
         addr = "127.0.0.1";
     if (inet_pton(AF_INET, addr, &v4->sin_addr) == 1) {
@@ -194,10 +297,20 @@ int ftm_metrics_start(const char *addr, uint16_t port, ftm_metrics **out, ftm_er
         return FTM_ENOMEM;
     }
     pthread_mutex_init(&m->lock, NULL);
-    m->daemon = MHD_start_daemon(flags, port, NULL, NULL, handler, m, MHD_OPTION_SOCK_ADDR,
-                                 (struct sockaddr *)&ss, MHD_OPTION_CONNECTION_LIMIT, 8u,
-                                 MHD_OPTION_CONNECTION_TIMEOUT, 5u, MHD_OPTION_END);
-    if (!m->daemon) {
+    pthread_cond_init(&m->wake, NULL);
+    for (size_t i = 0; i < FTM_METRICS_CONNECTIONS; i++)
+        m->slot[i].fd = -1;
+    m->daemon = MHD_start_daemon(
+        flags, port, NULL, NULL, handler, m, MHD_OPTION_SOCK_ADDR, (struct sockaddr *)&ss,
+        MHD_OPTION_CONNECTION_LIMIT, (unsigned)FTM_METRICS_CONNECTIONS,
+        MHD_OPTION_CONNECTION_TIMEOUT, FTM_METRICS_IDLE_S, MHD_OPTION_NOTIFY_CONNECTION,
+        on_connection, m, MHD_OPTION_END);
+    if (m->daemon && pthread_create(&m->sweeper, NULL, sweep, m) == 0)
+        m->sweeping = true;
+    if (!m->daemon || !m->sweeping) {
+        if (m->daemon)
+            MHD_stop_daemon(m->daemon);
+        pthread_cond_destroy(&m->wake);
         pthread_mutex_destroy(&m->lock);
         free(m);
         err->code = FTM_EIO;
@@ -224,7 +337,13 @@ void ftm_metrics_stop(ftm_metrics *m)
 {
     if (!m)
         return;
+    pthread_mutex_lock(&m->lock);
+    m->stopping = true;
+    pthread_cond_signal(&m->wake);
+    pthread_mutex_unlock(&m->lock);
+    pthread_join(m->sweeper, NULL);
     MHD_stop_daemon(m->daemon);
+    pthread_cond_destroy(&m->wake);
     pthread_mutex_destroy(&m->lock);
     free(m);
 }

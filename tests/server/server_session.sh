@@ -27,6 +27,9 @@
 #             by their announcements and rejoined: one on the same scene,
 #             with a trainee pressing, then one on another scene, which the
 #             observer loads; it ends on the last server's hash.
+#   slowloris: 200 connections trickling their headers to /metrics while
+#             a scraper asks every 0.2 s: every scrape answered, slow
+#             connections closed by the 2 s deadline, no tick missed.
 #   feel:     what a trainee feels does not depend on the depth (the default
 #             scene's elastic far field, docs/core.md): trainee 11 presses
 #             the same way twice, the instructor holds the depth at 2 for the
@@ -535,6 +538,83 @@ EOF
     [ $rc -eq 0 ] || { cat "$dir/metrics.err"; fail "metrics check failed"; }
     check_hashes 11
     echo "PASS metrics: $(cat "$dir/metrics.out")"
+    ;;
+slowloris)
+    # 200 connections that trickle their headers (a slowloris), reopened as
+    # the server closes them, while a scraper asks every 0.2 s: every scrape
+    # is answered, the deadline closes slow connections, no tick is missed
+    port=$(( 20000 + $$ % 20000 ))
+    start_server --duration 12 --metrics-port $port --metrics-addr 127.0.0.2
+    timeout 60 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
+        --duration 20 >"$dir/bot11.out" 2>"$dir/bot11.err" &
+    b11=$!
+    sleep 1.0
+    timeout 40 python3 - $port >"$dir/slow.out" 2>"$dir/slow.err" <<'EOF'
+import socket, sys, threading, time, urllib.request
+port = int(sys.argv[1]); host = "127.0.0.2"
+stop = time.monotonic() + 8.0
+socks, opened, held_max = [], 0, 0
+def attack():
+    global opened, held_max
+    i = 0
+    while time.monotonic() < stop:
+        while len(socks) < 200:
+            s = socket.socket(); s.settimeout(0.2)
+            try:
+                s.connect((host, port)); s.sendall(b"GET /metrics HTTP/1.1\r\nHost: x\r\n")
+                s.setblocking(False); socks.append(s); opened += 1
+            except OSError:
+                s.close(); break
+        held_max = max(held_max, len(socks))
+        if i % 2:  # one header byte each, every 0.5 s
+            for s in list(socks):
+                try:
+                    s.send(b"X")
+                except OSError:
+                    socks.remove(s); s.close()
+        i += 1
+        time.sleep(0.25)
+t = threading.Thread(target=attack); t.start()
+time.sleep(1.0)
+lat, failed = [], []
+while time.monotonic() < stop - 0.5:
+    t0 = time.monotonic()
+    try:
+        with urllib.request.urlopen("http://%s:%d/metrics" % (host, port), timeout=1.0) as r:
+            body = r.read().decode()
+            assert r.status == 200 and "ftm_ticks_total" in body
+        lat.append(time.monotonic() - t0)
+    except Exception as e:
+        failed.append(repr(e))
+    time.sleep(max(0.0, 0.2 - (time.monotonic() - t0)))
+t.join()
+closed = 0
+with urllib.request.urlopen("http://%s:%d/metrics" % (host, port), timeout=2.0) as r:
+    for line in r.read().decode().splitlines():
+        if line.startswith("ftm_metrics_slow_closed_total "):
+            closed = int(float(line.split()[1]))
+for s in socks:
+    s.close()
+lat.sort()
+fast = sum(1 for x in lat if x <= 0.1)
+n = len(lat) + len(failed)
+print("%d scrapes: %d answered (%d within 100 ms, median %.1f ms, max %.1f ms), %d failed; "
+      "%d slow connections opened, up to %d held at once, %d closed by the deadline" % (
+      n, len(lat), fast, 1e3 * lat[len(lat) // 2] if lat else -1, 1e3 * lat[-1] if lat else -1,
+      len(failed), opened, held_max, closed))
+assert not failed, "scrapes failed: %s" % failed[:3]
+assert n >= 20, "only %d scrapes" % n
+assert held_max >= 150, "the attack held only %d connections" % held_max
+assert closed > 0, "no slow connection closed by the deadline"
+EOF
+    rc=$?
+    wait $server || fail "server exited with $?"
+    wait $b11 || fail "bot 11 exited with $?"
+    [ $rc -eq 0 ] || { cat "$dir/slow.out" "$dir/slow.err"; fail "scrapes under a slowloris"; }
+    missed=$(sed -n 's/.* ticks in .*, \([0-9]*\) missed;.*/\1/p' "$dir/server.log")
+    [ "$missed" = 0 ] || fail "$missed ticks missed under the slowloris"
+    check_hashes 11
+    echo "PASS slowloris: $(cat "$dir/slow.out"); 0 missed ticks"
     ;;
 restart)
     # server A; observer 13 told to wait for a restart (--rejoin); A stops
