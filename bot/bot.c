@@ -14,6 +14,7 @@
 #include "cli.h"
 #include "participant.h"
 #include "script.h"
+#include "sessions.h"
 
 #include "ftm/clock.h"
 #include "ftm/scene.h"
@@ -43,6 +44,7 @@ typedef struct options {
     uint32_t domain, id;
     double duration, resync_timeout, input_period;
     double rejoin; /* after the server leaves, wait this long for it to restart [s] */
+    bool list;     /* --list: print the domain's sessions and exit */
 } options;
 
 static volatile sig_atomic_t g_stop;
@@ -123,6 +125,9 @@ static const ftm_option option_table[] = {
                    "when the server leaves, wait S seconds for it to restart\n"
                    "and rejoin it (default 0: stop)"),
     FTM_OPT_STRING("log", "FILE", O, log_path, "CSV: one line per applied frame"),
+    FTM_OPT_FLAG("list", O, list,
+                 "list the sessions on the domain (scene, server, age, who is there),\n"
+                 "heard for 1.5 s (or --duration S), then exit; no --role needed"),
     {0}};
 #undef O
 
@@ -135,10 +140,13 @@ static const ftm_option_set option_set = {
 static int parse(int argc, char **argv, options *o)
 {
     *o = (options){.session = "ftm", .duration = 10.0, .resync_timeout = 5.0, .input_period = 0.001};
-    int rc = ftm_options_parse(&option_set, argc, argv, o, NULL, NULL);
+    uint64_t given = 0;
+    int rc = ftm_options_parse(&option_set, argc, argv, o, &given, NULL);
     if (rc == FTM_OPTIONS_HELP)
         return 0;
-    if (rc == FTM_OPTIONS_OK && !o->role) {
+    if (rc == FTM_OPTIONS_OK && o->list && !ftm_options_given(&option_set, given, "duration"))
+        o->duration = 1.5;
+    if (rc == FTM_OPTIONS_OK && !o->role && !o->list) {
         fprintf(stderr, "ftm-bot: --role is required (trainee, observer or instructor)\n");
         rc = FTM_OPTIONS_BAD;
     }
@@ -510,6 +518,26 @@ static int open_participant(bot *b)
     return 0;
 }
 
+/* --list: the sessions on the domain, then exit (0; 3 when DDS fails). */
+static int list_sessions(const options *o)
+{
+    ftm_sessions_def d = ftm_default_sessions_def();
+    d.domain = o->domain;
+    d.dds_config = o->config;
+    d.dds_security = o->security;
+    d.participant_id = o->id;
+    d.seconds = o->duration;
+    ftm_session_seen seen[FTM_SESSIONS_MAX];
+    int32_t n = 0;
+    ftm_error err = {0, ""};
+    if (ftm_sessions_find(&d, seen, FTM_SESSIONS_MAX, &n, &err)) {
+        fprintf(stderr, "ftm-bot: --list: %s\n", err.message);
+        return 3;
+    }
+    ftm_sessions_print(stdout, &d, seen, n);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     static bot bb;
@@ -519,6 +547,8 @@ int main(int argc, char **argv)
     int rc = parse(argc, argv, &b->o);
     if (rc >= 0)
         return rc;
+    if (b->o.list)
+        return list_sessions(&b->o);
     rc = setup(b);
     if (rc) {
         ftm_script_free(&b->sc);

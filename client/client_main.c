@@ -24,6 +24,7 @@
 #include "render.h"
 #include "screenshot.h"
 #include "script.h"
+#include "sessions.h"
 
 #include "ftm/clock.h"
 
@@ -805,6 +806,26 @@ static bool start(app *a)
     return true;
 }
 
+/* --list: the sessions on the domain, then exit (0; 3 when DDS fails). */
+static int list_sessions(const ftm_client_options *o)
+{
+    ftm_sessions_def d = ftm_default_sessions_def();
+    d.domain = o->domain;
+    d.dds_config = o->config;
+    d.dds_security = o->security;
+    d.participant_id = o->id;
+    d.seconds = o->duration;
+    ftm_session_seen seen[FTM_SESSIONS_MAX];
+    int32_t n = 0;
+    ftm_error err = {0, ""};
+    if (ftm_sessions_find(&d, seen, FTM_SESSIONS_MAX, &n, &err)) {
+        fprintf(stderr, "ftm-client: --list: %s\n", err.message);
+        return 3;
+    }
+    ftm_sessions_print(stdout, &d, seen, n);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     static app aa;
@@ -821,6 +842,8 @@ int main(int argc, char **argv)
     int rc = ftm_client_options_parse(argc, argv, &a->o);
     if (rc >= 0)
         return rc;
+    if (a->o.list)
+        return list_sessions(&a->o);
     if (a->o.id == 0)
         a->o.id = (uint32_t)(((uint64_t)getpid() * 2654435761u) ^ (uint64_t)time(NULL)) | 1u;
     rc = check_args(a);

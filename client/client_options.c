@@ -115,6 +115,9 @@ static const ftm_option option_table[] = {
                    "measure the frame rate for S s once synced, exit"),
     FTM_OPT_FLAG("json", O, json, "--bench result as JSON too"),
     FTM_OPT_DOUBLE("duration", "S", O, duration, 0, SECONDS, 0, "seconds", "exit after S s"),
+    FTM_OPT_FLAG("list", O, list,
+                 "list the sessions on --domain (scene, server, age, who is there),\n"
+                 "heard for 1.5 s (or --duration S), then exit: no window"),
     FTM_OPT_STRING("log", "FILE", O, log_path, "also write the log there"),
     FTM_OPT_FLAG("verbose", O, verbose, "debug messages"),
     {0}};
@@ -138,6 +141,8 @@ int ftm_client_options_parse(int argc, char **argv, ftm_client_options *o)
     o->device_given = ftm_options_given(&option_set, given, "device");
     o->renderer_given = ftm_options_given(&option_set, given, "renderer");
     o->shot_hold = ftm_options_given(&option_set, given, "screenshot-tick");
+    if (o->list && !ftm_options_given(&option_set, given, "duration"))
+        o->duration = 1.5;
     o->colormap_full *= 1e-3; /* mm */
     return -1;
 }

@@ -334,7 +334,12 @@ static bool banner_text(ftm_client_session *s, int64_t now, char *banner, size_t
     else if (now < s->reject_until_ns)
         snprintf(banner, cap, "%s", s->reject_msg);
     else if (!in->have_ann) {
-        snprintf(banner, cap, "WAITING FOR SESSION '%s'...", s->cfg.session);
+        if (in->sessions_scanned)
+            snprintf(banner, cap, "NO SERVER ANNOUNCES SESSION '%s' ON DOMAIN %u. HEARD THERE: %s",
+                     s->cfg.session, s->cfg.domain,
+                     in->sessions_heard[0] ? in->sessions_heard : "NO SESSION");
+        else
+            snprintf(banner, cap, "WAITING FOR SESSION '%s'...", s->cfg.session);
         return false;
     } else if (rep && ftm_replay_state(rep) != FTM_WIRE_STATE_SYNCED) {
         snprintf(banner, cap, "%s...",

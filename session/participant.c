@@ -2,6 +2,7 @@
 /* The participant core (participant.h): one implementation of the
  * participant's side of the protocol for ftm-bot and ftm-client. */
 #include "participant.h"
+#include "sessions.h"
 
 #include "ftm/clock.h"
 
@@ -39,6 +40,7 @@ struct ftm_participant {
     ftm_id_told told;
     bool held_late_told;
     int64_t joined_ns, last_status_ns;
+    int64_t scanned_ns; /* the last look for the domain's sessions (0: none) */
     ftm_wire_state last_told; /* the state of the last status */
     /* commands waiting for their reply: any thread */
     pthread_mutex_t lock;
@@ -572,6 +574,43 @@ static void take(ftm_participant *p, int kind, int max)
     }
 }
 
+/* No server has announced our session for a while: a mistyped name waits
+ * forever, so say which sessions the domain has (blocks for a second, while
+ * there is nothing else to do), in the log and in info.sessions_heard. */
+#define NO_SESSION_NS 3000000000LL
+#define RESCAN_NS 30000000000LL
+static void no_session_yet(ftm_participant *p, int64_t now)
+{
+    if (p->info.have_ann || now - p->joined_ns < NO_SESSION_NS ||
+        (p->scanned_ns && now - p->scanned_ns < RESCAN_NS))
+        return;
+    ftm_sessions_def d = ftm_default_sessions_def();
+    d.domain = p->def.domain;
+    d.dds_config = p->def.dds_config;
+    d.dds_security = p->def.dds_security;
+    d.participant_id = p->def.id;
+    ftm_session_seen seen[FTM_SESSIONS_MAX];
+    int32_t n = 0;
+    ftm_error err = {0, ""};
+    int rc = ftm_sessions_find(&d, seen, FTM_SESSIONS_MAX, &n, &err);
+    p->scanned_ns = ftm_clock_mono_ns();
+    if (p->info.have_ann)
+        return; /* (it came meanwhile) */
+    char names[sizeof p->info.sessions_heard];
+    ftm_sessions_names(seen, n, names, sizeof names);
+    p->info.sessions_scanned = rc == FTM_OK;
+    snprintf(p->info.sessions_heard, sizeof p->info.sessions_heard, "%s", names);
+    if (rc)
+        plog(p, FTM_LOG_WARN, "no server announces session '%s' on domain %u yet; the domain's "
+             "sessions could not be listed: %s", p->def.session, p->def.domain, err.message);
+    else
+        plog(p, FTM_LOG_WARN,
+             "no server announces session '%s' on domain %u after %.0f s; sessions heard there: "
+             "%s (names are case-sensitive; --list shows them)",
+             p->def.session, p->def.domain, (double)(now - p->joined_ns) * 1e-9,
+             n ? names : "none");
+}
+
 bool ftm_participant_turn(ftm_participant *p, int64_t wait_ns)
 {
     take(p, FTM_WIRE_ANNOUNCE, 1);
@@ -603,6 +642,7 @@ bool ftm_participant_turn(ftm_participant *p, int64_t wait_ns)
         }
     }
     id_wait(p, ftm_clock_mono_ns());
+    no_session_yet(p, ftm_clock_mono_ns());
     return more;
 }
 

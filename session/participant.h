@@ -106,6 +106,10 @@ typedef struct ftm_participant_info {
     bool id_taken, id_held, id_late;
     int64_t held_since_ns;
     bool synced, ever_synced; /* the replica is synced now; was once */
+    /* no announcement for 3 s: the sessions the domain has (sessions.h),
+     * looked for once, then every 30 s while none comes */
+    bool sessions_scanned;
+    char sessions_heard[192]; /* their names, quoted, comma-separated; "" none */
 } ftm_participant_info;
 
 typedef struct ftm_participant ftm_participant;

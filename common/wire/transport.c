@@ -57,6 +57,7 @@ typedef struct rx_item {
     bool valid;             /* valid_data; else an instance-state change */
     bool alive;             /* instance_state == ALIVE */
     uint32_t sender;
+    char session[64]; /* Envelope.session (any_session transports) */
     uint64_t origin; /* the writer's process (writer_of) */
     /* secured: the role and id its writer's partition certifies (0: none) */
     uint32_t cert_id;
@@ -121,6 +122,7 @@ struct ftm_wire_transport {
     dds_entity_t publisher, subscriber;
     uint64_t origin; /* ours, as others see it (origin_of_guid) */
     char session[64];
+    bool any_session; /* read every session of the domain (def.any_session) */
     uint32_t id;
     ftm_wire_limits limits;
     ftm_log_fn log;
@@ -523,7 +525,7 @@ static void on_data_available(dds_entity_t reader, void *arg)
         int64_t arrival = real_now_ns();
         for (int32_t i = 0; i < n; i++) {
             const ftm_wire_Envelope *env = samples[i];
-            if (strncmp(env->session, t->session, sizeof env->session) != 0)
+            if (!t->any_session && strncmp(env->session, t->session, sizeof env->session) != 0)
                 continue; /* another session on the same domain */
             size_t size = info[i].valid_data ? env->payload._length : 0, over = 0;
             /* over the cap: rejected by the reader's thread, never copied */
@@ -551,6 +553,8 @@ static void on_data_available(dds_entity_t reader, void *arg)
                             .seq = env->seq,
                             .size = size,
                             .oversize = over};
+            if (t->any_session)
+                snprintf(it->session, sizeof it->session, "%.63s", env->session);
             if (size)
                 memcpy(it->data, env->payload._buffer, size);
             pthread_mutex_lock(&io->rx_lock);
@@ -687,6 +691,10 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
         return ftm_error_set(err, FTM_EINVAL, "transport: session name must have 1..63 bytes");
     if (def->participant_id == 0)
         return ftm_error_set(err, FTM_EINVAL, "transport: participant_id must not be 0");
+    if (def->any_session && def->publish)
+        return ftm_error_set(err, FTM_EINVAL,
+                             "transport: a transport of every session (any_session) publishes "
+                             "nothing");
     if ((def->publish | def->subscribe) & ~(uint32_t)FTM_WIRE_ALL_KINDS)
         return ftm_error_set(err, FTM_EINVAL,
                              "transport: publish/subscribe masks name unknown kinds");
@@ -700,6 +708,7 @@ int ftm_wire_transport_create(const ftm_wire_transport_def *def, ftm_wire_transp
     if (!t)
         return ftm_error_set(err, FTM_ENOMEM, "transport: out of memory");
     snprintf(t->session, sizeof t->session, "%s", def->session);
+    t->any_session = def->any_session;
     t->id = def->participant_id;
     t->limits = def->limits;
     t->log = def->log;
@@ -969,6 +978,7 @@ static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm
             out->msg.kind = FTM_WIRE_STATUS;
             out->sender = it->sender;
             out->origin = it->origin;
+            memcpy(out->session, it->session, sizeof out->session);
             out->gone = true;
             out->source_time_ns = it->source_time_ns;
             out->arrival_ns = it->arrival_ns;
@@ -1010,6 +1020,7 @@ static int handle_sample(ftm_wire_transport *t, int kind, const rx_item *it, ftm
     out->msg = msg;
     out->sender = it->sender;
     out->origin = it->origin;
+    memcpy(out->session, it->session, sizeof out->session);
     out->seq = it->seq;
     out->source_time_ns = it->source_time_ns;
     out->arrival_ns = it->arrival_ns;

@@ -27,6 +27,9 @@
 #             by their announcements and rejoined: one on the same scene,
 #             with a trainee pressing, then one on another scene, which the
 #             observer loads; it ends on the last server's hash.
+#   list:     two sessions on the domain: ftm-bot --list shows both (scene,
+#             server, who is there); a bot given a name that matches none
+#             (another case) logs the sessions the domain has.
 #   slowloris: 200 connections trickling their headers to /metrics while
 #             a scraper asks every 0.2 s: every scrape answered, slow
 #             connections closed by the 2 s deadline, no tick missed.
@@ -538,6 +541,42 @@ EOF
     [ $rc -eq 0 ] || { cat "$dir/metrics.err"; fail "metrics check failed"; }
     check_hashes 11
     echo "PASS metrics: $(cat "$dir/metrics.out")"
+    ;;
+list)
+    # two sessions on the domain: ours (palpation, a trainee) and another
+    # (default, by another server); --list shows both with scene and roles;
+    # a bot given the name in the wrong case says which sessions there are
+    other="Other-$$"
+    start_server --duration 10 --scene palpation
+    timeout 60 "$FTM_SERVER" --scene default --session "$other" --domain $domain \
+        --config "$FTM_CONFIG" --rate $rate --duration 10 --log "$dir/other.log" \
+        >"$dir/other.out" 2>"$dir/other.err" &
+    other_pid=$!
+    timeout 60 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
+        --duration 12 >"$dir/bot11.out" 2>"$dir/bot11.err" &
+    b11=$!
+    wait_for "$dir/server.log" "participant 11 (trainee" "trainee 11 not heard"
+    wait_for "$dir/other.log" "session '$other'" "the other server did not start"
+    timeout 20 "$FTM_BOT" --list --domain $domain --config "$FTM_CONFIG" --duration 2 \
+        >"$dir/list.out" 2>"$dir/list.err" || fail "ftm-bot --list exited with $?"
+    cat "$dir/list.out"
+    grep -q "^  $session  *scene palpation  *server 1, up .*1 trainee" "$dir/list.out" ||
+        fail "--list does not show $session with its scene and trainee"
+    grep -q "^  $other  *scene default  *server 1, up " "$dir/list.out" ||
+        fail "--list does not show $other"
+    # the name in the wrong case: no server announces it, and the bot says
+    # which sessions the domain has, in their own case
+    wrong=$(echo "$other" | tr 'A-Z' 'a-z')
+    timeout 20 "$FTM_BOT" --role observer --session "$wrong" --domain $domain \
+        --config "$FTM_CONFIG" --id 13 --duration 6 --resync-timeout 6 \
+        >"$dir/bot13.out" 2>"$dir/bot13.err"
+    grep -q "no server announces session '$wrong' on domain $domain after [0-9]* s; sessions heard there: .*'$other'" \
+        "$dir/bot13.err" || fail "a session name that matches nothing is not answered with the domain's sessions"
+    wait $server || fail "server exited with $?"
+    wait $other_pid || fail "the other server exited with $?"
+    wait $b11 || fail "bot 11 exited with $?"
+    check_hashes 11
+    echo "PASS list: $(grep -c '^  ' "$dir/list.out") sessions listed; $(grep -o "no server announces.*" "$dir/bot13.err" | head -n 1)"
     ;;
 slowloris)
     # 200 connections that trickle their headers (a slowloris), reopened as

@@ -313,6 +313,10 @@ typedef struct ftm_wire_transport_def {
     ftm_wire_role role;
     uint32_t domain_id;      /* DDS domain, default 0 */
     const char *session;     /* session name, 1..63 bytes; the topic key */
+    /* Read the messages of every session on the domain, not only `session`'s
+     * (ftm_wire_received.session says whose): for finding sessions
+     * (ftm-client --list). Such a transport publishes nothing. */
+    bool any_session;
     uint32_t participant_id; /* this participant's id (Envelope.sender), != 0 */
     uint32_t publish;        /* FTM_WIRE_KIND_BIT()s of the kinds written */
     uint32_t subscribe;      /* FTM_WIRE_KIND_BIT()s of the kinds read */
@@ -372,6 +376,7 @@ int ftm_wire_wait_matched(ftm_wire_transport *t, int kind, int32_t count, int64_
 typedef struct ftm_wire_received {
     ftm_wire_msg msg;      /* decoded; release with ftm_wire_received_free */
     uint32_t sender;       /* Envelope.sender */
+    char session[64];      /* Envelope.session, with def.any_session only (else "") */
     /* The process it came from: a hash of its DDS participant's GUID, the
      * same in every process (0: no longer known). Two processes that give
      * one sender id differ here; ftm_wire_transport_origin is our own. */
