@@ -602,13 +602,8 @@ int ftm_client_session_start(const ftm_client_config *cfg, ftm_client_session **
                              ftm_error *err)
 {
     ftm_client_session *s = calloc(1, sizeof *s);
-    if (!s) {
-        if (err) {
-            err->code = FTM_ENOMEM;
-            snprintf(err->message, sizeof err->message, "client session: out of memory");
-        }
-        return FTM_ENOMEM;
-    }
+    if (!s)
+        return ftm_error_set(err, FTM_ENOMEM, "client session: out of memory");
     s->cfg = *cfg;
     if (!s->cfg.session)
         s->cfg.session = "ftm";

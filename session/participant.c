@@ -651,13 +651,8 @@ bool ftm_participant_turn(ftm_participant *p, int64_t wait_ns)
 int ftm_participant_create(const ftm_participant_def *def, ftm_participant **out, ftm_error *err)
 {
     ftm_participant *p = calloc(1, sizeof *p);
-    if (!p) {
-        if (err) {
-            err->code = FTM_ENOMEM;
-            snprintf(err->message, sizeof err->message, "participant: out of memory");
-        }
-        return FTM_ENOMEM;
-    }
+    if (!p)
+        return ftm_error_set(err, FTM_ENOMEM, "participant: out of memory");
     p->def = *def;
     if (!p->def.session)
         p->def.session = "ftm";
