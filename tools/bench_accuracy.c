@@ -107,16 +107,12 @@ static int body_make(body *bd, const char *name, bool organ, ftm_error *err)
 {
     memset(bd, 0, sizeof *bd);
     snprintf(bd->name, sizeof bd->name, "%s", name);
-    ftm_mesh_builder *b = ftm_mesh_builder_create();
     int32_t loads[FTM_BENCH_MAX_LOADS];
     ftm_vec3 lf[FTM_BENCH_MAX_LOADS];
     int nl = 0;
-    int rc = organ ? ftm_bench_organ_geometry(b, loads, lf, &nl, &bd->spacing, err)
-                   : ftm_bench_cube_geometry(b, 10, loads, lf, &nl, &bd->spacing, err);
     ftm_mesh *g = NULL;
-    if (!rc)
-        rc = ftm_mesh_build(b, NULL, &g, err);
-    ftm_mesh_builder_destroy(b);
+    int rc = ftm_bench_body_geometry(organ ? "organ" : "cube", &g, loads, lf, &nl, &bd->spacing,
+                                     err);
     if (rc)
         return rc;
     int32_t n = ftm_mesh_node_count(g);

@@ -213,3 +213,20 @@ int ftm_bench_damping_floor(const ftm_mesh *mesh, double *zeta, ftm_error *err)
     ftm_sim_destroy(probe);
     return rc;
 }
+
+int ftm_bench_body_geometry(const char *name, ftm_mesh **out, int32_t *loads,
+                            ftm_vec3 *load_force, int *nloads, double *spacing, ftm_error *err)
+{
+    *out = NULL;
+    ftm_mesh_builder *b = ftm_mesh_builder_create();
+    if (!b)
+        return ftm_error_set(err, FTM_ENOMEM, "out of memory");
+    int rc = strcmp(name, "organ") == 0
+                 ? ftm_bench_organ_geometry(b, loads, load_force, nloads, spacing, err)
+                 : ftm_bench_cube_geometry(b, strcmp(name, "tiny") == 0 ? 4 : 10, loads,
+                                           load_force, nloads, spacing, err);
+    if (!rc)
+        rc = ftm_mesh_build(b, NULL, out, err);
+    ftm_mesh_builder_destroy(b);
+    return rc;
+}

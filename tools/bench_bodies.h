@@ -33,6 +33,11 @@ int ftm_bench_cube_geometry(ftm_mesh_builder *b, int n, int32_t *loads, ftm_vec3
 int ftm_bench_organ_geometry(ftm_mesh_builder *b, int32_t *loads, ftm_vec3 *load_force,
                              int *nloads, double *spacing, ftm_error *err);
 
+/* A body's geometry built into a mesh: "cube" (the paper's, n = 10),
+ * "tiny" (the cube with n = 4) or "organ"; its loads and lattice spacing. */
+int ftm_bench_body_geometry(const char *name, ftm_mesh **out, int32_t *loads,
+                            ftm_vec3 *load_force, int *nloads, double *spacing, ftm_error *err);
+
 /* The mesh of the runs: g's nodes in g's (already local) order, not
  * renumbered again, so that indices stay valid; node masses, damping
  * 2 zeta m and the springs' stiffness k; g's hexahedra. */

@@ -76,23 +76,12 @@ static int scene_make(scene *s, const char *name, ftm_error *err)
 {
     memset(s, 0, sizeof *s);
     snprintf(s->name, sizeof s->name, "%s", name);
-    ftm_mesh_builder *b = ftm_mesh_builder_create();
-    if (!b) {
-        snprintf(err->message, sizeof err->message, "out of memory");
-        return FTM_ENOMEM;
-    }
     int32_t loads[FTM_BENCH_MAX_LOADS];
     ftm_vec3 lf[FTM_BENCH_MAX_LOADS];
     int nl = 0;
     double spacing = 0;
-    int rc = strcmp(name, "organ") == 0
-                 ? ftm_bench_organ_geometry(b, loads, lf, &nl, &spacing, err)
-                 : ftm_bench_cube_geometry(b, strcmp(name, "tiny") == 0 ? 4 : 10, loads, lf, &nl,
-                                           &spacing, err);
     ftm_mesh *g = NULL;
-    if (!rc)
-        rc = ftm_mesh_build(b, NULL, &g, err);
-    ftm_mesh_builder_destroy(b);
+    int rc = ftm_bench_body_geometry(name, &g, loads, lf, &nl, &spacing, err);
     if (rc)
         return rc;
     s->n = ftm_mesh_node_count(g);
