@@ -486,6 +486,7 @@ metrics)
     port=$(( 20000 + $$ % 20000 ))
     # another loopback address than the default, which must then not answer
     start_server --duration 5 --metrics-port $port --metrics-addr 127.0.0.2
+    wait_for "$dir/server.log" "metrics on http://127.0.0.2:$port" "metrics not served"
     timeout 60 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
         --duration 20 >"$dir/bot11.out" 2>"$dir/bot11.err" &
     b11=$!
@@ -584,6 +585,7 @@ slowloris)
     # is answered, the deadline closes slow connections, no tick is missed
     port=$(( 20000 + $$ % 20000 ))
     start_server --duration 12 --metrics-port $port --metrics-addr 127.0.0.2
+    wait_for "$dir/server.log" "metrics on http://127.0.0.2:$port" "metrics not served"
     timeout 60 "$FTM_BOT" --role trainee --script "$FTM_SCRIPTS/trainee1.bot" $common --id 11 \
         --duration 20 >"$dir/bot11.out" 2>"$dir/bot11.err" &
     b11=$!
