@@ -15,6 +15,7 @@
 #include "participant.h"
 #include "script.h"
 #include "sessions.h"
+#include "tissue.h"
 
 #include "ftm/clock.h"
 #include "ftm/scene.h"
@@ -169,6 +170,12 @@ typedef struct bot {
     double lat_sum_us, lat_max_us;
     uint64_t lat_n;
     int64_t unsynced_since;
+    /* the last tissue command: a command carries every tissue parameter, so
+     * the next one waits until this one is answered and, if applied, in
+     * force in the replica (else it would carry the values from before) */
+    bool tissue_open, tissue_refused;
+    ftm_wire_tissue tissue_sent;
+    int64_t tissue_since;
 } bot;
 
 /* Server-to-bot latency of a frame [us]: from the server's send time in the
@@ -248,6 +255,32 @@ static void on_outcome(void *user, const char *text, int outcome, bool known)
         b->changed += outcome == FTM_WIRE_OUTCOME_CHANGED;
         b->refused += outcome == FTM_WIRE_OUTCOME_REFUSED;
     }
+    /* the brief of a tissue command names its parameter (ftm_script_command_text) */
+    const bool tissue = strncmp(text, "stiffness ", 10) == 0 ||
+                        strncmp(text, "damping ", 8) == 0 || strncmp(text, "mass ", 5) == 0;
+    if (tissue && outcome != FTM_WIRE_OUTCOME_APPLIED && outcome != FTM_WIRE_OUTCOME_CHANGED)
+        b->tissue_refused = true; /* (or unanswered: the replica's values are the base) */
+}
+
+static bool is_tissue(const ftm_script_command *c)
+{
+    return c->e.keyword == FTM_SCRIPT_KW_STIFFNESS || c->e.keyword == FTM_SCRIPT_KW_DAMPING ||
+           c->e.keyword == FTM_SCRIPT_KW_MASS;
+}
+
+/* Whether the last tissue command is settled: answered, and in force in
+ * the replica unless refused (at most 2 s of waiting: then the replica's
+ * values are the base whatever they are). */
+#define TISSUE_WAIT_NS 2000000000LL
+static bool tissue_settled(bot *b, const ftm_wire_tissue *now)
+{
+    if (!b->tissue_open)
+        return true;
+    const bool answered = ftm_participant_pending_count(b->part) == 0;
+    if ((answered && (b->tissue_refused || ftm_replay_tissue_equal(now, &b->tissue_sent))) ||
+        ftm_clock_mono_ns() - b->tissue_since > TISSUE_WAIT_NS)
+        b->tissue_open = false;
+    return !b->tissue_open;
 }
 
 /* why a bot that never synced did not: what it heard of the server (the
@@ -285,10 +318,13 @@ static void send_commands(bot *b, double t)
         ftm_script_command *c = &b->sc.cmds[i];
         if (c->done || t < c->e.t)
             continue;
+        /* a tissue command: one parameter changed, the others as the replica runs them now,
+         * once our previous change is in force there (commands stay in order) */
+        ftm_wire_tissue now = ftm_replay_tissue(ftm_participant_replica(b->part));
+        if (is_tissue(c) && !tissue_settled(b, &now))
+            break;
         c->done = true;
         ftm_wire_control ctl;
-        /* a tissue command: one parameter changed, the others as the replica runs them now */
-        ftm_wire_tissue now = ftm_replay_tissue(ftm_participant_replica(b->part));
         const char *name = ftm_script_control(c, &now, &ctl);
         char brief[FTM_PENDING_WHAT];
         ftm_script_command_text(c, brief, sizeof brief);
@@ -298,6 +334,12 @@ static void send_commands(bot *b, double t)
             continue;
         }
         b->command_id++;
+        if (ctl.command == FTM_WIRE_CMD_TISSUE) {
+            b->tissue_open = true;
+            b->tissue_refused = false;
+            b->tissue_sent = ctl.tissue;
+            b->tissue_since = ftm_clock_mono_ns();
+        }
         if (ctl.command == FTM_WIRE_CMD_TISSUE)
             blog("sent tissue: stiffness %g N/m, damping %g N s/m, mass %g kg (command %" PRIu64
                  ")", ctl.tissue.stiffness, ctl.tissue.node_damping, ctl.tissue.node_mass,
