@@ -355,8 +355,9 @@ static void closing_lines(server *s)
            ftm_sim_hash(tk->sim));
     fflush(stdout);
     srv_log(s, "info", "depth %d at the end, range [%d, %d]: %" PRIu64 " decreases, %" PRIu64
-            " increases", (int)tk->depth, (int)s->per.ctl.def.floor, (int)s->per.ctl.def.max,
-            s->per.ctl.decreases, s->per.ctl.increases);
+            " increases; ticks run at depths %d..%d", (int)tk->depth, (int)s->per.ctl.def.floor,
+            (int)s->per.ctl.def.max, s->per.ctl.decreases, s->per.ctl.increases,
+            (int)tk->depth_lo, (int)tk->depth_hi);
     srv_log_limits(s);
 }
 

@@ -47,7 +47,7 @@ typedef struct tick_options {
     double duration, rate, press_mm, press;
     int cpu, domain;
     const char *server, *bot, *config, *keep;
-    bool json;
+    bool json, adaptive;
 } tick_options;
 
 /* What a scene is, from libftm: where its top face is and what it runs. */
@@ -64,6 +64,7 @@ typedef struct tick_result {
     int trainees, synced;
     uint64_t ticks, missed, work_ticks, contact_ticks;
     double seconds, p50, p99, contact_p50, contact_p99;
+    int depth_lo, depth_hi; /* the depths the ticks ran at */
     bool ok; /* the run completed and was read */
 } tick_result;
 
@@ -149,6 +150,9 @@ static void parse_log(const char *log, tick_result *r)
                    &r->seconds, &rate, &r->missed) == 4)
             r->ok = true;
     }
+    const char *d = strstr(s, "ticks run at depths ");
+    if (d)
+        sscanf(d, "ticks run at depths %d..%d", &r->depth_lo, &r->depth_hi);
     p = strstr(s, "tick work p50 ");
     if (!p || sscanf(p,
                      "tick work p50 %lf us p99 %lf us over %" SCNu64
@@ -184,7 +188,8 @@ static int run_one(const tick_options *o, const char *dir, const scene_info *si,
     snprintf(serr, sizeof serr, "%s/server.err", sub);
     char *sargv[] = {(char *)o->server, "--scene", (char *)si->name, "--session", session,
                      "--domain", dom, "--config", (char *)o->config, "--rate", rate,
-                     "--duration", dur, "--log", slog, "--adaptive", "0", NULL};
+                     "--duration", dur, "--log", slog, "--adaptive", o->adaptive ? "1" : "0",
+                     NULL};
     pid_t server = ftm_proc_spawn(sargv, sout, serr, NULL, o->cpu);
     /* an elastic far field may first build its columns (cached afterwards) */
     if (server < 0 || !ftm_proc_wait_text(slog, "session '", 120.0)) {
@@ -281,6 +286,9 @@ static const ftm_option tick_table[] = {
                 "DDS domain; runs use N .. N+3 (default 170)"),
     FTM_OPT_STRING("keep", "DIR", tick_options, keep,
                    "keep scripts and logs in DIR (default: a temporary directory)"),
+    FTM_OPT_FLAG("adaptive", tick_options, adaptive,
+                 "the server adapts the depth to its load (--adaptive 1, depths up to\n"
+                 "the scene's): how deep the ticks still run, and whether 1 kHz holds"),
     FTM_OPT_FLAG("json", tick_options, json, "one JSON object (the table goes to standard error)"),
     {0},
 };
@@ -343,9 +351,12 @@ static int parse(int argc, char **argv, tick_options *o, char *scenes_buf, size_
 static void print_row(FILE *f, const tick_result *r, double budget_us)
 {
     const scene_info *si = r->sc;
-    fprintf(f, "%-10s %-11s %-7s %5d %8d %9" PRIu64 " %8.0f %8.0f %7.0f %6" PRIu64 " %6.2f %4d/%d%s\n",
+    char depths[16];
+    snprintf(depths, sizeof depths, r->depth_lo == r->depth_hi ? "%d" : "%d..%d", r->depth_lo,
+             r->depth_hi);
+    fprintf(f, "%-10s %-11s %-7s %6s %8d %9" PRIu64 " %8.0f %8.0f %7.0f %6" PRIu64 " %6.2f %4d/%d%s\n",
             si->name, ftm_forces_name(si->forces), si->far == FTM_FAR_FIELD_ELASTIC ? "elastic" : "fixed",
-            (int)si->depth, r->trainees, r->contact_ticks, r->contact_p50, r->contact_p99, r->p50,
+            depths, r->trainees, r->contact_ticks, r->contact_p50, r->contact_p99, r->p50,
             r->missed, r->contact_p50 / budget_us, r->synced, r->trainees,
             r->ok ? "" : "  (failed)");
 }
@@ -383,9 +394,11 @@ int ftm_bench_tick(int argc, char **argv)
     }
     double budget_us = 1e6 / o.rate;
     FILE *t = o.json ? stderr : stdout;
-    fprintf(t, "ftm bench tick: %g Hz (budget %.0f us), server on cpu %d, %g s a run, %.1f mm presses\n",
-            o.rate, budget_us, o.cpu, o.duration, o.press * 1e3);
-    fprintf(t, "%-10s %-11s %-7s %5s %8s %9s %8s %8s %7s %6s %6s %6s\n", "scene", "model", "far",
+    fprintf(t, "ftm bench tick: %g Hz (budget %.0f us), server on cpu %d, %g s a run, %.1f mm "
+               "presses, %s depth\n",
+            o.rate, budget_us, o.cpu, o.duration, o.press * 1e3,
+            o.adaptive ? "adaptive" : "the scene's");
+    fprintf(t, "%-10s %-11s %-7s %6s %8s %9s %8s %8s %7s %6s %6s %6s\n", "scene", "model", "far",
             "depth", "trainees", "contact", "p50[us]", "p99[us]", "all[us]", "missed", "budget",
             "synced");
     tick_result res[MAX_SCENES * MAX_COUNTS];
@@ -402,16 +415,19 @@ int ftm_bench_tick(int argc, char **argv)
     fprintf(t, "contact: ticks with a probe in contact; p50/p99: their work; all: the median of "
                "every tick; budget: p50 over the tick period\n");
     if (o.json) {
-        printf("{\"rate\":%g,\"cpu\":%d,\"duration\":%g,\"press_mm\":%g,\"runs\":[", o.rate, o.cpu,
-               o.duration, o.press * 1e3);
+        printf("{\"rate\":%g,\"cpu\":%d,\"duration\":%g,\"press_mm\":%g,\"adaptive\":%s,"
+               "\"runs\":[",
+               o.rate, o.cpu, o.duration, o.press * 1e3, o.adaptive ? "true" : "false");
         for (int i = 0; i < nres; i++) {
             const tick_result *r = &res[i];
             printf("%s{\"scene\":\"%s\",\"model\":\"%s\",\"far_field\":\"%s\",\"depth\":%d,"
+                   "\"depth_lo\":%d,\"depth_hi\":%d,"
                    "\"nodes\":%d,\"trainees\":%d,\"ticks\":%" PRIu64 ",\"missed\":%" PRIu64
                    ",\"contact_ticks\":%" PRIu64,
                    i ? "," : "", r->sc->name, ftm_forces_name(r->sc->forces),
                    r->sc->far == FTM_FAR_FIELD_ELASTIC ? "elastic" : "fixed", (int)r->sc->depth,
-                   (int)r->sc->nodes, r->trainees, r->ticks, r->missed, r->contact_ticks);
+                   r->depth_lo, r->depth_hi, (int)r->sc->nodes, r->trainees, r->ticks, r->missed,
+                   r->contact_ticks);
             json_num(stdout, "contact_p50_us", r->ok ? r->contact_p50 : NAN);
             json_num(stdout, "contact_p99_us", r->ok ? r->contact_p99 : NAN);
             json_num(stdout, "all_p50_us", r->ok ? r->p50 : NAN);
