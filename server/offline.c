@@ -39,8 +39,8 @@ static void feed_input(server *s, feed *f, const ftm_record_entry *e)
     if (e->lost) {
         participant *p = srv_find_part(s, e->sender, false);
         if (p) {
+            srv_lose_probes(s, p);
             p->silent = true;
-            srv_release_probes(p);
         }
         return;
     }

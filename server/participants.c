@@ -59,6 +59,52 @@ void srv_release_probes(participant *p)
         memset(&p->probes[k], 0, sizeof p->probes[k]);
 }
 
+/* A trainee lost without leaving (silent past the status deadline, or its
+ * lease expired): its probes are released, and kept with its id and
+ * process for restore_lost. */
+void srv_lose_probes(server *s, participant *p)
+{
+    srv_parts *ps = &s->parts;
+    bool held = false;
+    for (int k = 0; k < MAX_PROBES; k++)
+        held |= p->probes[k].contact;
+    if (held && p->role == FTM_WIRE_ROLE_TRAINEE && p->state != FTM_WIRE_STATE_LEAVING) {
+        ps->lost[ps->lost_next].id = p->id;
+        ps->lost[ps->lost_next].origin = p->origin;
+        ps->lost[ps->lost_next].tick = s->tk.tick + 1;
+        memcpy(ps->lost[ps->lost_next].probes, p->probes, sizeof p->probes);
+        ps->lost_next = (ps->lost_next + 1) % (int)(sizeof ps->lost / sizeof ps->lost[0]);
+    }
+    srv_release_probes(p);
+}
+
+/* The same process back under its id after its lease expired (within 30 s
+ * of ticks, so that --inputs decides alike): its probes as they were, the
+ * contacts held; their next samples move them on. */
+static void restore_lost(server *s, participant *p, uint64_t origin)
+{
+    srv_parts *ps = &s->parts;
+    const uint64_t window = (uint64_t)(30.0 * s->o.rate);
+    for (size_t i = 0; i < sizeof ps->lost / sizeof ps->lost[0]; i++) {
+        if (!ps->lost[i].tick || ps->lost[i].id != p->id || ps->lost[i].origin != origin)
+            continue;
+        const bool recent = s->tk.tick + 1 - ps->lost[i].tick <= window;
+        int held = 0;
+        for (int k = 0; recent && k < MAX_PROBES; k++) {
+            p->probes[k] = ps->lost[i].probes[k];
+            p->probes[k].have_prev = false;
+            held += p->probes[k].contact;
+        }
+        if (recent && held)
+            srv_log(s, "info",
+                    "participant %u: the same process is back %.2f s after its lease expired: "
+                    "%d probe contact%s restored",
+                    p->id, (double)(s->tk.tick + 1 - ps->lost[i].tick) / s->o.rate, held,
+                    held > 1 ? "s" : "");
+        ps->lost[i].tick = 0;
+    }
+}
+
 void srv_on_status(server *s, ftm_wire_received *rx)
 {
     if (rx->gone) {
@@ -71,9 +117,9 @@ void srv_on_status(server *s, ftm_wire_received *rx)
                 ftm_wire_role_name(p->role), p->name,
                 p->state == FTM_WIRE_STATE_LEAVING ? "left"
                                                   : "lost without leaving (lease expired)");
-        srv_release_probes(p);
-        p->used = false;
         srv_parts *ps = &s->parts;
+        srv_lose_probes(s, p); /* (nothing left to keep if it went silent first) */
+        p->used = false;
         ps->left[ps->left_next].id = p->id;
         ps->left[ps->left_next].tick = s->tk.tick + 1;
         ps->left_next = (ps->left_next + 1) % (int)(sizeof ps->left / sizeof ps->left[0]);
@@ -118,6 +164,7 @@ void srv_on_status(server *s, ftm_wire_received *rx)
     if (!fresh && p->role != st->role) {
         srv_release_probes(p);
     }
+    const bool back = fresh || p->silent; /* after a `gone`, or silent past the deadline */
     if (p->silent)
         srv_log(s, "info", "participant %u (%s '%s') is back", p->id, ftm_wire_role_name(st->role),
                 st->name);
@@ -132,6 +179,8 @@ void srv_on_status(server *s, ftm_wire_received *rx)
     p->replay_ns = st->replay_ns_per_tick;
     snprintf(p->name, sizeof p->name, "%s", st->name);
     p->report = ftm_report_seen(&s->rec.report, p->id, ftm_wire_role_name(p->role), p->name, s->tk.tick);
+    if (back && p->role == FTM_WIRE_ROLE_TRAINEE && st->state != FTM_WIRE_STATE_LEAVING)
+        restore_lost(s, p, rx->origin);
     if (st->state == FTM_WIRE_STATE_JOINING || st->state == FTM_WIRE_STATE_RESYNCING)
         s->pub.keyframe_due = true;
     if (st->state == FTM_WIRE_STATE_LEAVING) {
@@ -281,7 +330,7 @@ void srv_check_statuses(server *s)
                 "participant %u (%s '%s') lost: no status for %.1f s (deadline 2 s); its probes "
                 "are released",
                 p->id, ftm_wire_role_name(p->role), p->name, (double)(now - p->last_status_ns) * 1e-9);
-        srv_release_probes(p);
+        srv_lose_probes(s, p);
         p->origin = 0; /* the id is free for the next process heard (on_status) */
         /* a decision by the clock: recorded, so that a replay makes it too */
         srv_record_entry(s, true, FTM_WIRE_STATUS, p->id, NULL, 0, false, true);

@@ -96,6 +96,18 @@ typedef struct srv_parts {
                         * --inputs decides alike); 0: a free slot */
     } left[8];
     int left_next;
+    /* Trainees lost without leaving (their lease expired: a stall, a cut
+     * network) in the last 30 s of ticks, with their probes: the same
+     * process heard again gets its contacts back, so that a probe held in
+     * the tissue through the cut presses again (a new sample from inside
+     * the tissue crosses no surface, and would press nothing) */
+    struct {
+        uint32_t id;
+        uint64_t origin;
+        uint64_t tick; /* when it was lost; 0: a free slot */
+        probe probes[MAX_PROBES];
+    } lost[8];
+    int lost_next;
     /* Processes heard with an id another process holds (admit): listed in
      * the server's status while heard, so that each learns it is ignored. */
     struct {
@@ -223,6 +235,7 @@ const char *ftm_server_output_dir(const ftm_server_def *def, const char **opt);
 /* participants.c */
 participant *srv_find_part(server *s, uint32_t id, bool create);
 void srv_release_probes(participant *p);
+void srv_lose_probes(server *s, participant *p);
 void srv_on_status(server *s, ftm_wire_received *rx);
 void srv_on_probe_input(server *s, ftm_wire_received *rx);
 void srv_reject(server *s, participant *p, uint32_t id, const char *what, const char *why);

@@ -37,7 +37,12 @@
 # synced from a keyframe. Each session prints its figures: the observer's
 # time from joining to its first sync, the bots' frame latency mean/max, the
 # server's retransmitted bytes and what crossed the station's link.
-#   sh two_hosts.sh [lan|wan|secure|blackhole|iface]...   (default: all)
+#   cut:    (test_network_cut, not in the default list) a trainee whose
+#           station's link goes down for 5 s, past the 3 s lease, and up
+#           again: the same server heard again brings force and input back
+#           by themselves (issue 27: never silently cut off); it feels the
+#           press before the cut and after (tests/deploy/cut-trainee.bot).
+#   sh two_hosts.sh [lan|wan|secure|blackhole|iface|cut]...   (default: all but cut)
 # FTM_TWO_HOSTS_FAULT breaks the link to show that the test fails:
 #   blackhole: the station's link has an MTU of 1280 (a tunnel on the way
 #          whose ICMP "too big" never comes back): datagrams and IP fragments
@@ -335,7 +340,38 @@ for s in $sessions; do
             fail "iface: with the interface named the trainee's expectations failed"
         echo "PASS iface: autodetermine with another interface first: never synced: no server heard; interface named: trainee on $want"
         ;;
-    *) echo "two_hosts: lan, wan, secure, blackhole or iface, not '$s'"; exit 2 ;;
+    cut)
+        # a trainee cut off by its network for 5 s (the link down, then up):
+        # past the LAN configuration's 3 s lease, so both sides see the
+        # other gone; with the link back the same server process is heard
+        # again, and force and input must come back by themselves
+        rm -f "$dir"/*.out "$dir"/*.err "$dir"/*.log
+        common="--session two-hosts-cut-$$ --domain $domain --config $FTM_DEPLOY/cyclonedds-lan.xml"
+        on "$srv" timeout -k 5 60 "$FTM_SERVER" --scene default $common --rate "$rate" --duration 22 \
+            --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
+        server=$!
+        wait_for "$dir/server.log" "session 'two-hosts-cut-$$'" "cut: the server did not start"
+        on "$sta" timeout -k 5 60 "$FTM_BOT" --role trainee --script "$here/cut-trainee.bot" $common \
+            --id 11 --duration 40 --resync-timeout 20 >"$dir/bot11.out" 2>"$dir/bot11.err" &
+        b11=$!
+        wait_for "$dir/bot11.err" "script time 0 (clock session)" "cut: the trainee never entered the session" 300
+        sleep 2.5
+        ip -n "$sta" link set "f2h$$b" down || fail "cut: cannot take the link down"
+        t_cut=$(date +%s.%N)
+        sleep 5
+        ip -n "$sta" link set "f2h$$b" up || fail "cut: cannot bring the link up"
+        wait $server || fail "cut: the server exited with $?"
+        wait $b11 || fail "cut: trainee 11 exited with $? ($(grep -h ': FAILED\|giving up' "$dir/bot11.err" | tr '\n' ' '))"
+        grep -q "server 1 gone" "$dir/bot11.err" || fail "cut: the trainee never saw the server gone: no cut?"
+        grep -q "^ftm-bot 11 .* 0 of 4 expectations failed" "$dir/bot11.err" ||
+            fail "cut: the trainee's expectations: $(grep ': FAILED' "$dir/bot11.err" | tr '\n' ' ')"
+        want=$(sed -n 's/^ftm-server: \(final tick .*\)$/\1/p' "$dir/server.out")
+        got=$(sed -n 's/^ftm-bot 11: \(final tick .*\) synced$/\1/p' "$dir/bot11.out")
+        [ -n "$want" ] && [ "$got" = "$want" ] || fail "cut: trainee 11 ended on '$got', the server on '$want'"
+        back=$(grep -h "synced at tick\|is confirmed" "$dir/bot11.err" | tail -n 2 | tr '\n' ' ')
+        echo "PASS cut: the link down 5 s from $(date -d "@${t_cut%.*}" +%T); trainee 11 on $want, force felt before and after; $back"
+        ;;
+    *) echo "two_hosts: lan, wan, secure, blackhole, iface or cut, not '$s'"; exit 2 ;;
     esac
 done
 exit 0
