@@ -41,6 +41,8 @@ typedef struct ftm_metrics_snapshot {
     uint64_t push_limited;   /* probe-ticks whose push was shortened to the limit */
     uint64_t unstable_ticks; /* steps the guard could not save: tissue reset */
     uint64_t record_bytes;
+    bool record_ok;          /* 0: the recording asked for has stopped on an error */
+    uint64_t record_errors;
     int32_t nparts;
     ftm_metrics_part parts[FTM_METRICS_PARTS];
 } ftm_metrics_snapshot;

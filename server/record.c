@@ -21,6 +21,7 @@ struct ftm_record_writer {
     int fd;
     char *path;
     uint64_t kept;  /* bytes in the file: the magic and whole chunks */
+    uint64_t kept_tick; /* the tick of the last entry in the file */
     int error;      /* first write error: stopped for good */
     char message[FTM_ERROR_MESSAGE_MAX];
     uint8_t *buf;   /* the open chunk: its head's room, then the body */
@@ -161,6 +162,7 @@ static int write_chunk(ftm_record_writer *w, ftm_error *err)
     w->count = 0;
     if (!e) {
         w->kept += w->len;
+        w->kept_tick = w->last_tick;
         w->len = HEAD;
         return FTM_OK;
     }
@@ -175,6 +177,7 @@ static int write_chunk(ftm_record_writer *w, ftm_error *err)
                 break;
             }
             w->kept += HEAD + n;
+            w->kept_tick = w->ticks[i];
             at = w->ends[i];
         }
     }
@@ -342,6 +345,8 @@ uint64_t ftm_record_bytes(const ftm_record_writer *w)
 }
 
 uint64_t ftm_record_kept(const ftm_record_writer *w) { return w ? w->kept : 0; }
+
+uint64_t ftm_record_kept_tick(const ftm_record_writer *w) { return w ? w->kept_tick : 0; }
 
 int ftm_record_close(ftm_record_writer *w, ftm_error *err)
 {

@@ -83,6 +83,8 @@ int ftm_record_flush(ftm_record_writer *w, ftm_error *err);
 uint64_t ftm_record_bytes(const ftm_record_writer *w);
 /* Bytes in the file: whole chunks (after a failure, what it kept). */
 uint64_t ftm_record_kept(const ftm_record_writer *w);
+/* The tick of the last entry in the file (0: none yet). */
+uint64_t ftm_record_kept_tick(const ftm_record_writer *w);
 /* Flushes and closes; returns the first write error if any. NULL is fine. */
 int ftm_record_close(ftm_record_writer *w, ftm_error *err);
 

@@ -542,8 +542,9 @@ for n in ["ftm_tick_rate_hz", "ftm_tick_rate_target_hz", "ftm_ticks_total", "ftm
           "ftm_depth", "ftm_depth_min", "ftm_depth_max", 'ftm_depth_changes_total{direction="down"}',
           "ftm_frames_sent_total", "ftm_keyframes_sent_total", 'ftm_bytes_sent_total{kind="tick_frame"}',
           "ftm_heartbeats_sent_total", "ftm_participants", "ftm_probe_push_limited_total",
-          "ftm_unstable_ticks_total"]:
+          "ftm_unstable_ticks_total", "ftm_record_ok", "ftm_record_errors_total"]:
     assert n in a and n in b, "missing " + n
+assert b["ftm_record_ok"] == 1 and b["ftm_record_errors_total"] == 0, "record_ok without a recording"
 for n in ["ftm_ticks_total", "ftm_frames_sent_total", "ftm_step_seconds_count",
           'ftm_bytes_sent_total{kind="tick_frame"}']:
     assert b[n] > a[n], "%s did not rise: %g -> %g" % (n, a[n], b[n])
