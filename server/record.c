@@ -30,6 +30,7 @@ struct ftm_record_writer {
     uint64_t *ticks; /* and its tick */
     size_t ncap;
     uint32_t count; /* entries in the open chunk */
+    uint32_t body_crc; /* of the open chunk's body so far: sealing it needs no pass over it */
     uint64_t first_ns, first_tick, last_tick;
 };
 
@@ -102,14 +103,13 @@ static uint32_t get32(const uint8_t *p)
 
 static uint64_t get64(const uint8_t *p) { return get32(p) | (uint64_t)get32(p + 4) << 32; }
 
-/* The head of a chunk of `count` entries in body[0..n). */
-static void seal(uint8_t *head, const uint8_t *body, size_t n, uint32_t count, uint64_t t0,
-                 uint64_t t1)
+/* The head of a chunk of `count` entries, n bytes whose CRC-32C is crc. */
+static void seal(uint8_t *head, size_t n, uint32_t crc, uint32_t count, uint64_t t0, uint64_t t1)
 {
     memcpy(head, "FTMC", 4);
     put32(head + 4, (uint32_t)n);
     put32(head + 8, count);
-    put32(head + 12, ftm_crc32c(0, body, n));
+    put32(head + 12, crc);
     put64(head + 16, t0);
     put64(head + 24, t1);
     put32(head + 32, ftm_crc32c(0, head, 32));
@@ -156,7 +156,7 @@ static int write_chunk(ftm_record_writer *w, ftm_error *err)
 {
     if (!w->count)
         return FTM_OK;
-    seal(w->buf, w->buf + HEAD, w->len - HEAD, w->count, w->first_tick, w->last_tick);
+    seal(w->buf, w->len - HEAD, w->body_crc, w->count, w->first_tick, w->last_tick);
     int e = write_all(w->fd, w->buf, w->len);
     const uint32_t count = w->count;
     w->count = 0;
@@ -171,7 +171,7 @@ static int write_chunk(ftm_record_writer *w, ftm_error *err)
         size_t at = HEAD;
         for (uint32_t i = 0; i < count; i++) {
             size_t n = w->ends[i] - at;
-            seal(head, w->buf + at, n, 1, w->ticks[i], w->ticks[i]);
+            seal(head, n, ftm_crc32c(0, w->buf + at, n), 1, w->ticks[i], w->ticks[i]);
             if (write_all(w->fd, head, HEAD) || write_all(w->fd, w->buf + at, n)) {
                 cut_back(w); /* (best effort: cutting needs no space) */
                 break;
@@ -226,7 +226,9 @@ static int put_entry(ftm_record_writer *w, const Ftm__V1__RecordEntry *m, uint64
     if (!w->count) {
         w->first_ns = time_ns;
         w->first_tick = tick;
+        w->body_crc = 0;
     }
+    w->body_crc = ftm_crc32c(w->body_crc, p, h + n + 4);
     w->last_tick = tick;
     w->ends[w->count] = w->len;
     w->ticks[w->count] = tick;

@@ -290,6 +290,15 @@ static void crc32c_check_value(void **state)
     assert_int_equal(ftm_crc32c(ftm_crc32c(0, "1234", 4), "56789", 5), 0xe3069283u);
     assert_int_equal(ftm_crc32c(0, "", 0), 0);
     assert_true(ftm_crc32c(0, "123456789", 9) != ftm_crc32c(0, "023456789", 9));
+    /* the instruction (where there is one) and the table agree, at every
+     * length and alignment */
+    static uint8_t b[4099];
+    for (size_t i = 0; i < sizeof b; i++)
+        b[i] = (uint8_t)(i * 2654435761u >> 13);
+    for (size_t at = 0; at < 9; at++)
+        for (size_t n = 0; at + n <= sizeof b; n += n < 40 ? 1 : 509)
+            assert_int_equal(ftm_crc32c(7, b + at, n), ftm_crc32c_table(7, b + at, n));
+    assert_int_equal(ftm_crc32c_table(0, "123456789", 9), 0xe3069283u);
 }
 
 /* Every single bit flipped, one at a time, in a recording of 3 chunks: each
