@@ -3,8 +3,8 @@
 # ftm-server's recording and report when things go wrong (loopback, a DDS
 # domain and session of its own, `timeout` around every process):
 #   killed:  a session with a pressing trainee, the server SIGKILLed after
-#            about 2.5 s: the recording has reached the file (flushed every
-#            0.5 s, not only per MiB), replays with every hash equal and a
+#            about 2.5 s: the recording has reached the file (chunks of
+#            100 ms, written as they fill), replays with every hash equal and a
 #            note that it was cut, and its report has the trainee's touch;
 #   fsize:   a session under a file size limit (ulimit -f) smaller than its
 #            recording: the write fails (EFBIG), the recording stops for
