@@ -206,8 +206,14 @@ size_t ftm_metrics_render(const ftm_metrics_snapshot *s, char *buf, size_t size)
     metric(&o, "ftm_unstable_ticks_total", "counter",
            "Steps that stayed unstable at the most substeps: the tissue was reset to rest.");
     put(&o, "ftm_unstable_ticks_total %llu\n", (unsigned long long)s->unstable_ticks);
-    metric(&o, "ftm_record_bytes", "gauge", "Bytes written to the session recording.");
+    metric(&o, "ftm_record_bytes", "gauge",
+           "Bytes of the session recording (after a failure: what the file kept).");
     put(&o, "ftm_record_bytes %llu\n", (unsigned long long)s->record_bytes);
+    metric(&o, "ftm_record_ok", "gauge",
+           "1 unless the recording asked for has stopped on a write error (0: for good).");
+    put(&o, "ftm_record_ok %d\n", s->record_ok ? 1 : 0);
+    metric(&o, "ftm_record_errors_total", "counter", "Write errors of the session recording.");
+    put(&o, "ftm_record_errors_total %llu\n", (unsigned long long)s->record_errors);
     metric(&o, "ftm_participants", "gauge", "Participants known (not lost).");
     put(&o, "ftm_participants %d\n", (int)s->nparts);
     metric(&o, "ftm_participant_lag_ticks", "gauge", "Ticks a participant is behind the server.");

@@ -43,6 +43,8 @@ typedef struct ftm_metrics_snapshot {
     uint64_t record_bytes;
     uint64_t slow_closed;    /* metrics connections shut for missing the deadline (filled by
                               * the metrics thread) */
+    bool record_ok;          /* 0: the recording asked for has stopped on an error */
+    uint64_t record_errors;
     int32_t nparts;
     ftm_metrics_part parts[FTM_METRICS_PARTS];
 } ftm_metrics_snapshot;

@@ -19,6 +19,7 @@ typedef struct feed {
     ftm_wire_limits lim;
     uint64_t frames, inputs, end_tick, last_index;
     bool leaving; /* the recorded server's final status seen: it stopped cleanly */
+    bool at_damage; /* --upto-damage: stopped before a damaged entry (said so) */
     char why[FTM_ERROR_MESSAGE_MAX + 64]; /* the first problem; "" while none */
 } feed;
 
@@ -138,7 +139,7 @@ static void end_inputs(server *s, const feed *f)
         srv_publish_tick_frame(s);
         srv_publish_status(s, FTM_WIRE_STATE_LEAVING);
     }
-    if (!f->leaving)
+    if (!f->leaving && !f->at_damage)
         fprintf(stderr,
                 "ftm-server --inputs: %s: note: the recording ends at entry %" PRIu64
                 " without the server's final status (killed, crashed, or its recording "
@@ -181,8 +182,16 @@ int srv_replay_inputs(server *s)
     ftm_record_entry e;
     while (!f.why[0]) {
         int got = ftm_record_next(rd, &e, &err);
+        if (got < 0 && ftm_record_damaged(rd) && s->o.upto_damage) {
+            fprintf(stderr, "ftm-server %s: note: %s; %s up to entry %" PRIu64
+                    " before it (--upto-damage)\n", f.mode, err.message,
+                    s->o.replay ? "replaying" : "running", f.last_index);
+            f.at_damage = true;
+            break;
+        }
         if (got < 0) {
-            fprintf(stderr, "ftm-server %s: %s\n", f.mode, err.message);
+            fprintf(stderr, "ftm-server %s: %s%s\n", f.mode, err.message,
+                    ftm_record_damaged(rd) ? " (--upto-damage takes it up to there)" : "");
             rc = 1;
         }
         if (got <= 0)

@@ -208,7 +208,9 @@ static void metrics(server *s, const ftm_wire_stats *ws, double rate)
     m->unstable_ticks = s->tk.unstable;
     for (int i = 0; i < MAX_PARTICIPANTS; i++)
         m->inputs_rejected += s->parts.parts[i].used ? s->parts.parts[i].rejected : 0;
-    m->record_bytes = ftm_record_bytes(s->rec.w);
+    m->record_bytes = s->rec.failed ? s->rec.kept : ftm_record_bytes(s->rec.w);
+    m->record_ok = !s->rec.failed;
+    m->record_errors = s->rec.errors;
     ftm_metrics_update(s->per.metrics, m);
 }
 

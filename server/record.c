@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Session recording file: writer and bounded reader (record.h). */
 #include "record.h"
+#include "crc32c.h"
 #include "depth_ctl.h" /* FTM_DEPTH_CTL_MAX */
 
 #include "ftm/sim.h"
@@ -13,31 +14,39 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h> /* truncate */
+#include <fcntl.h>
+#include <unistd.h>
 
 struct ftm_record_writer {
-    FILE *f;
+    int fd;
     char *path;
-    uint64_t bytes;
-    uint64_t flushed; /* bytes known to be in the file: whole entries, up to the last flush */
-    int error; /* first write error */
+    uint64_t kept;  /* bytes in the file: the magic and whole chunks */
+    uint64_t kept_tick; /* the tick of the last entry in the file */
+    int error;      /* first write error: stopped for good */
     char message[FTM_ERROR_MESSAGE_MAX];
-    uint8_t *buf;
-    size_t cap;
-    char *iobuf; /* the stream's buffer: freed after fclose */
+    uint8_t *buf;   /* the open chunk: its head's room, then the body */
+    size_t cap, len; /* len: head room + body bytes so far */
+    size_t *ends;   /* where each entry of the open chunk ends in buf */
+    uint64_t *ticks; /* and its tick */
+    size_t ncap;
+    uint32_t count; /* entries in the open chunk */
+    uint32_t body_crc; /* of the open chunk's body so far: sealing it needs no pass over it */
+    uint64_t first_ns, first_tick, last_tick;
 };
-
-/* One write(2) per MiB, not per tick. The buffer must be ours: with NULL,
- * glibc ignores the size and writes every 4 KiB (st_blksize). */
-#define RECORD_IOBUF (1u << 20)
 
 struct ftm_record_reader {
     FILE *f;
     char *path;
-    uint64_t offset, index;
+    uint64_t offset, index; /* of the next entry, when one is read */
     Ftm__V1__RecordEntry *cur; /* the entry handed out last */
-    uint8_t *buf;
-    size_t cap;
+    uint8_t *buf;   /* the current chunk's body */
+    size_t cap, len, pos;
+    uint32_t left;  /* entries of the chunk not yet handed out */
+    uint64_t chunks, chunk_at, first_tick, last_tick, body_at;
+    uint64_t next_at; /* byte offset of the next chunk */
+    bool body_bad;  /* the body's checksum differs: damage inside, found entry by entry */
+    uint64_t last_good_tick;
+    bool damaged;
 };
 
 static int rec_err(ftm_error *err, int code, const char *fmt, ...)
@@ -69,31 +78,161 @@ static int grow(uint8_t **buf, size_t *cap, size_t need)
     return 0;
 }
 
+/* ---- chunks ------------------------------------------------------------------- */
+
+#define HEAD FTM_RECORD_CHUNK_HEAD
+/* a chunk's body: up to FTM_RECORD_CHUNK_BYTES, or one entry if larger */
+#define BODY_MAX (FTM_RECORD_ENTRY_MAX + 5u + 4u)
+
+static void put32(uint8_t *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++)
+        p[i] = (uint8_t)(v >> (8 * i));
+}
+
+static void put64(uint8_t *p, uint64_t v)
+{
+    for (int i = 0; i < 8; i++)
+        p[i] = (uint8_t)(v >> (8 * i));
+}
+
+static uint32_t get32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static uint64_t get64(const uint8_t *p) { return get32(p) | (uint64_t)get32(p + 4) << 32; }
+
+/* The head of a chunk of `count` entries, n bytes whose CRC-32C is crc. */
+static void seal(uint8_t *head, size_t n, uint32_t crc, uint32_t count, uint64_t t0, uint64_t t1)
+{
+    memcpy(head, "FTMC", 4);
+    put32(head + 4, (uint32_t)n);
+    put32(head + 8, count);
+    put32(head + 12, crc);
+    put64(head + 16, t0);
+    put64(head + 24, t1);
+    put32(head + 32, ftm_crc32c(0, head, 32));
+}
+
 /* ---- writing ------------------------------------------------------------------ */
 
-static int put_entry(ftm_record_writer *w, const Ftm__V1__RecordEntry *m, ftm_error *err)
+/* All n bytes: 0, or the errno of the write that stopped short. */
+static int write_all(int fd, const uint8_t *p, size_t n)
+{
+    while (n) {
+        ssize_t k = write(fd, p, n);
+        if (k < 0 && errno == EINTR)
+            continue;
+        if (k < 0)
+            return errno;
+        if (k == 0)
+            return ENOSPC;
+        p += k;
+        n -= (size_t)k;
+    }
+    return 0;
+}
+
+static int stop(ftm_record_writer *w, int e, ftm_error *err)
+{
+    w->error = FTM_EIO;
+    snprintf(w->message, sizeof w->message, "recording %s: write failed: %s", w->path,
+             strerror(e));
+    return rec_err(err, FTM_EIO, "%s", w->message);
+}
+
+/* Back to the end of the last whole chunk, to write from there. */
+static bool cut_back(ftm_record_writer *w)
+{
+    return ftruncate(w->fd, (off_t)w->kept) == 0 && lseek(w->fd, (off_t)w->kept, SEEK_SET) >= 0;
+}
+
+/* Writes the open chunk with one write(2). If it does not fit (a full disk,
+ * a file size limit), the file is cut back to the chunk before and its
+ * entries are written one per chunk, as many as fit: the recording keeps
+ * what the disk held, to the entry. Either way the writer then stops. */
+static int write_chunk(ftm_record_writer *w, ftm_error *err)
+{
+    if (!w->count)
+        return FTM_OK;
+    seal(w->buf, w->len - HEAD, w->body_crc, w->count, w->first_tick, w->last_tick);
+    int e = write_all(w->fd, w->buf, w->len);
+    const uint32_t count = w->count;
+    w->count = 0;
+    if (!e) {
+        w->kept += w->len;
+        w->kept_tick = w->last_tick;
+        w->len = HEAD;
+        return FTM_OK;
+    }
+    if (cut_back(w)) {
+        uint8_t head[HEAD];
+        size_t at = HEAD;
+        for (uint32_t i = 0; i < count; i++) {
+            size_t n = w->ends[i] - at;
+            seal(head, n, ftm_crc32c(0, w->buf + at, n), 1, w->ticks[i], w->ticks[i]);
+            if (write_all(w->fd, head, HEAD) || write_all(w->fd, w->buf + at, n)) {
+                cut_back(w); /* (best effort: cutting needs no space) */
+                break;
+            }
+            w->kept += HEAD + n;
+            w->kept_tick = w->ticks[i];
+            at = w->ends[i];
+        }
+    }
+    w->len = HEAD;
+    return stop(w, e, err);
+}
+
+static int put_entry(ftm_record_writer *w, const Ftm__V1__RecordEntry *m, uint64_t tick,
+                     uint64_t time_ns, ftm_error *err)
 {
     if (w->error)
         return rec_err(err, w->error, "%s", w->message);
     size_t n = ftm__v1__record_entry__get_packed_size(m);
     if (n > FTM_RECORD_ENTRY_MAX)
         return rec_err(err, FTM_ERANGE, "recording %s: entry of %zu bytes is too large", w->path, n);
-    if (grow(&w->buf, &w->cap, n + 10))
+    const size_t need = 5 + n + 4;
+    if (w->count && (time_ns >= w->first_ns + FTM_RECORD_CHUNK_NS ||
+                     w->len - HEAD + need > FTM_RECORD_CHUNK_BYTES)) {
+        int rc = write_chunk(w, err);
+        if (rc)
+            return rc;
+    }
+    if (grow(&w->buf, &w->cap, w->len + need))
         return rec_err(err, FTM_ENOMEM, "recording %s: out of memory", w->path);
+    if (w->count == w->ncap) {
+        size_t c = w->ncap ? 2 * w->ncap : 256;
+        size_t *ends = realloc(w->ends, c * sizeof *ends);
+        if (ends)
+            w->ends = ends;
+        uint64_t *ticks = ends ? realloc(w->ticks, c * sizeof *ticks) : NULL;
+        if (!ticks)
+            return rec_err(err, FTM_ENOMEM, "recording %s: out of memory", w->path);
+        w->ticks = ticks;
+        w->ncap = c;
+    }
+    uint8_t *p = w->buf + w->len;
     size_t h = 0;
     uint64_t v = n;
     do {
-        w->buf[h++] = (uint8_t)((v & 0x7f) | (v > 0x7f ? 0x80 : 0));
+        p[h++] = (uint8_t)((v & 0x7f) | (v > 0x7f ? 0x80 : 0));
         v >>= 7;
     } while (v);
-    ftm__v1__record_entry__pack(m, w->buf + h);
-    if (fwrite(w->buf, 1, h + n, w->f) != h + n) {
-        w->error = FTM_EIO;
-        snprintf(w->message, sizeof w->message, "recording %s: write failed: %s", w->path,
-                 strerror(errno));
-        return rec_err(err, FTM_EIO, "%s", w->message);
+    ftm__v1__record_entry__pack(m, p + h);
+    put32(p + h + n, ftm_crc32c(0, p + h, n));
+    w->len += h + n + 4;
+    if (!w->count) {
+        w->first_ns = time_ns;
+        w->first_tick = tick;
+        w->body_crc = 0;
     }
-    w->bytes += h + n;
+    w->body_crc = ftm_crc32c(w->body_crc, p, h + n + 4);
+    w->last_tick = tick;
+    w->ends[w->count] = w->len;
+    w->ticks[w->count] = tick;
+    w->count++;
     return FTM_OK;
 }
 
@@ -106,22 +245,21 @@ int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_w
         free(w);
         return rec_err(err, FTM_ENOMEM, "recording: out of memory");
     }
-    if (!(w->iobuf = malloc(RECORD_IOBUF))) {
-        free(w->path);
-        free(w);
-        return rec_err(err, FTM_ENOMEM, "recording: out of memory");
-    }
-    w->f = fopen(path, "wb");
-    if (!w->f) {
+    w->len = HEAD;
+    w->fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (w->fd < 0) {
         int e = errno;
-        free(w->iobuf);
         free(w->path);
         free(w);
         return rec_err(err, FTM_EIO, "recording %s: cannot create: %s", path, strerror(e));
     }
-    setvbuf(w->f, w->iobuf, _IOFBF, RECORD_IOBUF);
-    fwrite(FTM_RECORD_MAGIC, 1, 8, w->f);
-    w->bytes = 8;
+    int e = write_all(w->fd, (const uint8_t *)FTM_RECORD_MAGIC, 8);
+    if (e) {
+        int rc = stop(w, e, err);
+        ftm_record_close(w, NULL);
+        return rc;
+    }
+    w->kept = 8;
     Ftm__V1__RecordHeader hd = FTM__V1__RECORD_HEADER__INIT;
     hd.has_version = true;
     hd.version = FTM_RECORD_VERSION;
@@ -146,7 +284,10 @@ int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_w
     hd.arithmetic = ftm_arithmetic_revision();
     Ftm__V1__RecordEntry m = FTM__V1__RECORD_ENTRY__INIT;
     m.header = &hd;
-    int rc = put_entry(w, &m, err);
+    /* the header in a chunk of its own, in the file at once */
+    int rc = put_entry(w, &m, 0, 0, err);
+    if (!rc)
+        rc = write_chunk(w, err);
     if (rc) {
         ftm_record_close(w, NULL);
         return rc;
@@ -181,46 +322,51 @@ int ftm_record_write(ftm_record_writer *w, const ftm_record_entry *e, ftm_error 
     }
     m.has_time_ns = true;
     m.time_ns = e->time_ns;
-    return put_entry(w, &m, err);
+    return put_entry(w, &m, e->tick, e->time_ns, err);
+}
+
+int ftm_record_tick(ftm_record_writer *w, uint64_t time_ns, ftm_error *err)
+{
+    if (w->error)
+        return rec_err(err, w->error, "%s", w->message);
+    if (w->count && time_ns >= w->first_ns + FTM_RECORD_CHUNK_NS)
+        return write_chunk(w, err);
+    return FTM_OK;
 }
 
 int ftm_record_flush(ftm_record_writer *w, ftm_error *err)
 {
     if (w->error)
         return rec_err(err, w->error, "%s", w->message);
-    if (fflush(w->f) != 0) {
-        w->error = FTM_EIO;
-        snprintf(w->message, sizeof w->message, "recording %s: write failed: %s", w->path,
-                 strerror(errno));
-        return rec_err(err, FTM_EIO, "%s", w->message);
-    }
-    w->flushed = w->bytes;
-    return FTM_OK;
+    return write_chunk(w, err);
 }
 
-uint64_t ftm_record_bytes(const ftm_record_writer *w) { return w ? w->bytes : 0; }
+uint64_t ftm_record_bytes(const ftm_record_writer *w)
+{
+    return w ? w->kept + (w->count ? w->len : 0) : 0;
+}
+
+uint64_t ftm_record_kept(const ftm_record_writer *w) { return w ? w->kept : 0; }
+
+uint64_t ftm_record_kept_tick(const ftm_record_writer *w) { return w ? w->kept_tick : 0; }
 
 int ftm_record_close(ftm_record_writer *w, ftm_error *err)
 {
     if (!w)
         return FTM_OK;
+    if (!w->error && w->fd >= 0)
+        write_chunk(w, NULL);
     int rc = w->error;
-    if (fclose(w->f) != 0 && !rc) {
+    if (w->fd >= 0 && close(w->fd) != 0 && !rc) {
         rc = FTM_EIO;
         snprintf(w->message, sizeof w->message, "recording %s: close failed: %s", w->path,
                  strerror(errno));
     }
-    if (rc) {
-        /* a failed write (a full disk) leaves part of an entry at the end:
-         * cut back to the last flush, so that the file ends on a whole entry
-         * and replays to there (best effort: truncating needs no space) */
-        if (truncate(w->path, (off_t)w->flushed) != 0)
-            fprintf(stderr, "recording %s: cannot cut back to its last whole entry: %s\n",
-                    w->path, strerror(errno));
+    if (rc)
         rec_err(err, rc, "%s", w->message);
-    }
-    free(w->iobuf); /* only now: fclose flushed from it */
     free(w->buf);
+    free(w->ends);
+    free(w->ticks);
     free(w->path);
     free(w);
     return rc;
@@ -228,57 +374,142 @@ int ftm_record_close(ftm_record_writer *w, ftm_error *err)
 
 /* ---- reading ------------------------------------------------------------------ */
 
-/* Reads the next entry's bytes into r->buf: 1, 0 at a clean end, < 0. */
-static int get_raw(ftm_record_reader *r, size_t *size, ftm_error *err)
+/* An error in the chunk being read: damage if `damage` (a checksum that
+ * differs, a chunk cut short), a malformed file otherwise. */
+static int bad(ftm_record_reader *r, bool damage, ftm_error *err, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+static int bad(ftm_record_reader *r, bool damage, ftm_error *err, const char *fmt, ...)
 {
-    uint64_t len = 0;
-    int shift = 0, c;
-    uint64_t start = r->offset;
-    for (int i = 0;; i++) {
-        c = fgetc(r->f);
-        if (c == EOF) {
-            if (ferror(r->f))
-                return rec_err(err, FTM_EIO, "%s: read error at byte %llu: %s", r->path,
-                               (unsigned long long)r->offset, strerror(errno));
-            if (i == 0)
-                return 0;
-            return rec_err(err, FTM_EPARSE,
-                           "%s: truncated: entry %llu at byte %llu ends inside its length prefix",
-                           r->path, (unsigned long long)r->index, (unsigned long long)start);
-        }
-        r->offset++;
-        if (i == 5)
-            return rec_err(err, FTM_EPARSE, "%s: entry %llu at byte %llu: length prefix too long",
-                           r->path, (unsigned long long)r->index, (unsigned long long)start);
-        len |= (uint64_t)(c & 0x7f) << shift;
-        shift += 7;
-        if (!(c & 0x80))
-            break;
-    }
-    if (len == 0 || len > FTM_RECORD_ENTRY_MAX)
-        return rec_err(err, FTM_EPARSE,
-                       "%s: entry %llu at byte %llu: length %llu out of range 1..%u (corrupt file?)",
-                       r->path, (unsigned long long)r->index, (unsigned long long)start,
-                       (unsigned long long)len, FTM_RECORD_ENTRY_MAX);
-    if (grow(&r->buf, &r->cap, (size_t)len))
+    char what[FTM_ERROR_MESSAGE_MAX];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(what, sizeof what, fmt, ap);
+    va_end(ap);
+    r->damaged = damage;
+    return rec_err(err, FTM_EPARSE, "%s: %s", r->path, what);
+}
+
+/* Reads the next chunk into r->buf: 1, 0 at a clean end (between two
+ * chunks), < 0. */
+static int next_chunk(ftm_record_reader *r, ftm_error *err)
+{
+    uint8_t head[HEAD];
+    const uint64_t at = r->next_at;
+    size_t got = fread(head, 1, HEAD, r->f);
+    if (got == 0 && ferror(r->f))
+        return rec_err(err, FTM_EIO, "%s: cannot read: %s", r->path, strerror(errno));
+    if (got == 0)
+        return 0;
+    const uint64_t k = ++r->chunks;
+    char after[96] = "the header's";
+    if (r->index > 1)
+        snprintf(after, sizeof after, "after entry %llu (tick %llu)",
+                 (unsigned long long)(r->index - 1), (unsigned long long)r->last_good_tick);
+    else if (r->index == 1)
+        snprintf(after, sizeof after, "after the header");
+    if (got < HEAD)
+        return bad(r, true, err,
+                   "truncated: the file ends inside the head of chunk %llu at byte %llu (%zu of "
+                   "%u bytes), %s: cut while it was written (a crash?)",
+                   (unsigned long long)k, (unsigned long long)at, got, HEAD, after);
+    if (memcmp(head, "FTMC", 4) != 0 || get32(head + 32) != ftm_crc32c(0, head, 32))
+        return bad(r, true, err,
+                   "damaged: the head of chunk %llu at byte %llu, %s: its checksum differs",
+                   (unsigned long long)k, (unsigned long long)at, after);
+    const uint32_t len = get32(head + 4), count = get32(head + 8);
+    r->first_tick = get64(head + 16);
+    r->last_tick = get64(head + 24);
+    r->chunk_at = at;
+    if (len > BODY_MAX || count == 0 || count > len / 6) /* an entry: >= 6 bytes */
+        return bad(r, false, err,
+                   "chunk %llu at byte %llu: %u entries in %u bytes, out of range (1 entry per "
+                   "6..%u bytes)",
+                   (unsigned long long)k, (unsigned long long)at, count, len, BODY_MAX);
+    if (grow(&r->buf, &r->cap, len))
         return rec_err(err, FTM_ENOMEM, "%s: out of memory", r->path);
-    size_t got = fread(r->buf, 1, (size_t)len, r->f);
-    r->offset += got;
+    got = fread(r->buf, 1, len, r->f);
     if (got != len)
-        return rec_err(err, FTM_EPARSE,
-                       "%s: truncated: entry %llu at byte %llu needs %llu bytes, the file has %zu",
-                       r->path, (unsigned long long)r->index, (unsigned long long)start,
-                       (unsigned long long)len, got);
-    *size = (size_t)len;
+        return bad(r, true, err,
+                   "truncated: chunk %llu at byte %llu (entries %llu.., ticks %llu..%llu) needs "
+                   "%u bytes after its head, the file has %zu: cut while it was written (a "
+                   "crash?)",
+                   (unsigned long long)k, (unsigned long long)at, (unsigned long long)r->index,
+                   (unsigned long long)r->first_tick, (unsigned long long)r->last_tick, len, got);
+    r->offset = r->body_at = at + HEAD;
+    r->next_at = at + HEAD + len;
+    r->len = len;
+    r->pos = 0;
+    r->left = count;
+    /* damage inside: found entry by entry below, so that what comes
+     * before it is handed out (--replay-upto-damage) */
+    r->body_bad = get32(head + 12) != ftm_crc32c(0, r->buf, len);
     return 1;
 }
 
-static int unpack(ftm_record_reader *r, size_t size, uint64_t start, ftm_error *err)
+/* The next entry's bytes (at r->buf + *at, *size of them): 1, 0 at a clean
+ * end, < 0. Its checksum is checked. */
+static int get_raw(ftm_record_reader *r, size_t *at, size_t *size, ftm_error *err)
+{
+    if (!r->left) {
+        if (r->pos != r->len || r->body_bad)
+            return bad(r, r->body_bad, err,
+                       "%s: chunk %llu at byte %llu (ticks %llu..%llu): %s",
+                       r->body_bad ? "damaged" : "malformed", (unsigned long long)r->chunks,
+                       (unsigned long long)r->chunk_at, (unsigned long long)r->first_tick,
+                       (unsigned long long)r->last_tick,
+                       r->body_bad ? "its checksum differs"
+                                   : "its entries end before its body does");
+        int got = next_chunk(r, err);
+        if (got <= 0)
+            return got;
+    }
+    const uint64_t start = r->body_at + r->pos;
+    uint64_t len = 0;
+    size_t i = r->pos;
+    for (int shift = 0;; shift += 7) {
+        if (i >= r->len || shift == 35)
+            return bad(r, r->body_bad, err,
+                       "%s: entry %llu at byte %llu (chunk %llu, ticks %llu..%llu): length "
+                       "prefix %s",
+                       r->body_bad ? "damaged" : "malformed", (unsigned long long)r->index,
+                       (unsigned long long)start, (unsigned long long)r->chunks,
+                       (unsigned long long)r->first_tick, (unsigned long long)r->last_tick,
+                       i >= r->len ? "past the chunk's end" : "too long");
+        uint8_t c = r->buf[i++];
+        len |= (uint64_t)(c & 0x7f) << shift;
+        if (!(c & 0x80))
+            break;
+    }
+    if (len == 0 || len > FTM_RECORD_ENTRY_MAX || i + len + 4 > r->len)
+        return bad(r, r->body_bad, err,
+                   "%s: entry %llu at byte %llu (chunk %llu, ticks %llu..%llu): length %llu out "
+                   "of range 1..%llu",
+                   r->body_bad ? "damaged" : "malformed", (unsigned long long)r->index,
+                   (unsigned long long)start, (unsigned long long)r->chunks,
+                   (unsigned long long)r->first_tick, (unsigned long long)r->last_tick,
+                   (unsigned long long)len,
+                   (unsigned long long)(r->len - i >= 4 ? r->len - i - 4 : 0));
+    if (get32(r->buf + i + len) != ftm_crc32c(0, r->buf + i, (size_t)len))
+        return bad(r, true, err,
+                   "damaged: entry %llu at byte %llu (chunk %llu, ticks %llu..%llu, after tick "
+                   "%llu): its checksum differs",
+                   (unsigned long long)r->index, (unsigned long long)start,
+                   (unsigned long long)r->chunks, (unsigned long long)r->first_tick,
+                   (unsigned long long)r->last_tick, (unsigned long long)r->last_good_tick);
+    *at = i;
+    *size = (size_t)len;
+    r->offset = start;
+    r->pos = i + (size_t)len + 4;
+    r->left--;
+    return 1;
+}
+
+static int unpack(ftm_record_reader *r, size_t at, size_t size, uint64_t start, ftm_error *err)
 {
     if (r->cur)
         ftm__v1__record_entry__free_unpacked(r->cur, NULL);
     /* no repeated fields in a RecordEntry: it cannot inflate beyond its size */
-    r->cur = ftm__v1__record_entry__unpack(NULL, size, r->buf);
+    r->cur = ftm__v1__record_entry__unpack(NULL, size, r->buf + at);
     if (!r->cur)
         return rec_err(err, FTM_EPARSE, "%s: entry %llu at byte %llu: not a valid RecordEntry",
                        r->path, (unsigned long long)r->index, (unsigned long long)start);
@@ -297,7 +528,7 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
     }
     int rc = FTM_OK;
     char magic[8];
-    size_t sz = 0;
+    size_t sz = 0, at = 0;
     size_t nmagic = 0;
     r->f = fopen(path, "rb");
     if (!r->f)
@@ -309,17 +540,21 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
     else if (nmagic < 8 && memcmp(magic, FTM_RECORD_MAGIC, nmagic) == 0)
         rc = rec_err(err, FTM_EPARSE, "%s: truncated: the file ends inside the magic (%zu of 8 "
                      "bytes)", path, nmagic);
+    else if (nmagic == 8 && memcmp(magic, "FTMREC1\n", 8) == 0)
+        rc = rec_err(err, FTM_EVERSION, "%s: recording format version 1 (no checksums); this "
+                     "build reads version %u only: replay it with the ftm-server that recorded "
+                     "it", path, FTM_RECORD_VERSION);
     else if (nmagic < 8 || memcmp(magic, FTM_RECORD_MAGIC, 8) != 0)
-        rc = rec_err(err, FTM_EPARSE, "%s: not an FTM recording (no \"FTMREC1\" magic)", path);
+        rc = rec_err(err, FTM_EPARSE, "%s: not an FTM recording (no \"FTMREC2\" magic)", path);
     if (!rc) {
-        r->offset = 8;
-        int got = get_raw(r, &sz, err);
+        r->offset = r->next_at = 8;
+        int got = get_raw(r, &at, &sz, err);
         if (got == 0)
             rc = rec_err(err, FTM_EPARSE, "%s: truncated: no header entry", path);
         else if (got < 0)
             rc = got;
         else
-            rc = unpack(r, sz, 8, err);
+            rc = unpack(r, at, sz, 8 + HEAD, err);
     }
     if (!rc) {
         const Ftm__V1__RecordHeader *hd = r->cur->header;
@@ -375,12 +610,13 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
 int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
 {
     memset(e, 0, sizeof *e);
-    uint64_t start = r->offset;
-    size_t size = 0;
-    int got = get_raw(r, &size, err);
+    r->damaged = false;
+    size_t size = 0, at = 0;
+    int got = get_raw(r, &at, &size, err);
     if (got <= 0)
         return got;
-    int rc = unpack(r, size, start, err);
+    const uint64_t start = r->offset;
+    int rc = unpack(r, at, size, start, err);
     if (rc)
         return rc;
     const Ftm__V1__RecordEntry *m = r->cur;
@@ -406,8 +642,11 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
     e->size = m->has_payload ? m->payload.len : 0;
     e->index = r->index++;
     e->offset = start;
+    r->last_good_tick = e->tick;
     return 1;
 }
+
+bool ftm_record_damaged(const ftm_record_reader *r) { return r && r->damaged; }
 
 void ftm_record_close_reader(ftm_record_reader *r)
 {

@@ -1,10 +1,20 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
-/* Session recording file (docs/server.md, "Session recording"): the magic
- * "FTMREC1\n", then length-delimited ftm.v1.RecordEntry messages; the first
- * holds the RecordHeader. Writer for ftm-server --record, reader for
- * ftm-server --replay. The reader never trusts the file: every length is
- * bounded and a short, oversized or malformed entry is an FTM_EPARSE error
- * naming the entry number and byte offset. */
+/* Session recording file (docs/server.md, "Session recording"), format 2:
+ * the magic "FTMREC2\n", then chunks, each a 36-byte head and a body of
+ * entries. Head: "FTMC", body length, entry count, CRC-32C of the body
+ * (u32 each), first and last tick of its entries (u64 each), CRC-32C of
+ * the 32 bytes before it (u32); all little-endian. Entry: a varint byte
+ * count, an ftm.v1.RecordEntry, the CRC-32C of those entry bytes (u32). The
+ * first chunk holds only the RecordHeader entry. A chunk holds < 100 ms of
+ * session (FTM_RECORD_CHUNK_NS) and is written whole, with one write(2), so
+ * that a crash or a full disk leaves whole chunks: a file that ends between
+ * two chunks is a recording cut short, a file that ends inside one was cut
+ * while writing it, and a checksum that differs is damage, named by entry,
+ * byte offset and tick.
+ * Writer for ftm-server --record, reader for ftm-server --replay. The
+ * reader never trusts the file: every length is bounded and a short,
+ * oversized, damaged or malformed entry is an FTM_EPARSE error naming the
+ * entry number and byte offset. */
 #ifndef FTM_SERVER_RECORD_H
 #define FTM_SERVER_RECORD_H
 
@@ -14,8 +24,13 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define FTM_RECORD_MAGIC "FTMREC1\n"
-#define FTM_RECORD_VERSION 1u
+#define FTM_RECORD_MAGIC "FTMREC2\n"
+#define FTM_RECORD_VERSION 2u
+/* A chunk is sealed and written before it would span this much session
+ * time (entries' time_ns), or grow over FTM_RECORD_CHUNK_BYTES. */
+#define FTM_RECORD_CHUNK_NS 100000000ull
+#define FTM_RECORD_CHUNK_BYTES (1u << 20)
+#define FTM_RECORD_CHUNK_HEAD 36u
 /* Largest entry: the biggest payload (a 16 MiB keyframe) plus the envelope. */
 #define FTM_RECORD_ENTRY_MAX (16u * 1024u * 1024u + 1024u)
 
@@ -50,14 +65,26 @@ typedef struct ftm_record_writer ftm_record_writer;
 /* Creates (truncates) path and writes the magic and the header. */
 int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_writer **out,
                       ftm_error *err);
-/* Appends one entry (e->payload/size, tick, kind, ...; index/offset unused). */
+/* Appends one entry (e->payload/size, tick, kind, ...; index/offset unused)
+ * to the open chunk, first writing that chunk out if e->time_ns is
+ * FTM_RECORD_CHUNK_NS or more after its first entry's. A write that fails
+ * (a full disk, a file size limit) stops the writer for good: the file is
+ * cut back to its last whole chunk, after as many of the failed chunk's
+ * entries as still fit (each then a chunk of its own). */
 int ftm_record_write(ftm_record_writer *w, const ftm_record_entry *e, ftm_error *err);
-/* Hands what is buffered to the kernel (one write), so that a server killed
- * afterwards leaves a recording of whole entries up to here. A failure stops
- * the writer as a failed ftm_record_write does. */
+/* Writes the open chunk out if its first entry is FTM_RECORD_CHUNK_NS or
+ * more before time_ns (the session's clock, as the entries' time_ns): for
+ * a loop whose entries may pause. */
+int ftm_record_tick(ftm_record_writer *w, uint64_t time_ns, ftm_error *err);
+/* Writes the open chunk out now, so that a server killed afterwards leaves
+ * a recording of whole chunks up to here. */
 int ftm_record_flush(ftm_record_writer *w, ftm_error *err);
-/* Bytes written so far. */
+/* Bytes accepted so far (in the file and in the open chunk). */
 uint64_t ftm_record_bytes(const ftm_record_writer *w);
+/* Bytes in the file: whole chunks (after a failure, what it kept). */
+uint64_t ftm_record_kept(const ftm_record_writer *w);
+/* The tick of the last entry in the file (0: none yet). */
+uint64_t ftm_record_kept_tick(const ftm_record_writer *w);
 /* Flushes and closes; returns the first write error if any. NULL is fine. */
 int ftm_record_close(ftm_record_writer *w, ftm_error *err);
 
@@ -66,8 +93,13 @@ typedef struct ftm_record_reader ftm_record_reader;
 /* Opens path and reads the magic and the header entry. */
 int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **out,
                     ftm_error *err);
-/* The next entry: 1, 0 at a clean end of file, or a negative error. */
+/* The next entry: 1, 0 at a clean end of file (after a whole chunk), or a
+ * negative error. */
 int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err);
+/* After ftm_record_next failed: true if the failure was damage (a checksum
+ * that differs, a chunk cut short): the entries handed out before it passed
+ * their checks, and a replay may stop there (--replay-upto-damage). */
+bool ftm_record_damaged(const ftm_record_reader *r);
 void ftm_record_close_reader(ftm_record_reader *r);
 
 #endif

@@ -175,7 +175,7 @@ static int on_keyframe(rstate *s, const ftm_record_entry *e, const ftm_wire_keyf
     return 0;
 }
 
-int ftm_server_replay(const char *path, const char *scene_name)
+int ftm_server_replay(const char *path, const char *scene_name, bool upto_damage)
 {
     ftm_record_header h;
     ftm_record_reader *rd = NULL;
@@ -226,11 +226,19 @@ int ftm_server_replay(const char *path, const char *scene_name)
     s.depth_min_seen = INT32_MAX;
     s.depth_max_seen = INT32_MIN;
     ftm_wire_limits lim = {0, 0, h.node_count};
+    bool at_damage = false;
     for (;;) {
         ftm_record_entry e;
         int got = ftm_record_next(rd, &e, &err);
-        if (got < 0) { /* the message names the file */
-            fprintf(stderr, "ftm-server --replay: %s\n", err.message);
+        if (got < 0 && ftm_record_damaged(rd) && upto_damage) { /* the message names the file */
+            fprintf(stderr, "ftm-server --replay: note: %s; replaying up to entry %" PRIu64
+                    " before it (--upto-damage)\n", err.message, s.last_index);
+            at_damage = true;
+            break;
+        }
+        if (got < 0) {
+            fprintf(stderr, "ftm-server --replay: %s%s\n", err.message,
+                    ftm_record_damaged(rd) ? " (--upto-damage replays up to it)" : "");
             rc = 1;
             goto done;
         }
@@ -282,7 +290,7 @@ int ftm_server_replay(const char *path, const char *scene_name)
         rc = fail(path, NULL, "no tick frames recorded");
         goto done;
     }
-    if (!s.have_final_status) /* what is there replayed; say that it is not all */
+    if (!s.have_final_status && !at_damage) /* what is there replayed; say that it is not all */
         fprintf(stderr,
                 "ftm-server --replay: %s: note: the recording ends at entry %" PRIu64
                 " without the server's final status (killed, crashed, or its recording "

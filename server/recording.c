@@ -13,14 +13,27 @@
 #include <time.h>
 #include <unistd.h>
 
-/* A write error stops the recording, not the session; the exit status says
- * the recording is incomplete (3, as when closing it fails). */
+/* A write error stops the recording, not the session, and for good: the
+ * file keeps its whole chunks (what fitted of the last one too), which
+ * replay to where it stopped; no new segment is begun when space returns.
+ * The exit status says the recording is incomplete (3, as when closing it
+ * fails); the closing lines, the report and the metrics say when and why. */
 void srv_record_failed(server *s, const ftm_error *err)
 {
-    srv_log(s, "error", "%s; recording stopped", err->message);
-    ftm_record_close(s->rec.w, NULL);
-    s->rec.w = NULL;
-    s->rec.failed = true;
+    srv_rec *r = &s->rec;
+    r->errors++;
+    r->failed = true;
+    r->stop_tick = s->tk.tick;
+    r->stop_s = (double)(srv_now() - s->t_start_ns) * 1e-9;
+    r->kept = ftm_record_kept(r->w);
+    r->kept_tick = ftm_record_kept_tick(r->w);
+    snprintf(r->why, sizeof r->why, "%s", err->message);
+    ftm_record_close(r->w, NULL);
+    r->w = NULL;
+    srv_log(s, "error",
+            "%s; recording stopped for good at tick %" PRIu64 " (%.3f s): the file keeps %" PRIu64
+            " bytes, replayable to tick %" PRIu64 "; it does not resume",
+            err->message, r->stop_tick, r->stop_s, r->kept, r->kept_tick);
 }
 
 void srv_record_entry(server *s, bool incoming, int kind, uint32_t sender, const uint8_t *buf,
@@ -165,7 +178,11 @@ int srv_finish_report(server *s)
         return 0;
     ftm_report_session rs = {s->o.session, s->o.scene, s->digest, FTM_REPLAY_DIGEST_SIZE,
                              s->tk.tick, s->o.rate, s->tk.depth_lo, s->tk.depth_hi, s->tk.unstable,
-                             s->rec.tissue_changes};
+                             s->rec.tissue_changes, NULL, false};
+    const ftm_report_recording stopped = {s->rec.stop_tick, s->rec.stop_s, s->rec.why,
+                                          s->rec.kept, s->rec.kept_tick};
+    rs.recording = s->o.record && !s->o.replay ? &stopped : NULL;
+    rs.recording_stopped = s->rec.failed;
     /* written whole beside it, then renamed over it: a reader (a course's
      * records, a watcher of the directory) never sees half a report, and a
      * failure (a full disk, a crash) leaves the previous file or none */
@@ -198,10 +215,17 @@ int srv_finish_report(server *s)
 }
 
 
-/* The end of a run's recording; 0, or 3 if it is incomplete. */
+/* The end of a run's recording; 0, or 3 if it is incomplete (said again
+ * here, with the closing lines: an operator reads the end of the log). */
 int srv_close_recording(server *s)
 {
     int rc = s->rec.failed ? 3 : 0;
+    if (s->rec.failed)
+        srv_log(s, "error",
+                "recording %s incomplete: stopped for good at tick %" PRIu64 " (%.3f s into the "
+                "session) on a write error: %s; %" PRIu64 " bytes kept, replayable to tick %" PRIu64,
+                s->o.record, s->rec.stop_tick, s->rec.stop_s, s->rec.why, s->rec.kept,
+                s->rec.kept_tick);
     if (!s->rec.w)
         return rc;
     const uint64_t bytes = ftm_record_bytes(s->rec.w);

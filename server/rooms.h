@@ -192,7 +192,12 @@ typedef struct srv_period {
 
 typedef struct srv_rec {
     ftm_record_writer *w;
-    bool failed;            /* the recording stopped on a write error */
+    bool failed;            /* the recording stopped on a write error, for good */
+    uint64_t errors;        /* write errors (ftm_record_errors_total) */
+    uint64_t stop_tick;     /* where it stopped: the session's tick, */
+    double stop_s;          /* its time into the session [s], */
+    uint64_t kept, kept_tick; /* the bytes the file kept and its last tick, */
+    char why[FTM_ERROR_MESSAGE_MAX]; /* and the error */
     char path[1024];        /* --record-dir: this run's recording */
     ftm_report report;      /* what each participant did (--report, the closing log) */
     uint64_t tissue_changes;

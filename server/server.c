@@ -75,15 +75,19 @@ static void on_tick_timer(uv_timer_t *h)
     srv_control_period(s);
     if (!s->tk.paused)
         srv_run_due_ticks(s);
+    /* a chunk of the recording out once it spans 100 ms, also when no entry follows */
+    ftm_error err = {0, ""};
+    if (s->rec.w && ftm_record_tick(s->rec.w, srv_now() - s->t_start_ns, &err))
+        srv_record_failed(s, &err);
 }
 
 static void on_status_timer(uv_timer_t *h)
 {
     server *s = h->data;
     srv_publish_status(s, FTM_WIRE_STATE_SYNCED);
-    /* the recording reaches the file at least every 0.5 s (not only per MiB,
-     * which an idle session fills in minutes): a server killed or crashed
-     * leaves whole entries up to about then */
+    /* the recording reaches the file at least every 0.5 s (chunks go out
+     * at 100 ms, on the tick timer; this is the backstop): a server
+     * killed or crashed leaves whole chunks up to about then */
     ftm_error err = {0, ""};
     if (s->rec.w && ftm_record_flush(s->rec.w, &err))
         srv_record_failed(s, &err);
@@ -427,7 +431,7 @@ int ftm_server_run(const ftm_server_def *def)
         return 3;
     }
     if (def->replay) { /* first the frames alone, then the inputs (srv_replay_inputs) */
-        int rc = ftm_server_replay(def->replay, def->scene);
+        int rc = ftm_server_replay(def->replay, def->scene, def->upto_damage);
         if (rc)
             return rc;
     }

@@ -49,6 +49,7 @@ typedef struct ftm_server_def {
     int32_t rt_priority;  /* SCHED_FIFO priority of the tick thread; 0: off */
     int32_t rt_cpu;       /* >= 0, FTM_SERVER_RT_CPU_START or _ANY */
     bool check;           /* --check: set everything up, report, exit */
+    bool upto_damage;     /* --upto-damage: replay a damaged recording up to the damage */
 } ftm_server_def;
 
 /* The defaults, as --help states them. */

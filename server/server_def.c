@@ -123,6 +123,9 @@ static const ftm_option options[] = {
     FTM_OPT_STRING("inputs", "FILE", D, inputs,
                    "run a recording's inputs through this server, without DDS\n"
                    "(its frames ignored; with --record, record the result)"),
+    FTM_OPT_FLAG("upto-damage", D, upto_damage,
+                 "(replay, inputs) take a damaged recording up to its first\n"
+                 "damaged entry, with a note, instead of refusing it"),
     FTM_OPT_INT("metrics-port", "N", D, metrics_port, 0, 65535,
                 "Prometheus metrics on http://ADDR:N/metrics (0: off)"),
     FTM_OPT_CUSTOM("metrics-addr", "ADDR", D, metrics_addr, parse_metrics_addr,
@@ -180,6 +183,8 @@ static int check_combined(const ftm_server_def *o)
         why = "--trainee goes with --offline";
     else if (o->reactions_csv && !o->offline_ticks && !o->replay && !o->inputs)
         why = "--reactions goes with --offline, --replay or --inputs";
+    else if (o->upto_damage && !o->replay && !o->inputs)
+        why = "--upto-damage goes with --replay or --inputs";
     if (why)
         fprintf(stderr, "ftm-server: %s\n", why);
     return why ? -1 : 0;

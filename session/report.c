@@ -185,8 +185,18 @@ int ftm_report_write_json(const ftm_report *r, const ftm_report_session *s, FILE
         }
         fprintf(f, "]}");
     }
+    fprintf(f, "\n]");
+    if (s->recording && s->recording_stopped) {
+        const ftm_report_recording *g = s->recording;
+        fprintf(f, ",\"recording\":{\"ok\":false,\"stopped_tick\":%llu,\"stopped_seconds\":%s,"
+                   "\"error\":",
+                (unsigned long long)g->stop_tick, num(b[0], g->stop_seconds));
+        json_str(f, g->why ? g->why : "");
+        fprintf(f, ",\"kept_bytes\":%llu,\"kept_to_tick\":%llu}",
+                (unsigned long long)g->kept_bytes, (unsigned long long)g->kept_tick);
+    }
     /* what the instructors changed, for the debriefing's timeline */
-    fprintf(f, "\n],\"events_not_reported\":%llu,\"events\":[",
+    fprintf(f, ",\"events_not_reported\":%llu,\"events\":[",
             (unsigned long long)r->events_dropped);
     for (int32_t i = 0; i < r->nevents; i++) {
         const ftm_report_event *e = &r->events[i];

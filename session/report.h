@@ -56,6 +56,14 @@ typedef struct ftm_report {
     uint64_t events_dropped; /* beyond FTM_REPORT_MAX_EVENTS, or out of memory */
 } ftm_report;
 
+/* Where and why a session's recording stopped on a write error. */
+typedef struct ftm_report_recording {
+    uint64_t stop_tick;
+    double stop_seconds;  /* into the session */
+    const char *why;      /* the error */
+    uint64_t kept_bytes, kept_tick; /* what the file kept: its size, its last tick */
+} ftm_report_recording;
+
 /* What the report says of the session as a whole. */
 typedef struct ftm_report_session {
     const char *session, *scene;
@@ -65,6 +73,11 @@ typedef struct ftm_report_session {
     double tick_rate_hz;
     int32_t depth_min, depth_max;
     uint64_t unstable_ticks, tissue_changes;
+    /* a session whose recording stopped on a write error (recording_stopped):
+     * "recording" in the report, where and why. Nothing otherwise, so that a
+     * replay's report is the live one's, byte for byte. */
+    const ftm_report_recording *recording;
+    bool recording_stopped;
 } ftm_report_session;
 
 /* Participant `id` seen at `tick` with this role and name: its entry (made

@@ -242,6 +242,13 @@ static const bad_case bad_cases[] = {
     {"[scene]\nname = \xed\xa0\x80\n" MESH2D MAT, 2, "name is not valid UTF-8 (byte 1)"},
     {"[mesh]\ngenerator = lattice2d\nnx = 4\nny = 4\nspacing = 1e-300\n" MAT, 2,
      "link's length is zero or not finite"},
+    /* a spacing whose lattice passes double precision: the field and its limit */
+    {"[mesh]\ngenerator = lattice2d\nnx = 4\nny = 3\nspacing = 1e308\n" MAT, 2,
+     "lattice2d: spacing 1e+308 m is too large: 4 nodes along an axis would reach beyond double "
+     "precision (1.79769e+308); at most 4.49423e+307 m"},
+    {"[mesh]\ngenerator = lattice3d\nnx = 2\nny = 4\nnz = 2\nspacing = 1 1e308 1\n" MAT, 2,
+     "lattice3d: spacing y 1e+308 m is too large: 4 nodes along y would reach beyond double "
+     "precision (1.79769e+308); at most 5.99231e+307 m"},
     {MESH2D MAT "[sim]\ntime_step = 1e-160\n", 10, "time_step must be in 1e-12..1000 s"},
     {MESH2D MAT "[sim]\ntime_step = 2e3\n", 10, "time_step must be in 1e-12..1000 s"},
     {MESH2D MAT "[sim]\norder = random\n", 10, "unknown value 'random'"},
@@ -427,6 +434,13 @@ static void test_file_mesh(void **state)
     char want[300];
     snprintf(want, sizeof want, "%s:3: fixed_nodes: node 7 out of range", other);
     assert_non_null(strstr(err.message, want));
+
+    /* A directory given as the scene: said as such, not "read error". */
+    assert_int_equal(ftm_scene_load_file(dir, &scene, &err), FTM_EIO);
+    assert_null(scene);
+    snprintf(want, sizeof want, "%s: is a directory, not a file", dir);
+    if (!strstr(err.message, want))
+        fail_msg("directory: %s", err.message);
 
     /* In-memory text: relative to the current directory. */
     char cwd[512];

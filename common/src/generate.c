@@ -6,6 +6,7 @@
 #include "lattice.h"
 #include "material.h"
 
+#include <float.h>
 #include <math.h>
 
 ftm_material_def ftm_default_material_def(void)
@@ -77,8 +78,15 @@ int ftm_lattice_add_quad(ftm_mesh_builder *b, const int32_t id[4], bool hi)
     return rc;
 }
 
-int ftm_lattice_node_failed(int32_t r, const char *who, ftm_error *err)
+int ftm_lattice_node_failed(int32_t r, const char *who, int32_t index, const ftm_node_def *nd,
+                            ftm_error *err)
 {
+    const ftm_vec3 x = nd->position;
+    if (r == FTM_EINVAL && !(isfinite(x.x) && isfinite(x.y) && isfinite(x.z)))
+        return ftm_error_set(err, r,
+                             "%s: cannot add node %d: its position (%g, %g, %g) m is not finite "
+                             "in double precision (largest %g): spacing or cell size too large",
+                             who, (int)index, x.x, x.y, x.z, DBL_MAX);
     return ftm_error_set(err, r, "%s: cannot add node: %s", who, ftm_strerror(r));
 }
 
@@ -104,6 +112,13 @@ int ftm_generate_lattice2d(ftm_mesh_builder *b, const ftm_lattice2d_def *def, ft
                              who, (int)def->nx, (int)def->ny, FTM_MAX_LATTICE_NODES);
     if (!(def->spacing > 0.0) || !isfinite(def->spacing))
         return ftm_error_set(err, FTM_EINVAL, "%s: spacing must be > 0 (got %g)", who, def->spacing);
+    /* the farthest node is (nx - 0.5, (ny - 1) sqrt(3)/2) spacings away */
+    const int32_t span = def->nx > def->ny ? def->nx : def->ny;
+    if (!isfinite(def->spacing * span))
+        return ftm_error_set(err, FTM_EINVAL,
+                             "%s: spacing %g m is too large: %d nodes along an axis would reach "
+                             "beyond double precision (%g); at most %g m",
+                             who, def->spacing, (int)span, DBL_MAX, DBL_MAX / span);
     int rc = ftm_material_check(&def->material, who, err);
     if (rc)
         return rc;
@@ -121,7 +136,8 @@ int ftm_generate_lattice2d(ftm_mesh_builder *b, const ftm_lattice2d_def *def, ft
                                .fixed = fixed};
             int32_t r = ftm_mesh_builder_add_node(b, &nd);
             if (r < 0)
-                return ftm_lattice_node_failed(r, who, err);
+                return ftm_lattice_node_failed(r, who, ftm_mesh_builder_node_count(b), &nd,
+                                               err);
         }
     /* forward half of the 6-neighbour stencil: right, and the two nodes of the
      * next row that touch this one (which depend on the row's parity) */
@@ -179,6 +195,14 @@ int ftm_generate_lattice3d(ftm_mesh_builder *b, const ftm_lattice3d_def *def, ft
         if (!(sp[i] > 0.0) || !isfinite(sp[i]))
             return ftm_error_set(err, FTM_EINVAL, "%s: spacing %c must be > 0 (got %g)", who,
                                  "xyz"[i], sp[i]);
+    const int32_t count[3] = {def->nx, def->ny, def->nz};
+    for (int i = 0; i < 3; i++)
+        if (!isfinite(sp[i] * (count[i] - 1)))
+            return ftm_error_set(err, FTM_EINVAL,
+                                 "%s: spacing %c %g m is too large: %d nodes along %c would reach "
+                                 "beyond double precision (%g); at most %g m",
+                                 who, "xyz"[i], sp[i], (int)count[i], "xyz"[i], DBL_MAX,
+                                 DBL_MAX / (count[i] - 1));
     if (def->stencil != FTM_STENCIL_6 && def->stencil != FTM_STENCIL_18 &&
         def->stencil != FTM_STENCIL_26)
         return ftm_error_set(err, FTM_EINVAL, "%s: stencil must be 6, 18 or 26 (got %d)", who,
@@ -204,7 +228,8 @@ int ftm_generate_lattice3d(ftm_mesh_builder *b, const ftm_lattice3d_def *def, ft
                                    .fixed = fixed};
                 int32_t r = ftm_mesh_builder_add_node(b, &nd);
                 if (r < 0)
-                    return ftm_lattice_node_failed(r, who, err);
+                    return ftm_lattice_node_failed(r, who, ftm_mesh_builder_node_count(b), &nd,
+                                                   err);
             }
     /* forward half-stencil: each undirected link once */
     const int8_t(*off)[3] = ftm_lattice_offsets;

@@ -32,7 +32,8 @@ extern const int8_t ftm_lattice_hex_corners[8][3];
 int ftm_lattice_add_quad(ftm_mesh_builder *b, const int32_t id[4], bool hi);
 
 /* Error messages of a builder call that failed, for generator `who`. */
-int ftm_lattice_node_failed(int32_t r, const char *who, ftm_error *err);
+int ftm_lattice_node_failed(int32_t r, const char *who, int32_t index, const ftm_node_def *nd,
+                            ftm_error *err);
 int ftm_lattice_link_failed(int32_t r, const char *who, double smin, double smax, ftm_error *err);
 
 #endif

@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 int ftm_text_read_file(const char *path, size_t max_bytes, char **data, size_t *length,
                        ftm_error *err)
@@ -16,6 +17,11 @@ int ftm_text_read_file(const char *path, size_t max_bytes, char **data, size_t *
     FILE *f = fopen(path, "rb");
     if (!f)
         return ftm_error_set(err, FTM_EIO, "%s: cannot open: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) { /* fopen opens one for reading */
+        fclose(f);
+        return ftm_error_set(err, FTM_EIO, "%s: is a directory, not a file", path);
+    }
     size_t cap = 1 << 16, len = 0;
     char *buf = malloc(cap + 1);
     if (!buf) {
@@ -46,7 +52,7 @@ int ftm_text_read_file(const char *path, size_t max_bytes, char **data, size_t *
             if (ferror(f)) {
                 free(buf);
                 fclose(f);
-                return ftm_error_set(err, FTM_EIO, "%s: read error", path);
+                return ftm_error_set(err, FTM_EIO, "%s: read error: %s", path, strerror(errno));
             }
             break;
         }

@@ -202,7 +202,8 @@ int ftm_generate_volume_lattice(ftm_mesh_builder *b, const ftm_volume *volume,
                                    .fixed = fixed};
                 int32_t r = ftm_mesh_builder_add_node(b, &nd);
                 if (r < 0) {
-                    rc = ftm_lattice_node_failed(r, who, err);
+                    rc = ftm_lattice_node_failed(r, who, ftm_mesh_builder_node_count(b), &nd,
+                                                 err);
                     goto done;
                 }
                 input[i] = r;

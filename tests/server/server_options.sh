@@ -95,6 +95,10 @@ for v in 224.0.0.1 239.255.255.250 255.255.255.255 ff02::1 ::ffff:224.0.0.1; do
 done
 # an output that is a directory: refused at start, not after the run
 refused "--report $dir is a directory" --offline 3 --report "$dir"
+# a directory as the scene: said as such (it used to be "read error")
+refused "$dir: is a directory, not a file" --offline 3 --scene "$dir"
+# --upto-damage goes with what reads a recording
+refused "--upto-damage goes with --replay or --inputs" --offline 3 --upto-damage
 refused "--reactions $dir is a directory" --offline 3 --reactions "$dir"
 refused "--log $dir is a directory" --offline 3 --log "$dir"
 [ -z "$(ls "$dir"/*.json 2>/dev/null)" ] || fail "a report was written"

@@ -340,7 +340,45 @@ EOF
     if timeout 60 "$FTM_SERVER" --replay "$dir/trunc.rec" >"$dir/trunc.out" 2>"$dir/trunc.err"; then
         fail "a truncated recording was accepted"
     fi
-    grep -q "truncated: entry [0-9]* at byte [0-9]*" "$dir/trunc.err" || fail "no clear truncation error"
+    grep -q "truncated: chunk [0-9]* at byte [0-9]* (entries [0-9]*.., ticks [0-9]*\.\.[0-9]*) needs" \
+        "$dir/trunc.err" || fail "no clear truncation error: $(cat "$dir/trunc.err")"
+    # damage: 12 bits flipped one at a time (seeded) anywhere after the
+    # magic: each copy refused, naming the damaged entry or chunk head and
+    # its byte (tests/server/test_record.c flips every bit of a small one)
+    PYTHONPATH="$here" python3 - "$rec" "$dir" <<'EOF' || fail "could not flip bits"
+import random, sys
+from recfile import *
+data = open(sys.argv[1], 'rb').read()
+rng = random.Random(28)
+for k in range(12):
+    b = bytearray(data)
+    bit = rng.randrange(64, len(data) * 8)
+    b[bit // 8] ^= 1 << (bit % 8)
+    open("%s/flip%d.rec" % (sys.argv[2], k), 'wb').write(b)
+# one in the middle entry's bytes, for --upto-damage
+spans = list(entries(data))
+at = spans[len(spans) // 2][0]
+b = bytearray(data)
+b[at + 2] ^= 0x04
+open("%s/mid.rec" % sys.argv[2], 'wb').write(b)
+EOF
+    for k in 0 1 2 3 4 5 6 7 8 9 10 11; do
+        if timeout 60 "$FTM_SERVER" --replay "$dir/flip$k.rec" >"$dir/flip.out" 2>"$dir/flip.err"; then
+            fail "a recording with a flipped bit (flip$k.rec) was accepted"
+        fi
+        grep -q "flip$k.rec: damaged: \(entry [0-9]* at byte [0-9]* (chunk [0-9]*, ticks [0-9]*\.\.[0-9]*, after tick [0-9]*)\|the head of chunk [0-9]* at byte [0-9]*\|chunk [0-9]* at byte [0-9]*\)" \
+            "$dir/flip.err" || fail "flip$k.rec: the damage was not named: $(cat "$dir/flip.err")"
+    done
+    if timeout 60 "$FTM_SERVER" --replay "$dir/mid.rec" >"$dir/mid.out" 2>"$dir/mid.err"; then
+        fail "a recording damaged in the middle was accepted"
+    fi
+    grep -q "(--upto-damage replays up to it)" "$dir/mid.err" || fail "no hint of --upto-damage: $(cat "$dir/mid.err")"
+    timeout 60 "$FTM_SERVER" --replay "$dir/mid.rec" --upto-damage >"$dir/mid.out" 2>"$dir/mid.err" ||
+        fail "--upto-damage did not replay up to the damage: $(cat "$dir/mid.err")"
+    grep -q "note: .*mid.rec: damaged: entry [0-9]* at byte [0-9]* .*; replaying up to entry [0-9]* before it (--upto-damage)" \
+        "$dir/mid.err" || fail "--upto-damage: no note of the damage: $(cat "$dir/mid.err")"
+    grep -q "every hash equal" "$dir/mid.out" || fail "--upto-damage: the frames before the damage did not replay"
+    grep -q "from the inputs: [1-9][0-9]* inputs" "$dir/mid.out" || fail "--upto-damage: no inputs pass"
     # one tick frame's state hash altered: the replay names that tick
     tick=$(PYTHONPATH="$here" python3 - "$rec" "$dir/bad.rec" <<'EOF'
 import sys
@@ -356,7 +394,7 @@ for at, fs in entries(data):
             tf = {f: (v, a) for f, t, v, a in fields(data, off, off + len(payload))}
             tick, hash_at = tf[2][0], tf[9][1]  # TickFrame.tick; state_hash (fixed64)
             data[hash_at] ^= 0x01
-            open(sys.argv[2], 'wb').write(data)
+            open(sys.argv[2], 'wb').write(reseal(data))
             print(tick)
             break
 EOF
@@ -384,7 +422,7 @@ for at, fs in entries(data):
                     data[z_at] ^= 0x01
                     moved += 1
 assert moved > 100, moved
-open(sys.argv[2], 'wb').write(data)
+open(sys.argv[2], 'wb').write(reseal(data))
 EOF
     if timeout 60 "$FTM_SERVER" --replay "$dir/inputs.rec" >"$dir/inputs.out" 2>"$dir/inputs.err"; then
         fail "a recording with altered inputs was accepted"
@@ -406,9 +444,9 @@ last = [fs for at, fs in entries(data)
 payload = [v for f, t, v, a in last if f == PAYLOAD][0]
 frame = [(f, t, v + 10**12 if f == 2 else v) for f, t, v, a in fields(payload)]  # TickFrame.tick
 far = [(f, t, encode(frame) if f == PAYLOAD else v) for f, t, v, a in last]
-open(sys.argv[2], 'wb').write(data + entry(far))
+open(sys.argv[2], 'wb').write(append(data, [entry(far)]))
 gone = [(TICK, 0, 10**12), (KIND, 0, KIND_STATUS), (5, 0, 11), (INCOMING, 0, 1), (7, 0, 1)]
-open(sys.argv[3], 'wb').write(data + entry(gone))
+open(sys.argv[3], 'wb').write(append(data, [entry(gone)]))
 EOF
     if timeout 60 "$FTM_SERVER" --replay "$dir/far-frame.rec" >"$dir/far-frame.out" 2>"$dir/far-frame.err"; then
         fail "a tick frame 10^12 ticks ahead was accepted"
@@ -431,9 +469,7 @@ at, fs = next(entries(data))
 header = [v for f, t, v, a in fs if f == 1][0]  # RecordEntry.header
 kept = [x for x in fields(header) if x[0] != 11]
 assert len(kept) < len(list(fields(header))), "no arithmetic field in the header"
-first = entry([(1, 2, encode(kept))])
-n, body = varint(data, 8)
-open(sys.argv[2], 'wb').write(data[:8] + first + data[body + n:])
+open(sys.argv[2], 'wb').write(build([entry([(1, 2, encode(kept))])] + bodies(data)[1:]))
 EOF
     if timeout 60 "$FTM_SERVER" --replay "$dir/old-core.rec" >"$dir/old-core.out" 2>"$dir/old-core.err"; then
         fail "a recording of another core's arithmetic was accepted"
@@ -457,7 +493,7 @@ assert last_input, "no probe input of trainee 11"
 gone = [(TICK, 0, last_tick), (KIND, 0, KIND_STATUS), (5, 0, 11), (INCOMING, 0, 1), (7, 0, 1)]
 late = [(f, t, last_tick if f == TICK else v) for f, t, v, a in last_input]
 stranger = [(f, t, 99 if f == 5 else v) for f, t, v in late]
-open(sys.argv[2], 'wb').write(data + entry(gone) + entry(late) + entry(stranger))
+open(sys.argv[2], 'wb').write(append(data, [entry(gone), entry(late), entry(stranger)]))
 EOF
     timeout 60 "$FTM_SERVER" --inputs "$dir/late-input.rec" >"$dir/late.out" 2>"$dir/late.err" ||
         fail "--inputs of the late input failed: $(tail -3 "$dir/late.err")"
@@ -513,8 +549,9 @@ for n in ["ftm_tick_rate_hz", "ftm_tick_rate_target_hz", "ftm_ticks_total", "ftm
           "ftm_depth", "ftm_depth_min", "ftm_depth_max", 'ftm_depth_changes_total{direction="down"}',
           "ftm_frames_sent_total", "ftm_keyframes_sent_total", 'ftm_bytes_sent_total{kind="tick_frame"}',
           "ftm_heartbeats_sent_total", "ftm_participants", "ftm_probe_push_limited_total",
-          "ftm_unstable_ticks_total"]:
+          "ftm_unstable_ticks_total", "ftm_record_ok", "ftm_record_errors_total"]:
     assert n in a and n in b, "missing " + n
+assert b["ftm_record_ok"] == 1 and b["ftm_record_errors_total"] == 0, "record_ok without a recording"
 for n in ["ftm_ticks_total", "ftm_frames_sent_total", "ftm_step_seconds_count",
           'ftm_bytes_sent_total{kind="tick_frame"}']:
     assert b[n] > a[n], "%s did not rise: %g -> %g" % (n, a[n], b[n])

@@ -1,7 +1,9 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Session recording file (server/record.h): round trip, the reader's
- * clear errors on truncated, oversized and corrupted files and headers, and
- * the writer's 1 MiB buffer. */
+ * clear errors on truncated, oversized, damaged and corrupted files and
+ * headers (every bit flip detected), the writer's chunks of < 100 ms and
+ * what it keeps when a write fails. */
+#include "crc32c.h"
 #include "depth_ctl.h" /* FTM_DEPTH_CTL_MAX */
 #include "record.h"
 
@@ -47,7 +49,8 @@ static void write_sample(void)
         payload[i] = (uint8_t)(i * 7);
     for (int i = 0; i < 10; i++) {
         ftm_record_entry e = {.tick = (uint64_t)i, .kind = 3, .sender = 1, .incoming = i % 2,
-                              .gone = i == 9, .time_ns = (uint64_t)i * 1000, .payload = payload,
+                              .gone = i == 9, .time_ns = (uint64_t)i * 30000000u, /* 30 ms */
+                              .payload = payload,
                               .size = (size_t)(i == 9 ? 0 : 1 + i * 30)};
         assert_int_equal(ftm_record_write(w, &e, &err), FTM_OK);
     }
@@ -78,6 +81,25 @@ static void copy_bad(long n, long at, uint8_t x)
     }
     fclose(in);
     fclose(out);
+}
+
+/* bad: the magic, then one chunk of one entry whose bytes are body[0..n),
+ * the checksums right. */
+static void forge(const char *body, size_t n)
+{
+    uint8_t head[FTM_RECORD_CHUNK_HEAD] = {'F', 'T', 'M', 'C', (uint8_t)n, 0, 0, 0, 1, 0, 0, 0};
+    uint32_t c = ftm_crc32c(0, body, n);
+    for (int i = 0; i < 4; i++)
+        head[12 + i] = (uint8_t)(c >> (8 * i));
+    c = ftm_crc32c(0, head, 32);
+    for (int i = 0; i < 4; i++)
+        head[32 + i] = (uint8_t)(c >> (8 * i));
+    FILE *f = fopen(bad, "wb");
+    assert_non_null(f);
+    fwrite(FTM_RECORD_MAGIC, 1, 8, f);
+    fwrite(head, 1, sizeof head, f);
+    fwrite(body, 1, n, f);
+    fclose(f);
 }
 
 /* Reads a whole file: 0 if clean, the error code otherwise (message in err). */
@@ -138,9 +160,9 @@ static void truncated_everywhere(void **state)
     ftm_error err = {0, ""};
     assert_int_equal(read_all(path, &entries, &err), 0);
     assert_int_equal(entries, 10);
-    /* every cut is an error, except those that fall between two entries,
-     * which leave fewer entries (a recording stopped by a crash is usable up
-     * to its last whole entry) */
+    /* every cut is an error, except those that fall between two chunks,
+     * which leave fewer entries (a recording stopped by a crash or a full
+     * disk is usable up to its last whole chunk) */
     int clean_cuts = 0;
     for (long cut = 0; cut < n; cut++) {
         copy_bad(cut, -1, 0);
@@ -148,17 +170,21 @@ static void truncated_everywhere(void **state)
         int rc = read_all(bad, &entries, &err);
         if (rc == 0) {
             clean_cuts++;
-            assert_true(entries < 10);
+            assert_true(entries == 0 || entries == 4 || entries == 8);
             continue;
         }
         assert_int_equal(rc, FTM_EPARSE);
         assert_non_null(strstr(err.message, bad));
         if (cut == 0) /* what a server killed before its first write leaves */
             assert_non_null(strstr(err.message, "empty file (0 bytes)"));
-        else
-            assert_true(strstr(err.message, "truncated") != NULL);
+        else if (cut > 8 && !strstr(err.message, "truncated: ") &&
+                 !strstr(err.message, "cut while it was written"))
+            fail_msg("cut at %ld: %s", cut, err.message);
+        else if (cut <= 8)
+            assert_non_null(strstr(err.message, "truncated"));
     }
-    assert_int_equal(clean_cuts, 10); /* after the header and after entries 1..9 */
+    /* after the header's chunk and the chunks of 30 ms entries 0..3, 4..7 */
+    assert_int_equal(clean_cuts, 3);
 }
 
 static void corrupted(void **state)
@@ -172,19 +198,25 @@ static void corrupted(void **state)
     copy_bad(n, 0, 0x20);
     assert_int_equal(read_all(bad, &entries, &err), FTM_EPARSE);
     assert_non_null(strstr(err.message, "not an FTM recording"));
-    /* the header's length prefix: now far too long for the file */
-    copy_bad(n, 8, 0x40);
-    assert_int_equal(read_all(bad, &entries, &err), FTM_EPARSE);
-    /* an overlong varint length */
+    /* a recording of format 1 (before checksums): refused by its version */
     FILE *f = fopen(bad, "wb");
-    fwrite(FTM_RECORD_MAGIC "\xff\xff\xff\xff\xff\xff\x01", 1, 15, f);
+    fwrite("FTMREC1\n\x05", 1, 9, f);
     fclose(f);
+    assert_int_equal(read_all(bad, &entries, &err), FTM_EVERSION);
+    if (!strstr(err.message, "recording format version 1 (no checksums); this build reads "
+                             "version 2 only"))
+        fail_msg("format 1: %s", err.message);
+    /* the header's length prefix: now far too long for its chunk (damage) */
+    copy_bad(n, 8 + FTM_RECORD_CHUNK_HEAD, 0x40);
     assert_int_equal(read_all(bad, &entries, &err), FTM_EPARSE);
+    assert_non_null(strstr(err.message, "damaged"));
+    /* chunks whose checksums are right but whose entries are not (a
+     * writer's bug or a forgery): an overlong varint length, a 4 GiB one */
+    forge("\xff\xff\xff\xff\xff\xff\x01", 7);
+    assert_int_equal(read_all(bad, &entries, &err), FTM_EPARSE);
+    assert_non_null(strstr(err.message, "malformed: entry 0 at byte 44"));
     assert_non_null(strstr(err.message, "length prefix too long"));
-    /* a 4 GiB length */
-    f = fopen(bad, "wb");
-    fwrite(FTM_RECORD_MAGIC "\x80\x80\x80\x80\x10", 1, 13, f);
-    fclose(f);
+    forge("\x80\x80\x80\x80\x10\x00\x00", 7);
     assert_int_equal(read_all(bad, &entries, &err), FTM_EPARSE);
     assert_non_null(strstr(err.message, "out of range"));
     /* flipping any single byte never crashes; it is an error or changes data */
@@ -250,10 +282,104 @@ static void depth_beyond_the_controller(void **state)
     }
 }
 
-/* Entries stay in the 1 MiB buffer: nothing reaches the file before a MiB
- * is written (glibc ignores the size of a buffer it allocates itself and
- * writes every 4 KiB), all of it after closing. */
-static void one_write_per_mib(void **state)
+/* The CRC-32C check value, and one flipped bit changes it. */
+static void crc32c_check_value(void **state)
+{
+    (void)state;
+    assert_int_equal(ftm_crc32c(0, "123456789", 9), 0xe3069283u);
+    assert_int_equal(ftm_crc32c(ftm_crc32c(0, "1234", 4), "56789", 5), 0xe3069283u);
+    assert_int_equal(ftm_crc32c(0, "", 0), 0);
+    assert_true(ftm_crc32c(0, "123456789", 9) != ftm_crc32c(0, "023456789", 9));
+    /* the instruction (where there is one) and the table agree, at every
+     * length and alignment */
+    static uint8_t b[4099];
+    for (size_t i = 0; i < sizeof b; i++)
+        b[i] = (uint8_t)(i * 2654435761u >> 13);
+    for (size_t at = 0; at < 9; at++)
+        for (size_t n = 0; at + n <= sizeof b; n += n < 40 ? 1 : 509)
+            assert_int_equal(ftm_crc32c(7, b + at, n), ftm_crc32c_table(7, b + at, n));
+    assert_int_equal(ftm_crc32c_table(0, "123456789", 9), 0xe3069283u);
+}
+
+/* Every single bit flipped, one at a time, in a recording of 3 chunks: each
+ * one is refused (100 %), after the magic as damage naming the entry or
+ * chunk and its byte; and the entries before a damaged one in its chunk are
+ * handed out first (what --upto-damage replays). */
+static void every_bit_flip_detected(void **state)
+{
+    (void)state;
+    write_sample();
+    const long n = file_size(path);
+    long detected = 0, damaged = 0, named = 0;
+    for (long at = 0; at < n; at++) {
+        for (int bit = 0; bit < 8; bit++) {
+            copy_bad(n, at, (uint8_t)(1u << bit));
+            ftm_error err = {0, ""};
+            ftm_record_header h;
+            ftm_record_reader *r = NULL;
+            int rc = ftm_record_open(bad, &h, &r, &err);
+            int entries = 0;
+            bool dmg = false;
+            if (rc == FTM_OK) {
+                ftm_record_entry e;
+                while ((rc = ftm_record_next(r, &e, &err)) == 1)
+                    entries++;
+                dmg = ftm_record_damaged(r);
+                ftm_record_close_reader(r);
+            }
+            if (rc == 0)
+                fail_msg("byte %ld bit %d flipped: read as intact (%d entries)", at, bit, entries);
+            detected++;
+            assert_non_null(strstr(err.message, bad));
+            if (at < 8)
+                continue; /* the magic: "not an FTM recording" or its version */
+            assert_non_null(strstr(err.message, "damaged"));
+            damaged++;
+            if (rc != FTM_OK && r) /* in an entry's chunk: said by the reader as damage */
+                assert_true(dmg);
+            if (strstr(err.message, " at byte "))
+                named++;
+        }
+    }
+    assert_int_equal(detected, n * 8);
+    print_message("every bit flip detected: %ld of %ld\n", detected, n * 8);
+    assert_int_equal(damaged, (n - 8) * 8);
+    assert_int_equal(named, damaged);
+    /* a flip in the third entry of the second chunk: entries 1..4 (the
+     * first chunk) and 5, 6 come before it */
+    ftm_record_header h;
+    ftm_record_reader *r = NULL;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_record_open(path, &h, &r, &err), FTM_OK);
+    ftm_record_entry e;
+    uint64_t at7 = 0;
+    while (ftm_record_next(r, &e, &err) == 1)
+        if (e.index == 7)
+            at7 = e.offset;
+    ftm_record_close_reader(r);
+    assert_true(at7 > 0);
+    copy_bad(n, (long)at7 + 3, 0x10);
+    assert_int_equal(ftm_record_open(bad, &h, &r, &err), FTM_OK);
+    int entries = 0;
+    int rc;
+    while ((rc = ftm_record_next(r, &e, &err)) == 1)
+        entries++;
+    assert_int_equal(rc, FTM_EPARSE);
+    assert_true(ftm_record_damaged(r));
+    if (entries != 6)
+        fail_msg("%d entries before the damage: %s", entries, err.message);
+    char want[128];
+    snprintf(want, sizeof want, "damaged: entry 7 at byte %llu (chunk 3, ticks 4..7, after tick 5): "
+             "its checksum differs", (unsigned long long)at7);
+    if (!strstr(err.message, want))
+        fail_msg("want '%s', got '%s'", want, err.message);
+    ftm_record_close_reader(r);
+}
+
+/* Entries stay in the open chunk until it would span 100 ms of session (or
+ * 1 MiB): one write(2) per chunk; ftm_record_tick writes a chunk that is
+ * due without a next entry, ftm_record_flush at once. */
+static void chunks_of_100ms(void **state)
 {
     (void)state;
     ftm_record_header h;
@@ -261,23 +387,45 @@ static void one_write_per_mib(void **state)
     ftm_record_writer *w = NULL;
     ftm_error err = {0, ""};
     assert_int_equal(ftm_record_create(path, &h, &w, &err), FTM_OK);
+    const long head = file_size(path); /* the magic and the header's chunk */
+    assert_int_equal(head, (long)ftm_record_kept(w));
     static uint8_t payload[1000];
-    for (int i = 0; i < 500; i++) { /* about 0.5 MiB */
-        ftm_record_entry e = {.tick = (uint64_t)i, .kind = 3, .sender = 1, .payload = payload,
-                              .size = sizeof payload};
+    ftm_record_entry e = {.kind = 3, .sender = 1, .payload = payload, .size = sizeof payload};
+    for (int i = 0; i < 100; i++) { /* 0 .. 99 ms */
+        e.tick = (uint64_t)i;
+        e.time_ns = (uint64_t)i * 1000000u;
         assert_int_equal(ftm_record_write(w, &e, &err), FTM_OK);
     }
-    uint64_t bytes = ftm_record_bytes(w);
-    assert_true(bytes > 500000 && bytes < (1u << 20));
-    assert_int_equal(file_size(path), 0);
+    assert_int_equal(file_size(path), head);
+    assert_int_equal(ftm_record_tick(w, 99999999u, &err), FTM_OK);
+    assert_int_equal(file_size(path), head);
+    e.tick = 100;
+    e.time_ns = 100000000u; /* the 100th ms: the chunk of 0..99 goes out */
+    assert_int_equal(ftm_record_write(w, &e, &err), FTM_OK);
+    const long one = file_size(path);
+    assert_true(one > head + 100 * 1000 && one < head + 100 * 1100);
+    assert_int_equal(ftm_record_tick(w, 200000000u, &err), FTM_OK); /* entry 100 is due */
+    assert_true(file_size(path) > one);
+    assert_int_equal((long)ftm_record_bytes(w), file_size(path));
+    /* no more than 1 MiB of entries in a chunk, whatever their time */
+    const long before = file_size(path);
+    for (int i = 0; i < 1100; i++) {
+        e.tick = 300;
+        e.time_ns = 300000000u;
+        assert_int_equal(ftm_record_write(w, &e, &err), FTM_OK);
+    }
+    const long mib = file_size(path) - before;
+    assert_true(mib > (1 << 20) - 1100 && mib <= (1 << 20) + (long)FTM_RECORD_CHUNK_HEAD);
     assert_int_equal(ftm_record_close(w, &err), FTM_OK);
-    assert_int_equal(file_size(path), (long)bytes);
+    int entries = 0;
+    assert_int_equal(read_all(path, &entries, &err), 0);
+    assert_int_equal(entries, 1201);
 }
 
-/* ftm_record_flush hands the buffer to the file; a write that fails later
- * (here a file size limit, as a full disk) stops the writer, and closing it
- * cuts the file back to the last flush: whole entries, readable to the end. */
-static void write_error_cuts_back(void **state)
+/* A write that fails (here a file size limit, as a full disk) stops the
+ * writer; the file keeps its whole chunks and as many of the failed
+ * chunk's entries as fit, each a chunk of its own: readable to the end. */
+static void write_error_keeps_what_fits(void **state)
 {
     (void)state;
     ftm_record_header h;
@@ -293,12 +441,14 @@ static void write_error_cuts_back(void **state)
     }
     assert_int_equal(ftm_record_flush(w, &err), FTM_OK);
     uint64_t flushed = ftm_record_bytes(w);
-    assert_int_equal(file_size(path), (long)flushed); /* on disk now, not at 1 MiB */
-    /* room for about 15 more entries: the write of the next 40 fails in one */
+    assert_int_equal(file_size(path), (long)flushed); /* on disk now */
+    /* room for about 14 more entries (each ~1060 bytes as a chunk of its
+     * own): the chunk of the next 40 does not fit */
     struct rlimit was, lim;
     assert_int_equal(getrlimit(RLIMIT_FSIZE, &was), 0);
     lim = was;
-    lim.rlim_cur = (rlim_t)flushed + 15500;
+    const long room = 15500;
+    lim.rlim_cur = (rlim_t)flushed + (rlim_t)room;
     void (*old)(int) = signal(SIGXFSZ, SIG_IGN);
     assert_int_equal(setrlimit(RLIMIT_FSIZE, &lim), 0);
     int rc = FTM_OK;
@@ -311,13 +461,20 @@ static void write_error_cuts_back(void **state)
     assert_int_equal(rc, FTM_EIO);
     assert_non_null(strstr(err.message, "write failed: File too large"));
     assert_int_equal(ftm_record_write(w, &e, &err), FTM_EIO); /* stopped */
+    const uint64_t kept = ftm_record_kept(w);
     assert_int_equal(ftm_record_close(w, &err), FTM_EIO);
     assert_int_equal(setrlimit(RLIMIT_FSIZE, &was), 0);
     signal(SIGXFSZ, old);
-    assert_int_equal(file_size(path), (long)flushed);
+    const long size = file_size(path);
+    assert_int_equal(size, (long)kept);
+    const long per = (long)(flushed - 8 - FTM_RECORD_CHUNK_HEAD) / 20; /* an entry, about */
+    /* what fitted is kept, less than one entry's chunk short of the room */
+    if (size <= (long)flushed + room - per - 2 * (long)FTM_RECORD_CHUNK_HEAD - 64 ||
+        size > (long)flushed + room)
+        fail_msg("kept %ld bytes of %ld", size - (long)flushed, room);
     int entries = 0;
     assert_int_equal(read_all(path, &entries, &err), 0);
-    assert_int_equal(entries, 20);
+    assert_int_equal(entries, 20 + 14);
 }
 
 int main(void)
@@ -329,8 +486,10 @@ int main(void)
         cmocka_unit_test(truncated_everywhere),
         cmocka_unit_test(corrupted),
         cmocka_unit_test(depth_beyond_the_controller),
-        cmocka_unit_test(one_write_per_mib),
-        cmocka_unit_test(write_error_cuts_back),
+        cmocka_unit_test(crc32c_check_value),
+        cmocka_unit_test(every_bit_flip_detected),
+        cmocka_unit_test(chunks_of_100ms),
+        cmocka_unit_test(write_error_keeps_what_fits),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     unlink(path);

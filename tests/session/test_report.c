@@ -77,7 +77,7 @@ static void test_json_escapes_names(void **state)
     p->probes[0].touches = 1;
     ftm_report_contact(&p->probes[0], 3, (ftm_vec3){0, 0, 2}, 0.001, false);
     uint8_t digest[2] = {0xab, 0x01};
-    ftm_report_session s = {"ward \"3\"", "default", digest, 2, 1000, 1000.0, 8, 8, 0, 0};
+    ftm_report_session s = {"ward \"3\"", "default", digest, 2, 1000, 1000.0, 8, 8, 0, 0, NULL, false};
     char *buf = json_of(&r, &s);
     /* UTF-8 kept as it is (not one \u00XX per byte: that decodes as "Ã©") */
     if (!strstr(buf, "\"name\":\"a\\\"b\\\\c\\u0001\\u000a\xc3\xa9\""))
@@ -101,7 +101,7 @@ static void test_events(void **state)
     ftm_report_event_add(&r, 2000, 15, "pause", "%s", "");
     ftm_report_event_add(&r, 2500, 16, "depth limits", "[%d, %d], depth %d", 2, 6, 6);
     assert_int_equal(r.nevents, 3);
-    ftm_report_session s = {"ward3", "default", NULL, 0, 3000, 1000.0, 8, 8, 0, 1};
+    ftm_report_session s = {"ward3", "default", NULL, 0, 3000, 1000.0, 8, 8, 0, 1, NULL, false};
     char *buf = json_of(&r, &s);
     const char *want = "\"events_not_reported\":0,\"events\":[\n"
                        " {\"tick\":1447,\"seconds\":1.4470000000000001,\"by\":15,\"what\":\"tissue\","
@@ -121,6 +121,35 @@ static void test_events(void **state)
     free(buf);
     ftm_report_free(&r);
     assert_null(r.events);
+}
+
+/* A session's recording in the report: where (tick, time) and why it
+ * stopped on a write error, and what the file kept; no field while it
+ * recorded to the end (a replay's report is then the same bytes) or for a
+ * run that recorded nothing. */
+static void test_recording(void **state)
+{
+    (void)state;
+    ftm_report r = {0};
+    ftm_report_recording g = {1503, 1.5, "recording s.rec: write failed: No space left on device",
+                              241664, 1490};
+    ftm_report_session s = {"ward3", "default", NULL, 0, 3000, 1000.0, 8, 8, 0, 0, NULL, false};
+    char *buf = json_of(&r, &s);
+    assert_null(strstr(buf, "\"recording\""));
+    free(buf);
+    s.recording = &g;
+    buf = json_of(&r, &s);
+    if (strstr(buf, "\"recording\"") || !strstr(buf, "\n],\"events_not_reported\":0,"))
+        fail_msg("recording ok: %s", buf);
+    free(buf);
+    s.recording_stopped = true;
+    buf = json_of(&r, &s);
+    if (!strstr(buf, ",\"recording\":{\"ok\":false,\"stopped_tick\":1503,\"stopped_seconds\":1.5,"
+                     "\"error\":\"recording s.rec: write failed: No space left on device\","
+                     "\"kept_bytes\":241664,\"kept_to_tick\":1490},"))
+        fail_msg("recording stopped: %s", buf);
+    free(buf);
+    ftm_report_free(&r);
 }
 
 /* A name that is not UTF-8 (a peer may send any bytes): every ill-formed
@@ -150,7 +179,7 @@ static void test_json_not_utf8(void **state)
         ftm_report_contact(q, 3, (ftm_vec3){0, 0, 2}, 0.001, false);
         if (i == 0)
             q->max_push = NAN;
-        ftm_report_session s = {"s", "default", NULL, 0, 10, 1000.0, 8, 8, 0, 0};
+        ftm_report_session s = {"s", "default", NULL, 0, 10, 1000.0, 8, 8, 0, 0, NULL, false};
         char *buf = json_of(&r, &s);
         char want[128];
         snprintf(want, sizeof want, "\"name\":\"%s\"", cases[i].json);
@@ -172,6 +201,7 @@ int main(void)
         cmocka_unit_test(test_json_escapes_names),
         cmocka_unit_test(test_json_not_utf8),
         cmocka_unit_test(test_events),
+        cmocka_unit_test(test_recording),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
