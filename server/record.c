@@ -28,7 +28,14 @@ struct ftm_record_writer {
     size_t cap, len; /* len: head room + body bytes so far */
     size_t *ends;   /* where each entry of the open chunk ends in buf */
     uint64_t *ticks; /* and its tick */
+    bool *optional;  /* and whether the recording replays without it (a keyframe sent) */
     size_t ncap;
+    /* the disk is full (or the file at its size limit): every entry goes as a
+     * chunk of its own while it fits; a keyframe that does not fit is left
+     * out (the replay checks the keyframes it finds, and needs none), any
+     * other entry that does not fit stops the recording for good */
+    bool tight;
+    uint64_t keyframes_left_out;
     uint32_t count; /* entries in the open chunk */
     uint32_t body_crc; /* of the open chunk's body so far: sealing it needs no pass over it */
     uint64_t first_ns, first_tick, last_tick;
@@ -156,37 +163,51 @@ static int write_chunk(ftm_record_writer *w, ftm_error *err)
 {
     if (!w->count)
         return FTM_OK;
-    seal(w->buf, w->len - HEAD, w->body_crc, w->count, w->first_tick, w->last_tick);
-    int e = write_all(w->fd, w->buf, w->len);
     const uint32_t count = w->count;
     w->count = 0;
-    if (!e) {
-        w->kept += w->len;
-        w->kept_tick = w->last_tick;
-        w->len = HEAD;
-        return FTM_OK;
-    }
-    if (cut_back(w)) {
-        uint8_t head[HEAD];
-        size_t at = HEAD;
-        for (uint32_t i = 0; i < count; i++) {
-            size_t n = w->ends[i] - at;
-            seal(head, n, ftm_crc32c(0, w->buf + at, n), 1, w->ticks[i], w->ticks[i]);
-            if (write_all(w->fd, head, HEAD) || write_all(w->fd, w->buf + at, n)) {
-                cut_back(w); /* (best effort: cutting needs no space) */
-                break;
-            }
-            w->kept += HEAD + n;
-            w->kept_tick = w->ticks[i];
-            at = w->ends[i];
+    int e = 0;
+    if (!w->tight) {
+        seal(w->buf, w->len - HEAD, w->body_crc, count, w->first_tick, w->last_tick);
+        e = write_all(w->fd, w->buf, w->len);
+        if (!e) {
+            w->kept += w->len;
+            w->kept_tick = w->last_tick;
+            w->len = HEAD;
+            return FTM_OK;
         }
     }
+    bool stopped = !w->tight && !cut_back(w);
+    uint8_t head[HEAD];
+    size_t at = HEAD;
+    for (uint32_t i = 0; !stopped && i < count; at = w->ends[i], i++) {
+        size_t n = w->ends[i] - at;
+        seal(head, n, ftm_crc32c(0, w->buf + at, n), 1, w->ticks[i], w->ticks[i]);
+        int ei = write_all(w->fd, head, HEAD);
+        if (!ei)
+            ei = write_all(w->fd, w->buf + at, n);
+        if (ei) {
+            e = ei;
+            cut_back(w); /* (best effort: cutting needs no space) */
+            if (w->optional[i]) {
+                w->keyframes_left_out++;
+                continue;
+            }
+            stopped = true;
+            break;
+        }
+        w->kept += HEAD + n;
+        w->kept_tick = w->ticks[i];
+    }
     w->len = HEAD;
-    return stop(w, e, err);
+    if (!stopped) {
+        w->tight = true; /* every entry fitted but keyframes: go on, entry by entry */
+        return FTM_OK;
+    }
+    return stop(w, e ? e : ENOSPC, err);
 }
 
 static int put_entry(ftm_record_writer *w, const Ftm__V1__RecordEntry *m, uint64_t tick,
-                     uint64_t time_ns, ftm_error *err)
+                     uint64_t time_ns, bool optional, ftm_error *err)
 {
     if (w->error)
         return rec_err(err, w->error, "%s", w->message);
@@ -208,9 +229,12 @@ static int put_entry(ftm_record_writer *w, const Ftm__V1__RecordEntry *m, uint64
         if (ends)
             w->ends = ends;
         uint64_t *ticks = ends ? realloc(w->ticks, c * sizeof *ticks) : NULL;
-        if (!ticks)
+        if (ticks)
+            w->ticks = ticks;
+        bool *opt = ticks ? realloc(w->optional, c * sizeof *opt) : NULL;
+        if (!opt)
             return rec_err(err, FTM_ENOMEM, "recording %s: out of memory", w->path);
-        w->ticks = ticks;
+        w->optional = opt;
         w->ncap = c;
     }
     uint8_t *p = w->buf + w->len;
@@ -232,6 +256,7 @@ static int put_entry(ftm_record_writer *w, const Ftm__V1__RecordEntry *m, uint64
     w->last_tick = tick;
     w->ends[w->count] = w->len;
     w->ticks[w->count] = tick;
+    w->optional[w->count] = optional;
     w->count++;
     return FTM_OK;
 }
@@ -285,7 +310,7 @@ int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_w
     Ftm__V1__RecordEntry m = FTM__V1__RECORD_ENTRY__INIT;
     m.header = &hd;
     /* the header in a chunk of its own, in the file at once */
-    int rc = put_entry(w, &m, 0, 0, err);
+    int rc = put_entry(w, &m, 0, 0, false, err);
     if (!rc)
         rc = write_chunk(w, err);
     if (rc) {
@@ -322,7 +347,9 @@ int ftm_record_write(ftm_record_writer *w, const ftm_record_entry *e, ftm_error 
     }
     m.has_time_ns = true;
     m.time_ns = e->time_ns;
-    return put_entry(w, &m, e->tick, e->time_ns, err);
+    /* a keyframe the server sent: the replay checks it if it is there */
+    const bool optional = e->kind == FTM_WIRE_KEYFRAME && !e->incoming;
+    return put_entry(w, &m, e->tick, e->time_ns, optional, err);
 }
 
 int ftm_record_tick(ftm_record_writer *w, uint64_t time_ns, ftm_error *err)
@@ -367,6 +394,7 @@ int ftm_record_close(ftm_record_writer *w, ftm_error *err)
     free(w->buf);
     free(w->ends);
     free(w->ticks);
+    free(w->optional);
     free(w->path);
     free(w);
     return rc;
