@@ -284,6 +284,7 @@ static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
     case GLFW_KEY_KP_SUBTRACT: send_command(a, FTM_WIRE_CMD_DEPTH_LIMITS, "depth max -1"); break;
     case GLFW_KEY_K: send_command(a, FTM_WIRE_CMD_TISSUE, "stiffer"); break;
     case GLFW_KEY_J: send_command(a, FTM_WIRE_CMD_TISSUE, "softer"); break;
+    case GLFW_KEY_T: send_command(a, FTM_WIRE_CMD_TISSUE, "scene tissue"); break;
     default: break;
     }
 }

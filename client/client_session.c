@@ -56,6 +56,7 @@ struct ftm_client_session {
     bool force_valid;
     uint64_t contact_ticks, counted_tick;
     bool dirty;
+    ftm_wire_tissue range_of; /* the tissue shared.range is of */
 
     /* shared with the render thread: under lock */
     pthread_mutex_t lock;
@@ -155,8 +156,10 @@ static void count_reactions(ftm_client_session *s, const ftm_wire_tick *t)
         int32_t k = ftm_report_index(&s->live, re->participant);
         if (k < 0 && (k = ftm_report_seen(&s->live, re->participant, "trainee", "", t->tick)) < 0)
             continue;
+        /* (the frame does not say whether the server substepped: the
+         * server's report marks unstable stretches) */
         ftm_report_contact(&s->live.parts[k].probes[re->probe], t->tick, re->force, 0.0,
-                           re->push_limited);
+                           re->push_limited, false);
     }
 }
 
@@ -488,6 +491,17 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
         const ftm_wire_tick *t = ftm_replay_last_frame(rep);
         v->tick = ftm_replay_tick(rep);
         v->depth = t->depth;
+        /* the range changes with the tissue only: computed once per change */
+        ftm_wire_tissue in_force = ftm_replay_tissue(rep);
+        if (!v->range_valid || !ftm_replay_tissue_equal(&in_force, &s->range_of)) {
+            ftm_error rerr = {0, ""};
+            v->range_valid = ftm_replay_range(rep, &v->range, &rerr) == FTM_OK;
+            s->range_of = in_force;
+        }
+        v->scene_tissue = ftm_replay_own_tissue(rep);
+        ftm_sim_mode mode;
+        ftm_sim_get_mode(ftm_replay_sim(rep), &mode);
+        v->substeps = mode.substeps;
         int64_t lat = s->last_latency_ns > 0 ? s->last_latency_ns : 0;
         v->latency_ms = (double)lat * 1e-6;
         int64_t behind = s->newest_rx_tick > v->tick ? (int64_t)(s->newest_rx_tick - v->tick) : 0;

@@ -12,6 +12,7 @@
 #include "ftm/scene.h"
 #include "ftm/wire.h"
 #include "pending.h" /* ftm_pending: commands waiting for their reply */
+#include "tissue.h"  /* ftm_tissue_range: what the server accepts */
 
 #define FTM_CLIENT_MAX_PROBES 64
 #define FTM_CLIENT_MAX_PARTS 32
@@ -94,6 +95,13 @@ typedef struct ftm_client_view {
     int32_t depth_min, depth_max;
     uint32_t rate_hz;
     ftm_wire_tissue tissue;
+    /* the scene's own tissue (instructor's restore key), the stable range
+     * around the one in force (session/tissue.h: what the server accepts)
+     * and the substeps per step the replica, as the server, takes now */
+    ftm_wire_tissue scene_tissue;
+    bool range_valid;
+    ftm_tissue_range range;
+    int32_t substeps;
     int64_t lag_ticks;    /* server's tick now (estimated) - applied tick */
     double latency_ms;    /* server write -> received, last frame */
     bool caught_up;       /* synced, every frame received so far applied */

@@ -614,6 +614,13 @@ guard)
         grep -q "tissue now k 122.07 N/m" "$dir/bot$b.err" || fail "bot $b did not reach 122.07 N/m"
         grep -q "tissue now k 152" "$dir/bot$b.err" && fail "bot $b ran a refused stiffness"
     done
+    # the report: the trainee's contact ticks all stable, its peak unmarked
+    python3 - "$dir/live.json" <<'PY' || fail "the report marks the trainee's contact as unstable"
+import json, sys
+rep = json.load(open(sys.argv[1]))
+pr = [p for p in rep["participants"] if p["id"] == 11][0]["probes"][0]
+assert pr["contact_ticks"] > 0 and pr["unstable_ticks"] == 0 and pr["peak_while_unstable"] is False, pr
+PY
     # no substeps on the server: the range kept the guard idle
     grep -q "substeps per step" "$dir/server.log" && fail "the server substepped: $(grep -m1 'substeps per step' "$dir/server.log")"
     first=$want
