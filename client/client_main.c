@@ -609,6 +609,22 @@ static void take_view(app *a, int64_t now)
     }
 }
 
+/* --max-fps: waits for the next frame's deadline, handling input meanwhile
+ * (glfwWaitEventsTimeout runs the callbacks as events come). The swap
+ * interval alone does not hold a rate where the display does not throttle
+ * (Xvfb, some compositors), and an uncapped client drew 130-200 fps on a
+ * classroom PC (issue 27). A frame later than a whole period moves the
+ * deadline to now, rather than drawing a burst to catch up. */
+static void pace(app *a, int64_t *deadline, int64_t period)
+{
+    int64_t now = ftm_clock_mono_ns();
+    *deadline = *deadline ? *deadline + period : now + period;
+    if (*deadline < now - period)
+        *deadline = now;
+    while ((now = ftm_clock_mono_ns()) < *deadline && !g_stop && !glfwWindowShouldClose(a->win))
+        glfwWaitEventsTimeout((double)(*deadline - now) * 1e-9);
+}
+
 /* The render loop until the window closes, a signal, --duration, or a
  * --screenshot or --bench that is done. Returns the exit status. */
 static int run(app *a)
@@ -617,6 +633,9 @@ static int run(app *a)
     int64_t start = ftm_clock_mono_ns(), last = start;
     double fps = 0;
     bench b = {0};
+    uint64_t frames = 0;
+    int64_t deadline = 0;
+    const int64_t period = a->o.max_fps > 0 && !(a->o.bench > 0) ? 1000000000LL / a->o.max_fps : 0;
     char lines[FTM_HUD_LINES][FTM_HUD_WIDTH];
     const char *hud[FTM_HUD_LINES];
     ftm_client_view draw;
@@ -667,9 +686,20 @@ static int run(app *a)
             rc_exit = 1;
             break;
         }
+        frames++;
         if (a->o.duration > 0 && el >= a->o.duration)
             break;
+        if (period)
+            pace(a, &deadline, period);
     }
+    const double secs = (double)(ftm_clock_mono_ns() - start) * 1e-9;
+    char how[48];
+    if (period)
+        snprintf(how, sizeof how, "--max-fps %d", a->o.max_fps);
+    else
+        snprintf(how, sizeof how, "%s", a->o.bench > 0 ? "uncapped for --bench" : "uncapped");
+    alog(a, FTM_LOG_INFO, "drew %" PRIu64 " frames in %.2f s (%.1f fps; %s)", frames, secs,
+         secs > 0 ? (double)frames / secs : 0.0, how);
     free(b.dt);
     return rc_exit;
 }

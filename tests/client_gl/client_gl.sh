@@ -25,6 +25,8 @@
 #       ticks, the pixels around the contact changed, and a slice per plane
 #       draws the dent as the default does; cut away (--cut, key x) it shows
 #       something other than the whole volume.
+#   fps: --max-fps 20 draws 10..24 fps over 3 s under Xvfb (where the swap
+#       interval does not throttle), the default cap at most 72 fps.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
 set -u
 mode=${1:?mode}
@@ -262,6 +264,28 @@ volume)
         fail "png check: the cut-away looks like the whole volume"
     [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
     echo "PASS volume: $(cat "$dir/after.out")"
+    ;;
+fps)
+    # --max-fps holds under Xvfb, where the swap interval does not throttle:
+    # the count of frames drawn over 3 s (the client's closing log line), with
+    # wide margins (a behaviour check, not a speed test): --max-fps 20 between
+    # 10 and 24 fps; the default (60) at most 72. An uncapped client under
+    # Xvfb draws hundreds (740 fps at 640x400 on the 2-core machine).
+    start_server
+    client capped --max-fps 20 --duration 3 || fail "client (--max-fps 20) exited with $?"
+    client default --duration 3 || fail "client (default cap) exited with $?"
+    for run in capped default; do
+        line=$(grep "drew [0-9]* frames in" "$dir/$run.log") || fail "$run: no frame count logged"
+        eval "fps_$run=$(echo "$line" | sed -n 's/.*frames in [0-9.]* s (\([0-9.]*\) fps.*/\1/p')"
+    done
+    grep -q "fps; --max-fps 20)" "$dir/capped.log" || fail "the capped client did not say its cap"
+    grep -q "fps; --max-fps 60)" "$dir/default.log" || fail "the default is not a cap of 60"
+    grep -q "synced at tick" "$dir/capped.log" || fail "the capped client never synced"
+    awk -v f="$fps_capped" 'BEGIN { exit !(f >= 10 && f <= 24) }' ||
+        fail "--max-fps 20 drew $fps_capped fps, want 10..24"
+    awk -v f="$fps_default" 'BEGIN { exit !(f > 0 && f <= 72) }' ||
+        fail "the default cap drew $fps_default fps, want at most 72"
+    echo "PASS fps: --max-fps 20: $fps_capped fps; default: $fps_default fps"
     ;;
 *)
     echo "unknown mode $mode"; exit 2 ;;
