@@ -522,6 +522,9 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
             p->force = r->force;
             p->push_limited = r->push_limited;
             p->contact = contact_centroid(x, t, r->group, &p->in_contact);
+            p->has_plane = r->has_plane;
+            p->plane_point = r->contact_point;
+            p->plane_normal = r->contact_normal;
             if (p->own && r->probe == 0 && s->force_valid)
                 v->own_force = r->force;
         }

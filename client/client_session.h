@@ -61,6 +61,10 @@ typedef struct ftm_client_probe {
     ftm_vec3 contact; /* centroid of the group's contact nodes, current positions */
     ftm_vec3 force;   /* reaction force [N] */
     bool push_limited; /* the server shortened its push to the limit (HIP too deep) */
+    /* the contact's rest-surface point where it began and outward normal
+     * (the server's release rule: the HIP back on this plane's outside) */
+    bool has_plane;
+    ftm_vec3 plane_point, plane_normal;
 } ftm_client_probe;
 
 typedef struct ftm_client_part {
