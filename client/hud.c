@@ -87,7 +87,7 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         }
         LINE("%sserver substeps %d per tick  lag %" PRId64 " ticks%s", v->substeps > 1 ? "!! " : "",
              (int)(v->substeps > 0 ? v->substeps : 1), v->lag_ticks,
-             v->substeps > 1 ? ": the tissue is past its stable step (t restores the scene's)" : "");
+             v->substeps > 1 ? ": past the stable step (t: scene tissue)" : "");
         LINE("participants:");
         int32_t order[FTM_CLIENT_MAX_PARTS], nparts = listing_order(v, order), i = 0;
         for (; i < nparts && n < FTM_HUD_LINES - 7; i++) {
