@@ -585,13 +585,16 @@ restart)
         "with another scene, ending on its $want"
     ;;
 guard)
-    start_server --duration 6 --report "$dir/live.json"
-    timeout 60 "$FTM_BOT" --role trainee --script "$here/press-hold.bot" $common --id 11 \
+    start_server --duration 10 --report "$dir/live.json"
+    timeout 60 "$FTM_BOT" --role trainee --script "$here/press-still.bot" $common --id 11 \
         --duration 30 >"$dir/bot11.out" 2>"$dir/bot11.err" &
     b11=$!
     timeout 60 "$FTM_BOT" --role observer $common --id 13 --duration 30 \
         >"$dir/bot13.out" 2>"$dir/bot13.err" &
     b13=$!
+    # the steps come while the trainee presses (joining takes a second or
+    # more in a sanitizer build)
+    wait_for "$dir/server.log" "participant 11 probe 0: contact" "trainee 11 never pressed" 400
     timeout 60 "$FTM_BOT" --role instructor --script "$here/guard-instructor.bot" $common \
         --id 12 --duration 30 >"$dir/bot12.out" 2>"$dir/bot12.err"
     rc=$?
