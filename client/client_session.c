@@ -149,6 +149,12 @@ static void count_reactions(ftm_client_session *s, const ftm_wire_tick *t)
     if (t->tick <= s->live_tick)
         return; /* a frame counted already */
     s->live_tick = t->tick;
+    /* an unstable stretch: the frame does not say whether the server
+     * substepped, but the replica steps as it does; its mode when the frame
+     * arrives (a few ticks behind; substeps stay up for 1024 steps) */
+    ftm_sim_mode mode;
+    ftm_sim_get_mode(ftm_replay_sim(ftm_participant_replica(s->part)), &mode);
+    const bool unstable = mode.substeps > 1;
     for (int32_t i = 0; i < t->reaction_count; i++) {
         const ftm_wire_reaction *re = &t->reactions[i];
         if (re->probe < 0 || re->probe >= FTM_REPORT_PROBES)
@@ -156,10 +162,8 @@ static void count_reactions(ftm_client_session *s, const ftm_wire_tick *t)
         int32_t k = ftm_report_index(&s->live, re->participant);
         if (k < 0 && (k = ftm_report_seen(&s->live, re->participant, "trainee", "", t->tick)) < 0)
             continue;
-        /* (the frame does not say whether the server substepped: the
-         * server's report marks unstable stretches) */
         ftm_report_contact(&s->live.parts[k].probes[re->probe], t->tick, re->force, 0.0,
-                           re->push_limited, false);
+                           re->push_limited, unstable);
     }
 }
 
@@ -562,6 +566,7 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
             v->parts[i].contact_ticks = q->contact_ticks;
             v->parts[i].peak_force = q->peak_force;
             v->parts[i].peak_tick = q->peak_tick;
+            v->parts[i].peak_unstable = q->peak_unstable;
         }
     }
     pthread_mutex_unlock(&s->lock);
@@ -603,8 +608,10 @@ static void *session_main(void *arg)
             if (q->contact_ticks)
                 slog(s, FTM_LOG_INFO,
                      "participant %u probe %d, from the frames received: %.2f s in contact, "
-                     "peak %.17g N at tick %" PRIu64, s->live.parts[i].id, k,
-                     (double)q->contact_ticks / (rate ? rate : 1), q->peak_force, q->peak_tick);
+                     "peak %.17g N at tick %" PRIu64 "%s", s->live.parts[i].id, k,
+                     (double)q->contact_ticks / (rate ? rate : 1), q->peak_force, q->peak_tick,
+                     q->peak_unstable ? " (while the tissue was unstable: a spike of the "
+                                        "simulation)" : "");
         }
     ftm_participant_leave(s->part);
     return NULL;

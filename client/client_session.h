@@ -77,6 +77,7 @@ typedef struct ftm_client_part {
      * time in contact and the peak reaction force */
     uint64_t contact_ticks, peak_tick;
     double peak_force;
+    bool peak_unstable; /* the peak came while the guard substepped (report.h) */
     bool left; /* gone, its row kept for those figures (parts.h) */
 } ftm_client_part;
 

@@ -93,10 +93,11 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         for (; i < nparts && n < FTM_HUD_LINES - 7; i++) {
             const ftm_client_part *p = &v->parts[order[i]];
             if (p->contact_ticks > 0) /* a trainee that has touched: the figures to debrief */
-                LINE("  %u %s %s tick %" PRIu64 " %s  %.1f s in contact, peak %.2f N", p->id,
+                LINE("  %u %s %s tick %" PRIu64 " %s  %.1f s in contact, peak %.2f N%s", p->id,
                      ftm_wire_role_name(p->role),
                      p->left ? "left" : ftm_wire_state_name(p->state), p->tick, p->name,
-                     (double)p->contact_ticks / (v->rate_hz ? v->rate_hz : 1), p->peak_force);
+                     (double)p->contact_ticks / (v->rate_hz ? v->rate_hz : 1), p->peak_force,
+                     p->peak_unstable ? " (unstable)" : "");
             else
                 LINE("  %u %s %s tick %" PRIu64 " %s", p->id, ftm_wire_role_name(p->role),
                      p->left ? "left" : ftm_wire_state_name(p->state), p->tick, p->name);

@@ -286,6 +286,11 @@ static void test_stable_range_shown(void **state)
     assert_string_equal(lines[i], "!! server substeps 4 per tick  lag 3 ticks: past the stable step "
                                   "(t: scene tissue)");
     assert_true(find(n, "t scene tissue") >= 0);
+    /* a peak taken while the tissue was unstable is marked in the row */
+    v.parts[0].peak_unstable = true;
+    n = ftm_hud_lines(&v, &in, lines);
+    i = find(n, "11 trainee");
+    assert_true(i >= 0 && strstr(lines[i], "peak 1.17 N (unstable)") != NULL);
     /* a trainee sees none of it */
     in.role = FTM_WIRE_ROLE_TRAINEE;
     n = ftm_hud_lines(&v, &in, lines);
