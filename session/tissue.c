@@ -94,10 +94,12 @@ static int critical_step(const ftm_replay_material *mat, const ftm_sim *sim,
 
 /* The damping the layer-by-layer update needs on mesh m at time step h, as
  * the core warns (common/src/sim.c, warn_low_damping: d/2m >= 0.055 lambda_i
- * h per node): the damping t would need for its worst node to meet it. */
+ * h per node): the nominal damping (the node damping a material of nominal
+ * `damping` gives each node is that times the node's share, d_i / damping;
+ * uniform where damping is 0) for its worst node to meet it. */
 static double damping_needed(const ftm_mesh *m, double h, double damping)
 {
-    double worst = INFINITY;
+    double need = 0.0;
     for (int32_t i = 0; i < ftm_mesh_node_count(m); i++) {
         if (ftm_mesh_fixed(m, i))
             continue;
@@ -108,12 +110,13 @@ static double damping_needed(const ftm_mesh *m, double h, double damping)
         double lambda = 0.0;
         for (int32_t e = 0; e < deg; e++)
             lambda += k[e] * (1.0 / mi + 1.0 / sqrt(mi * ftm_mesh_mass(m, nb[e])));
-        if (lambda > 0.0) {
-            double ratio = ftm_mesh_damping(m, i) / (2.0 * mi) / (0.055 * lambda * h);
-            worst = ratio < worst ? ratio : worst;
+        const double share = damping > 0.0 ? ftm_mesh_damping(m, i) / damping : 1.0;
+        if (lambda > 0.0 && share > 0.0) {
+            double d = 2.0 * mi * 0.055 * lambda * h / share;
+            need = d > need ? d : need;
         }
     }
-    return isfinite(worst) && worst > 0.0 ? damping / worst : 0.0;
+    return isfinite(need) ? need : 0.0;
 }
 
 static int32_t substeps_for(double h, double hc)

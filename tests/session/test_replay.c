@@ -587,6 +587,9 @@ static void test_tissue_range(void **state)
     t.node_damping = 0.05;
     assert_int_equal(ftm_replay_tissue_check(&mat, sim, &t, NULL, why, sizeof why, &err), FTM_ERANGE);
     assert_non_null(strstr(why, "damping 0.05 N s/m is below the stable range"));
+    t.node_damping = 0.0; /* undamped: below any bound */
+    assert_int_equal(ftm_replay_tissue_check(&mat, sim, &t, NULL, why, sizeof why, &err), FTM_ERANGE);
+    assert_non_null(strstr(why, "damping 0 N s/m is below the stable range"));
     /* a lighter node: the mass is named when it alone leaves the range */
     assert_int_equal(ftm_replay_tissue_range(&mat, sim, NULL, &r, &err), FTM_OK);
     t = ftm_replay_scene_tissue(sc);
