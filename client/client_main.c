@@ -68,6 +68,12 @@ typedef struct app {
     bool top_set;
     int fb_h;
     const ftm_mesh *drawn_mesh;
+    /* a trainee's mouse probe: its contact's plane while in contact (to move
+     * it out should the contact end with it inside), and the height the
+     * probe starts at, above the scene (key u) */
+    bool probe_touching;
+    ftm_vec3 touch_point, touch_normal;
+    double probe_lift_z;
     ftm_client_view view;
     ftm_render_opts ropts;
     double mx, my;
@@ -229,6 +235,8 @@ static void scripted_commands(app *a)
     }
 }
 
+static void probe_lift(app *a); /* key u, below */
+
 static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
 {
     app *a = glfwGetWindowUserPointer(w);
@@ -285,6 +293,8 @@ static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
     case GLFW_KEY_KP_SUBTRACT: send_command(a, FTM_WIRE_CMD_DEPTH_LIMITS, "depth max -1"); break;
     case GLFW_KEY_K: send_command(a, FTM_WIRE_CMD_TISSUE, "stiffer"); break;
     case GLFW_KEY_J: send_command(a, FTM_WIRE_CMD_TISSUE, "softer"); break;
+    case GLFW_KEY_T: send_command(a, FTM_WIRE_CMD_TISSUE, "scene tissue"); break;
+    case GLFW_KEY_U: probe_lift(a); break;
     default: break;
     }
 }
@@ -392,7 +402,9 @@ static void new_mesh(app *a)
         if (ftm_mouse_set_limits(a->dev, lo, hi, MOUSE_MAX_DEPTH * size, size))
             alog(a, FTM_LOG_WARN, "mouse probe: no travel limits for this scene");
         double l = ftm_render_link_length(a->ren);
-        ftm_mouse_set_hip(a->dev, (ftm_vec3){0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), hi.z + 3 * l});
+        a->probe_lift_z = hi.z + 3 * l;
+        a->probe_touching = false;
+        ftm_mouse_set_hip(a->dev, (ftm_vec3){0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), a->probe_lift_z});
     }
 }
 
@@ -587,6 +599,59 @@ static bool bench_frame(app *a, bench *b, double dt, int w, int h)
 
 /* What the session thread has for this frame: the view, a command's
  * outcome, the scene's mesh, the camera framed on it. */
+#define PROBE_CLEARANCE 0.003 /* [m] above the surface a probe is moved out to */
+#define PROBE_INSIDE 0.0005   /* [m] deeper than this at release: left inside */
+
+/* A trainee's mouse probe whose contact ended with it still inside the
+ * tissue (an instructor's reset forgets every contact, and the server starts
+ * one only where a probe crosses the surface inwards, so the probe would
+ * press nothing, at 0 N, issue 27): moved back out above the surface where
+ * its contact began, along the way it went in. The server's own release
+ * (the HIP back on the outside) leaves it where it is. */
+static void probe_out(app *a)
+{
+    if (!mouse_probe(a) || a->role != FTM_WIRE_ROLE_TRAINEE || !a->view.mesh)
+        return;
+    for (int32_t i = 0; i < a->view.nprobes; i++) {
+        const ftm_client_probe *p = &a->view.probes[i];
+        if (p->own && p->probe == 0 && p->in_contact && p->has_plane) {
+            a->probe_touching = true;
+            a->touch_point = p->plane_point;
+            a->touch_normal = p->plane_normal;
+            return;
+        }
+    }
+    if (!a->probe_touching || a->view.state != FTM_WIRE_STATE_SYNCED)
+        return; /* (not synced: frames wait, the contact may go on) */
+    a->probe_touching = false;
+    ftm_vec3 to;
+    if (ftm_mouse_out_of_tissue(a->dev, a->touch_point, a->touch_normal, PROBE_CLEARANCE,
+                                PROBE_INSIDE, &to) == 1)
+        alog(a, FTM_LOG_INFO,
+             "probe: the contact ended with the probe inside the tissue (reset?); moved out to "
+             "(%.4f, %.4f, %.4f), %.1f mm above the surface",
+             to.x, to.y, to.z, PROBE_CLEARANCE * 1e3);
+}
+
+/* Key u: the mouse probe back above the tissue, at the height it started
+ * at, over where it is now (within the scene's box). */
+static void probe_lift(app *a)
+{
+    if (!mouse_probe(a) || a->role != FTM_WIRE_ROLE_TRAINEE || !a->view.mesh) {
+        notice(a, true, "u (probe up): only a trainee's mouse probe");
+        return;
+    }
+    ftm_vec3 hip, lo, hi;
+    ftm_mouse_target(a->dev, &hip);
+    mesh_box(a->view.mesh, &lo, &hi);
+    hip.x = fmin(fmax(hip.x, lo.x), hi.x);
+    hip.y = fmin(fmax(hip.y, lo.y), hi.y);
+    hip.z = a->probe_lift_z;
+    ftm_mouse_set_hip(a->dev, hip);
+    alog(a, FTM_LOG_INFO, "probe: back above the tissue at (%.4f, %.4f, %.4f) (key u)", hip.x,
+         hip.y, hip.z);
+}
+
 static void take_view(app *a, int64_t now)
 {
     bool changed = ftm_client_session_snapshot(a->sess, &a->view);
@@ -599,6 +664,7 @@ static void take_view(app *a, int64_t now)
     scripted_commands(a);
     if (a->view.mesh != a->drawn_mesh)
         new_mesh(a);
+    probe_out(a);
     if (changed)
         ftm_render_update(a->ren, &a->view);
     if (!a->cam_set && a->view.mesh) {
@@ -609,6 +675,22 @@ static void take_view(app *a, int64_t now)
     }
 }
 
+/* --max-fps: waits for the next frame's deadline, handling input meanwhile
+ * (glfwWaitEventsTimeout runs the callbacks as events come). The swap
+ * interval alone does not hold a rate where the display does not throttle
+ * (Xvfb, some compositors), and an uncapped client drew 130-200 fps on a
+ * classroom PC (issue 27). A frame later than a whole period moves the
+ * deadline to now, rather than drawing a burst to catch up. */
+static void pace(app *a, int64_t *deadline, int64_t period)
+{
+    int64_t now = ftm_clock_mono_ns();
+    *deadline = *deadline ? *deadline + period : now + period;
+    if (*deadline < now - period)
+        *deadline = now;
+    while ((now = ftm_clock_mono_ns()) < *deadline && !g_stop && !glfwWindowShouldClose(a->win))
+        glfwWaitEventsTimeout((double)(*deadline - now) * 1e-9);
+}
+
 /* The render loop until the window closes, a signal, --duration, or a
  * --screenshot or --bench that is done. Returns the exit status. */
 static int run(app *a)
@@ -617,6 +699,9 @@ static int run(app *a)
     int64_t start = ftm_clock_mono_ns(), last = start;
     double fps = 0;
     bench b = {0};
+    uint64_t frames = 0;
+    int64_t deadline = 0;
+    const int64_t period = a->o.max_fps > 0 && !(a->o.bench > 0) ? 1000000000LL / a->o.max_fps : 0;
     char lines[FTM_HUD_LINES][FTM_HUD_WIDTH];
     const char *hud[FTM_HUD_LINES];
     ftm_client_view draw;
@@ -667,9 +752,20 @@ static int run(app *a)
             rc_exit = 1;
             break;
         }
+        frames++;
         if (a->o.duration > 0 && el >= a->o.duration)
             break;
+        if (period)
+            pace(a, &deadline, period);
     }
+    const double secs = (double)(ftm_clock_mono_ns() - start) * 1e-9;
+    char how[48];
+    if (period)
+        snprintf(how, sizeof how, "--max-fps %d", a->o.max_fps);
+    else
+        snprintf(how, sizeof how, "%s", a->o.bench > 0 ? "uncapped for --bench" : "uncapped");
+    alog(a, FTM_LOG_INFO, "drew %" PRIu64 " frames in %.2f s (%.1f fps; %s)", frames, secs,
+         secs > 0 ? (double)frames / secs : 0.0, how);
     free(b.dt);
     return rc_exit;
 }

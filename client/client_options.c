@@ -97,6 +97,10 @@ static const ftm_option option_table[] = {
                    "displacement at the top of the colour map"),
     FTM_OPT_INT("swap-interval", "N", O, swap_interval, -1, 8,
                 "0: no vsync (default 1; -1: adaptive where the driver has it)"),
+    FTM_OPT_INT("max-fps", "N", O, max_fps, 0, 1000,
+                "draw at most N frames a second, also where the swap\n"
+                "interval does not throttle (Xvfb); 0: uncapped (default 60;\n"
+                "--bench measures uncapped)"),
     FTM_OPT_INT("msaa", "N", O, msaa, 0, 16,
                 "multisample anti-aliasing samples (default 0; 4 looks\n"
                 "better on a GPU, costs much under llvmpipe)"),
@@ -132,7 +136,7 @@ static const ftm_option_set option_set = {
 int ftm_client_options_parse(int argc, char **argv, ftm_client_options *o)
 {
     *o = (ftm_client_options){.role = "observer", .session = "ftm", .server_timeout = 3.0,
-                   .size = {1280, 800}, .swap_interval = 1, .shot_contact = -1,
+                   .size = {1280, 800}, .swap_interval = 1, .max_fps = 60, .shot_contact = -1,
                    .shot_timeout = 60.0, .volume_step = FTM_VOLUME_STEP_DEFAULT, .device = "mouse", .renderer = "model"};
     uint64_t given = 0;
     int rc = ftm_options_parse(&option_set, argc, argv, o, &given, NULL);

@@ -18,6 +18,7 @@ typedef struct ftm_client_options {
         int width, height;
     } size;
     int swap_interval, msaa;
+    int max_fps; /* frames per second at most (0: uncapped; --bench: uncapped) */
     const char *screenshot;
     bool shot_hold; /* --screenshot-tick given */
     uint64_t shot_tick;

@@ -56,6 +56,7 @@ struct ftm_client_session {
     bool force_valid;
     uint64_t contact_ticks, counted_tick;
     bool dirty;
+    ftm_wire_tissue range_of; /* the tissue shared.range is of */
 
     /* shared with the render thread: under lock */
     pthread_mutex_t lock;
@@ -148,6 +149,12 @@ static void count_reactions(ftm_client_session *s, const ftm_wire_tick *t)
     if (t->tick <= s->live_tick)
         return; /* a frame counted already */
     s->live_tick = t->tick;
+    /* an unstable stretch: the frame does not say whether the server
+     * substepped, but the replica steps as it does; its mode when the frame
+     * arrives (a few ticks behind; substeps stay up for 1024 steps) */
+    ftm_sim_mode mode;
+    ftm_sim_get_mode(ftm_replay_sim(ftm_participant_replica(s->part)), &mode);
+    const bool unstable = mode.substeps > 1;
     for (int32_t i = 0; i < t->reaction_count; i++) {
         const ftm_wire_reaction *re = &t->reactions[i];
         if (re->probe < 0 || re->probe >= FTM_REPORT_PROBES)
@@ -156,7 +163,7 @@ static void count_reactions(ftm_client_session *s, const ftm_wire_tick *t)
         if (k < 0 && (k = ftm_report_seen(&s->live, re->participant, "trainee", "", t->tick)) < 0)
             continue;
         ftm_report_contact(&s->live.parts[k].probes[re->probe], t->tick, re->force, 0.0,
-                           re->push_limited);
+                           re->push_limited, unstable);
     }
 }
 
@@ -493,6 +500,17 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
         const ftm_wire_tick *t = ftm_replay_last_frame(rep);
         v->tick = ftm_replay_tick(rep);
         v->depth = t->depth;
+        /* the range changes with the tissue only: computed once per change */
+        ftm_wire_tissue in_force = ftm_replay_tissue(rep);
+        if (!v->range_valid || !ftm_replay_tissue_equal(&in_force, &s->range_of)) {
+            ftm_error rerr = {0, ""};
+            v->range_valid = ftm_replay_range(rep, &v->range, &rerr) == FTM_OK;
+            s->range_of = in_force;
+        }
+        v->scene_tissue = ftm_replay_own_tissue(rep);
+        ftm_sim_mode mode;
+        ftm_sim_get_mode(ftm_replay_sim(rep), &mode);
+        v->substeps = mode.substeps;
         int64_t lat = s->last_latency_ns > 0 ? s->last_latency_ns : 0;
         v->latency_ms = (double)lat * 1e-6;
         int64_t behind = s->newest_rx_tick > v->tick ? (int64_t)(s->newest_rx_tick - v->tick) : 0;
@@ -513,6 +531,9 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
             p->force = r->force;
             p->push_limited = r->push_limited;
             p->contact = contact_centroid(x, t, r->group, &p->in_contact);
+            p->has_plane = r->has_plane;
+            p->plane_point = r->contact_point;
+            p->plane_normal = r->contact_normal;
             if (p->own && r->probe == 0 && s->force_valid)
                 v->own_force = r->force;
         }
@@ -550,6 +571,7 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
             v->parts[i].contact_ticks = q->contact_ticks;
             v->parts[i].peak_force = q->peak_force;
             v->parts[i].peak_tick = q->peak_tick;
+            v->parts[i].peak_unstable = q->peak_unstable;
         }
     }
     pthread_mutex_unlock(&s->lock);
@@ -591,8 +613,10 @@ static void *session_main(void *arg)
             if (q->contact_ticks)
                 slog(s, FTM_LOG_INFO,
                      "participant %u probe %d, from the frames received: %.2f s in contact, "
-                     "peak %.17g N at tick %" PRIu64, s->live.parts[i].id, k,
-                     (double)q->contact_ticks / (rate ? rate : 1), q->peak_force, q->peak_tick);
+                     "peak %.17g N at tick %" PRIu64 "%s", s->live.parts[i].id, k,
+                     (double)q->contact_ticks / (rate ? rate : 1), q->peak_force, q->peak_tick,
+                     q->peak_unstable ? " (while the tissue was unstable: a spike of the "
+                                        "simulation)" : "");
         }
     ftm_participant_leave(s->part);
     return NULL;

@@ -12,6 +12,7 @@
 #include "ftm/scene.h"
 #include "ftm/wire.h"
 #include "pending.h" /* ftm_pending: commands waiting for their reply */
+#include "tissue.h"  /* ftm_tissue_range: what the server accepts */
 
 #define FTM_CLIENT_MAX_PROBES 64
 #define FTM_CLIENT_MAX_PARTS 32
@@ -60,6 +61,10 @@ typedef struct ftm_client_probe {
     ftm_vec3 contact; /* centroid of the group's contact nodes, current positions */
     ftm_vec3 force;   /* reaction force [N] */
     bool push_limited; /* the server shortened its push to the limit (HIP too deep) */
+    /* the contact's rest-surface point where it began and outward normal
+     * (the server's release rule: the HIP back on this plane's outside) */
+    bool has_plane;
+    ftm_vec3 plane_point, plane_normal;
 } ftm_client_probe;
 
 typedef struct ftm_client_part {
@@ -72,6 +77,7 @@ typedef struct ftm_client_part {
      * time in contact and the peak reaction force */
     uint64_t contact_ticks, peak_tick;
     double peak_force;
+    bool peak_unstable; /* the peak came while the guard substepped (report.h) */
     bool left; /* gone, its row kept for those figures (parts.h) */
 } ftm_client_part;
 
@@ -94,6 +100,13 @@ typedef struct ftm_client_view {
     int32_t depth_min, depth_max;
     uint32_t rate_hz;
     ftm_wire_tissue tissue;
+    /* the scene's own tissue (instructor's restore key), the stable range
+     * around the one in force (session/tissue.h: what the server accepts)
+     * and the substeps per step the replica, as the server, takes now */
+    ftm_wire_tissue scene_tissue;
+    bool range_valid;
+    ftm_tissue_range range;
+    int32_t substeps;
     int64_t lag_ticks;    /* server's tick now (estimated) - applied tick */
     double latency_ms;    /* server write -> received, last frame */
     bool caught_up;       /* synced, every frame received so far applied */

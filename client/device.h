@@ -114,6 +114,16 @@ int ftm_mouse_scroll(ftm_device *d, double dy);
 int ftm_mouse_set_limits(ftm_device *d, ftm_vec3 lo, ftm_vec3 hi, double max_depth, double margin);
 /* Places the HIP (e.g. above the organ after loading a scene). */
 int ftm_mouse_set_hip(ftm_device *d, ftm_vec3 hip);
+/* A HIP left inside the tissue: the contact that began at point (on the
+ * rest surface, outward normal) has ended with the HIP more than tolerance
+ * [m] below that surface (an instructor's reset forgets contacts, and the
+ * server starts one only where a probe crosses the surface inwards: a probe
+ * left inside would press nothing, at 0 N). Moves the HIP back out along the
+ * way it went in (from point to the HIP; along the normal where that grazes
+ * the surface) to clearance [m] above the surface. Returns 1 moved (*moved_to,
+ * may be NULL, the new HIP), 0 not inside, FTM_EINVAL (bad argument). */
+int ftm_mouse_out_of_tissue(ftm_device *d, ftm_vec3 point, ftm_vec3 normal, double clearance,
+                            double tolerance, ftm_vec3 *moved_to);
 /* Where the cursor has put the HIP (before smoothing), scene coordinates. */
 int ftm_mouse_target(ftm_device *d, ftm_vec3 *hip);
 

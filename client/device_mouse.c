@@ -242,3 +242,38 @@ int ftm_mouse_target(ftm_device *d, ftm_vec3 *hip)
     pthread_mutex_unlock(&m->lock);
     return FTM_OK;
 }
+
+int ftm_mouse_out_of_tissue(ftm_device *d, ftm_vec3 point, ftm_vec3 normal, double clearance,
+                            double tolerance, ftm_vec3 *moved_to)
+{
+    mouse *m = as_mouse(d);
+    double nn = sqrt(normal.x * normal.x + normal.y * normal.y + normal.z * normal.z);
+    if (!m || !fin(point) || !fin(normal) || !(nn > 0.0) || !(clearance >= 0.0) ||
+        !isfinite(clearance) || !(tolerance >= 0.0) || !isfinite(tolerance))
+        return FTM_EINVAL;
+    const ftm_vec3 n = {normal.x / nn, normal.y / nn, normal.z / nn};
+    pthread_mutex_lock(&m->lock);
+    const ftm_vec3 in = {m->target.x - point.x, m->target.y - point.y, m->target.z - point.z};
+    const double depth = -(in.x * n.x + in.y * n.y + in.z * n.z);
+    int rc = 0;
+    if (depth > tolerance) {
+        /* back along the way it went in (the contact point to the HIP), to
+         * clearance above the surface; straight out along the normal when
+         * that way grazes the surface */
+        double len = sqrt(in.x * in.x + in.y * in.y + in.z * in.z);
+        ftm_vec3 u = {in.x / len, in.y / len, in.z / len};
+        double un = -(u.x * n.x + u.y * n.y + u.z * n.z); /* > 0: into the tissue */
+        if (un < 0.25) {
+            u = (ftm_vec3){-n.x, -n.y, -n.z};
+            un = 1.0;
+        }
+        const double back = clearance / un;
+        m->target = (ftm_vec3){point.x - u.x * back, point.y - u.y * back, point.z - u.z * back};
+        limit(m);
+        if (moved_to)
+            *moved_to = m->target;
+        rc = 1;
+    }
+    pthread_mutex_unlock(&m->lock);
+    return rc;
+}

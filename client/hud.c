@@ -74,15 +74,30 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
     if (in->role == FTM_WIRE_ROLE_INSTRUCTOR) {
         LINE("tissue k %.4g N/m  d %.4g N s/m  m %.4g kg", v->tissue.stiffness,
              v->tissue.node_damping, v->tissue.node_mass);
+        if (v->range_valid) {
+            /* what the server accepts (session/tissue.h), and how hard it works */
+            const ftm_tissue_range *r = &v->range;
+            char dmin[32] = "any", mmin[32] = "any";
+            if (r->damping_min > 0.0)
+                snprintf(dmin, sizeof dmin, ">= %.3g", r->damping_min);
+            if (r->mass_min > 0.0)
+                snprintf(mmin, sizeof mmin, ">= %.3g", r->mass_min);
+            LINE("stable range: k <= %.4g N/m  d %s  m %s  (at most %d substeps)", r->stiffness_max,
+                 dmin, mmin, (int)r->max_substeps);
+        }
+        LINE("%sserver substeps %d per tick  lag %" PRId64 " ticks%s", v->substeps > 1 ? "!! " : "",
+             (int)(v->substeps > 0 ? v->substeps : 1), v->lag_ticks,
+             v->substeps > 1 ? ": past the stable step (t: scene tissue)" : "");
         LINE("participants:");
         int32_t order[FTM_CLIENT_MAX_PARTS], nparts = listing_order(v, order), i = 0;
         for (; i < nparts && n < FTM_HUD_LINES - 7; i++) {
             const ftm_client_part *p = &v->parts[order[i]];
             if (p->contact_ticks > 0) /* a trainee that has touched: the figures to debrief */
-                LINE("  %u %s %s tick %" PRIu64 " %s  %.1f s in contact, peak %.2f N", p->id,
+                LINE("  %u %s %s tick %" PRIu64 " %s  %.1f s in contact, peak %.2f N%s", p->id,
                      ftm_wire_role_name(p->role),
                      p->left ? "left" : ftm_wire_state_name(p->state), p->tick, p->name,
-                     (double)p->contact_ticks / (v->rate_hz ? v->rate_hz : 1), p->peak_force);
+                     (double)p->contact_ticks / (v->rate_hz ? v->rate_hz : 1), p->peak_force,
+                     p->peak_unstable ? " (unstable)" : "");
             else
                 LINE("  %u %s %s tick %" PRIu64 " %s", p->id, ftm_wire_role_name(p->role),
                      p->left ? "left" : ftm_wire_state_name(p->state), p->tick, p->name);
@@ -91,7 +106,7 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         if (i < nparts || v->parts_unlisted)
             LINE("  ... %s", v->parts_unlisted ? "more participants than the list holds"
                                                : "more not shown");
-        LINE("keys: space pause/resume  backspace reset  +/- depth max  k/j stiffness");
+        LINE("keys: space pause/resume  backspace reset  +/- depth max  k/j stiffness  t scene tissue");
         if (in->last_command)
             LINE("sent: %s", in->last_command);
         if (in->command_outcome) {
@@ -139,7 +154,15 @@ bool ftm_hud_instructor_key(const ftm_client_view *v, ftm_wire_command cmd, cons
     c->depth_min = v->depth_min;
     c->depth_max = v->depth_max;
     snprintf(label, cap, "%s", what);
-    if (cmd == FTM_WIRE_CMD_TISSUE) {
+    if (cmd == FTM_WIRE_CMD_TISSUE && strcmp(what, "scene tissue") == 0) {
+        if (ftm_replay_tissue_equal(&v->tissue, &v->scene_tissue)) {
+            snprintf(label, cap, "%s: not sent: the scene's own tissue is in force", what);
+            return false;
+        }
+        c->tissue = v->scene_tissue;
+        snprintf(label, cap, "scene tissue (k %.4g N/m, d %.4g N s/m)", c->tissue.stiffness,
+                 c->tissue.node_damping);
+    } else if (cmd == FTM_WIRE_CMD_TISSUE) {
         if (strcmp(what, "stiffer") == 0)
             c->tissue.stiffness *= 1.25;
         else
@@ -154,12 +177,17 @@ bool ftm_hud_instructor_key(const ftm_client_view *v, ftm_wire_command cmd, cons
             return false;
         }
         if (!up && c->depth_max <= c->depth_min) {
-            snprintf(label, cap, "%s: not sent: the ceiling is at the floor (%d)", what,
-                     (int)c->depth_min);
+            /* a server without --adaptive 1 announces floor = ceiling = its depth */
+            snprintf(label, cap,
+                     "%s: not sent: the depth is fixed at %d (floor = ceiling); a server started "
+                     "without --adaptive 1 holds it there",
+                     what, (int)c->depth_min);
             return false;
         }
+        const bool fixed = c->depth_max <= c->depth_min;
         c->depth_max += up ? 1 : -1;
-        snprintf(label, cap, "depth max %d", (int)c->depth_max);
+        snprintf(label, cap, "depth max %d%s", (int)c->depth_max,
+                 up && fixed ? " (moves the depth only on a server started with --adaptive 1)" : "");
     }
     return true;
 }

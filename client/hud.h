@@ -34,7 +34,8 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *info,
 
 /* An instructor's key as a session command, from what the view shows.
  * what: "pause", "resume", "reset", "depth max +1", "depth max -1",
- * "stiffer" (stiffness x 1.25) or "softer" (/ 1.25). true: *c is filled
+ * "stiffer" (stiffness x 1.25), "softer" (/ 1.25) or "scene tissue" (the
+ * scene's own tissue back). true: *c is filled
  * (issuer and command id are the sender's) and label names the command
  * with its value ("stiffness 62.5 N/m", "depth max 5"). false: the key can
  * do nothing now (a limit reached, no session, the server away): label

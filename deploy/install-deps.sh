@@ -30,6 +30,7 @@ packages=(
   libmicrohttpd-dev                               # ftm-server Prometheus metrics endpoint
   libglfw3-dev libgl-dev libgl1-mesa-dri libpng-dev  # ftm-client: window, OpenGL 3.3, screenshots
   xvfb xauth                                      # headless X server for client tests
+  xdotool                                         # test_client_gl_reset: a trainee's mouse and keys
   python3                                         # test scripts' checks, ftm-plot-forces' names
   iproute2                                        # test_two_hosts: network namespaces, veth
   tcpdump                                         # test_net_secure_capture: what a listener records

@@ -107,15 +107,25 @@ static void set_tissue(server *s, participant *p, const ftm_wire_received *rx)
         reply(s, sender, id, FTM_WIRE_OUTCOME_APPLIED, "already in force");
         return;
     }
+    /* the stable range (session/tissue.h): more substeps than it allows
+     * would slow the server and every replica on every tick */
+    char why[FTM_WIRE_REASON_MAX];
+    ftm_tissue_range range;
+    ftm_error cerr = {0, ""};
+    int crc = ftm_replay_tissue_check(&s->tk.mat, s->tk.sim, t, &range, why, sizeof why, &cerr);
+    if (crc) {
+        refuse(s, p, rx, "tissue parameters", crc == FTM_ERANGE ? why : cerr.message);
+        return;
+    }
     /* harmless if the change is then refused: a heartbeat */
     srv_publish_tick_frame(s);
     uint64_t t0 = srv_now();
     ftm_error err = {0, ""};
     if (ftm_replay_set_tissue(&s->tk.mat, s->tk.sim, t, &err)) {
         /* "sim set mesh: the material's critical time step ... is too short ..." */
-        const char *why = strncmp(err.message, "sim set mesh: ", 14) == 0 ? err.message + 14
-                                                                          : err.message;
-        refuse(s, p, rx, "tissue parameters", why);
+        const char *cause = strncmp(err.message, "sim set mesh: ", 14) == 0 ? err.message + 14
+                                                                            : err.message;
+        refuse(s, p, rx, "tissue parameters", cause);
         return;
     }
     double ms = (double)(srv_now() - t0) * 1e-6;
@@ -130,7 +140,12 @@ static void set_tissue(server *s, participant *p, const ftm_wire_received *rx)
     tissue_change_text(&before, t, what, sizeof what);
     ftm_report_event_add(&s->rec.report, s->tk.tick, sender, "tissue", "%s", what);
     srv_publish_announce(s);
-    reply(s, sender, id, FTM_WIRE_OUTCOME_APPLIED, "%s", "");
+    if (t->node_damping < range.damping_bound) /* applied, but say so (docs/protocol.md) */
+        reply(s, sender, id, FTM_WIRE_OUTCOME_APPLIED,
+              "damping below the layer update's bound %.3g N s/m: may slowly gain energy",
+              range.damping_bound);
+    else
+        reply(s, sender, id, FTM_WIRE_OUTCOME_APPLIED, "%s", "");
 }
 
 void srv_on_control(server *s, ftm_wire_received *rx)

@@ -223,6 +223,11 @@ static void note_start(server *s, uint64_t begin)
 static void fill_reactions(server *s, int32_t nreact)
 {
     srv_tick *tk = &s->tk;
+    /* a tick the guard substepped: the tissue past its stable step, its
+     * forces marked in the report (report.h, unstable) */
+    ftm_sim_mode mode;
+    ftm_sim_get_mode(tk->sim, &mode);
+    const bool unstable = mode.substeps > 1;
     for (int32_t r = 0; r < nreact; r++) {
         ftm_wire_reaction *re = &tk->reactions[r];
         re->force = ftm_sim_reaction(tk->sim, re->group);
@@ -246,7 +251,8 @@ static void fill_reactions(server *s, int32_t nreact)
         const double push = sqrt(v_dot(pb->push, pb->push));
         if (rp->report >= 0) {
             ftm_report_part *part = &s->rec.report.parts[rp->report];
-            ftm_report_contact(&part->probes[re->probe], tk->tick, re->force, push, pb->limited);
+            ftm_report_contact(&part->probes[re->probe], tk->tick, re->force, push, pb->limited,
+                               unstable);
             part->last_tick = tk->tick;
         }
         if (tk->reactions_csv) /* --reactions: what the frame carries, and the push */

@@ -554,3 +554,10 @@ double ftm_replay_take_max(ftm_replay *r)
 ftm_sim *ftm_replay_sim(ftm_replay *r) { return r->sim; }
 
 ftm_wire_tissue ftm_replay_tissue(const ftm_replay *r) { return ftm_replay_tissue_now(&r->mat); }
+
+int ftm_replay_range(const ftm_replay *r, ftm_tissue_range *out, ftm_error *err)
+{
+    return ftm_replay_tissue_range(&r->mat, r->sim, NULL, out, err);
+}
+
+ftm_wire_tissue ftm_replay_own_tissue(const ftm_replay *r) { return ftm_replay_scene_tissue(r->scene); }

@@ -13,6 +13,7 @@
 #define FTM_SESSION_REPLICA_H
 
 #include "ftm/scene.h"
+#include "tissue.h"
 #include "ftm/wire.h"
 
 #ifdef __cplusplus
@@ -70,6 +71,11 @@ double ftm_replay_take_max(ftm_replay *r);
 ftm_sim *ftm_replay_sim(ftm_replay *r);
 /* The tissue parameters the replica's simulation runs with now. */
 ftm_wire_tissue ftm_replay_tissue(const ftm_replay *r);
+/* The stable range around the tissue in force (ftm_replay_tissue_range): what
+ * the server would apply, for an instructor's HUD. */
+int ftm_replay_range(const ftm_replay *r, ftm_tissue_range *out, ftm_error *err);
+/* The scene's own tissue (its [material]). */
+ftm_wire_tissue ftm_replay_own_tissue(const ftm_replay *r);
 
 /* The reaction of one probe (participant, probe index) in a tick frame, e.g.
  * ftm_replay_last_frame(r): with the server's local force model when it sent

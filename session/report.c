@@ -44,13 +44,16 @@ int32_t ftm_report_seen(ftm_report *r, uint32_t id, const char *role, const char
 }
 
 void ftm_report_contact(ftm_report_probe *p, uint64_t tick, ftm_vec3 force, double push,
-                        bool limited)
+                        bool limited, bool unstable)
 {
     double f = sqrt(force.x * force.x + force.y * force.y + force.z * force.z);
     if (p->contact_ticks == 0 || f > p->peak_force) {
         p->peak_force = f;
         p->peak_tick = tick;
+        p->peak_unstable = unstable;
     }
+    if (unstable)
+        p->unstable_ticks++;
     p->contact_ticks++;
     p->force_sum += f;
     if (push > p->max_push)
@@ -175,13 +178,15 @@ int ftm_report_write_json(const ftm_report *r, const ftm_report_session *s, FILE
                     "%s\n  {\"probe\":%d,\"touches\":%u,\"contact_ticks\":%llu,"
                     "\"contact_seconds\":%s,\"peak_force_n\":%s,\"peak_force_tick\":%llu,"
                     "\"mean_force_n\":%s,\"impulse_ns\":%s,\"max_push_m\":%s,"
-                    "\"push_limited_ticks\":%llu}",
+                    "\"push_limited_ticks\":%llu,\"unstable_ticks\":%llu,"
+                    "\"peak_while_unstable\":%s}",
                     n++ ? "," : "", k, q->touches, (unsigned long long)q->contact_ticks,
                     num(b[0], (double)q->contact_ticks / rate), num(b[1], q->peak_force),
                     (unsigned long long)q->peak_tick,
                     num(b[2], q->contact_ticks ? q->force_sum / (double)q->contact_ticks : 0.0),
                     num(b[3], q->force_sum / rate), num(b[4], q->max_push),
-                    (unsigned long long)q->limited_ticks);
+                    (unsigned long long)q->limited_ticks, (unsigned long long)q->unstable_ticks,
+                    q->peak_unstable ? "true" : "false");
         }
         fprintf(f, "]}");
     }

@@ -26,6 +26,11 @@ typedef struct ftm_report_probe {
     double peak_force;        /* largest |reaction| [N] */
     double force_sum;         /* sum of |reaction| over contact ticks [N] */
     double max_push;          /* longest push imposed on the tissue [m] */
+    /* an unstable stretch: ticks the stability guard substepped (the tissue
+     * past its stable step, docs/core.md); a peak taken in one is a spike of
+     * the simulation, not of the trainee, and is marked so */
+    uint64_t unstable_ticks;
+    bool peak_unstable;
 } ftm_report_probe;
 
 typedef struct ftm_report_part {
@@ -89,9 +94,10 @@ int32_t ftm_report_seen(ftm_report *r, uint32_t id, const char *role, const char
                         uint64_t tick);
 /* Index of participant id's entry, or -1. */
 int32_t ftm_report_index(const ftm_report *r, uint32_t id);
-/* A tick of contact on a probe: its reaction force, the length of its push. */
+/* A tick of contact on a probe: its reaction force, the length of its push,
+ * whether it was limited and whether the tick was substepped (unstable). */
 void ftm_report_contact(ftm_report_probe *p, uint64_t tick, ftm_vec3 force, double push,
-                        bool limited);
+                        bool limited, bool unstable);
 /* An instructor's change (ftm_report_event), detail printf-style. */
 void ftm_report_event_add(ftm_report *r, uint64_t tick, uint32_t by, const char *what,
                           const char *fmt, ...) __attribute__((format(printf, 5, 6)));

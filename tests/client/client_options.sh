@@ -24,6 +24,8 @@ refused "--id must be an integer in 0..4294967295 (got '4294967297')" --id 42949
 refused "--msaa must be an integer in 0..16 (got '17')" --msaa 17
 refused "--msaa must be an integer in 0..16 (got '4x')" --msaa 4x
 refused "--swap-interval must be an integer in -1..8 (got '4294967297')" --swap-interval 4294967297
+refused "--max-fps must be an integer in 0..1000 (got '-1')" --max-fps -1
+refused "--max-fps must be an integer in 0..1000 (got '1001')" --max-fps 1001
 refused "--volume-step must be 1, 2, 5 or 10, a divisor of the 10 slices per lattice cell (got '3')" \
     --volume-step 3
 refused "--volume-step must be 1, 2, 5 or 10, a divisor of the 10 slices per lattice cell (got '20')" \

@@ -257,6 +257,46 @@ static void test_command_outcome(void **state)
 }
 
 /* Keys at a limit, or with nobody to hear them, send nothing and say why. */
+/* The instructor sees the stable range, the server's substeps and the lag;
+ * substepping is marked. */
+static void test_stable_range_shown(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    v.tissue = (ftm_wire_tissue){0.001, 0.3, 50, {1, 1, 1}};
+    v.range_valid = true;
+    v.range = (ftm_tissue_range){.time_step = 1e-3, .h_crit = 1.49e-3, .substeps = 1,
+                                 .max_substeps = 2, .stiffness_max = 151.5, .mass_min = 1.13e-4,
+                                 .damping_min = 0.099, .damping_bound = 0.198};
+    v.substeps = 1;
+    v.lag_ticks = 3;
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_INSTRUCTOR, .id = 21};
+    int n = ftm_hud_lines(&v, &in, lines);
+    int i = find(n, "stable range:");
+    assert_true(i >= 0);
+    assert_string_equal(lines[i], "stable range: k <= 151.5 N/m  d >= 0.099  m >= 0.000113  "
+                                  "(at most 2 substeps)");
+    i = find(n, "server substeps");
+    assert_true(i >= 0);
+    assert_string_equal(lines[i], "server substeps 1 per tick  lag 3 ticks");
+    v.substeps = 4;
+    n = ftm_hud_lines(&v, &in, lines);
+    i = find(n, "server substeps");
+    assert_true(i >= 0);
+    assert_string_equal(lines[i], "!! server substeps 4 per tick  lag 3 ticks: past the stable step "
+                                  "(t: scene tissue)");
+    assert_true(find(n, "t scene tissue") >= 0);
+    /* a peak taken while the tissue was unstable is marked in the row */
+    v.parts[0].peak_unstable = true;
+    n = ftm_hud_lines(&v, &in, lines);
+    i = find(n, "11 trainee");
+    assert_true(i >= 0 && strstr(lines[i], "peak 1.17 N (unstable)") != NULL);
+    /* a trainee sees none of it */
+    in.role = FTM_WIRE_ROLE_TRAINEE;
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "stable range") < 0);
+}
+
 static void test_instructor_keys(void **state)
 {
     (void)state;
@@ -276,10 +316,13 @@ static void test_instructor_keys(void **state)
     v.depth_max = 2; /* at the floor */
     assert_false(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_DEPTH_LIMITS, "depth max -1", &c, label,
                                         sizeof label));
-    assert_string_equal(label, "depth max -1: not sent: the ceiling is at the floor (2)");
+    /* a fixed depth: the key says what would let it move */
+    assert_string_equal(label, "depth max -1: not sent: the depth is fixed at 2 (floor = ceiling); "
+                               "a server started without --adaptive 1 holds it there");
     assert_true(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_DEPTH_LIMITS, "depth max +1", &c, label,
                                        sizeof label));
     assert_int_equal(c.depth_max, 3);
+    assert_non_null(strstr(label, "only on a server started with --adaptive 1"));
     v.depth_max = 1000000;
     assert_false(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_DEPTH_LIMITS, "depth max +1", &c, label,
                                         sizeof label));
@@ -289,6 +332,17 @@ static void test_instructor_keys(void **state)
     assert_string_equal(label, "stiffness 62.5 N/m");
     assert_true(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_TISSUE, "softer", &c, label, sizeof label));
     assert_true(c.tissue.stiffness == 50 / 1.25);
+    /* the scene's own tissue back (key t): not sent while in force */
+    v.scene_tissue = v.tissue;
+    assert_false(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_TISSUE, "scene tissue", &c, label,
+                                        sizeof label));
+    assert_string_equal(label, "scene tissue: not sent: the scene's own tissue is in force");
+    v.tissue.stiffness = 122.07;
+    v.tissue.node_damping = 0.33;
+    assert_true(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_TISSUE, "scene tissue", &c, label,
+                                       sizeof label));
+    assert_true(c.tissue.stiffness == 50 && c.tissue.node_damping == 0.3);
+    assert_string_equal(label, "scene tissue (k 50 N/m, d 0.3 N s/m)");
     assert_true(ftm_hud_instructor_key(&v, FTM_WIRE_CMD_RESET, "reset", &c, label, sizeof label));
     assert_true(c.command == FTM_WIRE_CMD_RESET);
     assert_string_equal(label, "reset");
@@ -309,6 +363,7 @@ int main(void)
         cmocka_unit_test(test_participant_order),
         cmocka_unit_test(test_command_outcome),
         cmocka_unit_test(test_instructor_keys),
+        cmocka_unit_test(test_stable_range_shown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -25,6 +25,12 @@
 #       ticks, the pixels around the contact changed, and a slice per plane
 #       draws the dent as the default does; cut away (--cut, key x) it shows
 #       something other than the whole volume.
+#   reset: a trainee's mouse probe (xdotool) pressed into the tissue, the
+#       instructor's reset: the client moves the probe out, more wheel
+#       notches touch the tissue again, key u lifts the probe. Skipped (77)
+#       without xdotool.
+#   fps: --max-fps 20 draws 10..24 fps over 3 s under Xvfb (where the swap
+#       interval does not throttle), the default cap at most 72 fps.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
 set -u
 mode=${1:?mode}
@@ -262,6 +268,89 @@ volume)
         fail "png check: the cut-away looks like the whole volume"
     [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
     echo "PASS volume: $(cat "$dir/after.out")"
+    ;;
+reset)
+    # a trainee's mouse probe (driven by xdotool in the client's X display)
+    # pressed into the tissue; the instructor resets the tissue: the client
+    # moves its probe out (it used to stay inside, pressing nothing at 0 N,
+    # issue 27), so that a few more wheel notches touch the tissue again;
+    # then key u brings the probe back above the tissue.
+    command -v xdotool >/dev/null 2>&1 || { echo "SKIP: xdotool not installed"; exit 77; }
+    start_server
+    printf 'reset 0.3\n' >"$dir/reset.bot"
+    cat >"$dir/drive.sh" <<DRIVE
+# (run inside the client's X display; logs in $dir)
+fail() { echo "FAIL: \$*"; kill \$c 2>/dev/null; exit 1; }
+until_log() { # file, text, tries of 0.05 s
+    i=0
+    until grep -q -- "\$2" "\$1" 2>/dev/null; do
+        i=\$((i + 1)); [ \$i -gt \$3 ] && return 1; sleep 0.05
+    done
+}
+contacts() { grep -c "participant 11 probe 0: contact on triangle" "$dir/server.log"; }
+"$FTM_CLIENT" $common --role trainee --id 11 --size 960x600 --log "$dir/trainee.log" \
+    --duration 90 >"$dir/trainee.out" 2>"$dir/trainee.err" &
+c=\$!
+until_log "$dir/trainee.log" "participant id 11 is confirmed" 800 || fail "the trainee never joined"
+until_log "$dir/trainee.log" "drawing" 400 || fail "the trainee drew no scene"
+sleep 0.5
+xdotool mousemove 480 300
+# the wheel pushes the probe along the view ray (1 mm a notch): until it touches
+n=0
+while [ "\$(contacts)" -lt 1 ]; do
+    n=\$((n + 1)); [ \$n -gt 300 ] && fail "no contact after 300 wheel notches"
+    xdotool click 5; sleep 0.03
+done
+echo "contact after \$n notches"
+for i in 1 2 3 4 5; do xdotool click 5; sleep 0.05; done
+sleep 0.5
+timeout 60 "$FTM_BOT" --role instructor --id 12 $common --script "$dir/reset.bot" --duration 3 \
+    >"$dir/bot.out" 2>"$dir/bot.err" || fail "the instructor bot exited with \$?"
+until_log "$dir/server.log" "reset at tick" 100 || fail "the server did not reset"
+until_log "$dir/trainee.log" "moved out to" 200 || fail "the probe was not moved out after the reset"
+# out, so pushing again touches the tissue again (left inside, it would not)
+n=0
+while [ "\$(contacts)" -lt 2 ]; do
+    n=\$((n + 1)); [ \$n -gt 40 ] && fail "no contact again after 40 notches past the reset"
+    xdotool click 5; sleep 0.05
+done
+echo "contact again after \$n notches"
+xdotool key u
+until_log "$dir/trainee.log" "back above the tissue" 100 || fail "key u did not lift the probe"
+kill \$c; wait \$c
+exit 0
+DRIVE
+    : >"$dir/x.xauth"
+    ASAN_OPTIONS=$client_asan timeout 110 xvfb-run -a -f "$dir/x.xauth" -s "-screen 0 1280x800x24" \
+        sh "$dir/drive.sh" >"$dir/drive.out" 2>&1 || fail "$(tail -n 3 "$dir/drive.out")"
+    t_reset=$(sed -n 's/^\[ *\([0-9.]*\)\] info: reset at tick.*/\1/p' "$dir/server.log")
+    t_again=$(sed -n 's/^\[ *\([0-9.]*\)\] info: participant 11 probe 0: contact on triangle.*/\1/p' \
+        "$dir/server.log" | tail -n 1)
+    awk -v r="$t_reset" -v a="$t_again" 'BEGIN { exit !(a > r) }' ||
+        fail "the second contact ($t_again s) is not after the reset ($t_reset s)"
+    echo "PASS reset: $(tr '\n' ' ' <"$dir/drive.out")$(grep -o 'moved out to .*' "$dir/trainee.log")"
+    ;;
+fps)
+    # --max-fps holds under Xvfb, where the swap interval does not throttle:
+    # the count of frames drawn over 3 s (the client's closing log line), with
+    # wide margins (a behaviour check, not a speed test): --max-fps 20 between
+    # 10 and 24 fps; the default (60) at most 72. An uncapped client under
+    # Xvfb draws hundreds (740 fps at 640x400 on the 2-core machine).
+    start_server
+    client capped --max-fps 20 --duration 3 || fail "client (--max-fps 20) exited with $?"
+    client default --duration 3 || fail "client (default cap) exited with $?"
+    for run in capped default; do
+        line=$(grep "drew [0-9]* frames in" "$dir/$run.log") || fail "$run: no frame count logged"
+        eval "fps_$run=$(echo "$line" | sed -n 's/.*frames in [0-9.]* s (\([0-9.]*\) fps.*/\1/p')"
+    done
+    grep -q "fps; --max-fps 20)" "$dir/capped.log" || fail "the capped client did not say its cap"
+    grep -q "fps; --max-fps 60)" "$dir/default.log" || fail "the default is not a cap of 60"
+    grep -q "synced at tick" "$dir/capped.log" || fail "the capped client never synced"
+    awk -v f="$fps_capped" 'BEGIN { exit !(f >= 10 && f <= 24) }' ||
+        fail "--max-fps 20 drew $fps_capped fps, want 10..24"
+    awk -v f="$fps_default" 'BEGIN { exit !(f > 0 && f <= 72) }' ||
+        fail "the default cap drew $fps_default fps, want at most 72"
+    echo "PASS fps: --max-fps 20: $fps_capped fps; default: $fps_default fps"
     ;;
 *)
     echo "unknown mode $mode"; exit 2 ;;

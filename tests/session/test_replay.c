@@ -496,6 +496,110 @@ static void test_tissue_physics(void **state)
     tissue_physics(FTM_ORDER_LAYER_JACOBI);
 }
 
+/* The stable range (session/tissue.h): the default scene's stiffness goes as
+ * far as half the layer update's damping bound allows at d = 0.3 N s/m
+ * (0.198 N s/m at 50 N/m, so about 151 N/m) and, damped more, as far as two
+ * substeps of its 1 ms step (h_crit = 1.49 ms at 50 N/m, so about 444 N/m);
+ * the instructor's 50 -> 80 N/m is in range, on springs and on the palpation
+ * scene's neo-Hookean elements (a factor 1.6 on E, no damping bound). */
+static void range_of(const char *name, double *k_max, double *stiffer_ok)
+{
+    ftm_scene *sc = NULL;
+    ftm_error err = {0, ""};
+    if (ftm_scene_builtin(name, &sc, &err))
+        fail_msg("%s", err.message);
+    ftm_sim *sim = NULL;
+    ftm_sim_def def = ftm_replay_sim_def(sc);
+    assert_int_equal(ftm_sim_create(ftm_scene_mesh(sc), &def, &sim, &err), FTM_OK);
+    ftm_replay_material mat = {.scene = sc};
+    ftm_tissue_range r;
+    assert_int_equal(ftm_replay_tissue_range(&mat, sim, NULL, &r, &err), FTM_OK);
+    assert_int_equal(r.substeps, 1);
+    assert_int_equal(r.max_substeps, FTM_TISSUE_MAX_SUBSTEPS);
+    *k_max = r.stiffness_max;
+    ftm_wire_tissue t = ftm_replay_scene_tissue(sc);
+    char why[128];
+    /* 50 * 1.6 = 80: in range; switched to, the range is the same */
+    t.stiffness *= 1.6;
+    t.node_damping = 0.33;
+    assert_int_equal(ftm_replay_tissue_check(&mat, sim, &t, &r, why, sizeof why, &err), FTM_OK);
+    *stiffer_ok = r.stiffness_max;
+    assert_int_equal(ftm_replay_set_tissue(&mat, sim, &t, &err), FTM_OK);
+    ftm_tissue_range r2;
+    assert_int_equal(ftm_replay_tissue_range(&mat, sim, NULL, &r2, &err), FTM_OK);
+    assert_true(fabs(r2.stiffness_max - r.stiffness_max) <= 1e-9 * r.stiffness_max);
+    /* just past the range: refused, naming it */
+    t.stiffness = r.stiffness_max * 1.01;
+    assert_int_equal(ftm_replay_tissue_check(&mat, sim, &t, &r, why, sizeof why, &err), FTM_ERANGE);
+    assert_non_null(strstr(why, "past the stable range"));
+    assert_true(strlen(why) < 128);
+    t.stiffness = r2.stiffness_max * 0.99;
+    assert_int_equal(ftm_replay_tissue_check(&mat, sim, &t, &r, why, sizeof why, &err), FTM_OK);
+    /* the scene's own tissue is always in range */
+    ftm_wire_tissue own = ftm_replay_scene_tissue(sc);
+    assert_int_equal(ftm_replay_tissue_check(&mat, sim, &own, NULL, why, sizeof why, &err), FTM_OK);
+    ftm_sim_destroy(sim);
+    ftm_replay_material_free(&mat);
+    ftm_scene_destroy(sc);
+}
+
+static void test_tissue_range(void **state)
+{
+    (void)state;
+    double k_max, k_max80;
+    range_of("default", &k_max, &k_max80);
+    if (!(k_max > 145.0 && k_max < 158.0))
+        fail_msg("default scene: stiffness range up to %g N/m, want about 151", k_max);
+    range_of("palpation", &k_max, &k_max80);
+    if (!(k_max > 80.0))
+        fail_msg("palpation: stiffness range up to %g N/m, want above 80", k_max);
+    /* the range around 80 N/m with damping 0.33: springs' damping bound
+     * (0.11 m lambda h = 0.317 N s/m at 80 N/m, docs/core.md) */
+    ftm_scene *sc = open_scene();
+    ftm_sim *sim = NULL;
+    ftm_sim_def def = ftm_replay_sim_def(sc);
+    assert_int_equal(ftm_sim_create(ftm_scene_mesh(sc), &def, &sim, NULL), FTM_OK);
+    ftm_replay_material mat = {.scene = sc};
+    ftm_wire_tissue t = ftm_replay_scene_tissue(sc);
+    t.stiffness = 80.0;
+    ftm_tissue_range r;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_replay_tissue_range(&mat, sim, &t, &r, &err), FTM_OK);
+    if (!(r.damping_bound > 0.30 && r.damping_bound < 0.33))
+        fail_msg("damping bound at 80 N/m: %g N s/m, want about 0.317", r.damping_bound);
+    assert_true(r.damping_min == FTM_TISSUE_DAMPING_SHARE * r.damping_bound);
+    /* damped well, the substeps bound it: h_crit = 1.49 ms (docs/core.md),
+     * k_max = 50 (2 x 1.49 / 1)^2 */
+    t.node_damping = 10.0;
+    assert_int_equal(ftm_replay_tissue_range(&mat, sim, &t, &r, &err), FTM_OK);
+    if (!(r.stiffness_max > 420.0 && r.stiffness_max < 470.0))
+        fail_msg("stiffness range at d = 10: up to %g N/m, want about 444", r.stiffness_max);
+    t.stiffness = r.stiffness_max * 1.01;
+    char why[128];
+    assert_int_equal(ftm_replay_tissue_check(&mat, sim, &t, &r, why, sizeof why, &err), FTM_ERANGE);
+    assert_int_equal(r.substeps, 4);
+    assert_non_null(strstr(why, "needs 4 substeps of 0.001 s, at most 2"));
+    t.stiffness = 400.0;
+    assert_int_equal(ftm_replay_tissue_check(&mat, sim, &t, &r, why, sizeof why, &err), FTM_OK);
+    assert_int_equal(r.substeps, 2);
+    /* too little damping at the scene's stiffness: damping named */
+    t = ftm_replay_scene_tissue(sc);
+    t.node_damping = 0.05;
+    assert_int_equal(ftm_replay_tissue_check(&mat, sim, &t, NULL, why, sizeof why, &err), FTM_ERANGE);
+    assert_non_null(strstr(why, "damping 0.05 N s/m is below the stable range"));
+    t.node_damping = 0.0; /* undamped: below any bound */
+    assert_int_equal(ftm_replay_tissue_check(&mat, sim, &t, NULL, why, sizeof why, &err), FTM_ERANGE);
+    assert_non_null(strstr(why, "damping 0 N s/m is below the stable range"));
+    /* a lighter node: the mass is named when it alone leaves the range */
+    assert_int_equal(ftm_replay_tissue_range(&mat, sim, NULL, &r, &err), FTM_OK);
+    t = ftm_replay_scene_tissue(sc);
+    t.node_mass = r.mass_min * 0.5;
+    assert_int_equal(ftm_replay_tissue_check(&mat, sim, &t, NULL, why, sizeof why, &err), FTM_ERANGE);
+    assert_non_null(strstr(why, "node mass"));
+    ftm_sim_destroy(sim);
+    ftm_scene_destroy(sc);
+}
+
 /* ftm_sim_set_mesh refuses what it cannot honour, changing nothing. */
 static void test_set_mesh_refusals(void **state)
 {
@@ -843,6 +947,7 @@ int main(void)
         cmocka_unit_test(test_material_mesh),
         cmocka_unit_test(test_tissue_physics),
         cmocka_unit_test(test_set_mesh_refusals),
+        cmocka_unit_test(test_tissue_range),
         cmocka_unit_test(test_tissue_replica),
         cmocka_unit_test(test_region_sleep_session),
     };

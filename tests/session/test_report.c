@@ -33,9 +33,9 @@ static void test_contact_stats(void **state)
     assert_int_equal(ftm_report_seen(&r, 11, "trainee", "anna", 5), 0);
     ftm_report_probe *q = &r.parts[0].probes[1];
     q->touches++;
-    ftm_report_contact(q, 10, (ftm_vec3){3, 4, 0}, 0.002, false);  /* 5 N */
-    ftm_report_contact(q, 11, (ftm_vec3){0, 0, -6}, 0.004, true);  /* 6 N */
-    ftm_report_contact(q, 12, (ftm_vec3){6, 0, 0}, 0.001, false);  /* 6 N again: first kept */
+    ftm_report_contact(q, 10, (ftm_vec3){3, 4, 0}, 0.002, false, false);  /* 5 N */
+    ftm_report_contact(q, 11, (ftm_vec3){0, 0, -6}, 0.004, true, false);  /* 6 N */
+    ftm_report_contact(q, 12, (ftm_vec3){6, 0, 0}, 0.001, false, false);  /* 6 N again: first kept */
     assert_int_equal(q->contact_ticks, 3);
     assert_int_equal(q->limited_ticks, 1);
     assert_true(q->peak_force == 6.0);
@@ -51,6 +51,31 @@ static void test_contact_stats(void **state)
     assert_int_equal(p->last_tick, 40);
     assert_int_equal(ftm_report_index(&r, 11), 0);
     assert_int_equal(ftm_report_index(&r, 12), -1);
+    ftm_report_free(&r);
+}
+
+/* A spike of an unstable stretch (the guard substepping) is marked: the peak
+ * taken there says so in the JSON, and the substepped ticks are counted. */
+static void test_unstable_peak_marked(void **state)
+{
+    (void)state;
+    ftm_report r = {0};
+    assert_int_equal(ftm_report_seen(&r, 11, "trainee", "anna", 5), 0);
+    ftm_report_probe *q = &r.parts[0].probes[0];
+    q->touches = 1;
+    ftm_report_contact(q, 10, (ftm_vec3){0, 0, 2}, 0.002, false, false);
+    ftm_report_contact(q, 11, (ftm_vec3){0, 0, 65}, 0.002, false, true); /* the spike */
+    ftm_report_contact(q, 12, (ftm_vec3){0, 0, 3}, 0.002, false, true);
+    assert_int_equal(q->unstable_ticks, 2);
+    assert_true(q->peak_unstable);
+    ftm_report_session s = {"ward3", "default", NULL, 0, 3000, 1000.0, 8, 8, 0, 1, NULL, false};
+    char *buf = json_of(&r, &s);
+    if (!strstr(buf, "\"peak_force_n\":65,") || !strstr(buf, "\"unstable_ticks\":2,\"peak_while_unstable\":true}"))
+        fail_msg("unstable peak not marked: %s", buf);
+    free(buf);
+    /* a higher, stable peak later: no longer marked */
+    ftm_report_contact(q, 13, (ftm_vec3){0, 0, 70}, 0.002, false, false);
+    assert_false(q->peak_unstable);
     ftm_report_free(&r);
 }
 
@@ -75,7 +100,7 @@ static void test_json_escapes_names(void **state)
     assert_int_equal(k, 0);
     ftm_report_part *p = &r.parts[k];
     p->probes[0].touches = 1;
-    ftm_report_contact(&p->probes[0], 3, (ftm_vec3){0, 0, 2}, 0.001, false);
+    ftm_report_contact(&p->probes[0], 3, (ftm_vec3){0, 0, 2}, 0.001, false, false);
     uint8_t digest[2] = {0xab, 0x01};
     ftm_report_session s = {"ward \"3\"", "default", digest, 2, 1000, 1000.0, 8, 8, 0, 0, NULL, false};
     char *buf = json_of(&r, &s);
@@ -176,7 +201,7 @@ static void test_json_not_utf8(void **state)
         assert_int_equal(k, 0);
         ftm_report_probe *q = &r.parts[k].probes[0];
         q->touches = 1;
-        ftm_report_contact(q, 3, (ftm_vec3){0, 0, 2}, 0.001, false);
+        ftm_report_contact(q, 3, (ftm_vec3){0, 0, 2}, 0.001, false, false);
         if (i == 0)
             q->max_push = NAN;
         ftm_report_session s = {"s", "default", NULL, 0, 10, 1000.0, 8, 8, 0, 0, NULL, false};
@@ -198,6 +223,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_contact_stats),
         cmocka_unit_test(test_cap),
+        cmocka_unit_test(test_unstable_peak_marked),
         cmocka_unit_test(test_json_escapes_names),
         cmocka_unit_test(test_json_not_utf8),
         cmocka_unit_test(test_events),
