@@ -200,8 +200,13 @@ static int make_replica(ftm_participant *p)
         plog(p, FTM_LOG_ERROR, "replay: %s", err.message);
         return err.code;
     }
-    /* keyframes that came before the replica existed are lost: ask again */
-    publish_status(p, FTM_WIRE_STATE_JOINING);
+    /* Keyframes taken before the replica existed are lost: ask again, but
+     * not in the first second after joining, whose only status is the
+     * JOINING sent on joining (docs/protocol.md). None can be lost then:
+     * until the first announcement, frames and keyframes stay queued
+     * (ftm_participant_turn), and the server answers that JOINING. */
+    if (ftm_clock_mono_ns() - p->joined_ns >= QUIET_NS)
+        publish_status(p, FTM_WIRE_STATE_JOINING);
     return FTM_OK;
 }
 
@@ -583,7 +588,9 @@ bool ftm_participant_turn(ftm_participant *p, int64_t wait_ns)
         expire_commands(p);
     }
     bool more = false;
-    if (ftm_participant_held(p)) {
+    /* no announcement yet, so no replica: frames and keyframes wait in the
+     * transport's queue for it (make_replica) */
+    if (ftm_participant_held(p) || !p->info.have_ann) {
         struct timespec ts = {0, wait_ns > 0 ? (long)wait_ns : 0};
         nanosleep(&ts, NULL);
     } else {
