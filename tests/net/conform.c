@@ -61,7 +61,7 @@ enum {
 };
 static const char *const rule_text[R_NRULES] = {
     [R_QOS] = "each writer's QoS is the topic's row of the table (reliability, durability, history, deadline, liveliness)",
-    [R_REPR] = "the envelope is XCDR1 (data representation offered, encapsulation CDR_LE/CDR_BE)",
+    [R_REPR] = "the envelope is XCDR1: writers offer it; an announcement's bytes are laid out as documented",
     [R_SESSION] = "envelope session is ours (a session of its own on the domain)",
     [R_KIND] = "envelope kind matches its topic",
     [R_VERSION] = "payload decodes and carries version = 1",
@@ -697,24 +697,72 @@ static void final_rules(void)
 
 /* ---- the encapsulation of a sample, as it travels ------------------------------------------- */
 
+static uint32_t get_u32(const unsigned char *b, bool le)
+{
+    return le ? (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24
+              : (uint32_t)b[3] | (uint32_t)b[2] << 8 | (uint32_t)b[1] << 16 | (uint32_t)b[0] << 24;
+}
+
+/* An announcement's bytes as docs/protocol.md lays them out (XCDR1, plain
+ * CDR): the encapsulation header, then session, sender, kind, seq (8-aligned)
+ * and payload, the payload an ftm.v1.SceneAnnounce. */
+static bool layout_ok(const unsigned char *b, size_t n)
+{
+    if (n < 4 || b[0] != 0 || b[1] > 1)
+        return false;
+    const bool le = b[1] == 1;
+    const unsigned char *d = b + 4; /* alignment counts from here */
+    size_t len = n - 4, off = 0;
+    if (len < 4)
+        return false;
+    const uint32_t slen = get_u32(d, le);
+    off = 4;
+    if (slen < 1 || slen > 64 || off + slen > len || d[off + slen - 1] != 0 ||
+        strcmp((const char *)d + off, S.session) != 0)
+        return false;
+    off += slen;
+    off = (off + 3) & ~(size_t)3;
+    if (off + 5 > len)
+        return false;
+    const uint32_t sender = get_u32(d + off, le);
+    const unsigned kind = d[off + 4];
+    off = (off + 5 + 7) & ~(size_t)7;
+    if (off + 12 > len || sender == 0 || kind != 1)
+        return false;
+    const uint64_t seq = le ? (uint64_t)get_u32(d + off, true) | (uint64_t)get_u32(d + off + 4, true) << 32
+                            : (uint64_t)get_u32(d + off + 4, false) | (uint64_t)get_u32(d + off, false) << 32;
+    off += 8;
+    const uint32_t plen = get_u32(d + off, le);
+    off += 4;
+    if (seq < 1 || plen > len - off || len - off - plen > 3)
+        return false;
+    ProtobufCMessage *m = protobuf_c_message_unpack(&ftm__v1__scene_announce__descriptor, NULL, plen, d + off);
+    const bool ok = m && ((Ftm__V1__SceneAnnounce *)m)->has_version && ((Ftm__V1__SceneAnnounce *)m)->version == 1;
+    if (m)
+        protobuf_c_message_free_unpacked(m, NULL);
+    return ok;
+}
+
 static void check_encapsulation(dds_entity_t raw)
 {
     struct ddsi_serdata *sd[4] = {NULL};
     dds_sample_info_t info[4];
     dds_return_t n = dds_takecdr(raw, sd, 4, info, DDS_ANY_STATE);
     for (dds_return_t i = 0; i < n; i++) {
-        if (info[i].valid_data && ddsi_serdata_size(sd[i]) >= 4) {
-            unsigned char hdr[4];
-            ddsi_serdata_to_ser(sd[i], 0, 4, hdr);
+        const size_t size = ddsi_serdata_size(sd[i]);
+        if (info[i].valid_data && size >= 4 && size <= 65536) {
+            unsigned char buf[65536];
+            ddsi_serdata_to_ser(sd[i], 0, size, buf);
             /* RTPS encapsulation identifier: 0x0000 CDR_BE, 0x0001 CDR_LE (XCDR1);
              * 0x0006 / 0x0007 CDR2 (XCDR2) */
-            check(R_REPR, hdr[0] == 0 && (hdr[1] == 0 || hdr[1] == 1),
-                  "announce encapsulation %02x %02x", hdr[0], hdr[1]);
+            check(R_REPR, layout_ok(buf, size),
+                  "an announcement of %zu bytes, encapsulation %02x %02x, not laid out as documented",
+                  size, buf[0], buf[1]);
             static bool told;
             if (!told) {
                 told = true;
-                printf("ftm-conform: announce encapsulation identifier 0x%02x%02x (%s)\n", hdr[0], hdr[1],
-                       hdr[1] <= 1 ? "XCDR1, plain CDR" : hdr[1] <= 7 ? "XCDR2" : "other");
+                printf("ftm-conform: announce encapsulation identifier 0x%02x%02x (%s), %zu bytes\n",
+                       buf[0], buf[1], buf[0] == 0 && buf[1] <= 1 ? "XCDR1, plain CDR" : "other", size);
             }
         }
         ddsi_serdata_unref(sd[i]);
