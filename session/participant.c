@@ -17,6 +17,7 @@
 #define SEC FTM_NS_PER_S
 #define STATUS_PERIOD_NS (SEC / 2)
 #define QUIET_NS SEC /* after joining, statuses say JOINING this long */
+#define JOIN_FLUSH_NS (SEC / 10) /* the first JOINING's write, at most */
 #define SERVER_STATUS_DEADLINE_NS (2 * SEC) /* the server's (docs/protocol.md) */
 /* frames taken per turn, at most this long: a replica that replays slower
  * than the ticks come (a sanitizer build, a loaded host) must still send
@@ -665,8 +666,14 @@ int ftm_participant_create(const ftm_participant_def *def, ftm_participant **out
 
 void ftm_participant_join(ftm_participant *p)
 {
-    p->joined_ns = p->info.last_frame_ns = ftm_clock_mono_ns();
     publish_status(p, FTM_WIRE_STATE_JOINING);
+    /* The quiet second counts from when that JOINING is written, which is
+     * when DDS stamps it, not from when it was queued: so no receiver sees
+     * another status stamped within a second of it (docs/protocol.md).
+     * Usually no reader is matched yet and this waits for the write alone;
+     * readers matched already are waited for too, at most 0.1 s. */
+    ftm_wire_flush(p->wire, JOIN_FLUSH_NS, NULL);
+    p->joined_ns = p->info.last_frame_ns = ftm_clock_mono_ns();
 }
 
 void ftm_participant_leave(ftm_participant *p)

@@ -139,6 +139,7 @@ typedef struct {
     int64_t first_status, last_status; /* source time */
     bool last_was_first;
     int joinings_first_second;
+    int64_t next_joining; /* the second JOINING, after the first */
     int64_t max_gap;
     bool leaving;
     bool held; /* listed by the server with its origin */
@@ -489,7 +490,11 @@ static void on_status(const Ftm__V1__ParticipantStatus *st, uint32_t from, uint6
         s->last_was_first = st->state == FTM__V1__PARTICIPANT_STATE__STATE_JOINING;
     }
     s->last_status = src_time;
-    if (st->state == FTM__V1__PARTICIPANT_STATE__STATE_JOINING && src_time - s->first_status < SEC)
+    if (st->state == FTM__V1__PARTICIPANT_STATE__STATE_JOINING && src_time != s->first_status &&
+        (!s->next_joining || src_time - s->first_status < s->next_joining))
+        s->next_joining = src_time - s->first_status;
+    if (st->state == FTM__V1__PARTICIPANT_STATE__STATE_JOINING &&
+        src_time - s->first_status < SEC)
         s->joinings_first_second++;
     if (st->state == FTM__V1__PARTICIPANT_STATE__STATE_LEAVING) {
         s->leaving = true;
@@ -681,8 +686,9 @@ static void final_rules(void)
         if (!s->first_status)
             continue; /* no status heard (cannot be: everyone sends one) */
         check(R_LEAVING, s->leaving, "participant %u sent no LEAVING", s->id);
-        check(R_JOINING, s->joinings_first_second <= 1, "participant %u: %d JOINING statuses in its first second",
-              s->id, s->joinings_first_second);
+        check(R_JOINING, s->joinings_first_second <= 1,
+              "participant %u: %d JOINING statuses in its first second (the second %.1f ms after the first)",
+              s->id, s->joinings_first_second, (double)s->next_joining * 1e-6);
         if (s->role == FTM__V1__ROLE__ROLE_SERVER)
             continue;
         others++;
@@ -882,9 +888,10 @@ int main(int argc, char **argv)
            S.nkeyframes, S.ncmds, S.nreplies, S.pauses, S.probe_gaps, S.gone_events);
     for (int i = 0; i < S.nsenders; i++)
         printf("ftm-conform: participant %u role %d origin %016" PRIx64 ": largest status interval %.1f ms, "
-               "%d JOINING in its first second%s\n",
+               "%d JOINING in its first second (the next %.1f ms after the first)%s\n",
                S.senders[i].id, S.senders[i].role, S.senders[i].origin, (double)S.senders[i].max_gap * 1e-6,
-               S.senders[i].joinings_first_second, S.senders[i].held ? ", listed as holder" : "");
+               S.senders[i].joinings_first_second, (double)S.senders[i].next_joining * 1e-6,
+               S.senders[i].held ? ", listed as holder" : "");
     int bad = 0;
     for (int r = 0; r < R_NRULES; r++) {
         const bool ok = failed[r] == 0 && checked[r] > 0;
