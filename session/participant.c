@@ -201,13 +201,13 @@ static int make_replica(ftm_participant *p)
         plog(p, FTM_LOG_ERROR, "replay: %s", err.message);
         return err.code;
     }
-    /* Keyframes taken before the replica existed are lost: ask again, but
-     * not in the first second after joining, whose only status is the
-     * JOINING sent on joining (docs/protocol.md). None can be lost then:
-     * until the first announcement, frames and keyframes stay queued
-     * (ftm_participant_turn), and the server answers that JOINING. */
-    if (ftm_clock_mono_ns() - p->joined_ns >= QUIET_NS)
-        publish_status(p, FTM_WIRE_STATE_JOINING);
+    /* Keyframes that came before the replica existed are lost, and the one
+     * the JOINING sent on joining asked for may be older than the first
+     * frame our reader got: ask again, now that the readers are matched
+     * (the one more JOINING the first second may carry, docs/protocol.md;
+     * waiting for the end of that second instead delayed a late joiner's
+     * sync by up to a second) */
+    publish_status(p, FTM_WIRE_STATE_JOINING);
     return FTM_OK;
 }
 
@@ -589,9 +589,7 @@ bool ftm_participant_turn(ftm_participant *p, int64_t wait_ns)
         expire_commands(p);
     }
     bool more = false;
-    /* no announcement yet, so no replica: frames and keyframes wait in the
-     * transport's queue for it (make_replica) */
-    if (ftm_participant_held(p) || !p->info.have_ann) {
+    if (ftm_participant_held(p)) {
         struct timespec ts = {0, wait_ns > 0 ? (long)wait_ns : 0};
         nanosleep(&ts, NULL);
     } else {
@@ -669,7 +667,8 @@ void ftm_participant_join(ftm_participant *p)
     publish_status(p, FTM_WIRE_STATE_JOINING);
     /* The quiet second counts from when that JOINING is written, which is
      * when DDS stamps it, not from when it was queued: so no receiver sees
-     * another status stamped within a second of it (docs/protocol.md).
+     * a status other than JOINING stamped within a second of it
+     * (docs/protocol.md).
      * Usually no reader is matched yet and this waits for the write alone;
      * readers matched already are waited for too, at most 0.1 s. */
     ftm_wire_flush(p->wire, JOIN_FLUSH_NS, NULL);
