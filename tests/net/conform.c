@@ -57,7 +57,7 @@ enum {
     R_QOS, R_REPR, R_SESSION, R_KIND, R_VERSION, R_PRESENCE, R_SEQ, R_IDS, R_ORIGIN_STABLE,
     R_TICK_ORDER, R_TICK_ZERO, R_HEARTBEAT, R_PAUSE, R_NODE_RANGE, R_CONTACT_UNIQUE,
     R_KF_START, R_KF_PERIOD, R_KF_FRAME, R_KF_NODES, R_REPLY_FIELDS, R_REPLY_ONE, R_STATUS_PERIOD,
-    R_JOINING, R_HOLDER_ORIGIN, R_HOLDER_ALL, R_SERVER_LISTS, R_LEAVING, R_TEXT, R_NRULES
+    R_JOINING, R_HOLDER_ORIGIN, R_HOLDER_ALL, R_SERVER_LISTS, R_LEAVING, R_TEXT, R_LATE, R_NRULES
 };
 static const char *const rule_text[R_NRULES] = {
     [R_QOS] = "each writer's QoS is the topic's row of the table (reliability, durability, history, deadline, liveliness)",
@@ -88,6 +88,7 @@ static const char *const rule_text[R_NRULES] = {
     [R_SERVER_LISTS] = "holder/ignored lists: server only, ids unique, <= 64 / <= 16 pairs",
     [R_LEAVING] = "every participant and the server end with a LEAVING status",
     [R_TEXT] = "names and reasons: within their byte limits, no control characters",
+    [R_LATE] = "TRANSIENT_LOCAL: a reader made mid-session gets the newest announcement, keyframe and statuses, written before it existed",
 };
 static uint64_t checked[R_NRULES], failed[R_NRULES];
 
@@ -784,6 +785,104 @@ static void check_encapsulation(dds_entity_t raw)
     }
 }
 
+/* ---- the late-join path ----------------------------------------------------------------------- */
+
+/* Two seconds into the session, once every participant's status came
+ * (--participants), readers of the three TRANSIENT_LOCAL topics are made
+ * anew, as a late joiner makes them. Within a second each must have, from
+ * every sender, the newest sample the first readers had then (or a newer
+ * one); and samples written before the new readers existed must come, which
+ * no VOLATILE reader gets: each participant's status (one of them may have
+ * been replaced by a newer one in the moment it took to match). */
+static struct {
+    dds_entity_t r[NKIND];
+    int64_t made;
+    dds_time_t made_at; /* the source timestamps' clock */
+    bool done;
+    uint64_t want_seq[NKIND][MAXP], got_seq[NKIND][MAXP];
+    int historical[NKIND];
+    uint32_t id[MAXP];
+    int n;
+} L;
+
+static void late_joiner(dds_entity_t dp, const dds_entity_t *topics)
+{
+    const int64_t now = mono_ns();
+    static int64_t first_seen;
+    if (L.done || !S.have_announce || S.nkeyframes == 0)
+        return;
+    if (!first_seen)
+        first_seen = now;
+    if (!L.made) {
+        int in = 0; /* participants whose status came */
+        for (int i = 0; i < S.nsenders; i++)
+            in += S.senders[i].first_status && S.senders[i].role != FTM__V1__ROLE__ROLE_SERVER;
+        if (now - first_seen < 2 * SEC || in < S.participants || S.paused || S.server_leaving)
+            return;
+        L.n = S.nsenders;
+        for (int i = 0; i < S.nsenders; i++) {
+            L.id[i] = S.senders[i].id;
+            for (int k = 1; k < NKIND; k++)
+                L.want_seq[k][i] = S.senders[i].seen[k] && !S.senders[i].leaving ? S.senders[i].seq[k] : 0;
+        }
+        L.made_at = dds_time();
+        for (int k = 1; k < NKIND; k++) {
+            if (k != 1 && k != 4 && k != 5)
+                continue;
+            dds_qos_t *q = dds_create_qos();
+            dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
+            dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+            dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 64);
+            L.r[k] = dds_create_reader(dp, topics[k], q, NULL);
+            dds_delete_qos(q);
+        }
+        L.made = now;
+        return;
+    }
+    for (int k = 1; k < NKIND; k++) {
+        if (L.r[k] <= 0)
+            continue;
+        for (;;) {
+            void *samples[16] = {NULL};
+            dds_sample_info_t info[16];
+            dds_return_t n = dds_take(L.r[k], samples, info, 16, 16);
+            if (n <= 0)
+                break;
+            for (dds_return_t j = 0; j < n; j++) {
+                const ftm_wire_Envelope *env = samples[j];
+                if (!info[j].valid_data || strncmp(env->session, S.session, sizeof env->session) != 0)
+                    continue;
+                L.historical[k] += info[j].source_timestamp < L.made_at;
+                for (int i = 0; i < L.n; i++)
+                    if (L.id[i] == env->sender && env->seq > L.got_seq[k][i])
+                        L.got_seq[k][i] = env->seq;
+            }
+            dds_return_loan(L.r[k], samples, n);
+        }
+    }
+    if (now - L.made < SEC)
+        return;
+    L.done = true;
+    int statuses = 0;
+    for (int i = 0; i < L.n; i++)
+        for (int k = 1; k < NKIND; k++) {
+            if (L.r[k] <= 0 || !L.want_seq[k][i])
+                continue;
+            statuses += k == 5;
+            check(R_LATE, L.got_seq[k][i] >= L.want_seq[k][i],
+                  "late reader of %s: from %u seq %" PRIu64 ", the first readers had %" PRIu64 " already",
+                  topic_of[k], L.id[i], L.got_seq[k][i], L.want_seq[k][i]);
+        }
+    check(R_LATE, statuses >= 1 + S.participants && L.historical[5] >= statuses - 1,
+          "late reader: statuses of %d senders, %d of them written before it existed", statuses,
+          L.historical[5]);
+    printf("ftm-conform: late reader: %d announcements, %d keyframes, %d statuses written before it "
+           "existed\n", L.historical[1], L.historical[4], L.historical[5]);
+    for (int k = 1; k < NKIND; k++)
+        if (L.r[k] > 0)
+            dds_delete(L.r[k]);
+}
+
 /* ---- main ------------------------------------------------------------------------------------ */
 
 static int usage(const char *why)
@@ -830,10 +929,11 @@ int main(int argc, char **argv)
         fprintf(stderr, "ftm-conform: dds_create_participant: %s\n", dds_strretcode(dp));
         return 2;
     }
-    dds_entity_t readers[NKIND] = {0}, raw = 0;
+    dds_entity_t readers[NKIND] = {0}, topics[NKIND] = {0}, raw = 0;
     dds_entity_t ws = dds_create_waitset(dp);
     for (int k = 1; k < NKIND; k++) {
         dds_entity_t tp = dds_create_topic(dp, &ftm_wire_Envelope_desc, topic_of[k], NULL, NULL);
+        topics[k] = tp;
         dds_qos_t *q = dds_create_qos();
         /* a reader's QoS as the table says (no deadline on readers); its own
          * history deep, so that nothing is replaced before it is taken */
@@ -883,6 +983,7 @@ int main(int argc, char **argv)
             }
         }
         check_encapsulation(raw);
+        late_joiner(dp, topics);
     }
     final_rules();
     dds_delete(dp);
