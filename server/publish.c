@@ -171,6 +171,14 @@ void srv_publish_tick_frame(server *s)
         srv_publish_frame(s, 0, 0, true);
 }
 
+/* The most ticks between two frames while the session runs: --heartbeat
+ * at the tick rate, rounded, at least 1 (0.1 s at 1 kHz: 100). */
+uint64_t srv_heartbeat_ticks(const server *s)
+{
+    const double n = s->o.heartbeat * s->o.rate + 0.5;
+    return n < 1.0 ? 1u : (uint64_t)n;
+}
+
 /* Idle ticks (no contacts now or in the last frame sent, no node updated,
  * depth and tissue unchanged) are not sent: replicas step them alone
  * (docs/protocol.md, "Ticks, heartbeats and replay"). */
@@ -182,7 +190,9 @@ void srv_publish_tick(server *s, int32_t n, int32_t nreact, bool moved)
         pb->keyframe_due = true;
     const bool idle = n == 0 && !moved && pb->pub_n == 0 && pb->pub_depth == s->tk.depth &&
                       pb->published_any && !pb->tissue_frame;
-    const bool heartbeat = (double)(now - pb->pub_ns) >= s->o.heartbeat * 1e9;
+    /* kept in ticks, not by the clock: a receiver can check it from the
+     * frames alone (docs/protocol.md, "Ticks, heartbeats and replay") */
+    const bool heartbeat = s->tk.tick - pb->pub_tick >= srv_heartbeat_ticks(s);
     if (!idle || heartbeat || pb->keyframe_due || pb->replaying)
         srv_publish_frame(s, n, nreact, idle);
     else

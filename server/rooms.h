@@ -269,9 +269,11 @@ void srv_publish_status(server *s, ftm_wire_state state);
 void srv_tell_now(server *s);
 bool srv_publish_keyframe(server *s);
 void srv_publish_frame(server *s, int32_t n, int32_t nreact, bool heartbeat);
-/* After a tick: its frame unless it is idle (a heartbeat every --heartbeat),
- * and a keyframe when one is due. moved: the step updated nodes. */
+/* After a tick: its frame unless it is idle (a heartbeat at least every
+ * srv_heartbeat_ticks), and a keyframe when one is due. moved: the step
+ * updated nodes. */
 void srv_publish_tick(server *s, int32_t n, int32_t nreact, bool moved);
+uint64_t srv_heartbeat_ticks(const server *s);
 /* The current tick's frame, unless it went out (an unsent tick was idle:
  * no contacts): replicas must reach the tick before what follows. */
 void srv_publish_tick_frame(server *s);

@@ -18,6 +18,7 @@
 #define SEC FTM_NS_PER_S
 #define STATUS_PERIOD_NS (SEC / 2)
 #define QUIET_NS SEC /* after joining, statuses say JOINING this long */
+#define JOIN_FLUSH_NS (SEC / 10) /* the first JOINING's write, at most */
 #define SERVER_STATUS_DEADLINE_NS (2 * SEC) /* the server's (docs/protocol.md) */
 /* frames taken per turn, at most this long: a replica that replays slower
  * than the ticks come (a sanitizer build, a loaded host) must still send
@@ -202,7 +203,12 @@ static int make_replica(ftm_participant *p)
         plog(p, FTM_LOG_ERROR, "replay: %s", err.message);
         return err.code;
     }
-    /* keyframes that came before the replica existed are lost: ask again */
+    /* Keyframes that came before the replica existed are lost, and the one
+     * the JOINING sent on joining asked for may be older than the first
+     * frame our reader got: ask again, now that the readers are matched
+     * (the one more JOINING the first second may carry, docs/protocol.md;
+     * waiting for the end of that second instead delayed a late joiner's
+     * sync by up to a second) */
     publish_status(p, FTM_WIRE_STATE_JOINING);
     return FTM_OK;
 }
@@ -693,8 +699,15 @@ int ftm_participant_create(const ftm_participant_def *def, ftm_participant **out
 
 void ftm_participant_join(ftm_participant *p)
 {
-    p->joined_ns = p->info.last_frame_ns = ftm_clock_mono_ns();
     publish_status(p, FTM_WIRE_STATE_JOINING);
+    /* The quiet second counts from when that JOINING is written, which is
+     * when DDS stamps it, not from when it was queued: so no receiver sees
+     * a status other than JOINING stamped within a second of it
+     * (docs/protocol.md).
+     * Usually no reader is matched yet and this waits for the write alone;
+     * readers matched already are waited for too, at most 0.1 s. */
+    ftm_wire_flush(p->wire, JOIN_FLUSH_NS, NULL);
+    p->joined_ns = p->info.last_frame_ns = ftm_clock_mono_ns();
 }
 
 void ftm_participant_leave(ftm_participant *p)
