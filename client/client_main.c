@@ -911,15 +911,7 @@ static int list_sessions(const ftm_client_options *o)
     d.dds_security = o->security;
     d.participant_id = o->id;
     d.seconds = o->duration;
-    ftm_session_seen seen[FTM_SESSIONS_MAX];
-    int32_t n = 0;
-    ftm_error err = {0, ""};
-    if (ftm_sessions_find(&d, seen, FTM_SESSIONS_MAX, &n, &err)) {
-        fprintf(stderr, "ftm-client: --list: %s\n", err.message);
-        return 3;
-    }
-    ftm_sessions_print(stdout, &d, seen, n);
-    return 0;
+    return ftm_sessions_list_command("ftm-client", &d);
 }
 
 int main(int argc, char **argv)

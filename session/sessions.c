@@ -190,3 +190,16 @@ void ftm_sessions_names(const ftm_session_seen *s, int32_t count, char *buf, siz
         w += (size_t)n;
     }
 }
+
+int ftm_sessions_list_command(const char *program, const ftm_sessions_def *def)
+{
+    ftm_session_seen seen[FTM_SESSIONS_MAX];
+    int32_t n = 0;
+    ftm_error err = {0, ""};
+    if (ftm_sessions_find(def, seen, FTM_SESSIONS_MAX, &n, &err)) {
+        fprintf(stderr, "%s: --list: %s\n", program, err.message);
+        return 3;
+    }
+    ftm_sessions_print(stdout, def, seen, n);
+    return 0;
+}

@@ -50,6 +50,10 @@ int ftm_sessions_find(const ftm_sessions_def *def, ftm_session_seen *out, int32_
 void ftm_sessions_print(FILE *f, const ftm_sessions_def *def, const ftm_session_seen *s,
                         int32_t count);
 
+/* `PROGRAM --list`: finds the sessions (def) and prints them on stdout;
+ * the exit status: 0, or 3 when DDS fails (said on stderr as `program`). */
+int ftm_sessions_list_command(const char *program, const ftm_sessions_def *def);
+
 /* The names of the announced sessions, quoted and comma-separated, for a
  * log line or a banner ("" for none). */
 void ftm_sessions_names(const ftm_session_seen *s, int32_t count, char *buf, size_t cap);

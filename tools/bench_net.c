@@ -173,13 +173,8 @@ static void parse_server(const char *log, run_result *r)
     char *s = ftm_proc_slurp(log);
     if (!s)
         return;
-    const char *p = strstr(s, " ticks in ");
+    const char *p = ftm_proc_server_ticks(s, &r->ticks, &r->seconds, &r->missed);
     if (p) {
-        while (p > s && p[-1] >= '0' && p[-1] <= '9')
-            p--;
-        double rate;
-        sscanf(p, "%" SCNu64 " ticks in %lf s (%lf ticks/s), %" SCNu64 " missed", &r->ticks,
-               &r->seconds, &rate, &r->missed);
         const char *q = strstr(p, "bytes/frame, ");
         if (q)
             sscanf(q, "bytes/frame, %lf bytes/tick; %" SCNu64 " keyframes (%" SCNu64 " bytes)",

@@ -141,19 +141,11 @@ static void parse_log(const char *log, tick_result *r)
     char *s = ftm_proc_slurp(log);
     if (!s)
         return;
-    const char *p = strstr(s, " ticks in ");
-    if (p) {
-        while (p > s && p[-1] >= '0' && p[-1] <= '9')
-            p--;
-        double rate;
-        if (sscanf(p, "%" SCNu64 " ticks in %lf s (%lf ticks/s), %" SCNu64 " missed", &r->ticks,
-                   &r->seconds, &rate, &r->missed) == 4)
-            r->ok = true;
-    }
+    r->ok = ftm_proc_server_ticks(s, &r->ticks, &r->seconds, &r->missed) != NULL;
     const char *d = strstr(s, "ticks run at depths ");
     if (d)
         sscanf(d, "ticks run at depths %d..%d", &r->depth_lo, &r->depth_hi);
-    p = strstr(s, "tick work p50 ");
+    const char *p = strstr(s, "tick work p50 ");
     if (!p || sscanf(p,
                      "tick work p50 %lf us p99 %lf us over %" SCNu64
                      " ticks; with a probe in contact p50 %lf us p99 %lf us over %" SCNu64,

@@ -6,6 +6,7 @@
 #include <errno.h>
 #include <ftw.h>
 #include <fcntl.h>
+#include <inttypes.h>
 #include <math.h>
 #include <sched.h>
 #include <signal.h>
@@ -174,4 +175,19 @@ int ftm_proc_find_programs(const char *who, const char **server, const char **bo
     fprintf(stderr, "%s: cannot find ftm-server/ftm-bot (%s, %s); use --server and --bot\n", who,
             *server ? *server : "?", *bot ? *bot : "?");
     return -1;
+}
+
+const char *ftm_proc_server_ticks(const char *log, uint64_t *ticks, double *seconds,
+                                  uint64_t *missed)
+{
+    const char *p = strstr(log, " ticks in ");
+    if (!p)
+        return NULL;
+    while (p > log && p[-1] >= '0' && p[-1] <= '9')
+        p--;
+    double rate;
+    if (sscanf(p, "%" SCNu64 " ticks in %lf s (%lf ticks/s), %" SCNu64 " missed", ticks, seconds,
+               &rate, missed) != 4)
+        return NULL;
+    return p;
 }

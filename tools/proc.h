@@ -7,6 +7,7 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 #include <sys/types.h>
 
 double ftm_proc_now_s(void);           /* monotonic clock [s] */
@@ -42,6 +43,12 @@ int ftm_proc_remove_tree(const char *dir);
  * after saying on stderr, as `who`, what is missing and which options
  * name them. */
 int ftm_proc_find_programs(const char *who, const char **server, const char **bot);
+
+/* In an ftm-server log's text, its closing line "N ticks in S s (R ticks/s),
+ * M missed": the counts read, and where the line's numbers start (to read
+ * on from), or NULL when it is not there. */
+const char *ftm_proc_server_ticks(const char *log, uint64_t *ticks, double *seconds,
+                                  uint64_t *missed);
 
 /* q-quantile of v[0..n) by nearest rank (sorts v); NAN when n is 0. */
 double ftm_proc_quantile(double *v, size_t n, double q);
