@@ -725,6 +725,8 @@ static int run(app *a)
         if (mouse_probe(a))
             mouse_view(a);
         int nhud = ftm_hud_lines(&draw, &info, lines);
+        /* a narrow window: rows wrapped to its width, none cut off */
+        nhud = ftm_hud_wrap(lines, nhud, ftm_hud_columns(w, a->ropts.text_scale));
         for (int i = 0; i < nhud; i++)
             hud[i] = lines[i];
         a->fb_h = h;

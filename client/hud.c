@@ -2,6 +2,7 @@
 /* HUD text; see hud.h. */
 #include "hud.h"
 
+#include "font.h"
 #include "haptic.h"
 
 #include <inttypes.h>
@@ -190,4 +191,40 @@ bool ftm_hud_instructor_key(const ftm_client_view *v, ftm_wire_command cmd, cons
                  up && fixed ? " (moves the depth only on a server started with --adaptive 1)" : "");
     }
     return true;
+}
+
+int ftm_hud_columns(int w, int px)
+{
+    int cols = (w - 24) / (FTM_FONT_CELL_W * (px > 0 ? px : 1));
+    return cols < 24 ? 24 : cols;
+}
+
+int ftm_hud_wrap(char lines[FTM_HUD_LINES][FTM_HUD_WIDTH], int n, int cols)
+{
+    if (cols >= FTM_HUD_WIDTH - 1)
+        return n;
+    char in[FTM_HUD_LINES][FTM_HUD_WIDTH];
+    memcpy(in, lines, sizeof in);
+    int rows = 0;
+    for (int i = 0; i < n && rows < FTM_HUD_LINES; i++) {
+        const char *p = in[i];
+        bool first = true;
+        while (*p && rows < FTM_HUD_LINES) {
+            const int indent = first ? 0 : 2, room = cols - indent;
+            int len = (int)strlen(p), take = len <= room ? len : room;
+            if (take < len) { /* at the last space that leaves half a row or more */
+                int sp = take;
+                while (sp > room / 2 && p[sp] != ' ')
+                    sp--;
+                if (p[sp] == ' ')
+                    take = sp;
+            }
+            snprintf(lines[rows++], FTM_HUD_WIDTH, "%*s%.*s", indent, "", take, p);
+            p += take;
+            while (*p == ' ')
+                p++;
+            first = false;
+        }
+    }
+    return rows;
 }

@@ -32,6 +32,15 @@ typedef struct ftm_hud_info {
 int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *info,
                   char lines[FTM_HUD_LINES][FTM_HUD_WIDTH]);
 
+/* Wraps lines[0..n) to at most cols characters (at spaces where it can,
+ * continuation rows indented two columns), in place, up to FTM_HUD_LINES
+ * rows: a narrow window (640 px) shows every line whole. Returns the rows. */
+int ftm_hud_wrap(char lines[FTM_HUD_LINES][FTM_HUD_WIDTH], int n, int cols);
+
+/* The HUD's columns in a window w pixels wide at text scale px (HUD pixels
+ * per font pixel), at least 24. */
+int ftm_hud_columns(int w, int px);
+
 /* An instructor's key as a session command, from what the view shows.
  * what: "pause", "resume", "reset", "depth max +1", "depth max -1",
  * "stiffer" (stiffness x 1.25), "softer" (/ 1.25) or "scene tissue" (the

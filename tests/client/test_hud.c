@@ -297,6 +297,52 @@ static void test_stable_range_shown(void **state)
     assert_true(find(n, "stable range") < 0);
 }
 
+/* At 640 px (text scale 2: 51 columns) the instructor's HUD is wrapped,
+ * not cut: every row fits, and the words are all there, in order. */
+static void test_narrow_window_wraps(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    v.tissue = (ftm_wire_tissue){0.001, 0.3, 50, {1, 1, 1}};
+    v.range_valid = true;
+    v.range = (ftm_tissue_range){.time_step = 1e-3, .h_crit = 1.49e-3, .substeps = 1,
+                                 .max_substeps = 2, .stiffness_max = 151.5, .mass_min = 1.13e-4,
+                                 .damping_min = 0.099, .damping_bound = 0.198};
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_INSTRUCTOR, .id = 21};
+    int n = ftm_hud_lines(&v, &in, lines);
+    char before[FTM_HUD_LINES * FTM_HUD_WIDTH] = "", after[FTM_HUD_LINES * FTM_HUD_WIDTH] = "";
+    size_t widest = 0;
+    for (int i = 0; i < n; i++) {
+        strcat(before, lines[i]);
+        strcat(before, " ");
+        widest = strlen(lines[i]) > widest ? strlen(lines[i]) : widest;
+    }
+    const int cols = ftm_hud_columns(640, 2);
+    assert_int_equal(cols, 51);
+    assert_true(widest > (size_t)cols); /* (else there is nothing to wrap) */
+    int rows = ftm_hud_wrap(lines, n, cols);
+    assert_true(rows > n);
+    for (int i = 0; i < rows; i++) {
+        assert_true(strlen(lines[i]) <= (size_t)cols);
+        strcat(after, lines[i]);
+        strcat(after, " ");
+    }
+    /* the same words in the same order, whatever the spaces */
+    char a[sizeof before], b[sizeof after];
+    size_t na = 0, nb = 0;
+    for (const char *p = before; *p; p++)
+        if (*p != ' ')
+            a[na++] = *p;
+    for (const char *p = after; *p; p++)
+        if (*p != ' ')
+            b[nb++] = *p;
+    a[na] = b[nb] = '\0';
+    assert_string_equal(a, b);
+    /* a wide window leaves the lines as they are */
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_int_equal(ftm_hud_wrap(lines, n, ftm_hud_columns(1280, 1)), n);
+}
+
 static void test_instructor_keys(void **state)
 {
     (void)state;
@@ -364,6 +410,7 @@ int main(void)
         cmocka_unit_test(test_command_outcome),
         cmocka_unit_test(test_instructor_keys),
         cmocka_unit_test(test_stable_range_shown),
+        cmocka_unit_test(test_narrow_window_wraps),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
