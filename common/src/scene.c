@@ -110,6 +110,7 @@ typedef enum key {
     K_WINDOW,
     K_SCALE,
     K_ORIGIN,
+    K_AXES,
     K_NODE, /* first [load] key: load keys are recorded per load */
     K_KIND,
     K_VALUE,
@@ -171,6 +172,7 @@ static const struct {
     [K_WINDOW] = {SEC_VOLUME, "window", false},
     [K_SCALE] = {SEC_VOLUME, "scale", false},
     [K_ORIGIN] = {SEC_VOLUME, "origin", false},
+    [K_AXES] = {SEC_VOLUME, "axes", false},
     [K_NODE] = {SEC_LOAD, "node", false},
     [K_KIND] = {SEC_LOAD, "kind", false},
     [K_VALUE] = {SEC_LOAD, "value", false},
@@ -545,6 +547,14 @@ static int set_volume_key(parser *p, key k, const char *kn, const char *v, size_
             return rc;
         s->volume_load.origin = s->phantom.origin = (ftm_vec3){x[0], x[1], x[2]};
         return FTM_OK;
+    case K_AXES: {
+        static const char *const axes[] = {"scanner", "stored", NULL};
+        int which;
+        if ((rc = word(p, kn, v, vlen, axes, "scanner or stored", &which)) != FTM_OK)
+            return rc;
+        s->volume_load.axes = which == 0 ? FTM_VOLUME_AXES_SCANNER : FTM_VOLUME_AXES_STORED;
+        return FTM_OK;
+    }
     default:
         return fail_at(p, p->line, FTM_EPARSE, "internal: key %s in [volume]", kn);
     }
@@ -1042,16 +1052,17 @@ static int check_volume_keys(const parser *p)
     if (!kl[K_VOLUME_FILE] && !kl[K_PHANTOM])
         return fail_at(p, s->section_line[SEC_VOLUME], FTM_EPARSE,
                        "[volume] needs 'file = PATH' (NIfTI) or 'phantom = head'");
-    static const key phantom_only[] = {K_VOXELS, K_SIZE}, file_only[] = {K_WINDOW, K_SCALE};
-    for (int i = 0; i < 2; i++) {
+    static const key phantom_only[] = {K_VOXELS, K_SIZE},
+                     file_only[] = {K_WINDOW, K_SCALE, K_AXES};
+    for (size_t i = 0; i < sizeof phantom_only / sizeof *phantom_only; i++)
         if (kl[K_VOLUME_FILE] && kl[phantom_only[i]])
             return fail_at(p, kl[phantom_only[i]], FTM_EPARSE,
                            "%s is only used with a phantom (a file gives its own)",
                            key_table[phantom_only[i]].name);
+    for (size_t i = 0; i < sizeof file_only / sizeof *file_only; i++)
         if (kl[K_PHANTOM] && kl[file_only[i]])
             return fail_at(p, kl[file_only[i]], FTM_EPARSE, "%s is only used with a file",
                            key_table[file_only[i]].name);
-    }
     return FTM_OK;
 }
 
