@@ -18,6 +18,9 @@
 #include <cmocka.h>
 
 #include "ftm/load.h"
+#ifdef FTM_TEST_STL
+#include "ftm/stl.h"
+#endif
 
 #include <math.h>
 #include <stdio.h>
@@ -372,7 +375,9 @@ static void test_load_mesh_dispatch(void **state)
     check_counts(m, 4, 6, 4, 1);
     ftm_mesh_destroy(m);
 
-    expect_fail(ftm_load_mesh, tmp_write("mesh.stl", "solid x\n"), FTM_EINVAL, 0, ".stl");
+    expect_fail(ftm_load_mesh, tmp_write("mesh.ply", "ply\n"), FTM_EINVAL, 0, ".ply");
+    /* STL is ftm_stl's, beside the core: the refusal says where */
+    expect_fail(ftm_load_mesh, tmp_write("mesh.stl", "solid x\n"), FTM_EINVAL, 0, "ftm_stl");
     expect_fail(ftm_load_mesh, tmp_write("mesh", "v 0 0 0\n"), FTM_EINVAL, 0, "extension");
     expect_fail(ftm_load_mesh, "/nonexistent.dir/mesh", FTM_EINVAL, 0, "extension");
 }
@@ -790,6 +795,144 @@ static void test_bad_elements(void **state)
     run_bad_cases(ftm_load_gmsh, cases, sizeof cases / sizeof cases[0]);
 }
 
+/* ---- STL (ftm_stl, through Assimp) ---- */
+
+#ifdef FTM_TEST_STL
+
+/* A binary STL of `n` facets, 9 coordinates each. */
+static const char *write_binary_stl(const char *name, const float *xyz, uint32_t n)
+{
+    size_t size = 84 + 50 * (size_t)n;
+    char *b = calloc(size, 1);
+    assert_non_null(b);
+    memcpy(b, "solid but binary: the size decides", 34); /* some exporters write this */
+    memcpy(b + 80, &n, 4);
+    for (uint32_t f = 0; f < n; f++)
+        memcpy(b + 84 + 50 * (size_t)f + 12, xyz + 9 * (size_t)f, 36);
+    const char *path = tmp_write_n(name, b, size);
+    free(b);
+    return path;
+}
+
+/* The unit tetrahedron's 4 facets, outward. */
+static const float tet_facets[36] = {0, 0, 0, 0, 1, 0, 1, 0, 0,  0, 0, 0, 1, 0, 0, 0, 0, 1,
+                                     0, 0, 0, 0, 0, 1, 0, 1, 0,  1, 0, 0, 0, 1, 0, 0, 0, 1};
+
+/* An ASCII STL from facets of 9 coordinates (7 lines a facet, from line 2). */
+static const char *write_ascii_stl(const char *name, const float *xyz, int n)
+{
+    char *t = malloc(200 + 300 * (size_t)n);
+    assert_non_null(t);
+    size_t len = (size_t)sprintf(t, "solid test\n");
+    for (int f = 0; f < n; f++) {
+        const float *p = xyz + 9 * f;
+        len += (size_t)sprintf(t + len,
+                               "  facet normal 0 0 0\n    outer loop\n      vertex %g %g %g\n"
+                               "      vertex %g %g %g\n      vertex %g %g %g\n    endloop\n"
+                               "  endfacet\n",
+                               p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8]);
+    }
+    len += (size_t)sprintf(t + len, "endsolid test\n");
+    const char *path = tmp_write_n(name, t, len);
+    free(t);
+    return path;
+}
+
+static void test_stl(void **state)
+{
+    (void)state;
+    /* binary, whose header starts with "solid": a surface like an OBJ */
+    ftm_mesh *m = load_ok(ftm_load_stl, write_binary_stl("tet.stl", tet_facets, 4));
+    check_counts(m, 4, 6, 4, 0);
+    static const double xyz[4][3] = {{0, 0, 0}, {0, 1, 0}, {1, 0, 0}, {0, 0, 1}};
+    check_positions(m, 0, xyz, 4); /* in order of first appearance */
+    ftm_mesh_destroy(m);
+    /* ASCII */
+    m = load_ok(ftm_load_stl, write_ascii_stl("TET.STL", tet_facets, 4));
+    check_counts(m, 4, 6, 4, 0);
+    ftm_mesh_destroy(m);
+
+    /* as a closed surface (for a volume) */
+    ftm_surface *s = NULL;
+    ftm_error err;
+    char path[300];
+    snprintf(path, sizeof path, "%s/tet.stl", tmp_dir);
+    assert_int_equal(ftm_surface_load(path, true, &s, &err), FTM_OK);
+    assert_int_equal(s->vertex_count, 4);
+    assert_int_equal(s->triangle_count, 4);
+    ftm_surface_destroy(s);
+    /* all facets inward: turned outward */
+    float inward[36];
+    for (int f = 0; f < 4; f++)
+        for (int c = 0; c < 3; c++) /* corners 2 and 3 swapped */
+            memcpy(inward + 9 * f + 3 * c, tet_facets + 9 * f + 3 * (c == 0 ? 0 : 3 - c),
+                   3 * sizeof(float));
+    const char *in = write_binary_stl("inward.stl", inward, 4);
+    assert_int_equal(ftm_surface_load(in, true, &s, &err), FTM_OK);
+    const int32_t *t = s->triangles;
+    assert_true(t[0] == 0 && t[1] == 2 && t[2] == 1); /* facet 1 as tet_facets has it */
+    ftm_surface_destroy(s);
+}
+
+static void expect_surface_fail(const char *path, bool closed, int code, const char *part)
+{
+    ftm_surface *s = (ftm_surface *)&s;
+    ftm_error err = {0};
+    int rc = ftm_surface_load(path, closed, &s, &err);
+    if (rc != code)
+        fail_msg("%s: rc %d, expected %d (%s)", path, rc, code, err.message);
+    assert_null(s);
+    if (!strstr(err.message, path) || !strstr(err.message, part))
+        fail_msg("message '%s' lacks the path or '%s'", err.message, part);
+}
+
+static void test_bad_stl(void **state)
+{
+    (void)state;
+    /* open: three facets of the tetrahedron; a volume needs it closed */
+    const char *open = write_ascii_stl("open.stl", tet_facets, 3);
+    expect_surface_fail(open, true, FTM_EPARSE, ":2: facet 1: the surface is not closed: its "
+                                                "edge (0 1 0)-(1 0 0) is in 1 facet, not 2");
+    ftm_surface *s = NULL;
+    ftm_error err;
+    assert_int_equal(ftm_surface_load(open, false, &s, &err), FTM_OK); /* a surface is fine */
+    ftm_surface_destroy(s);
+    /* one facet turned against the others */
+    float flipped[36];
+    memcpy(flipped, tet_facets, sizeof flipped);
+    memcpy(flipped + 27 + 3, tet_facets + 27 + 6, 3 * sizeof(float));
+    memcpy(flipped + 27 + 6, tet_facets + 27 + 3, 3 * sizeof(float));
+    expect_surface_fail(write_binary_stl("flip.stl", flipped, 4), true, FTM_EPARSE,
+                        "is oriented against it");
+    /* a facet with a repeated corner, a facet on a line: named with its line */
+    float bad[18] = {0, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 1, 0, 0, 2, 0, 0};
+    expect_surface_fail(write_ascii_stl("rep.stl", bad, 1), false, FTM_EPARSE,
+                        ":2: facet 1 is degenerate: corners 2 and 3 are the same point");
+    float line[27];
+    memcpy(line, tet_facets, 9 * sizeof(float));
+    memcpy(line + 9, bad + 9, 9 * sizeof(float));
+    memcpy(line + 18, tet_facets + 9, 9 * sizeof(float));
+    expect_surface_fail(write_ascii_stl("line.stl", line, 3), false, FTM_EPARSE,
+                        ":9: facet 2 is degenerate: its corners are on one line");
+    /* not STL at all, an empty solid, a number too large for a float */
+    expect_surface_fail(tmp_write("junk.stl", "ply\nformat ascii 1.0\n"), false, FTM_EPARSE,
+                        "not an STL file");
+    expect_surface_fail(tmp_write("empty.stl", "solid x\nendsolid x\n"), false, FTM_EPARSE,
+                        "no facets");
+    expect_surface_fail(tmp_write("big.stl", "solid x\nfacet normal 0 0 0\nouter loop\n"
+                                             "vertex 1e999 0 0\nvertex 0 1 0\nvertex 0 0 1\n"
+                                             "endloop\nendfacet\nendsolid x\n"),
+                        false, FTM_EPARSE, "not finite");
+    char missing[300];
+    snprintf(missing, sizeof missing, "%s/none.stl", tmp_dir);
+    expect_surface_fail(missing, false, FTM_EIO, "cannot open");
+    /* the loader leaves the builder as it was, and names the line */
+    char rep[300];
+    snprintf(rep, sizeof rep, "%s/rep.stl", tmp_dir);
+    expect_fail(ftm_load_stl, rep, FTM_EPARSE, 2, "facet 1 is degenerate");
+}
+#endif
+
 /* ---- text forms: byte order mark, long polygons, numbers, repeated tetrahedra ---- */
 
 /* A UTF-8 byte order mark (as Windows editors write) starts the file: it is
@@ -983,6 +1126,10 @@ int main(void)
         cmocka_unit_test(test_bad_tetgen),
         cmocka_unit_test(test_gmsh_hexahedra_labels),
         cmocka_unit_test(test_bad_elements),
+#ifdef FTM_TEST_STL
+        cmocka_unit_test(test_stl),
+        cmocka_unit_test(test_bad_stl),
+#endif
         cmocka_unit_test(test_bom_at_start),
         cmocka_unit_test(test_bom_elsewhere),
         cmocka_unit_test(test_obj_long_polygon),

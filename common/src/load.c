@@ -400,6 +400,11 @@ int ftm_load_mesh(ftm_mesh_builder *builder, const char *path, const ftm_materia
         return ftm_load_gmsh(builder, path, material, err);
     if (ext_equals(dot, ".node"))
         return ftm_load_tetgen(builder, path, material, err);
+    if (ext_equals(dot, ".stl")) /* Assimp stays out of the core: ftm/stl.h */
+        return ftm_error_set(err, FTM_EINVAL,
+                             "%s: STL is read by the ftm_stl library (ftm_load_stl), not by "
+                             "libftm's loaders: convert the surface to .obj to use it here",
+                             path);
     return ftm_error_set(err, FTM_EINVAL,
                          "%s: unknown mesh format '%s' (expected .obj, .msh or .node)", path, dot);
 }

@@ -8,14 +8,11 @@
 
 #include "ftm/internal/load.h"
 
-/* Checked before any file is read, so a bad material is reported as such. */
-int ftm_load_check_args(const ftm_mesh_builder *builder, const char *path,
-                        const ftm_material_def *material, ftm_error *err);
 /* Whole file, NUL-terminated, at most 256 MiB. */
 int ftm_load_read_file(const char *path, char **data, size_t *length, ftm_error *err);
 /* Grows array to hold needed elements (amortised doubling); NULL on failure. */
 void *ftm_load_grow(void *array, size_t *capacity, size_t needed, size_t elem_size);
-/* ftm_load_data, ftm_load_commit: ftm/internal/load.h */
+/* ftm_load_check_args, ftm_load_data, ftm_load_commit: ftm/internal/load.h */
 
 /* Shape of an element whose corners are distinct points. */
 typedef enum ftm_load_shape {

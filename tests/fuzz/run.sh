@@ -27,7 +27,7 @@ seconds=300
 case ${1:-} in [0-9]*) seconds=$1; shift ;; esac
 case $build in /*) ;; *) build="$PWD/$build" ;; esac
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(fuzz_scene fuzz_mesh fuzz_nifti fuzz_labels fuzz_wire fuzz_record fuzz_script fuzz_replica fuzz_session)
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_scene fuzz_mesh fuzz_nifti fuzz_labels fuzz_stl fuzz_wire fuzz_record fuzz_script fuzz_replica fuzz_session)
 case $seconds in *[!0-9]* | '') echo "run.sh: SECONDS must be a whole number, got '$seconds'" >&2; exit 2 ;; esac
 case $runs in *[!0-9]* | '') echo "run.sh: --runs needs a whole number, got '$runs'" >&2; exit 2 ;; esac
 if [ "$runs" -gt 0 ]; then

@@ -1,7 +1,9 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Internal to libftm, shared with the lab (the organs of `ftm experiment
- * organs` are made with the OBJ loader's rules for springs): how a loader
- * hands its parsed nodes, elements and their labels to a mesh builder. */
+ * organs` are made with the OBJ loader's rules for springs) and with the
+ * STL loader beside the core (ftm_stl, common/stl): how a loader checks its
+ * arguments and hands its parsed nodes, elements and their labels to a mesh
+ * builder. */
 #ifndef FTM_INTERNAL_LOAD_H
 #define FTM_INTERNAL_LOAD_H
 
@@ -10,6 +12,10 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+
+/* Checked before any file is read, so a bad material is reported as such. */
+int ftm_load_check_args(const ftm_mesh_builder *builder, const char *path,
+                        const ftm_material_def *material, ftm_error *err);
 
 /* What a loader parsed, indices 0-based into pos (3 doubles per node).
  * Label arrays may be NULL (no labels); otherwise one per element, 0 = none. */
