@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Label maps (ftm_label_map_parse_nifti, ftm_label_map_load): segmented
- * scans a user gives to ftm mesh. Input: byte 0 picks the way in (bit 0:
+ * scans a user gives to a mesher. Input: byte 0 picks the way in (bit 0:
  * file, which may be gzip-compressed, else bytes in memory), the axes (bit
  * 1: stored, else scanner) and a mask (bit 2: threshold at 0.5); the rest is
  * the file. Properties: a rejected file gets FTM_EPARSE, FTM_EINVAL or

@@ -2,7 +2,7 @@
 /* Label maps: segmented scans (from 3D Slicer, ITK-SNAP, an atlas) whose
  * voxels hold which tissue they are in, as whole numbers. Read from NIfTI
  * like volumes (volume.h: the same files, bounds, axes and messages); the
- * scan-to-mesh tool (ftm mesh, docs/meshes.md) meshes them.
+ * scan-to-mesh tool (issue 31, docs/meshes.md) meshes them.
  *
  * Coordinates as for volumes: voxel (i, j, k) of a map with spacing s and
  * origin o has its centre at o + ((i + 0.5) s.x, (j + 0.5) s.y, (k + 0.5)

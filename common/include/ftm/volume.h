@@ -42,7 +42,7 @@ typedef enum ftm_volume_axes {
     /* The scanner's (world) axes, as the file's sform (or, without one, its
      * qform) places the image: x, y, z are NIfTI's RAS (x to the right, y
      * to the front, z up), and the box lies where the scanner puts it, so a
-     * mesh made from the scan (ftm mesh) lines up with it. The voxel axes
+     * mesh made from the scan lines up with it. The voxel axes
      * are permuted and flipped onto the nearest world axes; an oblique
      * transform (an axis more than 0.06 degrees off) is refused. A file with
      * neither form (both codes 0) is read as STORED. */
