@@ -260,6 +260,16 @@ int ftm_cmd_fem(int argc, char **argv)
         ftm_scene_destroy(scene);
         return EXIT_USAGE;
     }
+    int32_t labelled = 0;
+    ftm_scene_label_materials(scene, &labelled);
+    if (labelled > 0) { /* one material per solve in ftm_fem so far: not a silent wrong answer */
+        fprintf(stderr,
+                "ftm fem: scene '%s' has %d [fem LABEL] section%s: the FEM reference takes one "
+                "material so far (issue 31)\n",
+                o.scene, (int)labelled, labelled == 1 ? "" : "s");
+        ftm_scene_destroy(scene);
+        return EXIT_USAGE;
+    }
     const ftm_mesh *mesh = ftm_scene_mesh(scene);
     int32_t n = ftm_mesh_node_count(mesh);
     size_t nd = 3 * (size_t)n;
