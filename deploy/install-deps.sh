@@ -17,7 +17,9 @@ packages=(
   clang                                           # second compiler: determinism check
   libclang-rt-14-dev                              # libFuzzer + sanitizers for clang (tests/fuzz)
   libcmocka-dev                                   # unit tests
-  zlib1g-dev                                      # libftm: .nii.gz volumes (optional)
+  zlib1g-dev                                      # libftm: .nii.gz volumes through libnifti's znzlib
+  libnifti2-dev                                   # libftm: NIfTI-1/-2 volumes and label maps (optional)
+  libassimp-dev                                   # ftm_stl: STL surfaces (-DFTM_BUILD_STL=OFF without)
   gnuplot-nox                                     # benchmark plots in docs/
   libsuitesparse-dev                              # FEM reference (CHOLMOD)
   calculix-ccx                                    # CalculiX: re-runs the FEM references (tests/calculix)

@@ -45,8 +45,11 @@ TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 \
 echo "== fuzz targets (clang, libFuzzer, ASan+UBSan): a fixed number of inputs from seed 1 =="
 # campaigns proper are run by hand (docs/fuzzing.md); the corpus itself is
 # replayed by CTest in every build above
-tests/fuzz/run.sh --build build/fuzz --runs 3000 fuzz_scene fuzz_mesh fuzz_nifti fuzz_wire fuzz_record \
+tests/fuzz/run.sh --build build/fuzz --runs 3000 fuzz_scene fuzz_mesh fuzz_nifti fuzz_labels fuzz_wire fuzz_record \
     fuzz_script || status=1
+# fuzz_stl: Assimp leaks on most malformed files, and each leak makes
+# libFuzzer run a whole leak check (10 ms): 1000 inputs take 10 s
+tests/fuzz/run.sh --build build/fuzz --runs 1000 fuzz_stl || status=1
 tests/fuzz/run.sh --build build/fuzz --runs 150 fuzz_replica fuzz_session || status=1
 
 exit $status

@@ -293,6 +293,29 @@ if "$FTM" help | grep -q '^  fit '; then
     check "fem --csv /dev/full exits 2" [ "$rc" -eq 2 ]
     check "fem names the file and the reason" grep -q '^ftm fem: /dev/full: cannot write: .' "$tmp/err"
 
+    # [fem LABEL]: two unit hexahedra in physical groups 5 and 9, E 1e4 and
+    # 4e4 Pa, nu 0, clamped at x = 0, 100 N on the x = 2 end: two springs in
+    # series, u = 100 (1/1e4 + 1/4e4) = 0.0125 m (one material: 0.02 m)
+    printf '%s\n' '$MeshFormat' '4.1 0 8' '$EndMeshFormat' '$Entities' '0 0 0 2' \
+        '1 0 0 0 1 1 1 1 5 0' '2 1 0 0 2 1 1 1 9 0' '$EndEntities' '$Nodes' '1 12 1 12' \
+        '3 1 0 12' 1 2 3 4 5 6 7 8 9 10 11 12 '0 0 0' '1 0 0' '2 0 0' '0 1 0' '1 1 0' \
+        '2 1 0' '0 0 1' '1 0 1' '2 0 1' '0 1 1' '1 1 1' '2 1 1' '$EndNodes' '$Elements' \
+        '2 2 1 2' '3 1 5 1' '1 1 2 5 4 7 8 11 10' '3 2 5 1' '2 2 3 6 5 8 9 12 11' \
+        '$EndElements' >"$tmp/bar.msh"
+    printf '%s\n' '[mesh]' "file = $tmp/bar.msh" 'fixed_box = -0.1 -0.1 -0.1 0.1 1.1 1.1' \
+        '[material]' 'mass = 0.01' 'stiffness = 100' '[sim]' 'forces = linear-fem' \
+        '[fem]' 'young = 1e4' 'poisson = 0' \
+        '[load]' 'node = nearest 2 0 0' 'value = 25 0 0' '[load]' 'node = nearest 2 1 0' \
+        'value = 25 0 0' '[load]' 'node = nearest 2 0 1' 'value = 25 0 0' \
+        '[load]' 'node = nearest 2 1 1' 'value = 25 0 0' >"$tmp/bar1.scene"
+    cp "$tmp/bar1.scene" "$tmp/bar2.scene"
+    printf '%s\n' '[fem 9]' 'young = 4e4' 'poisson = 0' >>"$tmp/bar2.scene"
+    run fem "$tmp/bar1.scene"
+    check "fem: one material, 0.02 m" grep -q '^max |u|      0.02 m' "$tmp/out"
+    run fem "$tmp/bar2.scene"
+    check "fem honours [fem 9]: two in series, 0.0125 m" grep -q '^max |u|      0.0125 m' "$tmp/out"
+    check "fem lists label 9's material" grep -q '^label 9      E = 40000 Pa, nu = 0' "$tmp/out"
+
     quick="--iterations 4 --prerun 2 --nm-evals 0 --tolerance 1e-5 --model uniform --forces 1"
     run fit "$tmp/fem.scene" $quick --quiet --trace /dev/full
     check "fit --trace /dev/full exits 2" [ "$rc" -eq 2 ]

@@ -1111,6 +1111,70 @@ static void test_surface_options(void **state)
     ftm_mesh_builder_destroy(b);
 }
 
+/* ------------------------------------------------------------ element labels */
+
+static void test_element_labels(void **state)
+{
+    (void)state;
+    ftm_mesh_builder *b = tet_builder(5);
+    /* no label set: the mesh carries none, every element reads 0 */
+    assert_int_equal(ftm_mesh_builder_add_tetrahedron(b, 0, 1, 2, 3), FTM_OK);
+    ftm_mesh *m = build(b, true);
+    assert_false(ftm_mesh_has_labels(m));
+    assert_null(ftm_mesh_tetrahedron_labels(m));
+    assert_int_equal(ftm_mesh_tetrahedron_label(m, 0), 0);
+    assert_int_equal(ftm_mesh_tetrahedron_label(m, 1), FTM_ERANGE);
+    assert_int_equal(ftm_mesh_tetrahedron_label(m, -1), FTM_ERANGE);
+    assert_int_equal(ftm_mesh_hexahedron_label(m, 0), FTM_ERANGE);
+    ftm_mesh_destroy(m);
+
+    /* labels set on some elements, also on one added after the first label */
+    assert_int_equal(ftm_mesh_builder_tetrahedron_count(b), 1);
+    assert_int_equal(ftm_mesh_builder_set_tetrahedron_label(b, 0, 7), FTM_OK);
+    assert_int_equal(ftm_mesh_builder_set_tetrahedron_label(b, 1, 7), FTM_ERANGE);
+    assert_int_equal(ftm_mesh_builder_set_tetrahedron_label(b, 0, -2), FTM_EINVAL);
+    for (int i = 0; i < 200; i++) /* past the label array's first capacity */
+        assert_int_equal(ftm_mesh_builder_add_tetrahedron(b, 4, 3, 2, 1), FTM_OK);
+    assert_int_equal(ftm_mesh_builder_tetrahedron_count(b), 201);
+    assert_int_equal(ftm_mesh_builder_set_tetrahedron_label(b, 200, 2), FTM_OK);
+    m = build(b, true);
+    assert_true(ftm_mesh_has_labels(m));
+    const int32_t *labels = ftm_mesh_tetrahedron_labels(m);
+    assert_non_null(labels);
+    assert_int_equal(labels[0], 7);
+    assert_int_equal(ftm_mesh_tetrahedron_label(m, 0), 7);
+    for (int i = 1; i < 200; i++)
+        assert_int_equal(ftm_mesh_tetrahedron_label(m, i), 0);
+    assert_int_equal(ftm_mesh_tetrahedron_label(m, 200), 2);
+    assert_null(ftm_mesh_hexahedron_labels(m));
+    ftm_mesh_destroy(m);
+    ftm_mesh_builder_destroy(b);
+
+    /* hexahedra: labels follow the builder's element order; a copy with
+     * another material keeps them */
+    ftm_lattice3d_def d = ftm_default_lattice3d_def();
+    d.nx = 3, d.ny = 2, d.nz = 2;
+    d.spacing = (ftm_vec3){1, 1, 1};
+    b = ftm_mesh_builder_create();
+    assert_int_equal(ftm_generate_lattice3d(b, &d, NULL), FTM_OK);
+    assert_int_equal(ftm_mesh_builder_hexahedron_count(b), 2);
+    assert_int_equal(ftm_mesh_builder_set_hexahedron_label(b, 1, 3), FTM_OK);
+    assert_int_equal(ftm_mesh_builder_set_hexahedron_label(b, 2, 3), FTM_ERANGE);
+    m = build(b, true);
+    assert_int_equal(ftm_mesh_hexahedron_label(m, 0), 0);
+    assert_int_equal(ftm_mesh_hexahedron_label(m, 1), 3);
+    assert_null(ftm_mesh_tetrahedron_labels(m));
+    ftm_material_def to = d.material;
+    to.stiffness *= 2;
+    ftm_mesh *m2 = NULL;
+    assert_int_equal(ftm_mesh_with_material(m, &d.material, &to, &m2, NULL), FTM_OK);
+    assert_int_equal(ftm_mesh_hexahedron_label(m2, 1), 3);
+    assert_true(ftm_mesh_hexahedron_labels(m2) != ftm_mesh_hexahedron_labels(m));
+    ftm_mesh_destroy(m2);
+    ftm_mesh_destroy(m);
+    ftm_mesh_builder_destroy(b);
+}
+
 /* ------------------------------------------------------------ misc queries */
 
 static void test_nearest_node(void **state)
@@ -1225,6 +1289,7 @@ int main(void)
         cmocka_unit_test(test_surface_single_tet),
         cmocka_unit_test(test_surface_two_tets_sharing_a_face),
         cmocka_unit_test(test_surface_options),
+        cmocka_unit_test(test_element_labels),
         cmocka_unit_test(test_nearest_node),
         cmocka_unit_test(test_builder_set_fixed),
         cmocka_unit_test(test_lattice3d_hexahedra),

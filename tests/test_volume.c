@@ -18,8 +18,16 @@
 #include <string.h>
 #include <unistd.h>
 
-#ifdef FTM_TEST_ZLIB
+#ifdef FTM_TEST_NIFTI
 #include <zlib.h>
+#endif
+
+/* Without libnifti, libftm refuses every NIfTI file: the tests that read
+ * one are skipped (CI builds with it). */
+#ifdef FTM_TEST_NIFTI
+#define NEEDS_NIFTI() ((void)0)
+#else
+#define NEEDS_NIFTI() skip()
 #endif
 
 #define assert_near(a, b, eps) near_impl((a), (b), (eps), #a, __LINE__)
@@ -120,6 +128,9 @@ typedef struct nii {
     uint8_t units;
     char magic[4];
     bool big;
+    int16_t qform_code, sform_code;
+    float quatern[3], qoffset[3];
+    float srow[3][4];
 } nii;
 
 static nii nii_default(int16_t nx, int16_t ny, int16_t nz, int16_t datatype, int16_t bitpix)
@@ -159,6 +170,14 @@ static uint8_t *nii_bytes(const nii *h, const void *voxels, size_t vbytes, size_
     put(b + 112, &h->slope, 4, h->big);
     put(b + 116, &h->inter, 4, h->big);
     b[123] = h->units;
+    put(b + 252, &h->qform_code, 2, h->big);
+    put(b + 254, &h->sform_code, 2, h->big);
+    for (int i = 0; i < 3; i++) {
+        put(b + 256 + 4 * i, &h->quatern[i], 4, h->big);
+        put(b + 268 + 4 * i, &h->qoffset[i], 4, h->big);
+        for (int c = 0; c < 4; c++)
+            put(b + 280 + 16 * i + 4 * c, &h->srow[i][c], 4, h->big);
+    }
     memcpy(b + 344, h->magic, 4);
     memcpy(b + off, voxels, vbytes);
     return b;
@@ -167,6 +186,7 @@ static uint8_t *nii_bytes(const nii *h, const void *voxels, size_t vbytes, size_
 static int parse(const uint8_t *b, size_t size, const ftm_volume_load_def *def, ftm_volume **v,
                  ftm_error *err)
 {
+    NEEDS_NIFTI();
     memset(err, 0, sizeof *err);
     *v = NULL;
     return ftm_volume_parse_nifti(b, size, "t.nii", def, v, err);
@@ -673,6 +693,208 @@ static void test_nifti_good(void **state)
     free(b);
 }
 
+/* NIfTI-2: the same image with a 540-byte header (int64 dims, doubles),
+ * voxels from byte 544; sform as given (code 0: none). */
+static uint8_t *nii2_bytes(const nii *h, const void *voxels, size_t vbytes, size_t *size)
+{
+    const size_t off = 544;
+    *size = off + vbytes;
+    uint8_t *b = calloc(*size + 1, 1);
+    int32_t sz = 540;
+    put(b, &sz, 4, h->big);
+    memcpy(b + 4, "n+2\0\r\n\032\n", 8);
+    put(b + 12, &h->datatype, 2, h->big);
+    put(b + 14, &h->bitpix, 2, h->big);
+    for (int i = 0; i < 8; i++) {
+        int64_t d = h->dim[i];
+        double p = h->pixdim[i];
+        put(b + 16 + 8 * i, &d, 8, h->big);
+        put(b + 104 + 8 * i, &p, 8, h->big);
+    }
+    int64_t o = (int64_t)off;
+    put(b + 168, &o, 8, h->big);
+    int32_t units = h->units, sform = h->sform_code;
+    put(b + 348, &sform, 4, h->big);
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 4; c++) {
+            double v = h->srow[r][c];
+            put(b + 400 + 32 * r + 8 * c, &v, 8, h->big);
+        }
+    put(b + 500, &units, 4, h->big);
+    memcpy(b + off, voxels, vbytes);
+    return b;
+}
+
+/* The image's axes: the sform or qform placed onto the world (RAS) axes, or
+ * the stored ones. */
+static void test_nifti_orientation(void **state)
+{
+    (void)state;
+    /* 3 x 2 x 2 voxels, value = file index */
+    uint8_t u8[12];
+    for (int i = 0; i < 12; i++)
+        u8[i] = (uint8_t)(20 * i);
+    nii h = nii_default(3, 2, 2, 2, 8);
+    h.pixdim[1] = 2, h.pixdim[2] = 1, h.pixdim[3] = 3; /* mm */
+    /* sform: x = 10 - 2 i, y = 20 + 3 k, z = j - 5 (mm) */
+    h.sform_code = 1;
+    h.srow[0][0] = -2, h.srow[0][3] = 10;
+    h.srow[1][2] = 3, h.srow[1][3] = 20;
+    h.srow[2][1] = 1, h.srow[2][3] = -5;
+    size_t size;
+    uint8_t *b = nii_bytes(&h, u8, sizeof u8, &size);
+    ftm_volume_load_def def = ftm_default_volume_load_def();
+    def.high_percentile = 100;
+    ftm_volume *v;
+    ftm_error err;
+    if (parse(b, size, &def, &v, &err) != FTM_OK)
+        fail_msg("%s", err.message);
+    ftm_volume_info in = ftm_volume_get_info(v);
+    assert_true(in.nx == 3 && in.ny == 2 && in.nz == 2);
+    assert_near(in.spacing.x, 0.002, 1e-15);
+    assert_near(in.spacing.y, 0.003, 1e-15);
+    assert_near(in.spacing.z, 0.001, 1e-15);
+    /* the box: the smallest voxel centre less half a voxel */
+    assert_near(in.origin.x, 0.005, 1e-15);   /* 6 - 1 mm */
+    assert_near(in.origin.y, 0.0185, 1e-15);  /* 20 - 1.5 mm */
+    assert_near(in.origin.z, -0.0055, 1e-15); /* -5 - 0.5 mm */
+    /* grid voxel (x, y, z) is file voxel (2 - x, z, y) */
+    const uint8_t *d = ftm_volume_data(v);
+    for (int z = 0; z < 2; z++)
+        for (int y = 0; y < 2; y++)
+            for (int x = 0; x < 3; x++) {
+                int file = (2 - x) + 3 * (z + 2 * y);
+                assert_int_equal(d[x + 3 * (y + 2 * z)], (int)floor(file * 20 / 220.0 * 255 + 0.5));
+            }
+    /* the voxel at a world point is the one the sform puts there:
+     * file voxel (0, 1, 1), index 9, at x = 10, y = 23, z = -4 mm */
+    assert_near(ftm_volume_sample(v, (ftm_vec3){0.010, 0.023, -0.004}),
+                floor(9 * 20 / 220.0 * 255 + 0.5) / 255, 1e-12);
+    ftm_volume_destroy(v);
+    /* scale and origin: every length scaled, then shifted */
+    def.scale = 2;
+    def.origin = (ftm_vec3){1, 0, 0};
+    assert_int_equal(parse(b, size, &def, &v, &err), FTM_OK);
+    in = ftm_volume_get_info(v);
+    assert_near(in.origin.x, 1.010, 1e-15);
+    assert_near(in.spacing.y, 0.006, 1e-15);
+    ftm_volume_destroy(v);
+    /* stored axes: as before orientation existed */
+    def = ftm_default_volume_load_def();
+    def.axes = FTM_VOLUME_AXES_STORED;
+    def.origin = (ftm_vec3){1, 2, 3};
+    assert_int_equal(parse(b, size, &def, &v, &err), FTM_OK);
+    in = ftm_volume_get_info(v);
+    assert_true(in.nx == 3 && in.ny == 2 && in.nz == 2);
+    assert_near(in.spacing.z, 0.003, 1e-15);
+    assert_true(in.origin.x == 1 && in.origin.y == 2 && in.origin.z == 3);
+    ftm_volume_destroy(v);
+    free(b);
+
+    /* qform: 180 degrees about z (quaternion d = 1), offset (100, 50, 0) */
+    h.sform_code = 0;
+    h.qform_code = 1;
+    h.quatern[2] = 1;
+    h.qoffset[0] = 100, h.qoffset[1] = 50;
+    b = nii_bytes(&h, u8, sizeof u8, &size);
+    def = ftm_default_volume_load_def();
+    assert_int_equal(parse(b, size, &def, &v, &err), FTM_OK);
+    in = ftm_volume_get_info(v);
+    assert_true(in.nx == 3 && in.ny == 2 && in.nz == 2);
+    assert_near(in.origin.x, 0.095, 1e-12);  /* 100 - 2 (3 - 1) - 1 mm */
+    assert_near(in.origin.y, 0.0485, 1e-12); /* 50 - 1 - 0.5 */
+    assert_near(in.origin.z, -0.0015, 1e-12);
+    ftm_volume_destroy(v);
+    free(b);
+    /* qfac = -1 (pixdim[0]) flips k */
+    h.pixdim[0] = -1;
+    b = nii_bytes(&h, u8, sizeof u8, &size);
+    assert_int_equal(parse(b, size, &def, &v, &err), FTM_OK);
+    assert_near(ftm_volume_get_info(v).origin.z, -0.0045, 1e-12); /* -3 (2 - 1) - 1.5 */
+    ftm_volume_destroy(v);
+    free(b);
+    /* the sform wins over the qform */
+    h.sform_code = 2;
+    b = nii_bytes(&h, u8, sizeof u8, &size);
+    assert_int_equal(parse(b, size, &def, &v, &err), FTM_OK);
+    assert_near(ftm_volume_get_info(v).origin.x, 0.005, 1e-15);
+    ftm_volume_destroy(v);
+    free(b);
+
+    /* refused: an oblique sform (10 degrees about z), odd codes, NaN rows */
+    h = nii_default(3, 2, 2, 2, 8);
+    h.sform_code = 1;
+    h.srow[0][0] = (float)cos(0.17453292519943295), h.srow[0][1] = (float)-sin(0.17453292519943295);
+    h.srow[1][0] = (float)sin(0.17453292519943295), h.srow[1][1] = (float)cos(0.17453292519943295);
+    h.srow[2][2] = 1;
+    b = nii_bytes(&h, u8, sizeof u8, &size);
+    assert_int_equal(parse(b, size, &def, &v, &err), FTM_EPARSE);
+    assert_has(err.message, "t.nii: the sform (srow_x/y/z) is oblique: voxel axis 0 is 10.00 degrees");
+    def.axes = FTM_VOLUME_AXES_STORED; /* read as stored: fine */
+    assert_int_equal(parse(b, size, &def, &v, &err), FTM_OK);
+    ftm_volume_destroy(v);
+    def.axes = FTM_VOLUME_AXES_SCANNER;
+    free(b);
+    h.srow[0][1] = 0, h.srow[1][0] = 0, h.srow[0][0] = 1, h.srow[1][1] = 1;
+    h.sform_code = 9;
+    b = nii_bytes(&h, u8, sizeof u8, &size);
+    assert_int_equal(parse(b, size, &def, &v, &err), FTM_EPARSE);
+    assert_has(err.message, "sform_code = 9");
+    free(b);
+    h.sform_code = 1;
+    h.srow[1][3] = NAN;
+    b = nii_bytes(&h, u8, sizeof u8, &size);
+    assert_int_equal(parse(b, size, &def, &v, &err), FTM_EPARSE);
+    assert_has(err.message, "srow_y[3] = nan is not finite");
+    free(b);
+    h.srow[1][3] = 0;
+    h.srow[1][1] = 0, h.srow[0][1] = 1; /* voxel axes i and j both along x */
+    b = nii_bytes(&h, u8, sizeof u8, &size);
+    assert_int_equal(parse(b, size, &def, &v, &err), FTM_EPARSE);
+    assert_has(err.message, "no three distinct directions");
+    free(b);
+}
+
+/* NIfTI-2, and uint32 voxels */
+static void test_nifti2(void **state)
+{
+    (void)state;
+    uint32_t u32[8] = {0, 1, 2, 3, 4, 5, 6, 4000000000u};
+    nii h = nii_default(2, 2, 2, 768, 32);
+    h.pixdim[1] = 0.5;
+    h.sform_code = 1;
+    h.srow[0][0] = 0.5, h.srow[1][1] = 1, h.srow[2][2] = -1, h.srow[2][3] = 7;
+    for (int big = 0; big < 2; big++) {
+        h.big = big;
+        uint8_t vox[32];
+        for (int i = 0; i < 8; i++)
+            put(vox + 4 * i, &u32[i], 4, h.big);
+        size_t size;
+        uint8_t *b = nii2_bytes(&h, vox, sizeof vox, &size);
+        ftm_volume_load_def def = ftm_default_volume_load_def();
+        def.high_percentile = 100;
+        ftm_volume *v;
+        ftm_error err;
+        if (parse(b, size, &def, &v, &err) != FTM_OK)
+            fail_msg("%s", err.message);
+        ftm_volume_info in = ftm_volume_get_info(v);
+        assert_true(in.nx == 2 && in.ny == 2 && in.nz == 2);
+        assert_near(in.spacing.x, 0.0005, 1e-18);
+        assert_near(in.origin.z, 0.0055, 1e-15); /* 7 - 1 - 0.5 mm */
+        /* z flipped: grid (1, 1, 0) is file (1, 1, 1) = 4e9, the brightest */
+        assert_int_equal(ftm_volume_data(v)[3], 255);
+        assert_int_equal(ftm_volume_data(v)[7], 0);
+        ftm_volume_destroy(v);
+        /* a NIfTI-2 cut inside its header, and a .hdr/.img pair */
+        assert_int_equal(parse(b, 300, &def, &v, &err), FTM_EPARSE);
+        assert_has(err.message, "t.nii: truncated header: 300 bytes, a NIfTI-2 header has 540");
+        memcpy(b + 4, "ni2", 3);
+        assert_int_equal(parse(b, size, &def, &v, &err), FTM_EPARSE);
+        assert_has(err.message, "magic at byte 4 is \"ni2\"");
+        free(b);
+    }
+}
+
 static char tmpdir[] = "/tmp/ftm-test-volume-XXXXXX";
 
 static const char *write_file(const char *name, const void *data, size_t size)
@@ -686,9 +908,95 @@ static const char *write_file(const char *name, const void *data, size_t size)
     return path;
 }
 
+/* Label maps: the same files, whole numbers kept as they are */
+static void test_label_map(void **state)
+{
+    (void)state;
+    NEEDS_NIFTI();
+    /* int16 labels on 3 x 2 x 2 voxels, the sform of test_nifti_orientation */
+    int16_t lab[12] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, -7};
+    nii h = nii_default(3, 2, 2, 4, 16);
+    h.pixdim[1] = 2, h.pixdim[2] = 1, h.pixdim[3] = 3;
+    h.sform_code = 1;
+    h.srow[0][0] = -2, h.srow[0][3] = 10;
+    h.srow[1][2] = 3, h.srow[1][3] = 20;
+    h.srow[2][1] = 1, h.srow[2][3] = -5;
+    size_t size;
+    uint8_t *b = nii_bytes(&h, lab, sizeof lab, &size);
+    ftm_label_map *m = NULL;
+    ftm_error err;
+    if (ftm_label_map_parse_nifti(b, size, "l.nii", NULL, &m, &err) != FTM_OK)
+        fail_msg("%s", err.message);
+    ftm_volume_info in = ftm_label_map_get_info(m);
+    assert_true(in.nx == 3 && in.ny == 2 && in.nz == 2);
+    assert_near(in.origin.y, 0.0185, 1e-15);
+    const int32_t *d = ftm_label_map_data(m);
+    for (int z = 0; z < 2; z++)
+        for (int y = 0; y < 2; y++)
+            for (int x = 0; x < 3; x++)
+                assert_int_equal(d[x + 3 * (y + 2 * z)], lab[(2 - x) + 3 * (z + 2 * y)]);
+    /* world points: file voxel (0, 1, 1) = label 9 at (10, 23, -4) mm */
+    assert_int_equal(ftm_label_map_at(m, (ftm_vec3){0.010, 0.023, -0.004}), 9);
+    assert_int_equal(ftm_label_map_at(m, (ftm_vec3){0.0091, 0.0216, -0.0036}), 9);
+    assert_int_equal(ftm_label_map_at(m, (ftm_vec3){0.0061, 0.0244, -0.0041}), -7);
+    assert_int_equal(ftm_label_map_at(m, (ftm_vec3){0.0049, 0.023, -0.004}), 0); /* outside */
+    assert_int_equal(ftm_label_map_at(m, (ftm_vec3){NAN, 0.023, -0.004}), 0);
+    ftm_label_map_destroy(m);
+    free(b);
+
+    /* from a file, gzip-compressed or not: the same reader as volumes */
+    b = nii_bytes(&h, lab, sizeof lab, &size);
+    const char *path = write_file("labels.nii", b, size);
+    assert_int_equal(ftm_label_map_load(path, NULL, &m, &err), FTM_OK);
+    assert_int_equal(ftm_label_map_data(m)[0], 2);
+    ftm_label_map_destroy(m);
+    free(b);
+
+    /* a mask from an intensity image: 1 above the threshold */
+    float f32[8] = {0, 10, 20, 30, 40, 50, 60, 70};
+    h = nii_default(2, 2, 2, 16, 32);
+    b = nii_bytes(&h, f32, sizeof f32, &size);
+    ftm_label_map_def def = ftm_default_label_map_def();
+    def.threshold = true;
+    def.above = 35;
+    assert_int_equal(ftm_label_map_parse_nifti(b, size, "l.nii", &def, &m, &err), FTM_OK);
+    for (int i = 0; i < 8; i++)
+        assert_int_equal(ftm_label_map_data(m)[i], i >= 4);
+    ftm_label_map_destroy(m);
+    /* as labels, 10.5 is not one */
+    f32[5] = 10.5f;
+    free(b);
+    b = nii_bytes(&h, f32, sizeof f32, &size);
+    assert_int_equal(ftm_label_map_parse_nifti(b, size, "l.nii", NULL, &m, &err), FTM_EPARSE);
+    assert_null(m);
+    assert_has(err.message, "l.nii: voxel (1, 0, 1) at byte 372 is 10.5: not a label");
+    free(b);
+    /* scl_slope makes labels of reals, or reals of labels */
+    f32[5] = 50;
+    h.slope = 0.5f;
+    b = nii_bytes(&h, f32, sizeof f32, &size);
+    assert_int_equal(ftm_label_map_parse_nifti(b, size, "l.nii", NULL, &m, &err), FTM_OK);
+    assert_int_equal(ftm_label_map_data(m)[7], 35);
+    ftm_label_map_destroy(m);
+    free(b);
+    f32[1] = 3;
+    b = nii_bytes(&h, f32, sizeof f32, &size);
+    assert_int_equal(ftm_label_map_parse_nifti(b, size, "l.nii", NULL, &m, &err), FTM_EPARSE);
+    assert_has(err.message, "is 1.5 after scl_slope/scl_inter: not a label");
+    free(b);
+    /* the header's errors are the volumes' */
+    assert_int_equal(ftm_label_map_parse_nifti(lab, 10, "l.nii", NULL, &m, &err), FTM_EPARSE);
+    assert_has(err.message, "l.nii: header field sizeof_hdr");
+    def = ftm_default_label_map_def();
+    def.scale = -1;
+    assert_int_equal(ftm_label_map_parse_nifti(lab, 10, "l.nii", &def, &m, &err), FTM_EINVAL);
+    assert_has(err.message, "scale");
+}
+
 static void test_nifti_files(void **state)
 {
     (void)state;
+    NEEDS_NIFTI();
     uint8_t u8[8] = {0, 10, 20, 30, 40, 50, 60, 200};
     nii h = nii_default(2, 2, 2, 2, 8);
     size_t size;
@@ -705,9 +1013,10 @@ static void test_nifti_files(void **state)
     assert_int_equal(ftm_volume_load(missing, NULL, &v, &err), FTM_EIO);
     assert_has(err.message, "none.nii");
 
-    /* gzip: a .nii.gz with zlib, else a clear refusal */
+    /* gzip: a .nii.gz (zlib.h comes with libnifti's tests: without them the
+     * test has skipped above, and this part need not compile) */
+#ifdef FTM_TEST_NIFTI
     static const uint8_t gz_member[] = {0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 3};
-#ifdef FTM_TEST_ZLIB
     {
         uLongf cap = compressBound((uLong)size) + 64;
         uint8_t *z = malloc(cap);
@@ -740,10 +1049,10 @@ static void test_nifti_files(void **state)
     path = write_file("junk.nii.gz", junk, sizeof junk);
     assert_int_equal(ftm_volume_load(path, NULL, &v, &err), FTM_EPARSE);
     assert_has(err.message, "junk.nii.gz");
-#else
-    path = write_file("x.nii.gz", gz_member, sizeof gz_member);
-    assert_int_equal(ftm_volume_load(path, NULL, &v, &err), FTM_EPARSE);
-    assert_has(err.message, "zlib");
+    /* named once: zlib's own message starts with the path too */
+    const char *first = strstr(err.message, "junk.nii.gz");
+    if (strstr(first + 1, "junk.nii.gz"))
+        fail_msg("the path twice: %s", err.message);
 #endif
     free(b);
 }
@@ -896,6 +1205,7 @@ static const char mat[] = "[material]\nmass = 0.01\nstiffness = 100\ndamping = 1
 static void test_volume_scenes(void **state)
 {
     (void)state;
+    NEEDS_NIFTI();
     /* a NIfTI file next to the scene, found relative to it */
     uint8_t vox[4 * 4 * 4];
     for (int i = 0; i < 64; i++)
@@ -963,6 +1273,8 @@ static void test_volume_scenes(void **state)
         {"file = x.nii\nvoxels = 9\n", "9: voxels is only used with a phantom"},
         {"phantom = head\nair = 5\n", "7: volume lattice: every cell is air"},
         {"file = x.nii\nphantom = head\n", "9: [volume] has both file (line 8) and phantom"},
+        {"phantom = head\naxes = stored\n", "9: axes is only used with a file"},
+        {"file = x.nii\naxes = sideways\n", "9: axes: unknown value 'sideways' (expected scanner or stored)"},
         {"nodes = 4\n", "7: [volume] needs 'file = PATH' (NIfTI) or 'phantom = head'"},
     };
     for (size_t i = 0; i < sizeof bad_volume / sizeof bad_volume[0]; i++) {
@@ -1012,6 +1324,9 @@ int main(void)
         cmocka_unit_test(test_nifti_good),
         cmocka_unit_test(test_nifti_files),
         cmocka_unit_test(test_nifti_bad),
+        cmocka_unit_test(test_nifti_orientation),
+        cmocka_unit_test(test_nifti2),
+        cmocka_unit_test(test_label_map),
         cmocka_unit_test(test_volume_scenes),
     };
     int failed = cmocka_run_group_tests(tests, NULL, NULL);

@@ -125,7 +125,33 @@ typedef struct result {
     double max_u;
     int32_t max_node; /* input index */
     double max_vec[3];
+    const ftm_label_material *labels; /* [fem LABEL] */
+    int32_t label_count;
 } result;
+
+/* Per-element materials from the scene's [fem LABEL] sections: an element
+ * of such a label gets its material, any other the [fem] one. NULL (and
+ * nothing to free) without labels; false when out of memory. */
+static bool element_materials(const ftm_mesh *mesh, const result *r, bool hex,
+                              ftm_fem_material **out)
+{
+    *out = NULL;
+    if (r->label_count == 0)
+        return true;
+    int32_t n = hex ? ftm_mesh_hexahedron_count(mesh) : ftm_mesh_tetrahedron_count(mesh);
+    ftm_fem_material *m = malloc(((size_t)n + 1) * sizeof *m);
+    if (!m)
+        return false;
+    for (int32_t e = 0; e < n; e++) {
+        int32_t label = hex ? ftm_mesh_hexahedron_label(mesh, e) : ftm_mesh_tetrahedron_label(mesh, e);
+        m[e] = (ftm_fem_material){r->young, r->poisson};
+        for (int32_t i = 0; i < r->label_count; i++)
+            if (label > 0 && r->labels[i].label == label)
+                m[e] = (ftm_fem_material){r->labels[i].young, r->labels[i].poisson};
+    }
+    *out = m;
+    return true;
+}
 
 static void print_text(FILE *out, const char *name, const result *r)
 {
@@ -134,6 +160,9 @@ static void print_text(FILE *out, const char *name, const result *r)
     fprintf(out, "mesh         %d nodes, %d hexahedra, %d tetrahedra\n", (int)s->nodes,
             (int)s->hexahedra, (int)s->tetrahedra);
     fprintf(out, "material     E = %g Pa, nu = %g\n", r->young, r->poisson);
+    for (int32_t i = 0; i < r->label_count; i++)
+        fprintf(out, "label %-6d E = %g Pa, nu = %g\n", (int)r->labels[i].label,
+                r->labels[i].young, r->labels[i].poisson);
     fprintf(out, "dofs         %lld (%lld constrained, %lld free)\n", (long long)s->dofs,
             (long long)s->constrained, (long long)s->free_dofs);
     fprintf(out, "matrix       nnz %lld (upper triangle of the reduced K), factor nnz %lld (%s)\n",
@@ -165,7 +194,7 @@ static void print_json(FILE *out, const char *name, const result *r)
             "\"factor_seconds\":%s,\"solve_seconds\":%s,\"force_loads\":%d,"
             "\"displacement_loads\":%d,\"total_force\":[%s,%s,%s],"
             "\"reaction\":[%s,%s,%s],\"max_displacement\":%s,"
-            "\"max_displacement_node\":%d}\n",
+            "\"max_displacement_node\":%d,\"labels\":[",
             (int)s->nodes, (int)s->hexahedra, (int)s->tetrahedra, FTM_JN("%.17g", r->young),
             FTM_JN("%.17g", r->poisson), (long long)s->dofs, (long long)s->constrained,
             (long long)s->free_dofs, (long long)s->nnz, (long long)s->factor_nnz,
@@ -175,6 +204,11 @@ static void print_json(FILE *out, const char *name, const result *r)
             FTM_JN("%.17g", r->total_force[1]), FTM_JN("%.17g", r->total_force[2]),
             FTM_JN("%.17g", r->reaction[0]), FTM_JN("%.17g", r->reaction[1]),
             FTM_JN("%.17g", r->reaction[2]), FTM_JN("%.17g", r->max_u), (int)r->max_node);
+    for (int32_t i = 0; i < r->label_count; i++)
+        fprintf(out, "%s{\"label\":%d,\"young\":%s,\"poisson\":%s}", i ? "," : "",
+                (int)r->labels[i].label, FTM_JN("%.17g", r->labels[i].young),
+                FTM_JN("%.17g", r->labels[i].poisson));
+    fprintf(out, "]}\n");
 }
 
 static int write_csv(FILE *out, const ftm_mesh *mesh, const double *u)
@@ -261,6 +295,7 @@ int ftm_cmd_fem(int argc, char **argv)
         return EXIT_USAGE;
     }
     const ftm_mesh *mesh = ftm_scene_mesh(scene);
+    r.labels = ftm_scene_label_materials(scene, &r.label_count);
     int32_t n = ftm_mesh_node_count(mesh);
     size_t nd = 3 * (size_t)n;
     double *forces = calloc(nd, sizeof *forces), *prescribed = calloc(nd, sizeof *prescribed);
@@ -279,11 +314,22 @@ int ftm_cmd_fem(int argc, char **argv)
         def.material = (ftm_fem_material){r.young, r.poisson};
         def.constrained = constrained;
         def.factorization = o.factor;
-        if (ftm_fem_create(mesh, &def, &fem, &err) != FTM_OK ||
-            ftm_fem_solve(fem, forces, prescribed, u, &err) != FTM_OK) {
-            fprintf(stderr, "ftm fem: %s: %s\n", o.scene, err.message);
+        ftm_fem_material *hexm = NULL, *tetm = NULL;
+        if (!element_materials(mesh, &r, true, &hexm) ||
+            !element_materials(mesh, &r, false, &tetm)) {
+            fprintf(stderr, "ftm fem: out of memory\n");
             status = EXIT_USAGE;
+        } else {
+            def.hex_materials = hexm;
+            def.tet_materials = tetm;
+            if (ftm_fem_create(mesh, &def, &fem, &err) != FTM_OK ||
+                ftm_fem_solve(fem, forces, prescribed, u, &err) != FTM_OK) {
+                fprintf(stderr, "ftm fem: %s: %s\n", o.scene, err.message);
+                status = EXIT_USAGE;
+            }
         }
+        free(hexm);
+        free(tetm);
     }
     if (status == 0) {
         r.st = ftm_fem_get_stats(fem);

@@ -558,6 +558,16 @@ int ftm_cmd_fit(int argc, char **argv)
             ftm_scene_destroy(scene);
             return EXIT_USAGE;
         }
+        int32_t labelled = 0;
+        ftm_scene_label_materials(scene, &labelled);
+        if (labelled > 0) { /* the fit's reference is one material */
+            fprintf(stderr,
+                    "ftm fit: scene '%s' has [fem LABEL] sections: the fit takes one material "
+                    "so far (issue 31)\n",
+                    o.target);
+            ftm_scene_destroy(scene);
+            return EXIT_USAGE;
+        }
         if (!(density > 0))
             density = rho;
         mesh = ftm_scene_mesh(scene);

@@ -562,8 +562,13 @@ int ftm_organ_build(const ftm_organ *o, const ftm_material_def *material,
                     ftm_mesh_builder *builder, ftm_error *err)
 {
     int32_t first = ftm_mesh_builder_node_count(builder);
-    int rc = ftm_load_commit(builder, o->name, material, o->pos, (size_t)o->node_count, o->tris,
-                             (size_t)o->tri_count, true, NULL, 0, err);
+    int rc = ftm_load_commit(builder, o->name, material,
+                             &(ftm_load_data){.pos = o->pos,
+                                              .node_count = (size_t)o->node_count,
+                                              .tris = o->tris,
+                                              .tri_count = (size_t)o->tri_count,
+                                              .tri_edges = true},
+                             err);
     for (int32_t i = 0; rc == FTM_OK && i < o->node_count; i++)
         if (o->fixed[i])
             rc = ftm_mesh_builder_set_fixed(builder, first + i, true);

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Gmsh MSH 4.1 ASCII loader.
  *
- * Reads $MeshFormat, $Nodes and $Elements; every other section is skipped.
+ * Reads $MeshFormat, $Entities (the physical groups of volumes: element
+ * labels), $Nodes and $Elements; every other section is skipped.
  * The parser is line based, in the layout Gmsh (and meshio) write: one node
  * tag per line, then one coordinate line per node, one line per element.
  * Node tags may be sparse; they are mapped to 0-based indices in order of
@@ -21,12 +22,31 @@
 /* Most tokens on one line we ever need (a 125-node hexahedron plus its tag). */
 #define MAX_TOKENS 128
 
-enum { ELEM_TRIANGLE = 2, ELEM_TETRAHEDRON = 4, ELEM_TETRAHEDRON10 = 11 };
+enum { ELEM_LINE = 1, ELEM_TRIANGLE = 2, ELEM_QUAD = 3, ELEM_TETRAHEDRON = 4,
+       ELEM_HEXAHEDRON = 5, ELEM_PRISM = 6, ELEM_PYRAMID = 7, ELEM_POINT = 15 };
 
 typedef struct tag_entry {
     int64_t tag;
     int32_t index;
 } tag_entry;
+
+/* A volume entity of $Entities: its physical group is its elements' label. */
+typedef struct volume_entity {
+    int64_t tag;
+    int32_t line;
+    int32_t physical_count;
+    int64_t physical[2]; /* the first two, for messages */
+} volume_entity;
+
+/* Volume elements of one kind as read: corners, label, line and tag. */
+typedef struct elem_list {
+    int32_t *v; /* corners per element */
+    int32_t *label;
+    int32_t *line;
+    int64_t *tag;
+    size_t count, v_cap, label_cap, line_cap, tag_cap;
+    size_t labelled; /* elements with a label >= 1 */
+} elem_list;
 
 typedef struct msh_state {
     const char *path;
@@ -45,12 +65,13 @@ typedef struct msh_state {
     tag_entry *tags; /* sorted by tag after $Nodes */
     size_t tags_cap;
 
-    int32_t *tris, *tets;
-    size_t tri_count, tri_cap, tet_count, tet_cap;
-    int32_t *tet_line; /* per tetrahedron: its line and element tag, */
-    int64_t *tet_tag; /* for "repeated" messages */
-    size_t tet_line_cap, tet_tag_cap;
-    size_t tet10_count; /* skipped second-order tetrahedra, for a hint */
+    int32_t *tris;
+    size_t tri_count, tri_cap;
+    elem_list tets, hexes;
+
+    bool have_entities;
+    volume_entity *volumes; /* sorted by tag after $Entities */
+    size_t volume_count, volume_cap;
 } msh_state;
 
 /* Nodes per element type, for the types Gmsh defines (0: unknown). */
@@ -68,6 +89,36 @@ static int nodes_per_element(int64_t type)
     if (type == 93)
         return 125;
     return 0;
+}
+
+/* What a Gmsh element type is, for messages. */
+static const char *element_name(int64_t type)
+{
+    static const char *const names[] = {
+        NULL,
+        "2-node line",
+        "3-node triangle",
+        "4-node quadrangle",
+        "4-node tetrahedron",
+        "8-node hexahedron",
+        "6-node prism",
+        "5-node pyramid",
+        "3-node line",
+        "6-node triangle",
+        "9-node quadrangle",
+        "10-node tetrahedron",
+        "27-node hexahedron",
+        "18-node prism",
+        "14-node pyramid",
+        "1-node point",
+        "8-node quadrangle",
+        "20-node hexahedron",
+        "15-node prism",
+        "13-node pyramid",
+    };
+    if (type >= 1 && type < (int64_t)(sizeof names / sizeof names[0]))
+        return names[type];
+    return "higher-order element";
 }
 
 /* Reads the next non-blank line into s->tok; false at end of file. */
@@ -305,13 +356,11 @@ static bool same_position(const double *pos, int32_t a, int32_t b)
     return pa[0] == pb[0] && pa[1] == pb[1] && pa[2] == pb[2];
 }
 
-/* Resolves and checks the corner tags of a triangle or tetrahedron on the
- * current line (tokens 1..n), then appends it to *array. */
-static int add_element(msh_state *s, int n, int32_t **array, size_t *count, size_t *cap,
-                       ftm_error *err)
+/* Resolves and checks the corner tags of an element on the current line
+ * (tokens 1..n, n <= 8) into v. */
+static int element_corners(msh_state *s, int n, int32_t *v, ftm_error *err)
 {
-    int32_t v[4];
-    int64_t tags[4];
+    int64_t tags[8];
     int rc;
     for (int i = 0; i < n; i++) {
         if ((rc = int_token(s, (size_t)i + 1, 1, INT64_MAX, "node tag", &tags[i], err)) < 0)
@@ -333,31 +382,205 @@ static int add_element(msh_state *s, int n, int32_t **array, size_t *count, size
                                      s->path, s->text.line, (long long)tags[i], (long long)tags[j]);
         }
     }
-    if (*count >= INT32_MAX / 6)
-        return ftm_error_set(err, FTM_ERANGE, "%s:%d: too many elements", s->path, s->text.line);
-    int32_t *a = ftm_load_grow(*array, cap, (size_t)n * (*count + 1), sizeof *a);
-    if (!a)
-        return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
-    *array = a;
-    memcpy(a + (size_t)n * *count, v, (size_t)n * sizeof *v);
-    (*count)++;
     return FTM_OK;
 }
 
-/* Remembers where the tetrahedron just added came from. */
-static int note_tet(msh_state *s, int64_t tag, ftm_error *err)
+/* Appends a triangle (its corners on the current line). */
+static int add_triangle(msh_state *s, ftm_error *err)
 {
-    size_t t = s->tet_count - 1;
-    int32_t *l = ftm_load_grow(s->tet_line, &s->tet_line_cap, t + 1, sizeof *l);
-    if (l)
-        s->tet_line = l;
-    int64_t *g = ftm_load_grow(s->tet_tag, &s->tet_tag_cap, t + 1, sizeof *g);
-    if (g)
-        s->tet_tag = g;
-    if (!l || !g)
+    int32_t v[3];
+    int rc = element_corners(s, 3, v, err);
+    if (rc < 0)
+        return rc;
+    if (s->tri_count >= INT32_MAX / 6)
+        return ftm_error_set(err, FTM_ERANGE, "%s:%d: too many elements", s->path, s->text.line);
+    int32_t *a = ftm_load_grow(s->tris, &s->tri_cap, 3 * (s->tri_count + 1), sizeof *a);
+    if (!a)
         return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
-    l[t] = s->text.line;
-    g[t] = tag;
+    s->tris = a;
+    memcpy(a + 3 * s->tri_count++, v, sizeof v);
+    return FTM_OK;
+}
+
+/* Appends a tetrahedron or hexahedron (corners on the current line) with its
+ * label, line and tag; its shape must be a positive volume, as Gmsh orders
+ * the corners. */
+static int add_volume_element(msh_state *s, int64_t type, int64_t tag, int32_t label,
+                              ftm_error *err)
+{
+    const bool hex = type == ELEM_HEXAHEDRON;
+    const int n = hex ? 8 : 4;
+    elem_list *e = hex ? &s->hexes : &s->tets;
+    int32_t v[8];
+    int rc = element_corners(s, n, v, err);
+    if (rc < 0)
+        return rc;
+    ftm_load_shape shape = hex ? ftm_load_hex_shape(s->pos, v) : ftm_load_tet_shape(s->pos, v);
+    if (shape == FTM_LOAD_SHAPE_INVERTED)
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s:%d: element %lld (%s) is inverted: negative volume, its nodes in "
+                             "mirrored order (Gmsh's order has a positive volume)",
+                             s->path, s->text.line, (long long)tag, element_name(type));
+    if (shape == FTM_LOAD_SHAPE_DEGENERATE)
+        return ftm_error_set(err, FTM_EPARSE, "%s:%d: element %lld (%s) is degenerate: %s",
+                             s->path, s->text.line, (long long)tag, element_name(type),
+                             hex ? "flat or twisted (its volume is not positive at every corner)"
+                                 : "flat (its corners are nearly in one plane)");
+    if (s->tets.count + s->hexes.count >= INT32_MAX / 24)
+        return ftm_error_set(err, FTM_ERANGE, "%s:%d: too many elements", s->path, s->text.line);
+    size_t i = e->count;
+    int32_t *a = ftm_load_grow(e->v, &e->v_cap, (size_t)n * (i + 1), sizeof *a);
+    if (a)
+        e->v = a;
+    int32_t *g = ftm_load_grow(e->label, &e->label_cap, i + 1, sizeof *g);
+    if (g)
+        e->label = g;
+    int32_t *l = ftm_load_grow(e->line, &e->line_cap, i + 1, sizeof *l);
+    if (l)
+        e->line = l;
+    int64_t *t = ftm_load_grow(e->tag, &e->tag_cap, i + 1, sizeof *t);
+    if (t)
+        e->tag = t;
+    if (!a || !g || !l || !t)
+        return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
+    memcpy(a + (size_t)n * i, v, (size_t)n * sizeof *v);
+    g[i] = label;
+    l[i] = s->text.line;
+    t[i] = tag;
+    e->labelled += label > 0;
+    e->count++;
+    return FTM_OK;
+}
+
+static int compare_volumes(const void *pa, const void *pb)
+{
+    const volume_entity *a = pa, *b = pb;
+    if (a->tag != b->tag)
+        return (a->tag > b->tag) - (a->tag < b->tag);
+    return (a->line > b->line) - (a->line < b->line);
+}
+
+static int compare_volume_tags(const void *pa, const void *pb)
+{
+    const volume_entity *a = pa, *b = pb;
+    return (a->tag > b->tag) - (a->tag < b->tag);
+}
+
+/* $Entities: points, curves and surfaces are counted over; each volume line
+ * "tag minX minY minZ maxX maxY maxZ numPhysicalTags physicalTag ...
+ * numBoundingSurfaces surfaceTag ..." gives its physical groups. */
+static int parse_entities(msh_state *s, ftm_error *err)
+{
+    int rc = data_line(s, "Entities", "the $Entities header", err);
+    if (rc < 0 || (rc = expect_tokens(s, 4, "$Entities header", err)) < 0)
+        return rc;
+    int64_t count[4];
+    static const char *const what[4] = {"point count", "curve count", "surface count",
+                                        "volume count"};
+    for (int i = 0; i < 4; i++)
+        if ((rc = int_token(s, (size_t)i, 0, INT64_MAX, what[i], &count[i], err)) < 0)
+            return rc;
+    for (int dim = 0; dim < 4; dim++) {
+        for (int64_t k = 0; k < count[dim]; k++) {
+            if ((rc = data_line(s, "Entities", "an entity line", err)) < 0)
+                return rc;
+            if (dim < 3)
+                continue; /* their physical groups label no volume element */
+            int64_t tag, nphys, x;
+            if (s->ntok < 8)
+                return ftm_error_set(err, FTM_EPARSE,
+                                     "%s:%d: volume entity line needs at least 8 values, found %zu",
+                                     s->path, s->text.line, s->ntok);
+            if ((rc = int_token(s, 0, INT32_MIN, INT32_MAX, "volume entity tag", &tag, err)) < 0)
+                return rc;
+            for (size_t c = 1; c < 7; c++) {
+                double b;
+                const char *why = ftm_text_read_double(s->tok[c], s->toklen[c], &b);
+                if (why)
+                    return ftm_error_set(err, FTM_EPARSE, "%s:%d: bad bounding box value '%.*s': %s",
+                                         s->path, s->text.line, QUOTE(s->toklen[c]), s->tok[c],
+                                         why);
+            }
+            if ((rc = int_token(s, 7, 0, MAX_TOKENS, "physical tag count", &nphys, err)) < 0)
+                return rc;
+            if (s->ntok < 9 + (size_t)nphys) /* the tags, then the bounding surface count */
+                return ftm_error_set(err, FTM_EPARSE,
+                                     "%s:%d: volume entity %lld announces %lld physical tags, the "
+                                     "line holds %zu values",
+                                     s->path, s->text.line, (long long)tag, (long long)nphys,
+                                     s->ntok);
+            volume_entity ve = {.tag = tag, .line = s->text.line, .physical_count = (int32_t)nphys};
+            for (int64_t j = 0; j < nphys; j++) {
+                if ((rc = int_token(s, 8 + (size_t)j, INT32_MIN, INT32_MAX, "physical tag", &x,
+                                    err)) < 0)
+                    return rc;
+                if (j < 2)
+                    ve.physical[j] = x;
+            }
+            int64_t nbound;
+            if ((rc = int_token(s, 8 + (size_t)nphys, 0, INT64_MAX, "bounding surface count",
+                                &nbound, err)) < 0)
+                return rc;
+            /* a long line keeps only its first MAX_TOKENS tokens: count it then */
+            if (!s->too_long && (int64_t)s->ntok != 9 + nphys + nbound)
+                return ftm_error_set(err, FTM_EPARSE,
+                                     "%s:%d: volume entity %lld: %lld physical tags and %lld "
+                                     "bounding surfaces need %lld values, the line holds %zu",
+                                     s->path, s->text.line, (long long)tag, (long long)nphys,
+                                     (long long)nbound, (long long)(9 + nphys + nbound), s->ntok);
+            volume_entity *v =
+                ftm_load_grow(s->volumes, &s->volume_cap, s->volume_count + 1, sizeof *v);
+            if (!v)
+                return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
+            s->volumes = v;
+            v[s->volume_count++] = ve;
+        }
+    }
+    if ((rc = end_line(s, "Entities", err)) < 0)
+        return rc;
+    if (s->volume_count > 0)
+        qsort(s->volumes, s->volume_count, sizeof *s->volumes, compare_volumes);
+    for (size_t i = 1; i < s->volume_count; i++)
+        if (s->volumes[i].tag == s->volumes[i - 1].tag)
+            return ftm_error_set(err, FTM_EPARSE, "%s:%d: volume entity %lld repeated (first on "
+                                                  "line %d)",
+                                 s->path, s->volumes[i].line, (long long)s->volumes[i].tag,
+                                 s->volumes[i - 1].line);
+    return FTM_OK;
+}
+
+/* The label of the volume elements of entity `entity` (block header on the
+ * current line): its one physical group, or 0 when it has none. */
+static int entity_label(msh_state *s, int64_t entity, int32_t *label, ftm_error *err)
+{
+    *label = 0;
+    if (!s->have_entities)
+        return FTM_OK; /* no physical groups in the file: unlabelled */
+    const volume_entity key = {.tag = entity};
+    const volume_entity *v =
+        s->volume_count ? bsearch(&key, s->volumes, s->volume_count, sizeof *s->volumes,
+                                  compare_volume_tags)
+                        : NULL;
+    if (!v)
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s:%d: elements of volume entity %lld, which $Entities does not list",
+                             s->path, s->text.line, (long long)entity);
+    if (v->physical_count > 1)
+        return ftm_error_set(err, FTM_EPARSE,
+                             "%s:%d: volume entity %lld is in %d physical groups (%lld, %lld%s; "
+                             "line %d): an element's label must be one",
+                             s->path, s->text.line, (long long)entity, (int)v->physical_count,
+                             (long long)v->physical[0], (long long)v->physical[1],
+                             v->physical_count > 2 ? ", ..." : "", v->line);
+    if (v->physical_count == 1) {
+        if (v->physical[0] <= 0)
+            return ftm_error_set(err, FTM_EPARSE,
+                                 "%s:%d: volume entity %lld has physical tag %lld (line %d): a "
+                                 "label must be >= 1",
+                                 s->path, s->text.line, (long long)entity,
+                                 (long long)v->physical[0], v->line);
+        *label = (int32_t)v->physical[0];
+    }
     return FTM_OK;
 }
 
@@ -391,6 +614,33 @@ static int parse_elements(msh_state *s, ftm_error *err)
         if (nodes == 0)
             return ftm_error_set(err, FTM_EPARSE, "%s:%d: unknown element type %lld", s->path,
                                  s->text.line, (long long)type);
+        const bool volume = type == ELEM_TETRAHEDRON || type == ELEM_HEXAHEDRON;
+        if (type == ELEM_PRISM || type == ELEM_PYRAMID)
+            return ftm_error_set(err, FTM_EPARSE,
+                                 "%s:%d: element type %lld (%s) not supported: FTM's volume "
+                                 "elements are 4-node tetrahedra and 8-node hexahedra (the "
+                                 "element forces and the FEM reference have no %s); mesh with "
+                                 "tetrahedra only, or with hexahedra only",
+                                 s->path, s->text.line, (long long)type, element_name(type),
+                                 type == ELEM_PRISM ? "prisms" : "pyramids");
+        if (!volume && type != ELEM_TRIANGLE && type != ELEM_LINE && type != ELEM_QUAD &&
+            type != ELEM_POINT)
+            return ftm_error_set(err, FTM_EPARSE,
+                                 "%s:%d: element type %lld (%s) not supported: a second- or "
+                                 "higher-order element; FTM's elements are linear (springs join "
+                                 "corners, the element forces are those of 4-node tetrahedra "
+                                 "and 8-node hexahedra): export with element order 1 (Gmsh: "
+                                 "Mesh.ElementOrder = 1)",
+                                 s->path, s->text.line, (long long)type, element_name(type));
+        if (volume && dim != 3)
+            return ftm_error_set(err, FTM_EPARSE,
+                                 "%s:%d: %s elements (type %lld) in an entity of dimension %lld "
+                                 "(volume elements belong to volumes, dimension 3)",
+                                 s->path, s->text.line, element_name(type), (long long)type,
+                                 (long long)dim);
+        int32_t label = 0;
+        if (volume && (rc = entity_label(s, entity, &label, err)) < 0)
+            return rc;
         for (int64_t i = 0; i < count; i++) {
             if ((rc = data_line(s, "Elements", "an element line", err)) < 0)
                 return rc;
@@ -403,19 +653,16 @@ static int parse_elements(msh_state *s, ftm_error *err)
             int64_t tag;
             if ((rc = int_token(s, 0, 1, INT64_MAX, "element tag", &tag, err)) < 0)
                 return rc;
-            if (type == ELEM_TETRAHEDRON) {
-                rc = add_element(s, 4, &s->tets, &s->tet_count, &s->tet_cap, err);
-                if (rc >= 0)
-                    rc = note_tet(s, tag, err);
-            } else if (type == ELEM_TRIANGLE)
-                rc = add_element(s, 3, &s->tris, &s->tri_count, &s->tri_cap, err);
-            else {
-                /* Skipped, but its tags must still be numbers to stay trustworthy. */
+            if (volume) {
+                rc = add_volume_element(s, type, tag, label, err);
+            } else if (type == ELEM_TRIANGLE) {
+                rc = add_triangle(s, err);
+            } else {
+                /* Skipped (points, lines, quadrangles: boundaries and groups of
+                 * lower dimension), but its tags must still be numbers. */
                 int64_t t;
                 for (size_t j = 1; j < s->ntok && rc >= 0; j++)
                     rc = int_token(s, j, 1, INT64_MAX, "node tag", &t, err);
-                if (type == ELEM_TETRAHEDRON10)
-                    s->tet10_count++;
             }
             if (rc < 0)
                 return rc;
@@ -428,16 +675,38 @@ static int parse_elements(msh_state *s, ftm_error *err)
         return ftm_error_set(err, FTM_EPARSE,
                              "%s:%d: $Elements header announces %lld elements, blocks hold %lld",
                              s->path, s->text.line, (long long)nelems, (long long)seen);
-    size_t orig = 0, again = 0;
-    rc = ftm_load_find_repeated_tet(s->tets, s->tet_count, &orig, &again);
-    if (rc == FTM_ENOMEM)
-        return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
-    if (rc > 0)
+    for (int k = 0; k < 2; k++) {
+        const elem_list *e = k ? &s->hexes : &s->tets;
+        const char *kind = k ? "hexahedron" : "tetrahedron";
+        size_t orig = 0, again = 0;
+        rc = ftm_load_find_repeated(e->v, k ? 8 : 4, e->count, &orig, &again);
+        if (rc == FTM_ENOMEM)
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
+        if (rc > 0)
+            return ftm_error_set(err, FTM_EPARSE,
+                                 "%s:%d: element %lld has the same %s nodes as element %lld "
+                                 "(line %d), a repeated %s",
+                                 s->path, e->line[again], (long long)e->tag[again],
+                                 k ? "eight" : "four", (long long)e->tag[orig], e->line[orig],
+                                 kind);
+    }
+    if (s->tets.count > 0 && s->hexes.count > 0)
         return ftm_error_set(err, FTM_EPARSE,
-                             "%s:%d: element %lld has the same four nodes as element %lld "
-                             "(line %d), a repeated tetrahedron",
-                             s->path, s->tet_line[again], (long long)s->tet_tag[again],
-                             (long long)s->tet_tag[orig], s->tet_line[orig]);
+                             "%s:%d: element %lld is a hexahedron, element %lld (line %d) a "
+                             "tetrahedron: one kind of volume element per mesh (they would meet "
+                             "without conforming faces; pyramids, which join them, are not "
+                             "supported)",
+                             s->path, s->hexes.line[0], (long long)s->hexes.tag[0],
+                             (long long)s->tets.tag[0], s->tets.line[0]);
+    /* labels on every volume element or none: one without has no material */
+    const elem_list *e = s->hexes.count ? &s->hexes : &s->tets;
+    if (e->labelled > 0 && e->labelled < e->count)
+        for (size_t i = 0; i < e->count; i++)
+            if (e->label[i] == 0)
+                return ftm_error_set(err, FTM_EPARSE,
+                                     "%s:%d: element %lld belongs to no physical group while %zu "
+                                     "others have one: label every volume element or none",
+                                     s->path, e->line[i], (long long)e->tag[i], e->labelled);
     return FTM_OK;
 }
 
@@ -485,6 +754,16 @@ static int parse_file(msh_state *s, ftm_error *err)
                                      s->text.line);
             have_elements = true;
             rc = parse_elements(s, err);
+        } else if (line_is(s, "$Entities")) {
+            if (s->have_entities)
+                return ftm_error_set(err, FTM_EPARSE, "%s:%d: second $Entities section", s->path,
+                                     s->text.line);
+            if (have_elements)
+                return ftm_error_set(err, FTM_EPARSE,
+                                     "%s:%d: $Entities after $Elements (Gmsh writes it first)",
+                                     s->path, s->text.line);
+            s->have_entities = true;
+            rc = parse_entities(s, err);
         } else if (line_is(s, "$MeshFormat")) {
             return ftm_error_set(err, FTM_EPARSE, "%s:%d: second $MeshFormat section", s->path,
                                  s->text.line);
@@ -502,13 +781,11 @@ static int parse_file(msh_state *s, ftm_error *err)
         return ftm_error_set(err, FTM_EPARSE, "%s: no $Nodes section", s->path);
     if (!have_elements)
         return ftm_error_set(err, FTM_EPARSE, "%s: no $Elements section", s->path);
-    if (s->tet_count == 0 && s->tri_count == 0)
+    if (s->tets.count == 0 && s->hexes.count == 0 && s->tri_count == 0)
         return ftm_error_set(err, FTM_EPARSE,
-                             "%s: no 4-node tetrahedra (type 4) or 3-node triangles (type 2)%s",
-                             s->path,
-                             s->tet10_count ? "; second-order meshes are not supported, "
-                                              "export with element order 1"
-                                            : "");
+                             "%s: no 4-node tetrahedra (type 4), 8-node hexahedra (type 5) or "
+                             "3-node triangles (type 2)",
+                             s->path);
     return FTM_OK;
 }
 
@@ -537,11 +814,28 @@ int ftm_load_gmsh(ftm_mesh_builder *builder, const char *path, const ftm_materia
     ftm_text_init(&s->text, path, data, length);
     rc = parse_file(s, err);
     if (rc >= 0)
-        rc = ftm_load_commit(builder, path, material, s->pos, s->node_count, s->tris,
-                             s->tri_count, s->tet_count == 0, s->tets, s->tet_count, err);
-    free(s->tet_tag);
-    free(s->tet_line);
-    free(s->tets);
+        rc = ftm_load_commit(
+            builder, path, material,
+            &(ftm_load_data){.pos = s->pos,
+                             .node_count = s->node_count,
+                             .tris = s->tris,
+                             .tri_count = s->tri_count,
+                             .tri_edges = s->tets.count == 0 && s->hexes.count == 0,
+                             .tets = s->tets.v,
+                             .tet_labels = s->tets.labelled ? s->tets.label : NULL,
+                             .tet_count = s->tets.count,
+                             .hexes = s->hexes.v,
+                             .hex_labels = s->hexes.labelled ? s->hexes.label : NULL,
+                             .hex_count = s->hexes.count},
+            err);
+    for (int k = 0; k < 2; k++) {
+        elem_list *e = k ? &s->hexes : &s->tets;
+        free(e->v);
+        free(e->label);
+        free(e->line);
+        free(e->tag);
+    }
+    free(s->volumes);
     free(s->tris);
     free(s->tags);
     free(s->node_line);

@@ -221,8 +221,13 @@ int ftm_load_obj(ftm_mesh_builder *builder, const char *path, const ftm_material
         else if (s.tri_count == 0)
             rc = ftm_error_set(err, FTM_EPARSE, "%s: no faces ('f' lines)", path);
         else
-            rc = ftm_load_commit(builder, path, material, s.pos, s.vertex_count, s.tris,
-                                 s.tri_count, true, NULL, 0, err);
+            rc = ftm_load_commit(builder, path, material,
+                                 &(ftm_load_data){.pos = s.pos,
+                                                  .node_count = s.vertex_count,
+                                                  .tris = s.tris,
+                                                  .tri_count = s.tri_count,
+                                                  .tri_edges = true},
+                                 err);
     }
     free(s.used);
     free(s.face);

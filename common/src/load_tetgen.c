@@ -13,6 +13,7 @@
 #include "error.h"
 #include "ftm/internal/text.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -34,6 +35,9 @@ typedef struct tg_mesh {
     int64_t base; /* index of the first point: 0 or 1 */
     int32_t *tets;
     size_t tet_count, tet_cap;
+    int32_t *labels; /* per tetrahedron: its first attribute, TetGen's region (-A) */
+    size_t label_cap;
+    size_t labelled; /* tetrahedra with a label >= 1 */
     int32_t *tet_line; /* per tetrahedron: its line and index in the .ele file, */
     int64_t *tet_index; /* for "repeated" messages */
     size_t tet_line_cap, tet_index_cap;
@@ -247,7 +251,7 @@ static int read_elements(tg_file *f, tg_mesh *m, ftm_error *err)
             return ftm_error_set(err, FTM_EPARSE, "%s:%d: file ends after %lld of %lld tetrahedra",
                                  f->path, f->text.line, (long long)i, (long long)count);
         int64_t index, node[10];
-        double attr;
+        double attr, region = 0;
         if ((rc = expect_count(f, fields, "tetrahedron line", err)) < 0 ||
             (rc = next_int(f, "tetrahedron index", &index, err)) < 0)
             return rc;
@@ -261,9 +265,18 @@ static int read_elements(tg_file *f, tg_mesh *m, ftm_error *err)
                                      f->path, f->text.line, (long long)node[c], (long long)first,
                                      (long long)last);
         }
-        for (int64_t a = 0; a < nattr; a++)
+        for (int64_t a = 0; a < nattr; a++) {
             if ((rc = next_double(f, "tetrahedron attribute", &attr, err)) < 0)
                 return rc;
+            if (a == 0)
+                region = attr;
+        }
+        /* the region attribute is the element's label: a whole number */
+        if (!(region >= 0 && region <= INT32_MAX && region == floor(region)))
+            return ftm_error_set(err, FTM_EPARSE,
+                                 "%s:%d: tetrahedron %lld has region attribute %g, not a label "
+                                 "(a whole number: 0 for none, 1 .. 2147483647)",
+                                 f->path, f->text.line, (long long)index, region);
         int32_t v[4];
         for (int c = 0; c < 4; c++)
             v[c] = (int32_t)(node[c] - m->base);
@@ -281,18 +294,33 @@ static int read_elements(tg_file *f, tg_mesh *m, ftm_error *err)
                                          (long long)node[b]);
             }
         }
+        ftm_load_shape shape = ftm_load_tet_shape(m->pos, v);
+        if (shape != FTM_LOAD_SHAPE_OK)
+            return ftm_error_set(err, FTM_EPARSE,
+                                 "%s:%d: tetrahedron %lld is %s", f->path, f->text.line,
+                                 (long long)index,
+                                 shape == FTM_LOAD_SHAPE_INVERTED
+                                     ? "inverted (negative volume: TetGen orders the corners "
+                                       "so that the fourth sees the first three "
+                                       "counter-clockwise)"
+                                     : "degenerate (its corners are nearly in one plane)");
         int32_t *t = ftm_load_grow(m->tets, &m->tet_cap, 4 * (m->tet_count + 1), sizeof *t);
         if (t)
             m->tets = t;
+        int32_t *g = ftm_load_grow(m->labels, &m->label_cap, m->tet_count + 1, sizeof *g);
+        if (g)
+            m->labels = g;
         int32_t *l = ftm_load_grow(m->tet_line, &m->tet_line_cap, m->tet_count + 1, sizeof *l);
         if (l)
             m->tet_line = l;
         int64_t *x = ftm_load_grow(m->tet_index, &m->tet_index_cap, m->tet_count + 1, sizeof *x);
         if (x)
             m->tet_index = x;
-        if (!t || !l || !x)
+        if (!t || !g || !l || !x)
             return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", f->path);
         memcpy(t + 4 * m->tet_count, v, sizeof v);
+        g[m->tet_count] = (int32_t)region;
+        m->labelled += region >= 1;
         l[m->tet_count] = f->text.line;
         x[m->tet_count] = index;
         m->tet_count++;
@@ -309,6 +337,15 @@ static int read_elements(tg_file *f, tg_mesh *m, ftm_error *err)
                              "%lld (line %d)",
                              f->path, m->tet_line[again], (long long)m->tet_index[again],
                              (long long)m->tet_index[orig], m->tet_line[orig]);
+    /* labels on every tetrahedron or none: one without would have no material */
+    if (m->labelled > 0 && m->labelled < m->tet_count)
+        for (size_t i = 0; i < m->tet_count; i++)
+            if (m->labels[i] == 0)
+                return ftm_error_set(err, FTM_EPARSE,
+                                     "%s:%d: tetrahedron %lld has region attribute 0 (no label) "
+                                     "while %zu others have one: label every tetrahedron or none",
+                                     f->path, m->tet_line[i], (long long)m->tet_index[i],
+                                     m->labelled);
     return FTM_OK;
 }
 
@@ -350,10 +387,16 @@ int ftm_load_tetgen(ftm_mesh_builder *builder, const char *node_path,
         rc = read_elements(&elements, &m, err);
     /* No .face file: the builder derives the surface from the tetrahedra. */
     if (rc >= 0)
-        rc = ftm_load_commit(builder, node_path, material, m.pos, m.point_count, NULL, 0, false,
-                             m.tets, m.tet_count, err);
+        rc = ftm_load_commit(builder, node_path, material,
+                             &(ftm_load_data){.pos = m.pos,
+                                              .node_count = m.point_count,
+                                              .tets = m.tets,
+                                              .tet_labels = m.labelled ? m.labels : NULL,
+                                              .tet_count = m.tet_count},
+                             err);
     free(m.tet_index);
     free(m.tet_line);
+    free(m.labels);
     free(m.tets);
     free(m.pos);
     free(elements.data);

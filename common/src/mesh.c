@@ -20,10 +20,16 @@ struct ftm_mesh_builder {
     int32_t *tets;
     int32_t hex_count, hex_cap;
     int32_t *hexes;
+    /* Element labels (tissues), NULL until the first label is set; then one
+     * per element, 0 where none was set. */
+    int32_t *tet_labels, *hex_labels;
+    int32_t tet_label_cap, hex_label_cap; /* in elements */
     /* open-addressing set of link keys (a << 32 | b), for de-duplication */
     uint64_t *link_keys;
     uint32_t key_cap; /* power of two, 0 = none yet */
 };
+
+static bool grow_labels(int32_t **labels, int32_t *cap, int32_t need);
 
 static bool grow(void **ptr, int32_t *cap, int32_t need, size_t elem)
 {
@@ -71,6 +77,8 @@ void ftm_mesh_builder_destroy(ftm_mesh_builder *b)
     free(b->tris);
     free(b->tets);
     free(b->hexes);
+    free(b->tet_labels);
+    free(b->hex_labels);
     free(b->link_keys);
     free(b);
 }
@@ -220,7 +228,12 @@ int ftm_mesh_builder_add_tetrahedron(ftm_mesh_builder *b, int32_t a, int32_t c1,
         return FTM_ERANGE;
     if (!grow((void **)&b->tets, &b->tet_cap, (b->tet_count + 1) * 4, sizeof *b->tets))
         return FTM_ENOMEM;
-    memcpy(b->tets + 4 * b->tet_count++, v, sizeof v);
+    if (b->tet_labels && !grow_labels(&b->tet_labels, &b->tet_label_cap, b->tet_count + 1))
+        return FTM_ENOMEM;
+    memcpy(b->tets + 4 * b->tet_count, v, sizeof v);
+    if (b->tet_labels)
+        b->tet_labels[b->tet_count] = 0;
+    b->tet_count++;
     return FTM_OK;
 }
 
@@ -232,8 +245,71 @@ int ftm_mesh_builder_add_hexahedron(ftm_mesh_builder *b, const int32_t nodes[8])
         return FTM_ERANGE;
     if (!grow((void **)&b->hexes, &b->hex_cap, (b->hex_count + 1) * 8, sizeof *b->hexes))
         return FTM_ENOMEM;
-    memcpy(b->hexes + 8 * b->hex_count++, nodes, 8 * sizeof *nodes);
+    if (b->hex_labels && !grow_labels(&b->hex_labels, &b->hex_label_cap, b->hex_count + 1))
+        return FTM_ENOMEM;
+    memcpy(b->hexes + 8 * b->hex_count, nodes, 8 * sizeof *nodes);
+    if (b->hex_labels)
+        b->hex_labels[b->hex_count] = 0;
+    b->hex_count++;
     return FTM_OK;
+}
+
+int32_t ftm_mesh_builder_tetrahedron_count(const ftm_mesh_builder *b)
+{
+    return b ? b->tet_count : FTM_EINVAL;
+}
+
+int32_t ftm_mesh_builder_hexahedron_count(const ftm_mesh_builder *b)
+{
+    return b ? b->hex_count : FTM_EINVAL;
+}
+
+/* Room for `need` labels; entries added are 0. */
+static bool grow_labels(int32_t **labels, int32_t *cap, int32_t need)
+{
+    int32_t old = *labels ? *cap : 0;
+    if (*labels && need <= *cap)
+        return true;
+    int32_t ncap = old > 0 ? old : 64;
+    while (ncap < need) {
+        if (ncap > INT32_MAX / 2)
+            return false;
+        ncap *= 2;
+    }
+    int32_t *p = realloc(*labels, (size_t)ncap * sizeof *p);
+    if (!p)
+        return false;
+    memset(p + old, 0, (size_t)(ncap - old) * sizeof *p);
+    *labels = p;
+    *cap = ncap;
+    return true;
+}
+
+static int set_label(int32_t **labels, int32_t *cap, int32_t count, int32_t element,
+                     int32_t label)
+{
+    if (element < 0 || element >= count)
+        return FTM_ERANGE;
+    if (label < 0)
+        return FTM_EINVAL;
+    if (!*labels && !grow_labels(labels, cap, count))
+        return FTM_ENOMEM;
+    (*labels)[element] = label;
+    return FTM_OK;
+}
+
+int ftm_mesh_builder_set_tetrahedron_label(ftm_mesh_builder *b, int32_t tet, int32_t label)
+{
+    if (!b)
+        return FTM_EINVAL;
+    return set_label(&b->tet_labels, &b->tet_label_cap, b->tet_count, tet, label);
+}
+
+int ftm_mesh_builder_set_hexahedron_label(ftm_mesh_builder *b, int32_t hex, int32_t label)
+{
+    if (!b)
+        return FTM_EINVAL;
+    return set_label(&b->hex_labels, &b->hex_label_cap, b->hex_count, hex, label);
 }
 
 /* ---- surface of a tetrahedral mesh: faces that belong to one tet only ---- */
@@ -432,6 +508,8 @@ void ftm_mesh_destroy(ftm_mesh *m)
     free(m->tris);
     free(m->tets);
     free(m->hexes);
+    free(m->tet_labels);
+    free(m->hex_labels);
     free(m->node_of_input);
     free(m->input_of_node);
     free(m);
@@ -475,12 +553,15 @@ ftm_mesh *ftm_mesh_clone(const ftm_mesh *m)
     c->tris = dup(m->tris, (size_t)m->tri_count * 3 * sizeof(int32_t));
     c->tets = dup(m->tets, (size_t)m->tet_count * 4 * sizeof(int32_t));
     c->hexes = dup(m->hexes, (size_t)m->hex_count * 8 * sizeof(int32_t));
+    c->tet_labels = m->tet_labels ? dup(m->tet_labels, (size_t)m->tet_count * sizeof(int32_t)) : NULL;
+    c->hex_labels = m->hex_labels ? dup(m->hex_labels, (size_t)m->hex_count * sizeof(int32_t)) : NULL;
     c->node_of_input = dup(m->node_of_input, n * sizeof(int32_t));
     c->input_of_node = dup(m->input_of_node, n * sizeof(int32_t));
     if (!c->rest || !c->mass || !c->damping || !c->fixed || !c->min_link || !c->fixed_hops ||
         !c->adj_start || !c->adj_node || !c->adj_k || !c->adj_len || (pad && !c->pad_node) || !c->color ||
         (pad && !c->pad_kl) || !c->link_a || !c->link_b || !c->link_k || !c->link_len || !c->tris ||
-        !c->tets || !c->hexes || !c->node_of_input || !c->input_of_node) {
+        !c->tets || !c->hexes || !c->node_of_input || !c->input_of_node ||
+        (m->tet_labels && !c->tet_labels) || (m->hex_labels && !c->hex_labels)) {
         ftm_mesh_destroy(c);
         return NULL;
     }
@@ -690,6 +771,16 @@ int ftm_mesh_build(const ftm_mesh_builder *b, const ftm_mesh_build_def *def, ftm
         m->tris[i] = m->node_of_input[src_tris[i]];
     for (size_t i = 0; i < (size_t)b->tet_count * 4; i++)
         m->tets[i] = m->node_of_input[b->tets[i]];
+    if (b->tet_labels) {
+        m->tet_labels = dup(b->tet_labels, (size_t)b->tet_count * sizeof(int32_t));
+        if (!m->tet_labels)
+            goto fail;
+    }
+    if (b->hex_labels) {
+        m->hex_labels = dup(b->hex_labels, (size_t)b->hex_count * sizeof(int32_t));
+        if (!m->hex_labels)
+            goto fail;
+    }
 
     free(row);
     free(surf);
@@ -724,6 +815,27 @@ double ftm_mesh_mean_link_length(const ftm_mesh *m) { return m->mean_link_length
 int32_t ftm_mesh_max_degree(const ftm_mesh *m) { return m->max_degree; }
 const int32_t *ftm_mesh_triangles(const ftm_mesh *m) { return m->tris; }
 const int32_t *ftm_mesh_tetrahedra(const ftm_mesh *m) { return m->tets; }
+const int32_t *ftm_mesh_tetrahedron_labels(const ftm_mesh *m) { return m->tet_labels; }
+const int32_t *ftm_mesh_hexahedron_labels(const ftm_mesh *m) { return m->hex_labels; }
+
+int32_t ftm_mesh_tetrahedron_label(const ftm_mesh *m, int32_t tet)
+{
+    if (tet < 0 || tet >= m->tet_count)
+        return FTM_ERANGE;
+    return m->tet_labels ? m->tet_labels[tet] : 0;
+}
+
+int32_t ftm_mesh_hexahedron_label(const ftm_mesh *m, int32_t hex)
+{
+    if (hex < 0 || hex >= m->hex_count)
+        return FTM_ERANGE;
+    return m->hex_labels ? m->hex_labels[hex] : 0;
+}
+
+bool ftm_mesh_has_labels(const ftm_mesh *m)
+{
+    return m->tet_labels != NULL || m->hex_labels != NULL;
+}
 
 ftm_vec3 ftm_mesh_rest_position(const ftm_mesh *m, int32_t i)
 {

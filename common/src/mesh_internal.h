@@ -43,6 +43,9 @@ struct ftm_mesh {
     int32_t *tris; /* 3 per triangle */
     int32_t *tets; /* 4 per tetrahedron */
     int32_t *hexes; /* 8 per hexahedron */
+    /* Element labels (tissues), one per tetrahedron (hexahedron) in the
+     * builder's order, 0 = none; NULL when the builder set none. */
+    int32_t *tet_labels, *hex_labels;
 
     int32_t *node_of_input; /* input index -> mesh index */
     int32_t *input_of_node; /* mesh index -> input index */

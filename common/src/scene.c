@@ -15,6 +15,8 @@
 #include "error.h"
 #include "ftm/internal/text.h"
 
+#include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -45,6 +47,8 @@ struct ftm_scene {
     ftm_material_def material;     /* [material], as the mesh was built with */
     bool has_fem;                  /* a [fem] section was given */
     double young, poisson, density; /* [fem]; density 0 = not given */
+    ftm_label_material *label_materials; /* [fem LABEL], in the file's order */
+    int32_t label_material_count;
     ftm_volume *volume;            /* [volume], with generator = volume */
     ftm_ffd *ffd;
 };
@@ -60,11 +64,12 @@ typedef enum section {
     SEC_LOAD,
     SEC_FEM,
     SEC_VOLUME,
+    SEC_FEM_LABEL, /* [fem LABEL]: the [fem] of one mesh label's elements */
     SEC_COUNT
 } section;
 
-static const char *const section_names[SEC_COUNT] = {"",    "scene", "mesh", "material",
-                                                     "sim", "load",  "fem",  "volume"};
+static const char *const section_names[SEC_COUNT] = {
+    "", "scene", "mesh", "material", "sim", "load", "fem", "volume", "fem LABEL"};
 
 typedef enum key {
     K_NAME,
@@ -110,6 +115,7 @@ typedef enum key {
     K_WINDOW,
     K_SCALE,
     K_ORIGIN,
+    K_AXES,
     K_NODE, /* first [load] key: load keys are recorded per load */
     K_KIND,
     K_VALUE,
@@ -171,6 +177,7 @@ static const struct {
     [K_WINDOW] = {SEC_VOLUME, "window", false},
     [K_SCALE] = {SEC_VOLUME, "scale", false},
     [K_ORIGIN] = {SEC_VOLUME, "origin", false},
+    [K_AXES] = {SEC_VOLUME, "axes", false},
     [K_NODE] = {SEC_LOAD, "node", false},
     [K_KIND] = {SEC_LOAD, "kind", false},
     [K_VALUE] = {SEC_LOAD, "value", false},
@@ -203,6 +210,12 @@ typedef struct load_spec {
     ftm_scene_load load;              /* contact.node is filled in once the mesh exists */
 } load_spec;
 
+/* A [fem LABEL] section: where it and its keys are. */
+typedef struct label_fem {
+    int32_t line, young_line, poisson_line;
+    ftm_label_material mat;
+} label_fem;
+
 typedef struct spec {
     int32_t key_line[K_COUNT]; /* line where each (non-load) key was last set, 0 = unset */
     int32_t section_line[SEC_COUNT];
@@ -227,6 +240,9 @@ typedef struct spec {
     int64_t steps;
     /* [fem] */
     double young, poisson, density;
+    /* [fem LABEL] */
+    label_fem *label_fems;
+    size_t label_fem_count, label_fem_cap;
     /* [volume] */
     char *volume_file;
     ftm_volume_phantom_def phantom;
@@ -545,6 +561,14 @@ static int set_volume_key(parser *p, key k, const char *kn, const char *v, size_
             return rc;
         s->volume_load.origin = s->phantom.origin = (ftm_vec3){x[0], x[1], x[2]};
         return FTM_OK;
+    case K_AXES: {
+        static const char *const axes[] = {"scanner", "stored", NULL};
+        int which;
+        if ((rc = word(p, kn, v, vlen, axes, "scanner or stored", &which)) != FTM_OK)
+            return rc;
+        s->volume_load.axes = which == 0 ? FTM_VOLUME_AXES_SCANNER : FTM_VOLUME_AXES_STORED;
+        return FTM_OK;
+    }
     default:
         return fail_at(p, p->line, FTM_EPARSE, "internal: key %s in [volume]", kn);
     }
@@ -906,6 +930,81 @@ static size_t strip_comment(const char *line, size_t n)
     return n;
 }
 
+#define SCENE_MAX_LABEL_FEMS 65536
+
+/* [fem LABEL]: young and poisson for the elements of one mesh label. */
+static int open_label_fem(parser *p, const char *v, size_t n, section *cur)
+{
+    spec *sp = &p->s;
+    trim(&v, &n);
+    char buf[32];
+    long long label = 0;
+    char *end = NULL;
+    if (n > 0 && n < sizeof buf) {
+        memcpy(buf, v, n);
+        buf[n] = '\0';
+        errno = 0;
+        label = strtoll(buf, &end, 10);
+    }
+    if (n == 0 || n >= sizeof buf || *end != '\0' || errno || buf[0] == '+' || label < 1 ||
+        label > INT32_MAX)
+        return fail_at(p, p->line, FTM_EPARSE,
+                       "[fem %.*s]: a label is a whole number 1 .. %d, as the mesh's elements "
+                       "carry it (a Gmsh physical group, a TetGen region)",
+                       shown(n), v, INT32_MAX);
+    for (size_t i = 0; i < sp->label_fem_count; i++)
+        if (sp->label_fems[i].mat.label == label)
+            return fail_at(p, p->line, FTM_EPARSE, "duplicate section [fem %lld] (first at line %d)",
+                           label, (int)sp->label_fems[i].line);
+    if (sp->label_fem_count >= SCENE_MAX_LABEL_FEMS)
+        return fail_at(p, p->line, FTM_ERANGE, "more than %d [fem LABEL] sections",
+                       SCENE_MAX_LABEL_FEMS);
+    label_fem *lf = push((void **)&sp->label_fems, &sp->label_fem_count, &sp->label_fem_cap,
+                         sizeof *lf);
+    if (!lf)
+        return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
+    *lf = (label_fem){.line = p->line, .mat = {.label = (int32_t)label}};
+    if (!sp->section_line[SEC_FEM_LABEL])
+        sp->section_line[SEC_FEM_LABEL] = p->line;
+    *cur = SEC_FEM_LABEL;
+    return FTM_OK;
+}
+
+/* young or poisson in the [fem LABEL] being read. */
+static int label_fem_key(parser *p, const char *kname, size_t kn, const char *v, size_t vn)
+{
+    label_fem *lf = &p->s.label_fems[p->s.label_fem_count - 1];
+    bool young = kn == 5 && memcmp(kname, "young", 5) == 0;
+    bool poisson = kn == 7 && memcmp(kname, "poisson", 7) == 0;
+    if (!young && !poisson)
+        return fail_at(p, p->line, FTM_EPARSE,
+                       "unknown key '%.*s' in [fem %d] (a label's section takes young and "
+                       "poisson; density is the body's, in [fem])",
+                       shown(kn), kname, (int)lf->mat.label);
+    int32_t *seen = young ? &lf->young_line : &lf->poisson_line;
+    if (*seen)
+        return fail_at(p, p->line, FTM_EPARSE, "duplicate key '%s' (first at line %d)",
+                       young ? "young" : "poisson", (int)*seen);
+    if (vn == 0)
+        return fail_at(p, p->line, FTM_EPARSE, "%s: missing value", young ? "young" : "poisson");
+    int rc;
+    if (young) {
+        rc = scalar(p, "young", v, vn, true, &lf->mat.young);
+    } else {
+        token t[1];
+        int nt = 0;
+        double x = 0;
+        if ((rc = split(p, "poisson", v, vn, t, 1, 1, &nt)) == FTM_OK &&
+            (rc = number(p, "poisson", t[0], &x)) == FTM_OK && !(x > -1.0 && x < 0.5))
+            rc = fail_at(p, p->line, FTM_EINVAL, "poisson must be > -1 and < 0.5, got %.*s",
+                         shown(t[0].n), t[0].s);
+        lf->mat.poisson = x;
+    }
+    if (rc == FTM_OK)
+        *seen = p->line;
+    return rc;
+}
+
 static int open_section(parser *p, const char *s, size_t n, section *cur)
 {
     spec *sp = &p->s;
@@ -919,10 +1018,12 @@ static int open_section(parser *p, const char *s, size_t n, section *cur)
         if (strlen(section_names[i]) == nn && memcmp(section_names[i], nm, nn) == 0)
             sec = (section)i;
     }
+    if (nn > 3 && memcmp(nm, "fem", 3) == 0 && (nm[3] == ' ' || nm[3] == '\t'))
+        return open_label_fem(p, nm + 4, nn - 4, cur);
     if (sec == SEC_NONE)
         return fail_at(p, p->line, FTM_EPARSE,
-                       "unknown section [%.*s] (expected scene, mesh, material, sim, load, fem "
-                       "or volume)",
+                       "unknown section [%.*s] (expected scene, mesh, material, sim, load, fem, "
+                       "fem LABEL or volume)",
                        shown(nn), nm);
     if (sec == SEC_LOAD) {
         if (sp->load_count >= SCENE_MAX_LOADS)
@@ -959,6 +1060,8 @@ static int key_value(parser *p, const char *s, size_t n, section cur)
         return fail_at(p, p->line, FTM_EPARSE, "missing key before '='");
     if (cur == SEC_NONE)
         return fail_at(p, p->line, FTM_EPARSE, "key '%.*s' outside a section", shown(kn), kname);
+    if (cur == SEC_FEM_LABEL)
+        return label_fem_key(p, kname, kn, v, vn);
     int k = -1;
     for (int i = 0; i < K_COUNT; i++) {
         if (key_table[i].sec == cur && strlen(key_table[i].name) == kn &&
@@ -1042,16 +1145,17 @@ static int check_volume_keys(const parser *p)
     if (!kl[K_VOLUME_FILE] && !kl[K_PHANTOM])
         return fail_at(p, s->section_line[SEC_VOLUME], FTM_EPARSE,
                        "[volume] needs 'file = PATH' (NIfTI) or 'phantom = head'");
-    static const key phantom_only[] = {K_VOXELS, K_SIZE}, file_only[] = {K_WINDOW, K_SCALE};
-    for (int i = 0; i < 2; i++) {
+    static const key phantom_only[] = {K_VOXELS, K_SIZE},
+                     file_only[] = {K_WINDOW, K_SCALE, K_AXES};
+    for (size_t i = 0; i < sizeof phantom_only / sizeof *phantom_only; i++)
         if (kl[K_VOLUME_FILE] && kl[phantom_only[i]])
             return fail_at(p, kl[phantom_only[i]], FTM_EPARSE,
                            "%s is only used with a phantom (a file gives its own)",
                            key_table[phantom_only[i]].name);
+    for (size_t i = 0; i < sizeof file_only / sizeof *file_only; i++)
         if (kl[K_PHANTOM] && kl[file_only[i]])
             return fail_at(p, kl[file_only[i]], FTM_EPARSE, "%s is only used with a file",
                            key_table[file_only[i]].name);
-    }
     return FTM_OK;
 }
 
@@ -1319,6 +1423,63 @@ static int check_fem(const parser *p)
     return FTM_OK;
 }
 
+/* [fem LABEL]: beside a [fem] (the other elements' material), both
+ * constants, and forces that honour them. Whether the mesh has the label is
+ * checked once it is built (check_label_fems_in_mesh). */
+static int check_label_fems(const parser *p)
+{
+    const spec *s = &p->s;
+    if (s->label_fem_count == 0)
+        return FTM_OK;
+    const label_fem *first = &s->label_fems[0];
+    if (!s->section_line[SEC_FEM])
+        return fail_at(p, first->line, FTM_EPARSE,
+                       "[fem %d] needs a [fem] section too: its material is that of the "
+                       "elements of every other label, or none",
+                       (int)first->mat.label);
+    for (size_t i = 0; i < s->label_fem_count; i++) {
+        const label_fem *lf = &s->label_fems[i];
+        if (!lf->young_line)
+            return fail_at(p, lf->line, FTM_EPARSE, "[fem %d] needs young (Young's modulus in Pa)",
+                           (int)lf->mat.label);
+        if (!lf->poisson_line)
+            return fail_at(p, lf->line, FTM_EPARSE, "[fem %d] needs poisson (Poisson's ratio)",
+                           (int)lf->mat.label);
+    }
+    if (s->sim.forces != FTM_FORCES_LINEAR_FEM)
+        return fail_at(p, first->line, FTM_EPARSE,
+                       "[fem %d]: materials per label are honoured by [sim] forces = linear-fem "
+                       "only (so far)",
+                       (int)first->mat.label);
+    if (s->sim.far_field != FTM_FAR_FIELD_FIXED)
+        return fail_at(p, first->line, FTM_EPARSE,
+                       "[fem %d]: materials per label and far_field = elastic: not yet (the far "
+                       "field's compliance is of one material)",
+                       (int)first->mat.label);
+    return FTM_OK;
+}
+
+/* Every [fem LABEL] names a label some element of the mesh carries. */
+static int check_label_fems_in_mesh(const parser *p, const ftm_mesh *m)
+{
+    const spec *s = &p->s;
+    const int32_t nt = ftm_mesh_tetrahedron_count(m), nh = ftm_mesh_hexahedron_count(m);
+    for (size_t i = 0; i < s->label_fem_count; i++) {
+        const int32_t label = s->label_fems[i].mat.label;
+        bool found = false;
+        for (int32_t e = 0; e < nh && !found; e++)
+            found = ftm_mesh_hexahedron_label(m, e) == label;
+        for (int32_t e = 0; e < nt && !found; e++)
+            found = ftm_mesh_tetrahedron_label(m, e) == label;
+        if (!found)
+            return fail_at(p, s->label_fems[i].line, FTM_EPARSE,
+                           "[fem %d]: no element of the mesh has label %d%s", (int)label,
+                           (int)label,
+                           ftm_mesh_has_labels(m) ? "" : " (the mesh has no labels)");
+    }
+    return FTM_OK;
+}
+
 /* Checks the times of every load (keys may come in any order, hence afterwards). */
 static int check_load_times(const parser *p, load_spec *ls)
 {
@@ -1443,6 +1604,7 @@ static void free_spec(spec *s)
     free(s->fixed_nodes);
     free(s->fixed_boxes);
     free(s->loads);
+    free(s->label_fems);
 }
 
 static int parse_scene(const char *text, size_t length, const char *name, const char *base_dir,
@@ -1491,6 +1653,8 @@ static int parse_scene(const char *text, size_t length, const char *name, const 
         rc = check_material(&p);
     if (rc == FTM_OK)
         rc = check_fem(&p);
+    if (rc == FTM_OK)
+        rc = check_label_fems(&p);
     for (size_t i = 0; rc == FTM_OK && i < p.s.load_count; i++)
         rc = check_load_times(&p, &p.s.loads[i]);
     if (rc == FTM_OK) {
@@ -1500,6 +1664,16 @@ static int parse_scene(const char *text, size_t length, const char *name, const 
     }
     if (rc == FTM_OK)
         rc = build_mesh(&p, scene);
+    if (rc == FTM_OK)
+        rc = check_label_fems_in_mesh(&p, scene->mesh);
+    if (rc == FTM_OK && p.s.label_fem_count) {
+        scene->label_materials = malloc(p.s.label_fem_count * sizeof *scene->label_materials);
+        if (!scene->label_materials)
+            rc = ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", name);
+        for (size_t i = 0; rc == FTM_OK && i < p.s.label_fem_count; i++)
+            scene->label_materials[i] = p.s.label_fems[i].mat;
+        scene->label_material_count = (int32_t)p.s.label_fem_count;
+    }
     if (rc == FTM_OK && p.s.sim.forces != FTM_FORCES_SPRINGS &&
         ftm_mesh_hexahedron_count(scene->mesh) + ftm_mesh_tetrahedron_count(scene->mesh) == 0)
         rc = fail_at(&p, p.s.key_line[K_FORCES], FTM_EPARSE,
@@ -1519,6 +1693,8 @@ static int parse_scene(const char *text, size_t length, const char *name, const 
             scene->sim.young = p.s.young;
             scene->sim.poisson = p.s.poisson;
             scene->sim.density = p.s.density;
+            scene->sim.label_materials = scene->label_materials;
+            scene->sim.label_material_count = scene->label_material_count;
         }
         scene->steps = (int32_t)p.s.steps;
         scene->load_count = (int32_t)p.s.load_count;
@@ -1881,6 +2057,7 @@ void ftm_scene_destroy(ftm_scene *scene)
     ftm_ffd_destroy(scene->ffd);
     ftm_volume_destroy(scene->volume);
     free(scene->loads);
+    free(scene->label_materials);
     free(scene);
 }
 
@@ -1914,6 +2091,13 @@ int32_t ftm_scene_load_count(const ftm_scene *scene)
 const ftm_scene_load *ftm_scene_loads(const ftm_scene *scene)
 {
     return scene->loads;
+}
+
+const ftm_label_material *ftm_scene_label_materials(const ftm_scene *scene, int32_t *count)
+{
+    if (count)
+        *count = scene->label_material_count;
+    return scene->label_materials;
 }
 
 bool ftm_scene_fem_material(const ftm_scene *scene, double *young, double *poisson,

@@ -58,6 +58,18 @@ static int check_def(const ftm_sim_def *d, ftm_error *err)
                              1 << 20, (int)d->max_substeps);
     if (d->far_field != FTM_FAR_FIELD_FIXED && d->far_field != FTM_FAR_FIELD_ELASTIC)
         return ftm_error_set(err, FTM_EINVAL, "sim: unknown far_field %d", (int)d->far_field);
+    if (d->label_material_count < 0 || (d->label_material_count > 0 && !d->label_materials))
+        return ftm_error_set(err, FTM_EINVAL, "sim: %d label materials at %p",
+                             (int)d->label_material_count, (const void *)d->label_materials);
+    /* the co-rotational and neo-Hookean kernels take one material per
+     * simulation, and so does the far field's compliance: not yet */
+    if (d->label_material_count > 0 && d->forces != FTM_FORCES_LINEAR_FEM)
+        return ftm_error_set(err, FTM_EINVAL,
+                             "sim: per-label materials need linear-fem element forces (so far)");
+    if (d->label_material_count > 0 && d->far_field != FTM_FAR_FIELD_FIXED)
+        return ftm_error_set(err, FTM_EINVAL,
+                             "sim: per-label materials and the elastic far field: not yet (its "
+                             "compliance is of one material)");
     return FTM_OK;
 }
 
@@ -83,6 +95,7 @@ void ftm_sim_destroy(ftm_sim *sim)
     free(sim->reaction);
     ftm_elem_free(sim->elem);
     ftm_far_free(sim->far);
+    free(sim->label_mat);
     free(sim);
 }
 
@@ -160,6 +173,18 @@ int ftm_sim_create(const ftm_mesh *m, const ftm_sim_def *def, ftm_sim **out, ftm
     sim->m = m;
     sim->def = d;
     sim->n = m->node_count;
+    if (d.label_material_count > 0) { /* the caller's array need not outlive the call */
+        size_t bytes = (size_t)d.label_material_count * sizeof *sim->label_mat;
+        if (!(sim->label_mat = malloc(bytes))) {
+            ftm_sim_destroy(sim);
+            return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory");
+        }
+        memcpy(sim->label_mat, d.label_materials, bytes);
+        sim->def.label_materials = sim->label_mat;
+    } else {
+        sim->def.label_materials = NULL;
+        sim->def.label_material_count = 0;
+    }
     size_t n = (size_t)sim->n;
     sim->x = malloc(n * 3 * sizeof(double));
     sim->xp = malloc(n * 3 * sizeof(double));

@@ -649,12 +649,75 @@ static int cmp_i32(const void *a, const void *b)
 
 /* Element nodes, stiffness matrices and the data of the blocks
  * (elem_kernel.h) of co-rotational and neo-Hookean forces. */
+/* Element e's label (hexahedra first, as el's order), 0 for none. */
+static int32_t element_label(const ftm_mesh *m, int32_t e)
+{
+    if (e < m->hex_count)
+        return m->hex_labels ? m->hex_labels[e] : 0;
+    return m->tet_labels ? m->tet_labels[e - m->hex_count] : 0;
+}
+
+/* Per-label materials: each label once, >= 1, carried by an element, with
+ * the constants the def's own need. */
+static int check_label_materials(const ftm_mesh *m, const ftm_sim_def *d, ftm_error *err)
+{
+    const int32_t ne = m->hex_count + m->tet_count;
+    for (int32_t i = 0; i < d->label_material_count; i++) {
+        const ftm_label_material *lm = &d->label_materials[i];
+        if (lm->label < 1)
+            return ftm_error_set(err, FTM_EINVAL, "sim: label material %d: label %d (labels are >= 1)",
+                                 (int)i, (int)lm->label);
+        for (int32_t j = 0; j < i; j++)
+            if (d->label_materials[j].label == lm->label)
+                return ftm_error_set(err, FTM_EINVAL,
+                                     "sim: label %d has two materials (%d and %d)",
+                                     (int)lm->label, (int)j, (int)i);
+        if (!(lm->young > 0.0) || !isfinite(lm->young))
+            return ftm_error_set(err, FTM_EINVAL,
+                                 "sim: label %d: Young's modulus must be > 0 (got %g)",
+                                 (int)lm->label, lm->young);
+        if (!(lm->poisson > -1.0) || !(lm->poisson < 0.5))
+            return ftm_error_set(err, FTM_EINVAL,
+                                 "sim: label %d: Poisson's ratio must be > -1 and < 0.5 (got %g)",
+                                 (int)lm->label, lm->poisson);
+        int32_t e = 0;
+        while (e < ne && element_label(m, e) != lm->label)
+            e++;
+        if (e == ne)
+            return ftm_error_set(err, FTM_EINVAL,
+                                 "sim: label %d has a material, but no element of the mesh has "
+                                 "that label",
+                                 (int)lm->label);
+    }
+    return FTM_OK;
+}
+
+/* Element e's elastic constants: its label's, else the def's. */
+static void element_material(const ftm_mesh *m, const ftm_sim_def *d, int32_t e, double *young,
+                             double *poisson)
+{
+    *young = d->young;
+    *poisson = d->poisson;
+    if (d->label_material_count == 0)
+        return;
+    const int32_t label = element_label(m, e);
+    for (int32_t i = 0; label > 0 && i < d->label_material_count; i++)
+        if (d->label_materials[i].label == label) {
+            *young = d->label_materials[i].young;
+            *poisson = d->label_materials[i].poisson;
+            return;
+        }
+}
+
 static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, ftm_error *err)
 {
     int32_t ne = m->hex_count + m->tet_count;
     size_t nodes = (size_t)m->hex_count * 8 + (size_t)m->tet_count * 4;
     size_t kn = (size_t)m->hex_count * 576 + (size_t)m->tet_count * 144;
     el->count = ne;
+    int lrc = check_label_materials(m, d, err);
+    if (lrc)
+        return lrc;
     el->start = malloc(((size_t)ne + 1) * sizeof *el->start);
     el->node = malloc((nodes + 1) * sizeof *el->node);
     el->koff = malloc(((size_t)ne + 1) * sizeof *el->koff);
@@ -691,10 +754,12 @@ static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d,
             x[a] = (ftm_vec3){r[0], r[1], r[2]};
         }
         double *dst = el->gp ? el->gp + el->goff[e] : NULL;
+        double young, poisson;
+        element_material(m, d, e, &young, &poisson);
         int rc;
         if (hex) {
             double min_det;
-            rc = ftm_hex8_stiffness(x, d->young, d->poisson, el->k + ko, &min_det);
+            rc = ftm_hex8_stiffness(x, young, poisson, el->k + ko, &min_det);
             if (!rc && neo) { /* per Gauss point: 24 gradients, then det J (weight 1) */
                 double g[192], det[8];
                 rc = ftm_hex8_gauss_gradients(x, g, det);
@@ -713,7 +778,7 @@ static int build_elements(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d,
                                      IN(7), min_det);
         } else {
             double vol;
-            rc = ftm_tet4_stiffness(x, d->young, d->poisson, el->k + ko, &vol);
+            rc = ftm_tet4_stiffness(x, young, poisson, el->k + ko, &vol);
             if (!rc && dst) { /* one point: the 12 gradients, then the volume */
                 rc = ftm_tet4_gradients(x, dst);
                 dst[12] = fabs(vol);

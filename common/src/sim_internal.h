@@ -168,6 +168,7 @@ struct ftm_sim {
     bool energy_guard;   /* the sweeps compute spring energy (spring forces) */
     ftm_sim_stats st;
     struct ftm_elem *elem; /* element forces (sim_elem.c); NULL = springs */
+    ftm_label_material *label_mat; /* def.label_materials' copy (def points to it) */
     struct ftm_far *far;   /* elastic far field (farfield.c); NULL = fixed */
 };
 

@@ -1,32 +1,18 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Volumes: a scalar image of intensities 0..255 on a regular grid (volume.h).
- * Made by the synthetic head phantom or read from a NIfTI-1 file (.nii, and
- * .nii.gz with zlib). Files are untrusted: every header field is checked
- * before it sizes anything, and voxel data is only read where the file has
- * it, so a hostile header cannot make us allocate more than the file holds. */
+ * Made by the synthetic head phantom or read from a NIfTI file (nifti.c:
+ * libnifti, with our bounds and messages in front). */
 #include "ftm/volume.h"
 
 #include "error.h"
+#include "nifti.h"
 
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#ifdef FTM_HAVE_ZLIB
-#include <zlib.h>
-#endif
-
-/* 2^28 voxels: 256 MiB of intensities, 2 GiB of float64 in the file. */
-#define VOLUME_MAX_VOXELS ((int64_t)1 << 28)
 #define PHANTOM_MAX_VOXELS 512
-#define NIFTI_HEADER 348
-#define NIFTI_MIN_OFFSET 352 /* header plus the 4-byte extension flag */
-/* The largest file we read (or inflate to): the largest allowed image of
- * float64 after the largest offset we accept. */
-#define NIFTI_MAX_OFFSET ((uint64_t)1 << 24)
-#define NIFTI_MAX_BYTES ((uint64_t)VOLUME_MAX_VOXELS * 8 + NIFTI_MAX_OFFSET)
 #define HISTOGRAM_BINS 65536
 
 struct ftm_volume {
@@ -165,192 +151,15 @@ int ftm_volume_phantom(const ftm_volume_phantom_def *def, ftm_volume **out, ftm_
     return FTM_OK;
 }
 
-/* ------------------------------------------------------------ NIfTI-1 */
+/* ------------------------------------------------------------ NIfTI */
 
 ftm_volume_load_def ftm_default_volume_load_def(void)
 {
-    return (ftm_volume_load_def){
-        .low_percentile = 0.0, .high_percentile = 99.5, .origin = {0, 0, 0}, .scale = 1.0};
-}
-
-typedef struct nifti {
-    bool swap;            /* the file's byte order is not ours */
-    int32_t n[3];         /* dim[1..3] */
-    int16_t datatype;
-    int bytes;            /* per voxel */
-    double pixdim[3];     /* pixdim[1..3], in the file's units */
-    double unit;          /* metres per file unit */
-    double slope, inter;  /* scl_slope, scl_inter as applied */
-    uint64_t offset;      /* vox_offset */
-    uint64_t needed;      /* offset + voxel bytes: the file's least size */
-} nifti;
-
-static uint16_t rd16(const uint8_t *p, bool swap)
-{
-    uint16_t v;
-    memcpy(&v, p, 2);
-    return swap ? (uint16_t)(v >> 8 | v << 8) : v;
-}
-
-static uint32_t rd32(const uint8_t *p, bool swap)
-{
-    uint32_t v;
-    memcpy(&v, p, 4);
-    return swap ? __builtin_bswap32(v) : v;
-}
-
-static uint64_t rd64(const uint8_t *p, bool swap)
-{
-    uint64_t v;
-    memcpy(&v, p, 8);
-    return swap ? __builtin_bswap64(v) : v;
-}
-
-static double rdf32(const uint8_t *p, bool swap)
-{
-    uint32_t u = rd32(p, swap);
-    float f;
-    memcpy(&f, &u, 4);
-    return f;
-}
-
-/* Voxel value as stored (before scl_slope/scl_inter). */
-static double voxel_value(const uint8_t *p, int16_t datatype, bool swap)
-{
-    switch (datatype) {
-    case 2: return p[0];
-    case 256: return (int8_t)p[0];
-    case 4: return (int16_t)rd16(p, swap);
-    case 512: return rd16(p, swap);
-    case 8: return (int32_t)rd32(p, swap);
-    case 16: return rdf32(p, swap);
-    default: { /* 64: float64 */
-        uint64_t u = rd64(p, swap);
-        double d;
-        memcpy(&d, &u, 8);
-        return d;
-    }
-    }
-}
-
-/* Checks the header of a file of file_size bytes (UINT64_MAX: not known yet,
- * while a .gz is being inflated). */
-static int nifti_header(const uint8_t *d, size_t size, uint64_t file_size, const char *name,
-                        nifti *h, ftm_error *err)
-{
-    if (size < NIFTI_HEADER)
-        return ftm_error_set(err, FTM_EPARSE,
-                             "%s: truncated header: %zu bytes, a NIfTI-1 header has %d", name,
-                             size, NIFTI_HEADER);
-    memset(h, 0, sizeof *h);
-    uint32_t sz = rd32(d, false);
-    if (sz != NIFTI_HEADER) {
-        if (__builtin_bswap32(sz) != NIFTI_HEADER)
-            return ftm_error_set(err, FTM_EPARSE,
-                                 "%s: header field sizeof_hdr = %d at byte 0 (expected 348 in "
-                                 "either byte order: not a NIfTI-1 file)",
-                                 name, (int)(int32_t)sz);
-        h->swap = true;
-    }
-    const bool sw = h->swap;
-    if (memcmp(d + 344, "ni1\0", 4) == 0)
-        return ftm_error_set(err, FTM_EPARSE,
-                             "%s: header field magic at byte 344 is \"ni1\": the header of a "
-                             ".hdr/.img pair; only single-file .nii (magic \"n+1\") is supported",
-                             name);
-    if (memcmp(d + 344, "n+1\0", 4) != 0)
-        return ftm_error_set(err, FTM_EPARSE,
-                             "%s: header field magic at byte 344 is not \"n+1\" (bytes %02x %02x "
-                             "%02x %02x)",
-                             name, d[344], d[345], d[346], d[347]);
-    int16_t dim[8];
-    for (int i = 0; i < 8; i++)
-        dim[i] = (int16_t)rd16(d + 40 + 2 * i, sw);
-    if (!(dim[0] == 3 || (dim[0] == 4 && dim[4] == 1)))
-        return ftm_error_set(err, FTM_EPARSE,
-                             "%s: header field dim[0] = %d%s (a 3D image: 3, or 4 with dim[4] = "
-                             "1)",
-                             name, dim[0], dim[0] == 4 ? " with dim[4] != 1" : "");
-    for (int i = 1; i <= 3; i++)
-        if (dim[i] < 1)
-            return ftm_error_set(err, FTM_EPARSE,
-                                 "%s: header field dim[%d] = %d (each of dim[1..3] must be >= 1)",
-                                 name, i, dim[i]);
-    int64_t count = (int64_t)dim[1] * dim[2] * dim[3];
-    if (count > VOLUME_MAX_VOXELS)
-        return ftm_error_set(err, FTM_EPARSE,
-                             "%s: header field dim[1..3] = %d x %d x %d = %lld voxels, more than "
-                             "the limit of %lld",
-                             name, dim[1], dim[2], dim[3], (long long)count,
-                             (long long)VOLUME_MAX_VOXELS);
-    h->datatype = (int16_t)rd16(d + 70, sw);
-    int16_t bitpix = (int16_t)rd16(d + 72, sw);
-    int bits;
-    const char *type;
-    switch (h->datatype) {
-    case 2: bits = 8, type = "uint8"; break;
-    case 256: bits = 8, type = "int8"; break;
-    case 4: bits = 16, type = "int16"; break;
-    case 512: bits = 16, type = "uint16"; break;
-    case 8: bits = 32, type = "int32"; break;
-    case 16: bits = 32, type = "float32"; break;
-    case 64: bits = 64, type = "float64"; break;
-    default:
-        return ftm_error_set(err, FTM_EPARSE,
-                             "%s: header field datatype = %d (supported: 2 uint8, 4 int16, 8 "
-                             "int32, 16 float32, 64 float64, 256 int8, 512 uint16)",
-                             name, h->datatype);
-    }
-    if (bitpix != bits)
-        return ftm_error_set(err, FTM_EPARSE,
-                             "%s: header field bitpix = %d does not match datatype %d (%s: %d)",
-                             name, bitpix, h->datatype, type, bits);
-    h->bytes = bits / 8;
-    for (int i = 1; i <= 3; i++) {
-        double p = rdf32(d + 76 + 4 * i, sw);
-        if (!(p > 0.0) || !isfinite(p))
-            return ftm_error_set(err, FTM_EPARSE,
-                                 "%s: header field pixdim[%d] = %g (a voxel size must be > 0 "
-                                 "and finite)",
-                                 name, i, p);
-        h->pixdim[i - 1] = p;
-    }
-    double off = rdf32(d + 108, sw);
-    if (!(off >= NIFTI_MIN_OFFSET) || !(off <= (double)NIFTI_MAX_OFFSET) || off != floor(off))
-        return ftm_error_set(err, FTM_EPARSE,
-                             "%s: header field vox_offset = %g (must be a whole number of bytes, "
-                             "%d .. %llu, in a single-file .nii)",
-                             name, off, NIFTI_MIN_OFFSET, (unsigned long long)NIFTI_MAX_OFFSET);
-    h->offset = (uint64_t)off;
-    if (file_size != UINT64_MAX && h->offset > file_size)
-        return ftm_error_set(err, FTM_EPARSE,
-                             "%s: header field vox_offset = %llu is past the end of the file "
-                             "(%llu bytes)",
-                             name, (unsigned long long)h->offset, (unsigned long long)file_size);
-    double slope = rdf32(d + 112, sw), inter = rdf32(d + 116, sw);
-    if (slope == 0.0 || !isfinite(slope)) { /* the standard: no scaling */
-        h->slope = 1.0;
-        h->inter = 0.0;
-    } else {
-        if (!isfinite(inter))
-            return ftm_error_set(err, FTM_EPARSE,
-                                 "%s: header field scl_inter = %g is not finite (scl_slope = %g)",
-                                 name, inter, slope);
-        h->slope = slope;
-        h->inter = inter;
-    }
-    int units = d[123] & 7;
-    static const double metres[4] = {1e-3, 1.0, 1e-3, 1e-6}; /* unknown = mm */
-    if (units > 3)
-        return ftm_error_set(err, FTM_EPARSE,
-                             "%s: header field xyzt_units = %d: unknown spatial unit %d "
-                             "(0 unset, 1 m, 2 mm, 3 micron)",
-                             name, d[123], units);
-    h->unit = metres[units];
-    for (int i = 0; i < 3; i++)
-        h->n[i] = dim[i + 1];
-    h->needed = h->offset + (uint64_t)count * (uint64_t)h->bytes;
-    return FTM_OK;
+    return (ftm_volume_load_def){.low_percentile = 0.0,
+                                 .high_percentile = 99.5,
+                                 .origin = {0, 0, 0},
+                                 .scale = 1.0,
+                                 .axes = FTM_VOLUME_AXES_SCANNER};
 }
 
 /* Value at fraction q (0..1) of the sorted values, from a histogram of
@@ -386,6 +195,10 @@ static int check_load_def(const ftm_volume_load_def *d, const char *name, ftm_er
                              d->scale);
     if (!finite_vec(d->origin))
         return ftm_error_set(err, FTM_EINVAL, "%s: origin must be finite", name);
+    if (d->axes != FTM_VOLUME_AXES_SCANNER && d->axes != FTM_VOLUME_AXES_STORED)
+        return ftm_error_set(err, FTM_EINVAL, "%s: axes must be FTM_VOLUME_AXES_SCANNER or "
+                                              "_STORED (got %d)",
+                             name, (int)d->axes);
     return FTM_OK;
 }
 
@@ -396,42 +209,41 @@ int ftm_volume_parse_nifti(const void *data, size_t size, const char *name,
         name = "(nifti)";
     if ((!data && size) || !out)
         return ftm_error_set(err, FTM_EINVAL, "%s: null argument", name);
+    *out = NULL;
     ftm_volume_load_def dd = def ? *def : ftm_default_volume_load_def();
     int rc = check_load_def(&dd, name, err);
     if (rc)
         return rc;
     const uint8_t *d = data;
-    nifti h;
-    if ((rc = nifti_header(d, size, size, name, &h, err)) != FTM_OK)
+    ftm_nifti h;
+    if ((rc = ftm_nifti_header(d, size, size, name, &h, err)) != FTM_OK)
         return rc;
     if (h.needed > size)
         return ftm_error_set(err, FTM_EPARSE,
-                             "%s: truncated voxel data: %d x %d x %d voxels of %d bytes from "
+                             "%s: truncated voxel data: %lld x %lld x %lld voxels of %d bytes from "
                              "byte %llu need %llu bytes, the file has %zu",
-                             name, (int)h.n[0], (int)h.n[1], (int)h.n[2], h.bytes,
-                             (unsigned long long)h.offset, (unsigned long long)h.needed, size);
-    ftm_vec3 sp = {h.pixdim[0] * h.unit * dd.scale, h.pixdim[1] * h.unit * dd.scale,
-                   h.pixdim[2] * h.unit * dd.scale};
-    if (!(sp.x > 0 && sp.y > 0 && sp.z > 0) || !finite_vec(sp) ||
-        !isfinite(dd.origin.x + h.n[0] * sp.x) || !isfinite(dd.origin.y + h.n[1] * sp.y) ||
-        !isfinite(dd.origin.z + h.n[2] * sp.z))
-        return ftm_error_set(err, FTM_EINVAL,
-                             "%s: voxel size %g x %g x %g m (pixdim[1..3] times scale %g) is "
-                             "zero or not finite in double precision",
-                             name, sp.x, sp.y, sp.z, dd.scale);
+                             name, (long long)h.n[0], (long long)h.n[1], (long long)h.n[2],
+                             h.bytes, (unsigned long long)h.offset, (unsigned long long)h.needed,
+                             size);
+    ftm_nifti_grid g;
+    rc = ftm_nifti_grid_of(&h, dd.axes == FTM_VOLUME_AXES_STORED ? FTM_NIFTI_AXES_STORED
+                                                                  : FTM_NIFTI_AXES_SCANNER,
+                           dd.scale, dd.origin, name, &g, err);
+    if (rc != FTM_OK)
+        return rc;
     const size_t count = (size_t)h.n[0] * (size_t)h.n[1] * (size_t)h.n[2];
     const uint8_t *vox = d + h.offset;
     /* pass 1: every value finite, and their range */
     double lo = INFINITY, hi = -INFINITY;
     for (size_t i = 0; i < count; i++) {
-        double raw = voxel_value(vox + i * h.bytes, h.datatype, h.swap);
+        double raw = ftm_nifti_raw(&h, vox, i);
         double v = raw * h.slope + h.inter;
         if (!isfinite(v)) {
             size_t nx = (size_t)h.n[0], ny = (size_t)h.n[1];
             return ftm_error_set(err, FTM_EPARSE,
                                  "%s: voxel (%zu, %zu, %zu) at byte %llu is %s%s", name, i % nx,
                                  i / nx % ny, i / (nx * ny),
-                                 (unsigned long long)(h.offset + i * h.bytes),
+                                 (unsigned long long)(h.offset + i * (size_t)h.bytes),
                                  isnan(v) ? "NaN" : "infinite",
                                  isfinite(raw) ? " after scl_slope/scl_inter" : "");
         }
@@ -445,7 +257,7 @@ int ftm_volume_parse_nifti(const void *data, size_t size, const char *name,
         if (!bins)
             return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", name);
         for (size_t i = 0; i < count; i++) {
-            double v = voxel_value(vox + i * h.bytes, h.datatype, h.swap) * h.slope + h.inter;
+            double v = ftm_nifti_raw(&h, vox, i) * h.slope + h.inter;
             double t = (v - lo) / (hi - lo) * HISTOGRAM_BINS;
             int b = t >= HISTOGRAM_BINS ? HISTOGRAM_BINS - 1 : (int)t;
             bins[b < 0 ? 0 : b]++;
@@ -459,166 +271,38 @@ int ftm_volume_parse_nifti(const void *data, size_t size, const char *name,
         }
     }
     ftm_volume *v = NULL;
-    if ((rc = volume_new(h.n[0], h.n[1], h.n[2], sp, dd.origin, name, &v, err)) != FTM_OK)
+    if ((rc = volume_new(g.n[0], g.n[1], g.n[2], g.spacing, g.origin, name, &v, err)) != FTM_OK)
         return rc;
-    /* pass 3: intensities; a constant image is 1 where it is above 0 */
-    for (size_t i = 0; i < count; i++) {
-        double x = voxel_value(vox + i * h.bytes, h.datatype, h.swap) * h.slope + h.inter;
-        double t = whi > wlo ? (x - wlo) / (whi - wlo) : x > 0.0 ? 1.0 : 0.0;
-        t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
-        v->data[i] = (uint8_t)floor(t * 255.0 + 0.5);
-    }
+    /* pass 3: intensities, onto the grid's axes; a constant image is 1
+     * where it is above 0 */
+    size_t out_i = 0;
+    for (int32_t z = 0; z < g.n[2]; z++)
+        for (int32_t y = 0; y < g.n[1]; y++)
+            for (int32_t x = 0; x < g.n[0]; x++) {
+                size_t i = ftm_nifti_file_index(&h, &g, x, y, z);
+                double val = ftm_nifti_raw(&h, vox, i) * h.slope + h.inter;
+                double t = whi > wlo ? (val - wlo) / (whi - wlo) : val > 0.0 ? 1.0 : 0.0;
+                t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+                v->data[out_i++] = (uint8_t)floor(t * 255.0 + 0.5);
+            }
     *out = v;
     return FTM_OK;
 }
-
-/* Reads a whole file of at most NIFTI_MAX_BYTES. */
-static int read_file(const char *path, uint8_t **data, size_t *size, ftm_error *err)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return ftm_error_set(err, FTM_EIO, "%s: cannot open: %s", path, strerror(errno));
-    size_t cap = 1 << 16, n = 0;
-    uint8_t *buf = malloc(cap);
-    int rc = buf ? FTM_OK : FTM_ENOMEM;
-    while (rc == FTM_OK) {
-        if (n == cap) {
-            if ((uint64_t)cap > NIFTI_MAX_BYTES) {
-                rc = ftm_error_set(err, FTM_EPARSE, "%s: file larger than %llu bytes", path,
-                                   (unsigned long long)NIFTI_MAX_BYTES);
-                break;
-            }
-            /* one byte past the limit tells a file over it */
-            size_t ncap =
-                (uint64_t)cap * 2 > NIFTI_MAX_BYTES ? (size_t)NIFTI_MAX_BYTES + 1 : cap * 2;
-            uint8_t *nb = realloc(buf, ncap);
-            if (!nb) {
-                rc = FTM_ENOMEM;
-                break;
-            }
-            buf = nb;
-            cap = ncap;
-        }
-        size_t got = fread(buf + n, 1, cap - n, f);
-        n += got;
-        if (got == 0) {
-            if (ferror(f))
-                rc = ftm_error_set(err, FTM_EIO, "%s: read error at byte %zu", path, n);
-            break;
-        }
-    }
-    fclose(f);
-    if (rc == FTM_ENOMEM)
-        rc = ftm_error_set(err, FTM_ENOMEM, "%s: out of memory reading the file", path);
-    if (rc) {
-        free(buf);
-        return rc;
-    }
-    *data = buf;
-    *size = n;
-    return FTM_OK;
-}
-
-#ifdef FTM_HAVE_ZLIB
-/* Inflates a gzip file, stopping where the header says the voxel data
- * ends, so a small .gz cannot inflate to more than its header declares. */
-static int gunzip(const char *path, const uint8_t *in, size_t in_size, uint8_t **out,
-                  size_t *out_size, ftm_error *err)
-{
-    z_stream z;
-    memset(&z, 0, sizeof z);
-    if (inflateInit2(&z, 16 + MAX_WBITS) != Z_OK)
-        return ftm_error_set(err, FTM_ENOMEM, "%s: cannot start zlib", path);
-    uint64_t limit = NIFTI_MAX_BYTES;
-    size_t cap = 1 << 16, n = 0;
-    uint8_t *buf = malloc(cap);
-    int rc = buf ? FTM_OK : ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", path);
-    bool header_seen = false;
-    z.next_in = (Bytef *)in;
-    size_t left = in_size;
-    while (rc == FTM_OK && n < limit) {
-        if (n == cap) {
-            size_t ncap = (uint64_t)cap * 2 > limit ? (size_t)limit : cap * 2;
-            uint8_t *nb = realloc(buf, ncap);
-            if (!nb) {
-                rc = ftm_error_set(err, FTM_ENOMEM, "%s: out of memory inflating", path);
-                break;
-            }
-            buf = nb;
-            cap = ncap;
-        }
-        uInt chunk_in = left > (1u << 30) ? (1u << 30) : (uInt)left;
-        size_t room = cap - n;
-        if ((uint64_t)room > limit - n)
-            room = (size_t)(limit - n);
-        uInt chunk_out = room > (1u << 30) ? (1u << 30) : (uInt)room;
-        z.avail_in = chunk_in;
-        z.next_out = buf + n;
-        z.avail_out = chunk_out;
-        int zr = inflate(&z, Z_NO_FLUSH);
-        left -= chunk_in - z.avail_in;
-        n += chunk_out - z.avail_out;
-        if (!header_seen && n >= NIFTI_HEADER) {
-            nifti h;
-            header_seen = true;
-            if ((rc = nifti_header(buf, n, UINT64_MAX, path, &h, err)) != FTM_OK)
-                break;
-            limit = h.needed; /* trailing bytes past the voxels are not needed */
-        }
-        if (zr == Z_STREAM_END) {
-            if (left == 0)
-                break;
-            inflateReset(&z); /* another gzip member follows */
-            continue;
-        }
-        if (zr == Z_BUF_ERROR && left == 0)
-            break; /* the stream ends early: the parser reports the truncation */
-        if (zr != Z_OK && zr != Z_BUF_ERROR)
-            rc = ftm_error_set(err, FTM_EPARSE, "%s: gzip data corrupt at compressed byte %zu: %s",
-                               path, in_size - left, z.msg ? z.msg : "inflate failed");
-    }
-    inflateEnd(&z);
-    if (rc) {
-        free(buf);
-        return rc;
-    }
-    *out = buf;
-    *out_size = n;
-    return FTM_OK;
-}
-#endif
 
 int ftm_volume_load(const char *path, const ftm_volume_load_def *def, ftm_volume **out,
                     ftm_error *err)
 {
     if (!path || !out)
         return ftm_error_set(err, FTM_EINVAL, "volume loader: null argument");
+    *out = NULL;
     ftm_volume_load_def dd = def ? *def : ftm_default_volume_load_def();
     int rc = check_load_def(&dd, path, err);
     if (rc)
         return rc;
     uint8_t *data = NULL;
     size_t size = 0;
-    if ((rc = read_file(path, &data, &size, err)) != FTM_OK)
+    if ((rc = ftm_nifti_read(path, &data, &size, err)) != FTM_OK)
         return rc;
-    if (size >= 2 && data[0] == 0x1f && data[1] == 0x8b) { /* gzip, whatever the name */
-#ifdef FTM_HAVE_ZLIB
-        uint8_t *raw = NULL;
-        size_t raw_size = 0;
-        rc = gunzip(path, data, size, &raw, &raw_size, err);
-        free(data);
-        if (rc)
-            return rc;
-        data = raw;
-        size = raw_size;
-#else
-        free(data);
-        return ftm_error_set(err, FTM_EPARSE,
-                             "%s: gzip-compressed (.nii.gz), but this libftm was built without "
-                             "zlib: decompress it (gunzip) first",
-                             path);
-#endif
-    }
     rc = ftm_volume_parse_nifti(data, size, path, &dd, out, err);
     free(data);
     return rc;

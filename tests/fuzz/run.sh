@@ -27,7 +27,7 @@ seconds=300
 case ${1:-} in [0-9]*) seconds=$1; shift ;; esac
 case $build in /*) ;; *) build="$PWD/$build" ;; esac
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(fuzz_scene fuzz_mesh fuzz_nifti fuzz_wire fuzz_record fuzz_script fuzz_replica fuzz_session)
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_scene fuzz_mesh fuzz_nifti fuzz_labels fuzz_stl fuzz_wire fuzz_record fuzz_script fuzz_replica fuzz_session)
 case $seconds in *[!0-9]* | '') echo "run.sh: SECONDS must be a whole number, got '$seconds'" >&2; exit 2 ;; esac
 case $runs in *[!0-9]* | '') echo "run.sh: --runs needs a whole number, got '$runs'" >&2; exit 2 ;; esac
 if [ "$runs" -gt 0 ]; then
@@ -44,6 +44,8 @@ CC=clang cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFTM
     -DFTM_SANITIZE=address,undefined >/dev/null
 cmake --build "$build" --target "${targets[@]}"
 
+# Assimp's leak on malformed STL files is suppressed (lsan.supp says why)
+export LSAN_OPTIONS="suppressions=$PWD/tests/fuzz/lsan.supp${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
 status=0
 for t in "${targets[@]}"; do
     [ -d "tests/fuzz/corpus/$t" ] || { echo "run.sh: unknown target '$t'" >&2; exit 2; }

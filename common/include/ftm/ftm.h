@@ -5,6 +5,7 @@
 
 #include "ftm/base.h"
 #include "ftm/generate.h"
+#include "ftm/labels.h"
 #include "ftm/load.h"
 #include "ftm/mesh.h"
 #include "ftm/scene.h"

@@ -31,7 +31,8 @@ int ftm_load_gmsh(ftm_mesh_builder *builder, const char *path, const ftm_materia
 int ftm_load_tetgen(ftm_mesh_builder *builder, const char *node_path,
                     const ftm_material_def *material, ftm_error *err);
 
-/* Chooses by extension: .obj, .msh, .node. */
+/* Chooses by extension: .obj, .msh, .node. An .stl is refused naming
+ * ftm_load_stl (ftm/stl.h, library ftm_stl beside libftm). */
 int ftm_load_mesh(ftm_mesh_builder *builder, const char *path, const ftm_material_def *material,
                   ftm_error *err);
 

@@ -60,6 +60,15 @@ int ftm_mesh_builder_add_tetrahedron(ftm_mesh_builder *builder, int32_t a, int32
  * above, then the top face e f g h above them. */
 int ftm_mesh_builder_add_hexahedron(ftm_mesh_builder *builder, const int32_t nodes[8]);
 int32_t ftm_mesh_builder_node_count(const ftm_mesh_builder *builder);
+int32_t ftm_mesh_builder_tetrahedron_count(const ftm_mesh_builder *builder);
+int32_t ftm_mesh_builder_hexahedron_count(const ftm_mesh_builder *builder);
+/* Element labels: which tissue an element belongs to (a Gmsh physical
+ * group, a label of the segmented scan it was meshed from). Optional: a
+ * label is an int32_t >= 1, and an element that was given none has label 0.
+ * `tet` / `hex` is the element's index in the order of adding, from 0.
+ * FTM_ERANGE (no such element), FTM_EINVAL (label < 0), FTM_ENOMEM. */
+int ftm_mesh_builder_set_tetrahedron_label(ftm_mesh_builder *builder, int32_t tet, int32_t label);
+int ftm_mesh_builder_set_hexahedron_label(ftm_mesh_builder *builder, int32_t hex, int32_t label);
 /* Rest position of a node added so far (input index); FTM_ERANGE if none. */
 int ftm_mesh_builder_node_position(const ftm_mesh_builder *builder, int32_t node, ftm_vec3 *out);
 /* Fixes or frees a node added so far: boundary conditions chosen after a
@@ -98,6 +107,17 @@ const int32_t *ftm_mesh_triangles(const ftm_mesh *mesh);
 const int32_t *ftm_mesh_tetrahedra(const ftm_mesh *mesh);
 /* Hexahedra as 8 mesh indices each, in the order of the builder (may be empty). */
 const int32_t *ftm_mesh_hexahedra(const ftm_mesh *mesh);
+
+/* Element labels, kept in the builder's element order (elements are not
+ * renumbered): the label of tetrahedron (hexahedron) i, 0 if it has none, or
+ * FTM_ERANGE for no such element. The arrays hold one label per element, or
+ * are NULL when the builder labelled no element of that kind. */
+int32_t ftm_mesh_tetrahedron_label(const ftm_mesh *mesh, int32_t tet);
+int32_t ftm_mesh_hexahedron_label(const ftm_mesh *mesh, int32_t hex);
+const int32_t *ftm_mesh_tetrahedron_labels(const ftm_mesh *mesh);
+const int32_t *ftm_mesh_hexahedron_labels(const ftm_mesh *mesh);
+/* Whether the builder labelled any element. */
+bool ftm_mesh_has_labels(const ftm_mesh *mesh);
 
 int32_t ftm_mesh_node_of_input(const ftm_mesh *mesh, int32_t input_index);
 int32_t ftm_mesh_input_of_node(const ftm_mesh *mesh, int32_t node);

@@ -76,6 +76,11 @@ const ftm_scene_load *ftm_scene_loads(const ftm_scene *scene);
  * the scene has no [fem] section. Any pointer may be NULL. */
 bool ftm_scene_fem_material(const ftm_scene *scene, double *young, double *poisson,
                             double *density);
+/* The scene's [fem LABEL] sections, in the file's order (*count of them;
+ * NULL and 0 without any): the materials of the elements of those labels,
+ * the [fem] material being every other element's (ftm fem passes them to
+ * ftm_fem as per-element materials). count may be NULL. */
+const ftm_label_material *ftm_scene_label_materials(const ftm_scene *scene, int32_t *count);
 
 /* The scene's [volume] (paper section 4.2): the image, and its embedding in
  * the scene's mesh, which is then the volume's control lattice

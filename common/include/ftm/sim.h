@@ -84,6 +84,14 @@ typedef enum ftm_far_field {
 #define FTM_MIN_TIME_STEP 1e-12
 #define FTM_MAX_TIME_STEP 1e3
 
+/* A material for the elements of one mesh label (ftm_mesh_tetrahedron_label,
+ * _hexahedron_label): the body's parts, e.g. grey and white matter, each
+ * with its own elastic constants. */
+typedef struct ftm_label_material {
+    int32_t label;         /* >= 1, as the mesh's elements carry it */
+    double young, poisson; /* as ftm_sim_def's */
+} ftm_label_material;
+
 typedef struct ftm_sim_def {
     double time_step;       /* h [s], FTM_MIN_TIME_STEP..FTM_MAX_TIME_STEP (default 1e-3) */
     int32_t depth;          /* penetration depth n >= 0 (default 10) */
@@ -125,6 +133,14 @@ typedef struct ftm_sim_def {
     ftm_forces forces;
     double young, poisson, density;
     ftm_far_field far_field; /* default FTM_FAR_FIELD_FIXED */
+    /* Per-label materials (default none): an element whose label is one of
+     * these takes its young and poisson, any other element the def's own.
+     * Each label once and carried by some element of the mesh. So far with
+     * linear-fem forces and the fixed far field only (the co-rotational and
+     * neo-Hookean kernels and the far field's compliance take one material;
+     * FTM_EINVAL otherwise). The simulation keeps its own copy. */
+    const ftm_label_material *label_materials;
+    int32_t label_material_count;
 } ftm_sim_def;
 
 ftm_sim_def ftm_default_sim_def(void);

@@ -37,6 +37,20 @@ typedef struct ftm_volume_info {
     ftm_vec3 origin;    /* the box's minimum corner [m] */
 } ftm_volume_info;
 
+/* Which axes a file's voxels are placed on. */
+typedef enum ftm_volume_axes {
+    /* The scanner's (world) axes, as the file's sform (or, without one, its
+     * qform) places the image: x, y, z are NIfTI's RAS (x to the right, y
+     * to the front, z up), and the box lies where the scanner puts it, so a
+     * mesh made from the scan lines up with it. The voxel axes
+     * are permuted and flipped onto the nearest world axes; an oblique
+     * transform (an axis more than 0.06 degrees off) is refused. A file with
+     * neither form (both codes 0) is read as STORED. */
+    FTM_VOLUME_AXES_SCANNER,
+    /* The file's own voxel axes i, j, k, and the box's corner at `origin`. */
+    FTM_VOLUME_AXES_STORED,
+} ftm_volume_axes;
+
 /* How a file's values become intensities in [0, 1] (stored as 0..255). */
 typedef struct ftm_volume_load_def {
     /* Values at or below the low percentile map to 0, at or above the high
@@ -46,24 +60,28 @@ typedef struct ftm_volume_load_def {
      * window that comes out empty (most values equal) widens to the full
      * range, and a constant image is 1 where it is above 0. */
     double low_percentile, high_percentile;
-    /* Where the box's minimum corner goes [m]; default (0, 0, 0). */
+    /* STORED: where the box's minimum corner goes [m]; SCANNER: a shift
+     * added to where the scanner puts it. Default (0, 0, 0). */
     ftm_vec3 origin;
-    /* Factor on the file's voxel size after its units are converted to
-     * metres; default 1. */
+    /* Factor on every length of the file (voxel size, and with SCANNER the
+     * transform's offsets) after its units are converted to metres;
+     * default 1. */
     double scale;
+    ftm_volume_axes axes; /* default FTM_VOLUME_AXES_SCANNER */
 } ftm_volume_load_def;
 
 ftm_volume_load_def ftm_default_volume_load_def(void);
 
-/* NIfTI-1 single file (.nii; .nii.gz where libftm was built with zlib): a 3D
- * image (dim[0] 3, or 4 with dim[4] = 1) of uint8, int8, int16, uint16, int32,
- * float32 or float64, either byte order; scl_slope/scl_inter applied; voxel
- * size from pixdim[1..3] in the units xyzt_units gives (mm when unset). A NaN
- * or infinite value is an error naming the voxel. def may be NULL (defaults).
- * The orientation (qform/sform) is not applied: x, y, z are the stored axes.
- * A file starting with the gzip magic is inflated whatever its name; at most
- * 2^28 voxels, and never more bytes than the header's voxels need.
- * FTM_EIO, FTM_EPARSE, FTM_EINVAL, FTM_ENOMEM. */
+/* NIfTI-1 or NIfTI-2 single file (.nii or .nii.gz), read through libnifti
+ * (where libftm was built without it, every file is refused saying so): a
+ * 3D image (dim[0] 3, or 4 with dim[4] = 1) of uint8, int8, int16, uint16,
+ * int32, uint32, float32 or float64, either byte order; scl_slope/scl_inter
+ * applied; voxel size from pixdim[1..3] in the units xyzt_units gives (mm
+ * when unset); placed on the axes def->axes says (the sform/qform applied
+ * by default). A NaN or infinite value is an error naming the voxel. def
+ * may be NULL (defaults). A file starting with the gzip magic is inflated
+ * whatever its name; at most 2^28 voxels, and never more bytes read than
+ * the header's voxels need. FTM_EIO, FTM_EPARSE, FTM_EINVAL, FTM_ENOMEM. */
 int ftm_volume_load(const char *path, const ftm_volume_load_def *def, ftm_volume **out,
                     ftm_error *err);
 /* The same from bytes in memory (an uncompressed .nii); name is used in
