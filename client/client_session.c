@@ -364,6 +364,10 @@ static bool banner_text(ftm_client_session *s, int64_t now, char *banner, size_t
         /* no frames, so no force samples: the haptic loop fades to zero */
         snprintf(banner, cap, "SESSION PAUSED%s", trainee ? ": NO FORCE UNTIL IT RESUMES" : "");
         return false;
+    } else if (in->scene_feel) {
+        /* stays while the scene does: an instructor may have picked it on purpose */
+        snprintf(banner, cap, "SCENE '%s': %s", ftm_scene_name(ftm_participant_scene(s->part)),
+                 in->scene_feel_text);
     }
     return true;
 }

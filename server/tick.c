@@ -385,6 +385,17 @@ int srv_tick_setup(server *s)
     char model[256];
     ftm_scene_describe_model(s->scene, model, sizeof model);
     srv_log(s, "info", "scene '%s' runs %s", ftm_scene_name(s->scene), model);
+    /* a scene a trainee cannot feel is said now, not found out in the lesson */
+    ftm_press_estimate pe;
+    if (ftm_scene_press_estimate(s->scene, FTM_PRESS_ESTIMATE_DEPTH, &pe, &err) == FTM_OK) {
+        char feel[192];
+        ftm_press_describe(&pe, feel, sizeof feel);
+        srv_log(s, ftm_press_verdict(&pe) ? "warn" : "info", "scene '%s': %s",
+                ftm_scene_name(s->scene), feel);
+    } else {
+        srv_log(s, "info", "scene '%s': no press estimate: %s", ftm_scene_name(s->scene),
+                err.message);
+    }
     tk->period_ns = 1e9 / s->o.rate;
     return 0;
 }

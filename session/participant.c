@@ -248,6 +248,26 @@ static void rejoin(ftm_participant *p, const ftm_wire_announce *a)
     }
 }
 
+/* A scene a trainee cannot feel (or that would feel like bone) is said when
+ * it loads, not found out by pressing it: the press estimate costs half a
+ * simulated second of the contact region, once per scene. */
+static void scene_feel(ftm_participant *p)
+{
+    ftm_press_estimate e;
+    ftm_error err = {0, ""};
+    p->info.scene_feel = 0;
+    p->info.scene_feel_text[0] = '\0';
+    if (ftm_scene_press_estimate(p->scene, FTM_PRESS_ESTIMATE_DEPTH, &e, &err)) {
+        plog(p, FTM_LOG_INFO, "scene '%s': no press estimate: %s", ftm_scene_name(p->scene),
+             err.message);
+        return;
+    }
+    p->info.scene_feel = ftm_press_verdict(&e);
+    ftm_press_describe(&e, p->info.scene_feel_text, sizeof p->info.scene_feel_text);
+    plog(p, p->info.scene_feel ? FTM_LOG_WARN : FTM_LOG_INFO, "scene '%s': %s",
+         ftm_scene_name(p->scene), p->info.scene_feel_text);
+}
+
 /* The scene of an announcement, once: a name that failed is not tried
  * again (every announcement would say so). */
 static void load_scene(ftm_participant *p, const ftm_wire_announce *a)
@@ -267,6 +287,7 @@ static void load_scene(ftm_participant *p, const ftm_wire_announce *a)
         return;
     }
     p->info.scene_failed = false;
+    scene_feel(p);
     if (strcmp(path, name) != 0)
         plog(p, FTM_LOG_INFO, "scene '%s': %s", name, path);
     /* (the announcement's tick is when it was made, not where we sync:

@@ -110,6 +110,12 @@ typedef struct ftm_participant_info {
      * looked for once, then every 30 s while none comes */
     bool sessions_scanned;
     char sessions_heard[192]; /* their names, quoted, comma-separated; "" none */
+    /* what a press on the loaded scene feels like (ftm_scene_press_estimate
+     * at FTM_PRESS_ESTIMATE_DEPTH): ftm_press_verdict (-1 far too soft, 1
+     * far too stiff, 0 in or near palpation's range, or no estimate) and
+     * the log's line ("" before a scene or without an estimate) */
+    int scene_feel;
+    char scene_feel_text[192];
 } ftm_participant_info;
 
 typedef struct ftm_participant ftm_participant;

@@ -22,6 +22,7 @@ typedef struct sim_options {
     const char *csv;   /* NULL = none, "-" = stdout */
     bool quiet;
     bool json;
+    bool press;
 } sim_options;
 
 static void usage(FILE *out)
@@ -38,6 +39,8 @@ static void usage(FILE *out)
             "  --order ORDER  update order inside a layer: colored, bfs or jacobi\n"
             "  --csv FILE     write the final node positions as CSV (\"-\": standard output)\n"
             "  --json         print the summary as one JSON object\n"
+            "  --press        also estimate what a 7.5 mm press on the top feels like\n"
+            "                 (docs/feel.md, \"Can a trainee feel it\")\n"
             "  --quiet        print only the state hash\n"
             "  -h, --help     show this text\n"
             "\n"
@@ -63,7 +66,7 @@ static bool parse_count(const char *s, int64_t max, int64_t *out)
 /* Returns 0 to run, 1 if help was printed, EXIT_USAGE on a bad argument. */
 static int parse_options(int argc, char **argv, sim_options *o)
 {
-    *o = (sim_options){NULL, -1, -1, -1, NULL, false, false};
+    *o = (sim_options){NULL, -1, -1, -1, NULL, false, false, false};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
@@ -76,6 +79,10 @@ static int parse_options(int argc, char **argv, sim_options *o)
         }
         if (strcmp(a, "--json") == 0) {
             o->json = true;
+            continue;
+        }
+        if (strcmp(a, "--press") == 0) {
+            o->press = true;
             continue;
         }
         if (a[0] == '-' && a[1] != '\0') {
@@ -219,6 +226,9 @@ static int32_t displacement_groups(const ftm_scene *scene, int32_t *groups)
 typedef struct summary {
     const char *scene;
     char model[256]; /* ftm_scene_describe_model */
+    char press[256]; /* --press: ftm_press_describe or why there is none; "" without */
+    bool have_press;
+    ftm_press_estimate pe;
     int32_t nodes, links, triangles;
     double h, h_crit;
     int32_t depth;
@@ -277,6 +287,9 @@ static void print_json(FILE *out, const summary *s, const ftm_sim *sim, const in
     ftm_json_string(out, s->scene);
     fputs(", \"model\": ", out);
     ftm_json_string(out, s->model);
+    if (s->have_press)
+        fprintf(out, ", \"press\": {\"depth\": %.17g, \"force\": %.17g, \"triangle\": %d}",
+                s->pe.depth, s->pe.force, (int)s->pe.triangle);
     fprintf(out, ", \"nodes\": %d, \"links\": %d, \"triangles\": %d", (int)s->nodes,
             (int)s->links, (int)s->triangles);
     fputs(", \"time_step\": ", out);
@@ -324,6 +337,8 @@ static void print_human(FILE *out, const summary *s, const ftm_sim *sim, const i
 {
     fprintf(out, "scene            %s\n", s->scene);
     fprintf(out, "model            %s\n", s->model);
+    if (s->press[0])
+        fprintf(out, "press            %s\n", s->press);
     fprintf(out, "mesh             %d nodes, %d links, %d triangles\n", (int)s->nodes,
             (int)s->links, (int)s->triangles);
     fprintf(out, "time step        %.6g s (critical %.6g s)\n", s->h, s->h_crit);
@@ -447,6 +462,15 @@ int ftm_cmd_sim(int argc, char **argv)
     memset(&s, 0, sizeof s);
     s.scene = ftm_scene_name(scene);
     ftm_scene_describe_model(scene, s.model, sizeof s.model);
+    if (o.press) {
+        ftm_error perr = {0, ""};
+        if (ftm_scene_press_estimate(scene, FTM_PRESS_ESTIMATE_DEPTH, &s.pe, &perr) == FTM_OK) {
+            s.have_press = true;
+            ftm_press_describe(&s.pe, s.press, sizeof s.press);
+        } else {
+            snprintf(s.press, sizeof s.press, "none: %s", perr.message);
+        }
+    }
     s.nodes = ftm_mesh_node_count(mesh);
     s.links = ftm_mesh_link_count(mesh);
     s.triangles = ftm_mesh_triangle_count(mesh);

@@ -107,7 +107,8 @@ static void usage(FILE *f)
             "  --threshold X    optimum depth: shape change below X, 0 < X < 1 (default 0.05)\n"
             "  --out DIR        write organs_depth.csv, the surfaces and organs.png,\n"
             "                   organs_depth.png (gnuplot) into DIR\n"
-            "  --obj DIR        write lung.obj, lung.scene, stomach.obj, stomach.scene into DIR\n\n"
+            "  --obj DIR        write lung.obj, lung-surface.scene, stomach.obj,\n"
+            "                   stomach-surface.scene into DIR\n\n"
             "exit status: 0 success, 1 the experiment failed, 2 bad arguments or an output\n"
             "that cannot be written\n",
             quick_max_steps, MAX_DEPTH);
@@ -359,7 +360,7 @@ static int write_organ_files(const ftm_organ *o, const char *dir, double press)
     if (ftm_close_output(f, WHO, path))
         return -1;
 
-    snprintf(name, sizeof name, "%s.scene", o->name);
+    snprintf(name, sizeof name, "%s-surface.scene", o->name);
     f = out_open(dir, name, path, sizeof path);
     if (!f)
         return -1;
@@ -372,12 +373,14 @@ static int write_organ_files(const ftm_organ *o, const char *dir, double press)
             "# %s with the paper's counts (section 4.4), attached where fixed_box says,\n"
             "# pressed %.3g mm by a probe on one surface triangle: its three vertices,\n"
             "# one probe group, whose reaction force ftm sim reports (paper Eq. 19).\n"
-            "[scene]\nname = %s\n"
+            "# A surface has no volume to push back: a trainee cannot feel it (ftm sim\n"
+            "# --press); %s.scene fills it with tetrahedra for training.\n"
+            "[scene]\nname = %s-surface\n"
             "description = generated %s surface, %d nodes, %d triangles, probe press\n\n"
             "[mesh]\nfile = %s.obj\nfixed_box = %.6g %.6g %.6g %.6g %.6g %.6g\n\n"
             "[material]\nmass = %g\nstiffness = %g\ndamping = %g\n\n"
             "[sim]\ntime_step = %g\ndepth = 8\nsteps = 2000\n",
-            o->name, press * 1e3, o->name, o->name, o->node_count, o->tri_count, o->name, b[0],
+            o->name, press * 1e3, o->name, o->name, o->name, o->node_count, o->tri_count, o->name, b[0],
             b[1], b[2], b[3], b[4], b[5], m.node_mass, m.stiffness, m.node_damping,
             FTM_ORGAN_TIME_STEP);
     for (int v = 0; v < 3; v++)

@@ -5,7 +5,8 @@
 # probe, depths 1..12 and the whole organ), keeping the table and the JSON
 # (a second run: its step times differ a little) under docs/bench/, the
 # pictures as docs/img/organs.png and docs/img/organs_depth.png, and the
-# organs with their scenes as docs/scenes/{lung,stomach}.{obj,scene}.
+# organs with their scenes as docs/scenes/{lung,stomach}.obj and
+# {lung,stomach}-surface.scene, and fills them with tetrahedra (make-volumes.sh).
 #   docs/bench/organs.sh [path/to/ftm]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -23,7 +24,10 @@ for png in organs organs_depth; do
     cp "$tmp/$png.png" "docs/img/$png.png"
   fi
 done
+docs/scenes/make-volumes.sh
 # the scenes load and run
-"$ftm" sim docs/scenes/stomach.scene --steps 200 --quiet >/dev/null
-"$ftm" sim docs/scenes/lung.scene --steps 200 --quiet >/dev/null
-echo "wrote $out/organs.txt $out/organs.json docs/img/organs*.png docs/scenes/{lung,stomach}.{obj,scene}"
+"$ftm" sim docs/scenes/stomach-surface.scene --steps 200 --quiet >/dev/null
+"$ftm" sim docs/scenes/lung-surface.scene --steps 200 --quiet >/dev/null
+"$ftm" sim docs/scenes/stomach.scene --steps 1 --press | grep "^press"
+"$ftm" sim docs/scenes/lung.scene --steps 1 --press | grep "^press"
+echo "wrote $out/organs.txt $out/organs.json docs/img/organs*.png docs/scenes/{lung,stomach}.{obj,node,ele} and the -surface scenes"

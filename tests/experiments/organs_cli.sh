@@ -67,22 +67,33 @@ check "it writes the surfaces and the script" test -s "$tmp/out_dir/organs_stoma
     -a -s "$tmp/out_dir/organs.gp"
 check "the OBJ has the paper's counts" \
     test "$(grep -c '^v ' "$tmp/obj/stomach.obj") $(grep -c '^f ' "$tmp/obj/stomach.obj")" = "512 1020"
-run sim "$tmp/obj/stomach.scene" --steps 300 --json
+run sim "$tmp/obj/stomach-surface.scene" --steps 300 --json
 check "the written scene runs" [ "$rc" -eq 0 ]
 check "its mesh is the stomach and its probe felt a force" json 'd["nodes"] == 512 and
     any(abs(g["force"][0]) + abs(g["force"][1]) + abs(g["force"][2]) > 0 for g in d["reactions"])'
 check "it did not warn" clean_run
 
 if [ -n "${FTM_SOURCE_DIR:-}" ]; then
-    for organ in stomach lung; do
+    for organ in stomach lung stomach-surface lung-surface; do
         run sim "$FTM_SOURCE_DIR/docs/scenes/$organ.scene" --steps 200
         check "docs/scenes/$organ.scene runs without a warning" \
             clean_run
     done
     check "docs/scenes/stomach.obj is what the generator writes now" \
         cmp -s "$FTM_SOURCE_DIR/docs/scenes/stomach.obj" "$tmp/obj/stomach.obj"
-    check "docs/scenes/stomach.scene is what the generator writes now" \
-        cmp -s "$FTM_SOURCE_DIR/docs/scenes/stomach.scene" "$tmp/obj/stomach.scene"
+    check "docs/scenes/stomach-surface.scene is what the generator writes now" \
+        cmp -s "$FTM_SOURCE_DIR/docs/scenes/stomach-surface.scene" "$tmp/obj/stomach-surface.scene"
+    # the training organs: tetrahedra filling the surfaces, felt in palpation's range
+    for organ in stomach lung; do
+        run sim "$FTM_SOURCE_DIR/docs/scenes/$organ.scene" --steps 1 --press --json
+        check "docs/scenes/$organ.scene keeps the paper's surface" \
+            json 'd["triangles"] == {"stomach": 1020, "lung": 3534}["'$organ'"]'
+        check "a 7.5 mm press on docs/scenes/$organ.scene gives 1-10 N" \
+            json '1.0 <= d["press"]["force"] <= 10.0'
+    done
+    run sim "$FTM_SOURCE_DIR/docs/scenes/stomach-surface.scene" --steps 1 --press
+    check "the paper's surface stomach is called far softer than tissue" \
+        grep -q '^press .*far softer than tissue' "$tmp/out"
 fi
 
 if command -v gnuplot >/dev/null 2>&1; then

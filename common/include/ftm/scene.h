@@ -94,6 +94,41 @@ const ftm_ffd *ftm_scene_ffd(const ftm_scene *scene);
 int32_t ftm_scene_contacts_at(const ftm_scene *scene, double t, ftm_contact *contacts,
                               int32_t capacity);
 
+/* ---- what a press feels like (docs/feel.md, "Can a trainee feel it") ---- */
+
+/* What a 5-10 mm press gives on soft tissue a hand palpates, in newtons. */
+#define FTM_PALPATION_MIN_N 1.0
+#define FTM_PALPATION_MAX_N 10.0
+/* The press depth the server and client estimate a scene's feel at [m]. */
+#define FTM_PRESS_ESTIMATE_DEPTH 0.0075
+
+typedef struct ftm_press_estimate {
+    int32_t triangle; /* the surface triangle pressed; -1: the scene's scripted press */
+    ftm_vec3 point;   /* where (rest): the first pressed node, or the top point */
+    ftm_vec3 push;    /* the displacement imposed on its free vertices [m] */
+    double depth;     /* |push| [m] */
+    double force;     /* the reaction's magnitude, held press [N] */
+    int32_t substeps; /* the guard's substeps at the end (1: stable as given) */
+} ftm_press_estimate;
+
+/* The force of a press `depth` deep, made as the server makes a probe's (a
+ * triangle's vertices displaced together) on the scene's own model, depth
+ * and far field: where the scene scripts a press, its first displacement
+ * group's nodes (up to three) along that load's direction; else the surface
+ * triangle at the top (the one the vertical through the bounding box's
+ * centre crosses highest, else the highest facing up) along its inward
+ * normal. Ramped over 0.25 s, held 0.25 s, the reaction averaged over the
+ * last 50 ms. Costs half a simulated second of the contact region.
+ * FTM_ENOENT: nothing to press (a planar mesh with no load); FTM_EUNSTABLE:
+ * the press diverged. triangle is -1 for a scripted press. */
+int ftm_scene_press_estimate(const ftm_scene *scene, double depth, ftm_press_estimate *out,
+                             ftm_error *err);
+/* -1 a decade or more below the palpation range, 1 a decade above, else 0. */
+int ftm_press_verdict(const ftm_press_estimate *e);
+/* The estimate in one line for a log ("a 7.5 mm press on the top gives
+ * 0.0146 N: far softer than ..."); snprintf's contract. */
+int ftm_press_describe(const ftm_press_estimate *e, char *buf, size_t size);
+
 #ifdef __cplusplus
 }
 #endif
