@@ -63,11 +63,13 @@ int ftm_ffd_create(const ftm_mesh *mesh, const ftm_volume *volume, const int32_t
                 if (nd >= 0) {
                     seen[nd] = 1;
                     /* the node's own rest position, so that positions at rest
-                     * give a displacement of exactly zero */
+                     * give a displacement of exactly zero; a surface point
+                     * fitted to the image (fit_surface) rests up to 0.85 of a
+                     * cell inward, never farther than a cell */
                     ftm_vec3 r = ftm_mesh_rest_position(mesh, nd);
                     double m[3] = {r.x, r.y, r.z};
                     for (int a = 0; a < 3; a++)
-                        if (!(fabs(m[a] - x[a]) <= 1e-9 * d->f.cell[a])) {
+                        if (!(fabs(m[a] - x[a]) < d->f.cell[a])) {
                             rc = ftm_error_set(err, FTM_EINVAL,
                                                "%s: lattice point (%d, %d, %d) is at (%g, %g, "
                                                "%g) but its node %d rests at (%g, %g, %g)",

@@ -112,6 +112,7 @@ typedef enum key {
     K_VOLUME_STENCIL,
     K_HARD,
     K_AIR,
+    K_FIT_SURFACE,
     K_FIX,
     K_WINDOW,
     K_SCALE,
@@ -174,6 +175,7 @@ static const struct {
     [K_VOLUME_STENCIL] = {SEC_VOLUME, "stencil", false},
     [K_HARD] = {SEC_VOLUME, "hard", false},
     [K_AIR] = {SEC_VOLUME, "air", false},
+    [K_FIT_SURFACE] = {SEC_VOLUME, "fit_surface", false},
     [K_FIX] = {SEC_VOLUME, "fix", false},
     [K_WINDOW] = {SEC_VOLUME, "window", false},
     [K_SCALE] = {SEC_VOLUME, "scale", false},
@@ -541,6 +543,15 @@ static int set_volume_key(parser *p, key k, const char *kn, const char *v, size_
         return number(p, kn, t[0], &s->volume_lattice.hard_threshold);
     case K_AIR:
         return scalar(p, kn, v, vlen, false, &s->volume_lattice.air_threshold);
+    case K_FIT_SURFACE: {
+        static const char *const bools[] = {"on", "off", "true", "false", "yes", "no", "1", "0",
+                                            NULL};
+        int b;
+        if ((rc = word(p, kn, v, vlen, bools, "on or off", &b)) != FTM_OK)
+            return rc;
+        s->volume_lattice.fit_surface = (b % 2) == 0;
+        return FTM_OK;
+    }
     case K_FIX:
         return faces_value(p, kn, v, vlen, &s->volume_lattice.fixed_faces);
     case K_WINDOW:

@@ -137,6 +137,61 @@ static int check_def(const ftm_volume_lattice_def *d, const char *who, ftm_error
     return ftm_material_check(&d->material, who, err);
 }
 
+/* The outward normals of the kept cells' outer faces, summed per point
+ * (3 per lattice point; 0 for a point on none). */
+static void surface_normals(const ftm_volume_frame *f, const uint8_t *kept, double *nsum)
+{
+    const int32_t *n = f->n;
+    int32_t c[3];
+    for (c[2] = 0; c[2] < n[2] - 1; c[2]++)
+        for (c[1] = 0; c[1] < n[1] - 1; c[1]++)
+            for (c[0] = 0; c[0] < n[0] - 1; c[0]++) {
+                if (!kept[cell_index(f, c)])
+                    continue;
+                for (int face = 0; face < 6; face++) {
+                    int ax = face / 2, hi = face & 1, u = (ax + 1) % 3, v = (ax + 2) % 3;
+                    int32_t nb[3] = {c[0], c[1], c[2]};
+                    nb[ax] += hi ? 1 : -1;
+                    if (cell_kept(f, kept, nb))
+                        continue;
+                    for (int t = 0; t < 4; t++) {
+                        int32_t at[3];
+                        at[ax] = c[ax] + hi;
+                        at[u] = c[u] + (t == 1 || t == 2);
+                        at[v] = c[v] + (t >= 2);
+                        nsum[3 * (at[0] + (size_t)n[0] * (at[1] + (size_t)n[1] * at[2])) + ax] +=
+                            hi ? 1.0 : -1.0;
+                    }
+                }
+            }
+}
+
+/* A surface point in air, moved inward along -nrm onto the image's surface:
+ * the first of 64 samples up to 0.85 of a cell at or above `air`, else the
+ * farthest. Samples in a fixed order: the same point on every machine. */
+static ftm_vec3 fit_point(const ftm_volume *v, const ftm_volume_frame *f, ftm_vec3 x,
+                          const double nrm[3], double air)
+{
+    if (ftm_volume_sample(v, x) >= air)
+        return x;
+    double len = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+    if (!(len > 0.0))
+        return x;
+    /* the reach along the direction: 0.7 of the cell it crosses */
+    double reach = 0.0;
+    for (int a = 0; a < 3; a++)
+        reach += fabs(nrm[a] / len) * f->cell[a];
+    reach *= 0.85;
+    ftm_vec3 y = x;
+    for (int s = 1; s <= 64; s++) {
+        const double d = reach * s / 64.0;
+        y = (ftm_vec3){x.x - nrm[0] / len * d, x.y - nrm[1] / len * d, x.z - nrm[2] / len * d};
+        if (ftm_volume_sample(v, y) >= air)
+            break;
+    }
+    return y;
+}
+
 int ftm_generate_volume_lattice(ftm_mesh_builder *b, const ftm_volume *volume,
                                 const ftm_volume_lattice_def *def, int32_t *point_input,
                                 ftm_error *err)
@@ -163,6 +218,7 @@ int ftm_generate_volume_lattice(ftm_mesh_builder *b, const ftm_volume *volume,
         return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", who);
     }
     size_t kept_cells = 0;
+    double *nsum = NULL; /* fit_surface: outward normals per point */
     int32_t c[3], p[3];
     for (c[2] = 0; c[2] < n[2] - 1; c[2]++)
         for (c[1] = 0; c[1] < n[1] - 1; c[1]++)
@@ -178,6 +234,14 @@ int ftm_generate_volume_lattice(ftm_mesh_builder *b, const ftm_volume *volume,
                            "%s: every cell is air (no sample reaches the air threshold %g)", who,
                            def->air_threshold);
         goto done;
+    }
+    if (def->fit_surface) {
+        nsum = calloc(points * 3, sizeof *nsum);
+        if (!nsum) {
+            rc = ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", who);
+            goto done;
+        }
+        surface_normals(&f, kept, nsum);
     }
     /* points of a kept cell, x fastest, fixed in hard tissue or on a fixed face */
     for (p[2] = 0; p[2] < n[2]; p[2]++)
@@ -196,7 +260,10 @@ int ftm_generate_volume_lattice(ftm_mesh_builder *b, const ftm_volume *volume,
                 bool fixed = ftm_lattice_on_faces(def->fixed_faces, p, n) ||
                              (def->hard_threshold <= 1.0 &&
                               point_intensity(volume, &f, p) >= def->hard_threshold);
-                ftm_node_def nd = {.position = frame_point(&f, p[0], p[1], p[2]),
+                ftm_vec3 at = frame_point(&f, p[0], p[1], p[2]);
+                if (nsum && !fixed)
+                    at = fit_point(volume, &f, at, nsum + 3 * i, def->air_threshold);
+                ftm_node_def nd = {.position = at,
                                    .mass = def->material.node_mass,
                                    .damping = def->material.node_damping,
                                    .fixed = fixed};
@@ -283,6 +350,7 @@ int ftm_generate_volume_lattice(ftm_mesh_builder *b, const ftm_volume *volume,
     if (point_input)
         memcpy(point_input, input, points * sizeof *input);
 done:
+    free(nsum);
     free(kept);
     free(input);
     return rc;

@@ -128,6 +128,12 @@ typedef struct ftm_volume_lattice_def {
      * to no other cell. 0 keeps the whole box. Default 0.05. */
     double air_threshold;
     uint32_t fixed_faces;       /* FTM_FACE_* of the box, fixed as well; default 0 */
+    /* Moves each free point of the lattice's surface that lies in air
+     * inward, along the mean inward normal of its outer faces, onto the
+     * image's surface (the first sample at or above air_threshold), at most
+     * 0.85 of a cell: the contact surface is then the tissue's (the scalp),
+     * not the kept cells' hull up to a cell above it. Default false. */
+    bool fit_surface;
 } ftm_volume_lattice_def;
 
 ftm_volume_lattice_def ftm_default_volume_lattice_def(void);
