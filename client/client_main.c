@@ -45,6 +45,9 @@
 
 #define SEC FTM_NS_PER_S
 #define MOUSE_MAX_DEPTH 0.2 /* the mouse probe's deepest push, as a part of the scene's size */
+/* the mouse probe starts (and key u lifts it) this many link lengths above
+ * the scene's top: a few wheel notches from the surface, inside the view */
+#define PROBE_START_LINKS 1.5
 
 typedef struct app {
     ftm_client_options o;
@@ -74,6 +77,10 @@ typedef struct app {
     bool probe_touching;
     ftm_vec3 touch_point, touch_normal;
     double probe_lift_z;
+    /* while in contact: the reaction's largest angle from the normal and
+     * its peak, logged at the release (how cleanly it pushed and let go) */
+    double touch_angle, touch_peak;
+    int64_t touch_start;
     ftm_client_view view;
     ftm_render_opts ropts;
     double mx, my;
@@ -402,7 +409,7 @@ static void new_mesh(app *a)
         if (ftm_mouse_set_limits(a->dev, lo, hi, MOUSE_MAX_DEPTH * size, size))
             alog(a, FTM_LOG_WARN, "mouse probe: no travel limits for this scene");
         double l = ftm_render_link_length(a->ren);
-        a->probe_lift_z = hi.z + 3 * l;
+        a->probe_lift_z = hi.z + PROBE_START_LINKS * l;
         a->probe_touching = false;
         ftm_mouse_set_hip(a->dev, (ftm_vec3){0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), a->probe_lift_z});
     }
@@ -510,8 +517,31 @@ static void hud_info(app *a, ftm_client_view *draw, ftm_hud_info *info, int64_t 
             draw->nprobes++;
         }
         if (j < draw->nprobes && st.ticks > 0) {
-            draw->probes[j].have_hip = true;
-            draw->probes[j].hip = st.hip;
+            ftm_client_probe *p = &draw->probes[j];
+            p->have_hip = true;
+            p->hip = st.hip;
+            /* where the probe is: its push depth below the surface where the
+             * contact began, or its height above the surface below it */
+            if (p->in_contact && p->has_plane) {
+                const ftm_vec3 n = p->plane_normal, h = p->hip, q = p->plane_point;
+                double nn = sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+                if (nn > 0) {
+                    info->probe_where = FTM_HUD_PROBE_PRESSING;
+                    info->probe_mm =
+                        -((h.x - q.x) * n.x + (h.y - q.y) * n.y + (h.z - q.z) * n.z) / nn * 1e3;
+                }
+            } else if (!p->in_contact && a->view.mesh) {
+                ftm_instrument in;
+                ftm_render_instrument(a->ren, p, &in);
+                double d;
+                info->probe_where = FTM_HUD_PROBE_NOTHING_BELOW;
+                if (ftm_render_surface_along(a->ren, in.tip,
+                                             (ftm_vec3){-in.axis.x, -in.axis.y, -in.axis.z}, &d,
+                                             NULL)) {
+                    info->probe_where = FTM_HUD_PROBE_ABOVE;
+                    info->probe_mm = d * 1e3;
+                }
+            }
         }
         info->haptic = true;
         info->force = st.force;
@@ -615,15 +645,41 @@ static void probe_out(app *a)
     for (int32_t i = 0; i < a->view.nprobes; i++) {
         const ftm_client_probe *p = &a->view.probes[i];
         if (p->own && p->probe == 0 && p->in_contact && p->has_plane) {
+            if (!a->probe_touching) {
+                a->touch_angle = a->touch_peak = 0;
+                a->touch_start = ftm_clock_mono_ns();
+            }
             a->probe_touching = true;
             a->touch_point = p->plane_point;
             a->touch_normal = p->plane_normal;
+            /* the wheel pushes and pulls along the normal where the contact
+             * began, whatever the camera does meanwhile (issue 27) */
+            const ftm_vec3 n = p->plane_normal;
+            ftm_mouse_set_push_axis(a->dev, (ftm_vec3){-n.x, -n.y, -n.z});
+            const ftm_vec3 f = p->force;
+            double fn = sqrt(f.x * f.x + f.y * f.y + f.z * f.z);
+            double nn = sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+            if (fn > a->touch_peak)
+                a->touch_peak = fn;
+            if (fn > 0.05 && nn > 0) { /* (a tiny force's direction is noise) */
+                double c = (f.x * n.x + f.y * n.y + f.z * n.z) / (fn * nn);
+                double ang = acos(fmax(-1.0, fmin(1.0, c))) * 180.0 / 3.14159265358979323846;
+                if (ang > a->touch_angle)
+                    a->touch_angle = ang;
+            }
             return;
         }
     }
+    /* out of contact the wheel lowers the probe straight down (-z, "up" in
+     * every FTM scene), along the line drawn to the surface below it */
+    ftm_mouse_set_push_axis(a->dev, (ftm_vec3){0, 0, -1});
     if (!a->probe_touching || a->view.state != FTM_WIRE_STATE_SYNCED)
         return; /* (not synced: frames wait, the contact may go on) */
     a->probe_touching = false;
+    alog(a, FTM_LOG_INFO,
+         "probe: contact released after %.1f s; reaction at most %.0f deg from the surface "
+         "normal, peak %.2f N",
+         (double)(ftm_clock_mono_ns() - a->touch_start) * 1e-9, a->touch_angle, a->touch_peak);
     ftm_vec3 to;
     if (ftm_mouse_out_of_tissue(a->dev, a->touch_point, a->touch_normal, PROBE_CLEARANCE,
                                 PROBE_INSIDE, &to) == 1)

@@ -51,13 +51,19 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         const char *why = "";
         if (in->haptic_flags & (FTM_HAPTIC_DISCONNECTED | FTM_HAPTIC_DEVICE_LOST))
             why = "  OFF";
-        else if (in->haptic_flags & FTM_HAPTIC_STALE)
-            why = "  fading";
+        else if ((in->haptic_flags & FTM_HAPTIC_STALE) && norm(in->force) > 1e-6)
+            why = "  fading"; /* (a zero force out of contact fades nothing) */
         else if (in->haptic_flags & FTM_HAPTIC_CLAMPED)
             why = "  clamped";
         LINE("force %.3f N (%.2f %.2f %.2f)  %s%s", norm(in->force), in->force.x, in->force.y,
              in->force.z, in->renderer ? in->renderer : "", why);
     }
+    if (in->probe_where == FTM_HUD_PROBE_ABOVE)
+        LINE("probe %.1f mm above the surface (wheel: down)", in->probe_mm);
+    else if (in->probe_where == FTM_HUD_PROBE_PRESSING)
+        LINE("probe pressing %.1f mm deep (wheel: along the normal)", in->probe_mm);
+    else if (in->probe_where == FTM_HUD_PROBE_NOTHING_BELOW)
+        LINE("probe beside the tissue: nothing below it (drag it over; u: back above)");
     if (in->role == FTM_WIRE_ROLE_TRAINEE && v->own_contact_ticks > 0)
         LINE("you: %.1f s in contact, peak %.2f N", (double)v->own_contact_ticks /
              (v->rate_hz ? v->rate_hz : 1), v->own_peak_force);

@@ -26,7 +26,19 @@ typedef struct ftm_hud_info {
      * 80 N/m: applied at tick 1234"); NULL: nothing to show */
     const char *command_outcome;
     bool outcome_bad; /* refused, unanswered or not sent */
+    /* a trainee's own probe: where it is (FTM_HUD_PROBE_*), probe_mm its
+     * height above the surface below it or its push depth [mm] */
+    int probe_where;
+    double probe_mm;
+    bool help; /* the help overlay is shown (F1, ?): the hint line says how to close it */
 } ftm_hud_info;
+
+enum {
+    FTM_HUD_PROBE_UNKNOWN = 0,
+    FTM_HUD_PROBE_ABOVE,         /* probe_mm above the surface straight below it */
+    FTM_HUD_PROBE_PRESSING,      /* in contact, probe_mm below where the contact began */
+    FTM_HUD_PROBE_NOTHING_BELOW, /* beside the tissue: no surface below it */
+};
 
 /* Fills lines[i] (each FTM_HUD_WIDTH bytes) and returns how many. */
 int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *info,
