@@ -478,8 +478,23 @@ static int save_screenshot(app *a, const ftm_client_view *v, int w, int h)
             break;
         }
     }
-    printf("screenshot %s %dx%d tick %" PRIu64 " view-top %.0f %s\n", a->o.screenshot, w, h,
-           v->tick, a->view_top, where);
+    /* and the middle of the first probe's shaft (the instrument drawn) */
+    char shaft[48] = "shaft none";
+    for (int32_t i = 0; i < v->nprobes; i++) {
+        ftm_instrument in;
+        double x, y;
+        if (!v->probes[i].have_hip)
+            continue;
+        ftm_render_instrument(a->ren, &v->probes[i], &in);
+        const double k = in.tip_radius + 0.5 * in.shaft_length;
+        const ftm_vec3 m = {in.tip.x + k * in.axis.x, in.tip.y + k * in.axis.y,
+                            in.tip.z + k * in.axis.z};
+        if (ftm_camera_project(&a->cam, w, h, a->view_top, m, &x, &y))
+            snprintf(shaft, sizeof shaft, "shaft %.0f %.0f", x, y);
+        break;
+    }
+    printf("screenshot %s %dx%d tick %" PRIu64 " view-top %.0f %s %s\n", a->o.screenshot, w, h,
+           v->tick, a->view_top, shaft, where);
     fflush(stdout);
     alog(a, FTM_LOG_INFO, "screenshot %s: %dx%d, tick %" PRIu64 ", %s, view below row %.0f",
          a->o.screenshot, w, h, v->tick, where, a->view_top);
