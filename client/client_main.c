@@ -83,6 +83,7 @@ typedef struct app {
     int64_t touch_start;
     ftm_client_view view;
     ftm_render_opts ropts;
+    bool help; /* the help overlay (F1, ?) */
     double mx, my;
     int drag; /* 0 none, 1 orbit, 2 pan, 3 probe */
     char last_cmd[96];
@@ -207,8 +208,9 @@ static void send_control(app *a, ftm_wire_control *c, const char *what, const ch
  * to hear it) is not sent, and the HUD says why at once. */
 static void send_command(app *a, ftm_wire_command cmd, const char *what)
 {
-    if (a->role != FTM_WIRE_ROLE_INSTRUCTOR) {
-        alog(a, FTM_LOG_INFO, "%s: only an instructor sends session commands", what);
+    if (a->role != FTM_WIRE_ROLE_INSTRUCTOR) { /* said on screen too, not only in the log */
+        notice(a, true, "%s: an instructor's key (this client is a %s; F1: the keys)", what,
+               a->o.role);
         return;
     }
     ftm_wire_control c;
@@ -258,6 +260,7 @@ static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
         ftm_client_session_want_region(a->sess, a->ropts.region);
         break;
     case GLFW_KEY_H: a->ropts.hud = !a->ropts.hud; break;
+    case GLFW_KEY_F1: a->help = !a->help; break;
     case GLFW_KEY_V: a->ropts.volume = !a->ropts.volume; break;
     case GLFW_KEY_X: a->ropts.cut = !a->ropts.cut; break;
     case GLFW_KEY_N: /* fewer slices, then all again: 1, 2, 5, 10 */
@@ -307,6 +310,14 @@ static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
 }
 
 static bool mouse_probe(const app *a) { return a->dev && a->o.device && strcmp(a->o.device, "mouse") == 0; }
+
+/* '?' by the character it types, whatever the keyboard's layout */
+static void on_char(GLFWwindow *w, unsigned int codepoint)
+{
+    app *a = glfwGetWindowUserPointer(w);
+    if (codepoint == '?')
+        a->help = !a->help;
+}
 
 static void on_button(GLFWwindow *w, int button, int action, int mods)
 {
@@ -773,8 +784,8 @@ static int run(app *a)
     uint64_t frames = 0;
     int64_t deadline = 0;
     const int64_t period = a->o.max_fps > 0 && !(a->o.bench > 0) ? 1000000000LL / a->o.max_fps : 0;
-    char lines[FTM_HUD_LINES][FTM_HUD_WIDTH];
-    const char *hud[FTM_HUD_LINES];
+    char lines[FTM_HUD_LINES][FTM_HUD_WIDTH], help_lines[FTM_HUD_LINES][FTM_HUD_WIDTH];
+    const char *hud[FTM_HUD_LINES], *help[FTM_HUD_LINES];
     ftm_client_view draw;
     while (!glfwWindowShouldClose(a->win) && !g_stop) {
         glfwPollEvents();
@@ -800,6 +811,14 @@ static int run(app *a)
         nhud = ftm_hud_wrap(lines, nhud, ftm_hud_columns(w, a->ropts.text_scale));
         for (int i = 0; i < nhud; i++)
             hud[i] = lines[i];
+        a->ropts.nhelp = 0;
+        if (a->help) {
+            a->ropts.nhelp = ftm_hud_help(a->role, mouse_probe(a), ftm_render_has_volume(a->ren),
+                                          help_lines);
+            for (int i = 0; i < a->ropts.nhelp; i++)
+                help[i] = help_lines[i];
+            a->ropts.help = help;
+        }
         a->fb_h = h;
         double top = frame_top(a, ftm_render_view_top(&a->ropts, nhud), now, dt);
         ftm_render_draw(a->ren, &draw, &a->cam, w, h, top, &a->ropts, hud, nhud);
@@ -935,6 +954,7 @@ static bool open_window(app *a)
     }
     glfwSetWindowUserPointer(a->win, a);
     glfwSetKeyCallback(a->win, on_key);
+    glfwSetCharCallback(a->win, on_char);
     glfwSetMouseButtonCallback(a->win, on_button);
     glfwSetCursorPosCallback(a->win, on_cursor);
     glfwSetScrollCallback(a->win, on_scroll);

@@ -44,6 +44,12 @@ enum {
 int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *info,
                   char lines[FTM_HUD_LINES][FTM_HUD_WIDTH]);
 
+/* The help overlay (F1, ?): each mouse action and key this client offers,
+ * for its role; mouse_probe: a trainee's probe follows the mouse; volume:
+ * the scene has a volume (its keys). Returns the lines written. */
+int ftm_hud_help(ftm_wire_role role, bool mouse_probe, bool volume,
+                 char lines[FTM_HUD_LINES][FTM_HUD_WIDTH]);
+
 /* Wraps lines[0..n) to at most cols characters (at spaces where it can,
  * continuation rows indented two columns), in place, up to FTM_HUD_LINES
  * rows: a narrow window (640 px) shows every line whole. Returns the rows. */

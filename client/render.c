@@ -49,7 +49,7 @@ struct ftm_render {
 
 ftm_render_opts ftm_render_default_opts(void)
 {
-    return (ftm_render_opts){true, 0.0, false, true, 2, true, false, 1};
+    return (ftm_render_opts){true, 0.0, false, true, 2, true, false, 1, NULL, 0};
 }
 
 /* ---- shaders --------------------------------------------------------------------------- */
@@ -770,9 +770,11 @@ double ftm_render_view_top(const ftm_render_opts *o, int nhud)
 static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
                       const ftm_render_opts *o, const char *const *hud, int nhud)
 {
-    size_t chars = 2 + strlen(v->banner);
+    size_t chars = 3 + strlen(v->banner);
     for (int i = 0; i < nhud; i++)
         chars += strlen(hud[i]) + 1;
+    for (int i = 0; o->help && i < o->nhelp; i++)
+        chars += strlen(o->help[i]) + 1;
     float *buf = scratch(r, (chars + 4) * 6 * TEXT_FLOATS);
     if (!buf)
         return;
@@ -833,6 +835,29 @@ static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
             float rx = 0.5f * ((float)w - (float)strlen(rows[i]) * FTM_FONT_CELL_W * px);
             n += text_line(buf + (size_t)n * TEXT_FLOATS, rx, by + (float)i * lh, px, rows[i], fg);
         }
+    }
+    if (o->help && o->nhelp > 0) {
+        /* the help overlay: a deep blue panel in the middle, over the rest */
+        size_t wmax = 0;
+        for (int i = 0; i < o->nhelp; i++)
+            if (strlen(o->help[i]) > wmax)
+                wmax = strlen(o->help[i]);
+        float hp = px, bw, bh;
+        while (hp > 1 && ((float)wmax * FTM_FONT_CELL_W * hp + 32 > (float)w ||
+                          (float)o->nhelp * (FTM_FONT_CELL_H + 2) * hp + 32 > (float)h))
+            hp -= 1; /* a small window: a smaller font rather than cut off */
+        bw = (float)wmax * FTM_FONT_CELL_W * hp;
+        bh = (float)o->nhelp * (FTM_FONT_CELL_H + 2) * hp;
+        float bx = 0.5f * ((float)w - bw), by = 0.5f * ((float)h - bh);
+        if (bx < 16)
+            bx = 16;
+        if (by < 16)
+            by = 16;
+        const float bg[4] = {0.06f, 0.10f, 0.36f, 0.94f}, fg[4] = {1, 1, 1, 1};
+        n += text_box(buf + (size_t)n * TEXT_FLOATS, bx - 16, by - 14, bw + 32, bh + 24, bg);
+        for (int i = 0; i < o->nhelp; i++)
+            n += text_line(buf + (size_t)n * TEXT_FLOATS, bx, by + (float)i * (FTM_FONT_CELL_H + 2) * hp,
+                           hp, o->help[i], fg);
     }
     if (!n)
         return;

@@ -23,6 +23,10 @@ typedef struct ftm_render_opts {
     bool cut;             /* the volume's half nearer the eye left out: its inside shows */
     int volume_step;      /* draw every step-th slice: 1 (the paper's 9 between node
                            * planes), 2, 5 or 10 (the node planes only) */
+    /* the help overlay's lines (F1), drawn in a panel in the middle of the
+     * window over everything; nhelp 0: none */
+    const char *const *help;
+    int nhelp;
 } ftm_render_opts;
 
 ftm_render_opts ftm_render_default_opts(void);

@@ -30,8 +30,9 @@
 #       the camera orbited, the wheel back out: the contact releases in
 #       about as many notches as went in, the reaction along the normal;
 #       pressed again, the instructor's reset: the client moves the probe out, more wheel
-#       notches touch the tissue again, key u lifts the probe. Skipped (77)
-#       without xdotool.
+#       notches touch the tissue again, key u lifts the probe; a trainee's
+#       instructor key is answered on screen; F1 shows the help overlay.
+#       Skipped (77) without xdotool.
 #   fps: --max-fps 20 draws 10..24 fps over 3 s under Xvfb (where the swap
 #       interval does not throttle), the default cap at most 72 fps.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
@@ -350,7 +351,19 @@ done
 echo "contact again after \$n notches"
 xdotool key u
 until_log "$dir/trainee.log" "back above the tissue" 100 || fail "key u did not lift the probe"
+# an instructor's key from a trainee: a word on screen (the HUD's notice), not only the log
+xdotool key space
+until_log "$dir/trainee.log" "pause: an instructor's key" 100 || fail "no word for an instructor's key"
 kill \$c; wait \$c
+# the help overlay: F1 shows it in the middle of the window
+"$FTM_CLIENT" $common --role observer --size 960x600 --log "$dir/help.log" \
+    --screenshot "$dir/help.png" --screenshot-after 2.5 >"$dir/help.out" 2>"$dir/help.err" &
+c=\$!
+until_log "$dir/help.log" "joining session" 200 || fail "the help client did not start"
+sleep 0.3
+xdotool key F1
+wait \$c
+"$FTM_PNG_CHECK" panel "$dir/help.png" 480 300 100 || fail "no help overlay after F1"
 exit 0
 DRIVE
     : >"$dir/x.xauth"
