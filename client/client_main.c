@@ -20,6 +20,7 @@
 #include "device.h"
 #include "haptic.h"
 #include "haptic_wire.h"
+#include "font.h"
 #include "hud.h"
 #include "render.h"
 #include "screenshot.h"
@@ -84,6 +85,12 @@ typedef struct app {
     ftm_client_view view;
     ftm_render_opts ropts;
     bool help; /* the help overlay (F1, ?) */
+    /* the waiting screen's picker: the HUD row (top first) of each session
+     * offered, 0 for a row that is none, as drawn in the last frame; and
+     * the name picked (the session switched to) */
+    int pick_row[FTM_HUD_LINES];
+    int pick_rows;
+    char picked[64];
     double mx, my;
     int drag; /* 0 none, 1 orbit, 2 pan, 3 probe */
     char last_cmd[96];
@@ -245,6 +252,31 @@ static void scripted_commands(app *a)
 }
 
 static void probe_lift(app *a); /* key u, below */
+static bool start_session(app *a); /* below */
+
+/* The waiting screen's picker: joins the k-th session offered instead of
+ * the one asked for (a mistyped name waits forever otherwise). */
+static void pick_session(app *a, int k)
+{
+    if (a->view.announced || k < 0 || k >= a->view.nsessions)
+        return;
+    snprintf(a->picked, sizeof a->picked, "%s", a->view.sessions[k]);
+    alog(a, FTM_LOG_INFO, "picked session '%s' (was '%s'): joining it", a->picked, a->o.session);
+    ftm_client_session_stop(a->sess);
+    a->sess = NULL;
+    ftm_client_view_free(&a->view);
+    memset(&a->view, 0, sizeof a->view);
+    ftm_error err = {0, ""};
+    ftm_render_set_volume(a->ren, NULL, NULL, &err);
+    ftm_render_set_mesh(a->ren, NULL, &err);
+    a->drawn_mesh = NULL;
+    a->o.session = a->picked;
+    char title[160];
+    snprintf(title, sizeof title, "ftm-client: %s, session %s", a->o.role, a->o.session);
+    glfwSetWindowTitle(a->win, title);
+    if (!start_session(a))
+        glfwSetWindowShouldClose(a->win, GLFW_TRUE);
+}
 
 static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
 {
@@ -261,6 +293,10 @@ static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
         break;
     case GLFW_KEY_H: a->ropts.hud = !a->ropts.hud; break;
     case GLFW_KEY_F1: a->help = !a->help; break;
+    case GLFW_KEY_1: case GLFW_KEY_2: case GLFW_KEY_3: case GLFW_KEY_4: case GLFW_KEY_5:
+    case GLFW_KEY_6: case GLFW_KEY_7: case GLFW_KEY_8: case GLFW_KEY_9:
+        pick_session(a, key - GLFW_KEY_1);
+        break;
     case GLFW_KEY_V: a->ropts.volume = !a->ropts.volume; break;
     case GLFW_KEY_X: a->ropts.cut = !a->ropts.cut; break;
     case GLFW_KEY_N: /* fewer slices, then all again: 1, 2, 5, 10 */
@@ -328,6 +364,19 @@ static void on_button(GLFWwindow *w, int button, int action, int mods)
             ftm_mouse_button(a->dev, false, a->mx, a->my);
         a->drag = 0;
         return;
+    }
+    if (button == GLFW_MOUSE_BUTTON_LEFT && !a->view.announced && a->view.nsessions > 0 &&
+        a->ropts.hud) {
+        /* a click on a session's row of the picker joins it */
+        int ww, wh;
+        glfwGetWindowSize(w, &ww, &wh);
+        double y = wh > 0 && a->fb_h > 0 ? a->my * a->fb_h / wh : a->my;
+        double lh = (FTM_FONT_CELL_H + 2) * (a->ropts.text_scale > 0 ? a->ropts.text_scale : 1);
+        int row = (int)floor((y - 12.0) / lh);
+        if (row >= 0 && row < a->pick_rows && a->pick_row[row] > 0) {
+            pick_session(a, a->pick_row[row] - 1);
+            return;
+        }
     }
     bool shift = mods & GLFW_MOD_SHIFT;
     if (button == GLFW_MOUSE_BUTTON_LEFT && shift)
@@ -576,6 +625,7 @@ static void hud_info(app *a, ftm_client_view *draw, ftm_hud_info *info, int64_t 
     }
     info->role = a->role;
     info->id = a->o.id;
+    info->session = a->o.session;
     info->fps = fps;
     info->frame_ms = fps > 0 ? 1e3 / fps : 0;
     info->triangles = ftm_render_triangle_count(a->ren);
@@ -809,8 +859,17 @@ static int run(app *a)
         int nhud = ftm_hud_lines(&draw, &info, lines);
         /* a narrow window: rows wrapped to its width, none cut off */
         nhud = ftm_hud_wrap(lines, nhud, ftm_hud_columns(w, a->ropts.text_scale));
-        for (int i = 0; i < nhud; i++)
+        for (int i = 0; i < nhud; i++) {
             hud[i] = lines[i];
+            /* a picker row: "  K  NAME  (...)" (hud.c) */
+            const char *l = lines[i];
+            int k = l[0] == ' ' && l[1] == ' ' && l[2] >= '1' && l[2] <= '9' && l[3] == ' ' &&
+                            l[4] == ' '
+                        ? l[2] - '0'
+                        : 0;
+            a->pick_row[i] = !draw.announced && k <= draw.nsessions ? k : 0;
+        }
+        a->pick_rows = nhud;
         a->ropts.nhelp = 0;
         if (a->help) {
             a->ropts.nhelp = ftm_hud_help(a->role, mouse_probe(a), ftm_render_has_volume(a->ren),
@@ -978,6 +1037,13 @@ static bool start(app *a)
         }
         ftm_haptic_set_connected(a->hap, false); /* no force before the replica is synced */
     }
+    return start_session(a);
+}
+
+/* The session thread, on a->o.session; false after saying why. */
+static bool start_session(app *a)
+{
+    ftm_error err = {0, ""};
     ftm_client_config cc = {
         .role = a->role, .scene = a->o.scene, .session = a->o.session, .dds_config = a->o.config,
         .dds_security = a->o.security, .domain = a->o.domain, .id = a->o.id,

@@ -57,8 +57,16 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
 {
     int n = 0;
 #define LINE(...) snprintf(lines[n++], FTM_HUD_WIDTH, __VA_ARGS__)
-    LINE("%s %u  %s  scene %s", ftm_wire_role_name(in->role), in->id,
-         ftm_wire_state_name(v->state), v->scene_name[0] ? v->scene_name : "-");
+    LINE("%s %u  %s  %s%s%sscene %s", ftm_wire_role_name(in->role), in->id,
+         ftm_wire_state_name(v->state), in->session ? "session " : "",
+         in->session ? in->session : "", in->session ? "  " : "",
+         v->scene_name[0] ? v->scene_name : "-");
+    if (!v->announced && v->nsessions > 0) {
+        /* the waiting screen's picker: the sessions that are there */
+        LINE("sessions on this domain: a key 1..%d or a click joins one", (int)v->nsessions);
+        for (int32_t i = 0; i < v->nsessions && i < FTM_CLIENT_PICK; i++)
+            LINE("  %d  %s  (%s)", (int)i + 1, v->sessions[i], v->sessions_about[i]);
+    }
     LINE("tick %" PRIu64 "%s  depth %d [%d..%d]  lag %" PRId64 " ticks (%.1f ms)", v->tick,
          v->paused ? " paused" : "", (int)v->depth, (int)v->depth_min, (int)v->depth_max,
          v->lag_ticks, v->latency_ms);

@@ -11,6 +11,7 @@
 typedef struct ftm_hud_info {
     ftm_wire_role role;
     uint32_t id;
+    const char *session; /* its name, in its own case; NULL: not shown */
     double fps, frame_ms;
     int32_t triangles;
     bool haptic;          /* a haptic loop runs (trainee) */

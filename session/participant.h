@@ -26,6 +26,7 @@
 #include "claims.h"
 #include "pending.h"
 #include "replica.h"
+#include "sessions.h"
 
 #include "ftm/scene.h"
 #include "ftm/wire.h"
@@ -83,6 +84,8 @@ typedef struct ftm_participant_def {
 } ftm_participant_def;
 
 /* What the core knows, for its program to read (on the core's thread). */
+#define FTM_PARTICIPANT_PICK 9 /* sessions offered to pick from (keys 1..9) */
+
 typedef struct ftm_participant_info {
     /* the server process followed (0 until its first announcement) */
     uint32_t server_id;
@@ -110,6 +113,10 @@ typedef struct ftm_participant_info {
      * looked for once, then every 30 s while none comes */
     bool sessions_scanned;
     char sessions_heard[192]; /* their names, quoted, comma-separated; "" none */
+    /* the announced ones among them, sorted by name, for a picker (the
+     * client's waiting screen) */
+    int32_t nsessions;
+    ftm_session_seen sessions[FTM_PARTICIPANT_PICK];
 } ftm_participant_info;
 
 typedef struct ftm_participant ftm_participant;

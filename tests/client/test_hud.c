@@ -440,6 +440,29 @@ static void test_trainee_probe_and_notice(void **state)
     assert_true(find(n, "fading") >= 0);
 }
 
+/* The waiting screen's picker: the sessions heard, numbered, names in
+ * their own case; none once the session is announced. */
+static void test_session_picker(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    v.announced = false;
+    v.nsessions = 2;
+    snprintf(v.sessions[0], sizeof v.sessions[0], "Lesson-A");
+    snprintf(v.sessions_about[0], sizeof v.sessions_about[0], "scene palpation, 1 trainee");
+    snprintf(v.sessions[1], sizeof v.sessions[1], "other");
+    snprintf(v.sessions_about[1], sizeof v.sessions_about[1], "scene default");
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_TRAINEE, .id = 11, .session = "lesson-a"};
+    int n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "session lesson-a") == 0);
+    assert_true(find(n, "a key 1..2 or a click joins one") >= 0);
+    assert_true(find(n, "  1  Lesson-A  (scene palpation, 1 trainee)") >= 0);
+    assert_true(find(n, "  2  other  (scene default)") >= 0);
+    v.announced = true;
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "Lesson-A") < 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -454,6 +477,7 @@ int main(void)
         cmocka_unit_test(test_stable_range_shown),
         cmocka_unit_test(test_narrow_window_wraps),
         cmocka_unit_test(test_help_per_role),
+        cmocka_unit_test(test_session_picker),
         cmocka_unit_test(test_trainee_probe_and_notice),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
