@@ -20,6 +20,7 @@
 #include "device.h"
 #include "haptic.h"
 #include "haptic_wire.h"
+#include "font.h"
 #include "hud.h"
 #include "render.h"
 #include "screenshot.h"
@@ -45,6 +46,9 @@
 
 #define SEC FTM_NS_PER_S
 #define MOUSE_MAX_DEPTH 0.2 /* the mouse probe's deepest push, as a part of the scene's size */
+/* the mouse probe starts (and key u lifts it) this many link lengths above
+ * the scene's top: a few wheel notches from the surface, inside the view */
+#define PROBE_START_LINKS 1.5
 
 typedef struct app {
     ftm_client_options o;
@@ -74,8 +78,19 @@ typedef struct app {
     bool probe_touching;
     ftm_vec3 touch_point, touch_normal;
     double probe_lift_z;
+    /* while in contact: the reaction's largest angle from the normal and
+     * its peak, logged at the release (how cleanly it pushed and let go) */
+    double touch_angle, touch_peak;
+    int64_t touch_start;
     ftm_client_view view;
     ftm_render_opts ropts;
+    bool help; /* the help overlay (F1, ?) */
+    /* the waiting screen's picker: the HUD row (top first) of each session
+     * offered, 0 for a row that is none, as drawn in the last frame; and
+     * the name picked (the session switched to) */
+    int pick_row[FTM_HUD_LINES];
+    int pick_rows;
+    char picked[64];
     double mx, my;
     int drag; /* 0 none, 1 orbit, 2 pan, 3 probe */
     char last_cmd[96];
@@ -200,8 +215,9 @@ static void send_control(app *a, ftm_wire_control *c, const char *what, const ch
  * to hear it) is not sent, and the HUD says why at once. */
 static void send_command(app *a, ftm_wire_command cmd, const char *what)
 {
-    if (a->role != FTM_WIRE_ROLE_INSTRUCTOR) {
-        alog(a, FTM_LOG_INFO, "%s: only an instructor sends session commands", what);
+    if (a->role != FTM_WIRE_ROLE_INSTRUCTOR) { /* said on screen too, not only in the log */
+        notice(a, true, "%s: an instructor's key (this client is a %s; F1: the keys)", what,
+               a->o.role);
         return;
     }
     ftm_wire_control c;
@@ -236,6 +252,31 @@ static void scripted_commands(app *a)
 }
 
 static void probe_lift(app *a); /* key u, below */
+static bool start_session(app *a); /* below */
+
+/* The waiting screen's picker: joins the k-th session offered instead of
+ * the one asked for (a mistyped name waits forever otherwise). */
+static void pick_session(app *a, int k)
+{
+    if (a->view.announced || k < 0 || k >= a->view.nsessions)
+        return;
+    snprintf(a->picked, sizeof a->picked, "%s", a->view.sessions[k]);
+    alog(a, FTM_LOG_INFO, "picked session '%s' (was '%s'): joining it", a->picked, a->o.session);
+    ftm_client_session_stop(a->sess);
+    a->sess = NULL;
+    ftm_client_view_free(&a->view);
+    memset(&a->view, 0, sizeof a->view);
+    ftm_error err = {0, ""};
+    ftm_render_set_volume(a->ren, NULL, NULL, &err);
+    ftm_render_set_mesh(a->ren, NULL, &err);
+    a->drawn_mesh = NULL;
+    a->o.session = a->picked;
+    char title[160];
+    snprintf(title, sizeof title, "ftm-client: %s, session %s", a->o.role, a->o.session);
+    glfwSetWindowTitle(a->win, title);
+    if (!start_session(a))
+        glfwSetWindowShouldClose(a->win, GLFW_TRUE);
+}
 
 static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
 {
@@ -251,6 +292,11 @@ static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
         ftm_client_session_want_region(a->sess, a->ropts.region);
         break;
     case GLFW_KEY_H: a->ropts.hud = !a->ropts.hud; break;
+    case GLFW_KEY_F1: a->help = !a->help; break;
+    case GLFW_KEY_1: case GLFW_KEY_2: case GLFW_KEY_3: case GLFW_KEY_4: case GLFW_KEY_5:
+    case GLFW_KEY_6: case GLFW_KEY_7: case GLFW_KEY_8: case GLFW_KEY_9:
+        pick_session(a, key - GLFW_KEY_1);
+        break;
     case GLFW_KEY_V: a->ropts.volume = !a->ropts.volume; break;
     case GLFW_KEY_X: a->ropts.cut = !a->ropts.cut; break;
     case GLFW_KEY_N: /* fewer slices, then all again: 1, 2, 5, 10 */
@@ -301,6 +347,14 @@ static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
 
 static bool mouse_probe(const app *a) { return a->dev && a->o.device && strcmp(a->o.device, "mouse") == 0; }
 
+/* '?' by the character it types, whatever the keyboard's layout */
+static void on_char(GLFWwindow *w, unsigned int codepoint)
+{
+    app *a = glfwGetWindowUserPointer(w);
+    if (codepoint == '?')
+        a->help = !a->help;
+}
+
 static void on_button(GLFWwindow *w, int button, int action, int mods)
 {
     app *a = glfwGetWindowUserPointer(w);
@@ -310,6 +364,19 @@ static void on_button(GLFWwindow *w, int button, int action, int mods)
             ftm_mouse_button(a->dev, false, a->mx, a->my);
         a->drag = 0;
         return;
+    }
+    if (button == GLFW_MOUSE_BUTTON_LEFT && !a->view.announced && a->view.nsessions > 0 &&
+        a->ropts.hud) {
+        /* a click on a session's row of the picker joins it */
+        int ww, wh;
+        glfwGetWindowSize(w, &ww, &wh);
+        double y = wh > 0 && a->fb_h > 0 ? a->my * a->fb_h / wh : a->my;
+        double lh = (FTM_FONT_CELL_H + 2) * (a->ropts.text_scale > 0 ? a->ropts.text_scale : 1);
+        int row = (int)floor((y - 12.0) / lh);
+        if (row >= 0 && row < a->pick_rows && a->pick_row[row] > 0) {
+            pick_session(a, a->pick_row[row] - 1);
+            return;
+        }
     }
     bool shift = mods & GLFW_MOD_SHIFT;
     if (button == GLFW_MOUSE_BUTTON_LEFT && shift)
@@ -402,7 +469,7 @@ static void new_mesh(app *a)
         if (ftm_mouse_set_limits(a->dev, lo, hi, MOUSE_MAX_DEPTH * size, size))
             alog(a, FTM_LOG_WARN, "mouse probe: no travel limits for this scene");
         double l = ftm_render_link_length(a->ren);
-        a->probe_lift_z = hi.z + 3 * l;
+        a->probe_lift_z = hi.z + PROBE_START_LINKS * l;
         a->probe_touching = false;
         ftm_mouse_set_hip(a->dev, (ftm_vec3){0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), a->probe_lift_z});
     }
@@ -471,8 +538,23 @@ static int save_screenshot(app *a, const ftm_client_view *v, int w, int h)
             break;
         }
     }
-    printf("screenshot %s %dx%d tick %" PRIu64 " view-top %.0f %s\n", a->o.screenshot, w, h,
-           v->tick, a->view_top, where);
+    /* and the middle of the first probe's shaft (the instrument drawn) */
+    char shaft[48] = "shaft none";
+    for (int32_t i = 0; i < v->nprobes; i++) {
+        ftm_instrument in;
+        double x, y;
+        if (!v->probes[i].have_hip)
+            continue;
+        ftm_render_instrument(a->ren, &v->probes[i], &in);
+        const double k = in.tip_radius + 0.5 * in.shaft_length;
+        const ftm_vec3 m = {in.tip.x + k * in.axis.x, in.tip.y + k * in.axis.y,
+                            in.tip.z + k * in.axis.z};
+        if (ftm_camera_project(&a->cam, w, h, a->view_top, m, &x, &y))
+            snprintf(shaft, sizeof shaft, "shaft %.0f %.0f", x, y);
+        break;
+    }
+    printf("screenshot %s %dx%d tick %" PRIu64 " view-top %.0f %s %s\n", a->o.screenshot, w, h,
+           v->tick, a->view_top, shaft, where);
     fflush(stdout);
     alog(a, FTM_LOG_INFO, "screenshot %s: %dx%d, tick %" PRIu64 ", %s, view below row %.0f",
          a->o.screenshot, w, h, v->tick, where, a->view_top);
@@ -510,8 +592,31 @@ static void hud_info(app *a, ftm_client_view *draw, ftm_hud_info *info, int64_t 
             draw->nprobes++;
         }
         if (j < draw->nprobes && st.ticks > 0) {
-            draw->probes[j].have_hip = true;
-            draw->probes[j].hip = st.hip;
+            ftm_client_probe *p = &draw->probes[j];
+            p->have_hip = true;
+            p->hip = st.hip;
+            /* where the probe is: its push depth below the surface where the
+             * contact began, or its height above the surface below it */
+            if (p->in_contact && p->has_plane) {
+                const ftm_vec3 n = p->plane_normal, h = p->hip, q = p->plane_point;
+                double nn = sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+                if (nn > 0) {
+                    info->probe_where = FTM_HUD_PROBE_PRESSING;
+                    info->probe_mm =
+                        -((h.x - q.x) * n.x + (h.y - q.y) * n.y + (h.z - q.z) * n.z) / nn * 1e3;
+                }
+            } else if (!p->in_contact && a->view.mesh) {
+                ftm_instrument in;
+                ftm_render_instrument(a->ren, p, &in);
+                double d;
+                info->probe_where = FTM_HUD_PROBE_NOTHING_BELOW;
+                if (ftm_render_surface_along(a->ren, in.tip,
+                                             (ftm_vec3){-in.axis.x, -in.axis.y, -in.axis.z}, &d,
+                                             NULL)) {
+                    info->probe_where = FTM_HUD_PROBE_ABOVE;
+                    info->probe_mm = d * 1e3;
+                }
+            }
         }
         info->haptic = true;
         info->force = st.force;
@@ -520,6 +625,7 @@ static void hud_info(app *a, ftm_client_view *draw, ftm_hud_info *info, int64_t 
     }
     info->role = a->role;
     info->id = a->o.id;
+    info->session = a->o.session;
     info->fps = fps;
     info->frame_ms = fps > 0 ? 1e3 / fps : 0;
     info->triangles = ftm_render_triangle_count(a->ren);
@@ -615,15 +721,41 @@ static void probe_out(app *a)
     for (int32_t i = 0; i < a->view.nprobes; i++) {
         const ftm_client_probe *p = &a->view.probes[i];
         if (p->own && p->probe == 0 && p->in_contact && p->has_plane) {
+            if (!a->probe_touching) {
+                a->touch_angle = a->touch_peak = 0;
+                a->touch_start = ftm_clock_mono_ns();
+            }
             a->probe_touching = true;
             a->touch_point = p->plane_point;
             a->touch_normal = p->plane_normal;
+            /* the wheel pushes and pulls along the normal where the contact
+             * began, whatever the camera does meanwhile (issue 27) */
+            const ftm_vec3 n = p->plane_normal;
+            ftm_mouse_set_push_axis(a->dev, (ftm_vec3){-n.x, -n.y, -n.z});
+            const ftm_vec3 f = p->force;
+            double fn = sqrt(f.x * f.x + f.y * f.y + f.z * f.z);
+            double nn = sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+            if (fn > a->touch_peak)
+                a->touch_peak = fn;
+            if (fn > 0.05 && nn > 0) { /* (a tiny force's direction is noise) */
+                double c = (f.x * n.x + f.y * n.y + f.z * n.z) / (fn * nn);
+                double ang = acos(fmax(-1.0, fmin(1.0, c))) * 180.0 / 3.14159265358979323846;
+                if (ang > a->touch_angle)
+                    a->touch_angle = ang;
+            }
             return;
         }
     }
+    /* out of contact the wheel lowers the probe straight down (-z, "up" in
+     * every FTM scene), along the line drawn to the surface below it */
+    ftm_mouse_set_push_axis(a->dev, (ftm_vec3){0, 0, -1});
     if (!a->probe_touching || a->view.state != FTM_WIRE_STATE_SYNCED)
         return; /* (not synced: frames wait, the contact may go on) */
     a->probe_touching = false;
+    alog(a, FTM_LOG_INFO,
+         "probe: contact released after %.1f s; reaction at most %.0f deg from the surface "
+         "normal, peak %.2f N",
+         (double)(ftm_clock_mono_ns() - a->touch_start) * 1e-9, a->touch_angle, a->touch_peak);
     ftm_vec3 to;
     if (ftm_mouse_out_of_tissue(a->dev, a->touch_point, a->touch_normal, PROBE_CLEARANCE,
                                 PROBE_INSIDE, &to) == 1)
@@ -702,8 +834,8 @@ static int run(app *a)
     uint64_t frames = 0;
     int64_t deadline = 0;
     const int64_t period = a->o.max_fps > 0 && !(a->o.bench > 0) ? 1000000000LL / a->o.max_fps : 0;
-    char lines[FTM_HUD_LINES][FTM_HUD_WIDTH];
-    const char *hud[FTM_HUD_LINES];
+    char lines[FTM_HUD_LINES][FTM_HUD_WIDTH], help_lines[FTM_HUD_LINES][FTM_HUD_WIDTH];
+    const char *hud[FTM_HUD_LINES], *help[FTM_HUD_LINES];
     ftm_client_view draw;
     while (!glfwWindowShouldClose(a->win) && !g_stop) {
         glfwPollEvents();
@@ -727,8 +859,25 @@ static int run(app *a)
         int nhud = ftm_hud_lines(&draw, &info, lines);
         /* a narrow window: rows wrapped to its width, none cut off */
         nhud = ftm_hud_wrap(lines, nhud, ftm_hud_columns(w, a->ropts.text_scale));
-        for (int i = 0; i < nhud; i++)
+        for (int i = 0; i < nhud; i++) {
             hud[i] = lines[i];
+            /* a picker row: "  K  NAME  (...)" (hud.c) */
+            const char *l = lines[i];
+            int k = l[0] == ' ' && l[1] == ' ' && l[2] >= '1' && l[2] <= '9' && l[3] == ' ' &&
+                            l[4] == ' '
+                        ? l[2] - '0'
+                        : 0;
+            a->pick_row[i] = !draw.announced && k <= draw.nsessions ? k : 0;
+        }
+        a->pick_rows = nhud;
+        a->ropts.nhelp = 0;
+        if (a->help) {
+            a->ropts.nhelp = ftm_hud_help(a->role, mouse_probe(a), ftm_render_has_volume(a->ren),
+                                          help_lines);
+            for (int i = 0; i < a->ropts.nhelp; i++)
+                help[i] = help_lines[i];
+            a->ropts.help = help;
+        }
         a->fb_h = h;
         double top = frame_top(a, ftm_render_view_top(&a->ropts, nhud), now, dt);
         ftm_render_draw(a->ren, &draw, &a->cam, w, h, top, &a->ropts, hud, nhud);
@@ -864,6 +1013,7 @@ static bool open_window(app *a)
     }
     glfwSetWindowUserPointer(a->win, a);
     glfwSetKeyCallback(a->win, on_key);
+    glfwSetCharCallback(a->win, on_char);
     glfwSetMouseButtonCallback(a->win, on_button);
     glfwSetCursorPosCallback(a->win, on_cursor);
     glfwSetScrollCallback(a->win, on_scroll);
@@ -887,6 +1037,13 @@ static bool start(app *a)
         }
         ftm_haptic_set_connected(a->hap, false); /* no force before the replica is synced */
     }
+    return start_session(a);
+}
+
+/* The session thread, on a->o.session; false after saying why. */
+static bool start_session(app *a)
+{
+    ftm_error err = {0, ""};
     ftm_client_config cc = {
         .role = a->role, .scene = a->o.scene, .session = a->o.session, .dds_config = a->o.config,
         .dds_security = a->o.security, .domain = a->o.domain, .id = a->o.id,

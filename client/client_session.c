@@ -485,6 +485,20 @@ static void publish_view(ftm_client_session *s, int64_t now, bool caught_up)
         v->region_count = start[layers];
     }
     v->announced = in->have_ann;
+    v->nsessions = 0;
+    for (int32_t i = 0; !in->have_ann && i < in->nsessions && i < FTM_CLIENT_PICK; i++) {
+        const ftm_session_seen *e = &in->sessions[i];
+        char who[48] = "";
+        int w = 0;
+        for (int r = FTM_WIRE_ROLE_TRAINEE; r <= FTM_WIRE_ROLE_BOT && w >= 0 && w < 40; r++)
+            if (e->count[r])
+                w += snprintf(who + w, sizeof who - (size_t)w, ", %d %s%s", (int)e->count[r],
+                              ftm_wire_role_name((ftm_wire_role)r), e->count[r] > 1 ? "s" : "");
+        snprintf(v->sessions[v->nsessions], sizeof v->sessions[0], "%s", e->name);
+        snprintf(v->sessions_about[v->nsessions], sizeof v->sessions_about[0], "scene %.40s%s%s",
+                 e->scene, e->paused ? ", paused" : "", who);
+        v->nsessions++;
+    }
     if (in->have_ann) {
         v->paused = in->ann.paused;
         v->depth_min = in->ann.depth_min;

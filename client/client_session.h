@@ -16,6 +16,7 @@
 
 #define FTM_CLIENT_MAX_PROBES 64
 #define FTM_CLIENT_MAX_PARTS 32
+#define FTM_CLIENT_PICK 9 /* sessions the waiting screen offers (keys 1..9) */
 
 /* This participant's probe 0 after each applied frame: its reaction in
  * that frame (NULL: not in contact, zero force), or valid = false when force
@@ -137,6 +138,12 @@ typedef struct ftm_client_view {
     uint64_t outcome_seq;
 
     uint64_t frames, mismatches, resyncs, rejected;
+    /* no server announces our session: the sessions that are announced on
+     * the domain (looked for after 3 s, then every 30 s), for the waiting
+     * screen's picker; nsessions 0: none heard (or not looked yet) */
+    int32_t nsessions;
+    char sessions[FTM_CLIENT_PICK][64];
+    char sessions_about[FTM_CLIENT_PICK][80]; /* "scene palpation, 1 trainee" */
 } ftm_client_view;
 
 typedef struct ftm_client_session ftm_client_session;

@@ -101,9 +101,17 @@ int ftm_mouse_button(ftm_device *d, bool down, double px, double py);
  * plane through the HIP perpendicular to the viewing direction (relative:
  * pressing the button never makes the HIP jump). */
 int ftm_mouse_motion(ftm_device *d, double px, double py);
-/* Wheel: dy > 0 pushes the HIP away from the camera (into the scene) by
- * dy * scroll_step, dy < 0 pulls it back. */
+/* Wheel: dy > 0 pushes the HIP by dy * scroll_step along the push axis
+ * (ftm_mouse_set_push_axis; by default away from the camera, into the
+ * scene), dy < 0 pulls it back along the same line. */
 int ftm_mouse_scroll(ftm_device *d, double dy);
+/* The direction the wheel pushes the HIP (normalised here; zero: the
+ * viewing direction again). The client sets it into the tissue along the
+ * surface's normal where the contact began, so that pushing and pulling
+ * back follow one line whatever the camera does meanwhile, and the contact
+ * releases where it began (issue 27: along the view ray, after an orbit,
+ * the way out dragged the tissue sideways). */
+int ftm_mouse_set_push_axis(ftm_device *d, ftm_vec3 axis);
 /* Limits the HIP's travel around a scene whose bounding box is lo..hi:
  * it stays within margin of the box, and at most max_depth inside it (a
  * HIP deeper than that is moved back to that depth below the nearest

@@ -17,6 +17,9 @@ typedef struct mouse {
     double px, py;   /* cursor at the last event of the drag */
     ftm_vec3 target; /* scene coordinates */
     double step, tau;
+    /* the wheel's direction into the tissue (ftm_mouse_set_push_axis);
+     * zero: the viewing direction */
+    ftm_vec3 push_axis;
     bool limited;        /* ftm_mouse_set_limits: the boxes below hold */
     ftm_vec3 outer_lo, outer_hi, inner_lo, inner_hi;
     /* haptic thread only */
@@ -209,13 +212,26 @@ int ftm_mouse_scroll(ftm_device *d, double dy)
     if (!m || !isfinite(dy))
         return FTM_EINVAL;
     pthread_mutex_lock(&m->lock);
-    if (m->have_view) {
+    const ftm_vec3 ax = m->push_axis;
+    const bool own_axis = ax.x != 0.0 || ax.y != 0.0 || ax.z != 0.0;
+    if (own_axis || m->have_view) {
+        const ftm_vec3 u = own_axis ? ax : m->view.forward;
         double s = dy * m->step;
-        m->target = (ftm_vec3){m->target.x + s * m->view.forward.x,
-                               m->target.y + s * m->view.forward.y,
-                               m->target.z + s * m->view.forward.z};
+        m->target = (ftm_vec3){m->target.x + s * u.x, m->target.y + s * u.y, m->target.z + s * u.z};
         limit(m);
     }
+    pthread_mutex_unlock(&m->lock);
+    return FTM_OK;
+}
+
+int ftm_mouse_set_push_axis(ftm_device *d, ftm_vec3 axis)
+{
+    mouse *m = as_mouse(d);
+    double n = sqrt(axis.x * axis.x + axis.y * axis.y + axis.z * axis.z);
+    if (!m || !fin(axis) || (n > 0.0 && !isfinite(1.0 / n)))
+        return FTM_EINVAL;
+    pthread_mutex_lock(&m->lock);
+    m->push_axis = n > 0.0 ? (ftm_vec3){axis.x / n, axis.y / n, axis.z / n} : (ftm_vec3){0, 0, 0};
     pthread_mutex_unlock(&m->lock);
     return FTM_OK;
 }

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* A small bitmap font for the HUD: 5x7 glyphs in 6x8 cells, designed for
- * this project (no font data from elsewhere). Printable ASCII; lower-case
- * letters are drawn as capitals. No GL here: render.c builds a texture from
+ * this project (no font data from elsewhere). Printable ASCII, lower case
+ * its own (with one-row descenders in the cell's spacing row), so that a
+ * session's or a participant's name shows in its own case. No GL here: render.c builds a texture from
  * ftm_font_pixels. */
 #ifndef FTM_CLIENT_FONT_H
 #define FTM_CLIENT_FONT_H

@@ -32,13 +32,41 @@ static int32_t listing_order(const ftm_client_view *v, int32_t order[FTM_CLIENT_
     return n;
 }
 
+/* What became of a command or a key, for a few seconds: two lines at
+ * most, broken at a space (a refusal's reason is long). */
+static int outcome_lines(const ftm_hud_info *in, char lines[FTM_HUD_LINES][FTM_HUD_WIDTH], int n)
+{
+    if (!in->command_outcome || n > FTM_HUD_LINES - 2)
+        return n;
+    const char *t = in->command_outcome, *mark = in->outcome_bad ? "!! " : "";
+    int room = FTM_HUD_WIDTH - 1 - (int)strlen(mark), len = (int)strlen(t);
+    int cut = len;
+    if (len > room) {
+        cut = room;
+        while (cut > room / 2 && t[cut] != ' ')
+            cut--;
+    }
+    snprintf(lines[n++], FTM_HUD_WIDTH, "%s%.*s", mark, cut, t);
+    if (cut < len)
+        snprintf(lines[n++], FTM_HUD_WIDTH, "%s%s", mark[0] ? "   " : "", t + cut + (t[cut] == ' '));
+    return n;
+}
+
 int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
                   char lines[FTM_HUD_LINES][FTM_HUD_WIDTH])
 {
     int n = 0;
 #define LINE(...) snprintf(lines[n++], FTM_HUD_WIDTH, __VA_ARGS__)
-    LINE("%s %u  %s  scene %s", ftm_wire_role_name(in->role), in->id,
-         ftm_wire_state_name(v->state), v->scene_name[0] ? v->scene_name : "-");
+    LINE("%s %u  %s  %s%s%sscene %s", ftm_wire_role_name(in->role), in->id,
+         ftm_wire_state_name(v->state), in->session ? "session " : "",
+         in->session ? in->session : "", in->session ? "  " : "",
+         v->scene_name[0] ? v->scene_name : "-");
+    if (!v->announced && v->nsessions > 0) {
+        /* the waiting screen's picker: the sessions that are there */
+        LINE("sessions on this domain: a key 1..%d or a click joins one", (int)v->nsessions);
+        for (int32_t i = 0; i < v->nsessions && i < FTM_CLIENT_PICK; i++)
+            LINE("  %d  %s  (%s)", (int)i + 1, v->sessions[i], v->sessions_about[i]);
+    }
     LINE("tick %" PRIu64 "%s  depth %d [%d..%d]  lag %" PRId64 " ticks (%.1f ms)", v->tick,
          v->paused ? " paused" : "", (int)v->depth, (int)v->depth_min, (int)v->depth_max,
          v->lag_ticks, v->latency_ms);
@@ -51,13 +79,19 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         const char *why = "";
         if (in->haptic_flags & (FTM_HAPTIC_DISCONNECTED | FTM_HAPTIC_DEVICE_LOST))
             why = "  OFF";
-        else if (in->haptic_flags & FTM_HAPTIC_STALE)
-            why = "  fading";
+        else if ((in->haptic_flags & FTM_HAPTIC_STALE) && norm(in->force) > 1e-6)
+            why = "  fading"; /* (a zero force out of contact fades nothing) */
         else if (in->haptic_flags & FTM_HAPTIC_CLAMPED)
             why = "  clamped";
         LINE("force %.3f N (%.2f %.2f %.2f)  %s%s", norm(in->force), in->force.x, in->force.y,
              in->force.z, in->renderer ? in->renderer : "", why);
     }
+    if (in->probe_where == FTM_HUD_PROBE_ABOVE)
+        LINE("probe %.1f mm above the surface (wheel: down)", in->probe_mm);
+    else if (in->probe_where == FTM_HUD_PROBE_PRESSING)
+        LINE("probe pressing %.1f mm deep (wheel: along the normal)", in->probe_mm);
+    else if (in->probe_where == FTM_HUD_PROBE_NOTHING_BELOW)
+        LINE("probe beside the tissue: nothing below it (drag it over; u: back above)");
     if (in->role == FTM_WIRE_ROLE_TRAINEE && v->own_contact_ticks > 0)
         LINE("you: %.1f s in contact, peak %.2f N", (double)v->own_contact_ticks /
              (v->rate_hz ? v->rate_hz : 1), v->own_peak_force);
@@ -110,28 +144,63 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
         LINE("keys: space pause/resume  backspace reset  +/- depth max  k/j stiffness  t scene tissue");
         if (in->last_command)
             LINE("sent: %s", in->last_command);
-        if (in->command_outcome) {
-            /* two lines at most, broken at a space: a refusal's reason is long */
-            const char *t = in->command_outcome, *mark = in->outcome_bad ? "!! " : "";
-            int room = FTM_HUD_WIDTH - 1 - (int)strlen(mark), len = (int)strlen(t);
-            int cut = len;
-            if (len > room) {
-                cut = room;
-                while (cut > room / 2 && t[cut] != ' ')
-                    cut--;
-            }
-            LINE("%s%.*s", mark, cut, t);
-            if (cut < len)
-                LINE("%s%s", mark[0] ? "   " : "", t + cut + (t[cut] == ' '));
-        }
+        n = outcome_lines(in, lines, n);
     }
+    if (in->role != FTM_WIRE_ROLE_INSTRUCTOR) /* (a key this role cannot use, say) */
+        n = outcome_lines(in, lines, n);
     if (in->volume)
-        LINE("map %s (full %.1f mm)  region %s  volume %s   c/b/h/v/x/n [ ] home",
+        LINE("map %s (full %.1f mm)  region %s  volume %s   c/b/h/v/x/n [ ] home  F1 help",
              in->colormap ? "on" : "off", in->colormap_full * 1e3, in->region ? "on" : "off",
              in->volume > 0 ? "on" : "off");
     else
-        LINE("map %s (full %.1f mm)  region %s   c/b/h [ ] home", in->colormap ? "on" : "off",
+        LINE("map %s (full %.1f mm)  region %s   c/b/h [ ] home  F1 help", in->colormap ? "on" : "off",
              in->colormap_full * 1e3, in->region ? "on" : "off");
+#undef LINE
+    return n;
+}
+
+int ftm_hud_help(ftm_wire_role role, bool mouse_probe, bool volume,
+                 char lines[FTM_HUD_LINES][FTM_HUD_WIDTH])
+{
+    int n = 0;
+    const bool trainee = role == FTM_WIRE_ROLE_TRAINEE, instructor = role == FTM_WIRE_ROLE_INSTRUCTOR;
+#define LINE(...) snprintf(lines[n++], FTM_HUD_WIDTH, __VA_ARGS__)
+    LINE("Help: the %s's mouse and keys  (F1 or ? closes)", ftm_wire_role_name(role));
+    LINE(" ");
+    LINE("Mouse");
+    if (trainee && mouse_probe) {
+        LINE("  left drag          move the probe across, on the plane facing you");
+        LINE("  wheel              lower / raise the probe, 1 mm a notch; in contact,");
+        LINE("                     in and out along the surface's normal");
+        LINE("  right drag         orbit the camera");
+        LINE("  ctrl + wheel       zoom");
+    } else {
+        LINE("  left drag          orbit the camera");
+        LINE("  right drag         pan");
+        LINE("  wheel              zoom");
+    }
+    LINE("  shift + left drag, middle drag: pan");
+    LINE(" ");
+    LINE("Keys");
+    if (trainee && mouse_probe)
+        LINE("  u                  the probe back above the tissue");
+    if (trainee)
+        LINE("  m                  haptic renderer: model / extrapolate");
+    if (instructor) {
+        LINE("  space              pause / resume the session");
+        LINE("  backspace          reset the tissue to rest");
+        LINE("  + / -              depth ceiling up / down");
+        LINE("  k / j              stiffer / softer tissue (x 1.25, / 1.25)");
+        LINE("  t                  the scene's own tissue back");
+    }
+    LINE("  c  b  h            colour map, BFS region, HUD on / off");
+    LINE("  [  ]               colour map range / 1.5, x 1.5");
+    if (volume)
+        LINE("  v  x  n            volume on / off, cut away, slices per plane");
+    LINE("  arrows, PgUp/PgDn  orbit, zoom;  Home: the view back");
+    LINE("  Esc, q             quit");
+    if (!instructor)
+        LINE("  (space, backspace, + - k j t are the instructor's)");
 #undef LINE
     return n;
 }

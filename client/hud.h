@@ -11,6 +11,7 @@
 typedef struct ftm_hud_info {
     ftm_wire_role role;
     uint32_t id;
+    const char *session; /* its name, in its own case; NULL: not shown */
     double fps, frame_ms;
     int32_t triangles;
     bool haptic;          /* a haptic loop runs (trainee) */
@@ -26,11 +27,29 @@ typedef struct ftm_hud_info {
      * 80 N/m: applied at tick 1234"); NULL: nothing to show */
     const char *command_outcome;
     bool outcome_bad; /* refused, unanswered or not sent */
+    /* a trainee's own probe: where it is (FTM_HUD_PROBE_*), probe_mm its
+     * height above the surface below it or its push depth [mm] */
+    int probe_where;
+    double probe_mm;
+    bool help; /* the help overlay is shown (F1, ?): the hint line says how to close it */
 } ftm_hud_info;
+
+enum {
+    FTM_HUD_PROBE_UNKNOWN = 0,
+    FTM_HUD_PROBE_ABOVE,         /* probe_mm above the surface straight below it */
+    FTM_HUD_PROBE_PRESSING,      /* in contact, probe_mm below where the contact began */
+    FTM_HUD_PROBE_NOTHING_BELOW, /* beside the tissue: no surface below it */
+};
 
 /* Fills lines[i] (each FTM_HUD_WIDTH bytes) and returns how many. */
 int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *info,
                   char lines[FTM_HUD_LINES][FTM_HUD_WIDTH]);
+
+/* The help overlay (F1, ?): each mouse action and key this client offers,
+ * for its role; mouse_probe: a trainee's probe follows the mouse; volume:
+ * the scene has a volume (its keys). Returns the lines written. */
+int ftm_hud_help(ftm_wire_role role, bool mouse_probe, bool volume,
+                 char lines[FTM_HUD_LINES][FTM_HUD_WIDTH]);
 
 /* Wraps lines[0..n) to at most cols characters (at spaces where it can,
  * continuation rows indented two columns), in place, up to FTM_HUD_LINES

@@ -24,6 +24,8 @@ struct ftm_render {
     GLuint surf_vao, surf_vbo, surf_ibo;
     GLuint sph_vao, sph_vbo, sph_ibo;
     GLint sph_count;
+    GLuint cyl_vao, cyl_vbo, cyl_ibo; /* the instrument's shaft: a unit cylinder */
+    GLint cyl_count;
     GLuint dyn_vao, dyn_vbo; /* lines and points */
     GLuint text_vao, text_vbo, font_tex;
 
@@ -47,7 +49,7 @@ struct ftm_render {
 
 ftm_render_opts ftm_render_default_opts(void)
 {
-    return (ftm_render_opts){true, 0.0, false, true, 2, true, false, 1};
+    return (ftm_render_opts){true, 0.0, false, true, 2, true, false, 1, NULL, 0};
 }
 
 /* ---- shaders --------------------------------------------------------------------------- */
@@ -232,6 +234,36 @@ static void make_sphere(ftm_render *r)
     free(idx);
 }
 
+/* ---- a unit cylinder for the instrument's shaft: radius 1 about +z, z in 0..1 ----------- */
+
+static void make_cylinder(ftm_render *r)
+{
+    enum { SEG = 20 };
+    float v[(SEG + 1) * 2 * VERT_FLOATS];
+    GLuint idx[SEG * 6];
+    for (int i = 0; i <= SEG; i++) {
+        double t = 2.0 * 3.14159265358979323846 * i / SEG;
+        float c = (float)cos(t), s = (float)sin(t);
+        for (int e = 0; e < 2; e++) {
+            float *o = v + (size_t)(2 * i + e) * VERT_FLOATS;
+            o[0] = c, o[1] = s, o[2] = (float)e;
+            o[3] = c, o[4] = s, o[5] = 0;
+            o[6] = 0;
+        }
+    }
+    for (int i = 0; i < SEG; i++) {
+        GLuint a = (GLuint)(2 * i), b = a + 1, c = a + 2, d = a + 3;
+        GLuint q[6] = {a, c, b, b, c, d};
+        memcpy(idx + 6 * i, q, sizeof q);
+    }
+    r->cyl_count = SEG * 6;
+    glBindVertexArray(r->cyl_vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->cyl_vbo);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)sizeof v, v, GL_STATIC_DRAW);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->cyl_ibo);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)sizeof idx, idx, GL_STATIC_DRAW);
+}
+
 void ftm_gl_texture_params(GLenum target, GLint filter)
 {
     glTexParameteri(target, GL_TEXTURE_MIN_FILTER, filter);
@@ -294,6 +326,14 @@ int ftm_render_create(ftm_render **out, ftm_error *err)
     ftm_gl_layout_331();
     make_sphere(r);
 
+    glGenVertexArrays(1, &r->cyl_vao);
+    glGenBuffers(1, &r->cyl_vbo);
+    glGenBuffers(1, &r->cyl_ibo);
+    glBindVertexArray(r->cyl_vao);
+    glBindBuffer(GL_ARRAY_BUFFER, r->cyl_vbo);
+    ftm_gl_layout_331();
+    make_cylinder(r);
+
     glGenVertexArrays(1, &r->dyn_vao);
     glGenBuffers(1, &r->dyn_vbo);
     glBindVertexArray(r->dyn_vao);
@@ -354,10 +394,11 @@ void ftm_render_destroy(ftm_render *r)
     ftm_volume_render_destroy(r->vol);
     glDeleteBuffers(1, &r->cage_ibo);
     glDeleteVertexArrays(1, &r->cage_vao);
-    GLuint bufs[] = {r->surf_vbo, r->surf_ibo, r->sph_vbo, r->sph_ibo, r->dyn_vbo, r->text_vbo};
-    glDeleteBuffers(6, bufs);
-    GLuint vaos[] = {r->surf_vao, r->sph_vao, r->dyn_vao, r->text_vao};
-    glDeleteVertexArrays(4, vaos);
+    GLuint bufs[] = {r->surf_vbo, r->surf_ibo, r->sph_vbo, r->sph_ibo,
+                     r->cyl_vbo,  r->cyl_ibo,  r->dyn_vbo, r->text_vbo};
+    glDeleteBuffers(8, bufs);
+    GLuint vaos[] = {r->surf_vao, r->sph_vao, r->cyl_vao, r->dyn_vao, r->text_vao};
+    glDeleteVertexArrays(5, vaos);
     glDeleteTextures(1, &r->font_tex);
     glDeleteProgram(r->lit);
     glDeleteProgram(r->flat);
@@ -544,6 +585,93 @@ void ftm_render_update(ftm_render *r, const ftm_client_view *v)
                     r->verts);
 }
 
+/* ---- the instrument -------------------------------------------------------------------------- */
+
+#define TIP_LINKS 0.3
+#define SHAFT_RADIUS_LINKS 0.12
+#define SHAFT_LINKS 6.0
+
+void ftm_render_instrument(const ftm_render *r, const ftm_client_probe *p, ftm_instrument *out)
+{
+    double link = r->link > 0 ? r->link : 0.01;
+    ftm_vec3 a = {0, 0, 1};
+    if (p->in_contact && p->has_plane) {
+        const ftm_vec3 n = p->plane_normal;
+        double len = sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+        if (len > 0 && isfinite(len))
+            a = (ftm_vec3){n.x / len, n.y / len, n.z / len};
+    }
+    *out = (ftm_instrument){p->hip, a, TIP_LINKS * link, SHAFT_RADIUS_LINKS * link,
+                            SHAFT_LINKS * link};
+}
+
+int ftm_render_surface_along(const ftm_render *r, ftm_vec3 from, ftm_vec3 dir, double *dist,
+                             ftm_vec3 *normal)
+{
+    if (!r->mesh || !r->verts)
+        return 0;
+    double best = INFINITY;
+    ftm_vec3 bn = {0, 0, 0};
+    const double o[3] = {from.x, from.y, from.z}, d[3] = {dir.x, dir.y, dir.z};
+    for (int32_t t = 0; t < r->ntri; t++) {
+        const float *A = r->verts + (size_t)r->tri[3 * t] * VERT_FLOATS;
+        const float *B = r->verts + (size_t)r->tri[3 * t + 1] * VERT_FLOATS;
+        const float *C = r->verts + (size_t)r->tri[3 * t + 2] * VERT_FLOATS;
+        double e1[3], e2[3], s[3];
+        for (int k = 0; k < 3; k++) {
+            e1[k] = (double)B[k] - A[k];
+            e2[k] = (double)C[k] - A[k];
+            s[k] = o[k] - A[k];
+        }
+        /* Moller-Trumbore */
+        double pv[3] = {d[1] * e2[2] - d[2] * e2[1], d[2] * e2[0] - d[0] * e2[2],
+                        d[0] * e2[1] - d[1] * e2[0]};
+        double det = e1[0] * pv[0] + e1[1] * pv[1] + e1[2] * pv[2];
+        if (fabs(det) < 1e-18)
+            continue;
+        double u = (s[0] * pv[0] + s[1] * pv[1] + s[2] * pv[2]) / det;
+        if (u < 0 || u > 1)
+            continue;
+        double q[3] = {s[1] * e1[2] - s[2] * e1[1], s[2] * e1[0] - s[0] * e1[2],
+                       s[0] * e1[1] - s[1] * e1[0]};
+        double v = (d[0] * q[0] + d[1] * q[1] + d[2] * q[2]) / det;
+        if (v < 0 || u + v > 1)
+            continue;
+        double tt = (e2[0] * q[0] + e2[1] * q[1] + e2[2] * q[2]) / det;
+        if (tt >= 0 && tt < best) {
+            best = tt;
+            double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                           e1[0] * e2[1] - e1[1] * e2[0]};
+            double nl = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            bn = nl > 0 ? (ftm_vec3){n[0] / nl, n[1] / nl, n[2] / nl} : (ftm_vec3){0, 0, 1};
+        }
+    }
+    if (!isfinite(best))
+        return 0;
+    *dist = best;
+    if (normal)
+        *normal = bn;
+    return 1;
+}
+
+/* Model matrix of a unit shape scaled by sx, sy along two unit vectors
+ * perpendicular to axis, sz along it, then moved to at. */
+static void oriented(float m[16], ftm_vec3 at, ftm_vec3 axis, double sx, double sz)
+{
+    ftm_vec3 h = fabs(axis.x) < 0.9 ? (ftm_vec3){1, 0, 0} : (ftm_vec3){0, 1, 0};
+    ftm_vec3 e1 = {axis.y * h.z - axis.z * h.y, axis.z * h.x - axis.x * h.z,
+                   axis.x * h.y - axis.y * h.x};
+    double l = sqrt(e1.x * e1.x + e1.y * e1.y + e1.z * e1.z);
+    e1 = (ftm_vec3){e1.x / l, e1.y / l, e1.z / l};
+    ftm_vec3 e2 = {axis.y * e1.z - axis.z * e1.y, axis.z * e1.x - axis.x * e1.z,
+                   axis.x * e1.y - axis.y * e1.x};
+    const float c[16] = {(float)(e1.x * sx),   (float)(e1.y * sx),   (float)(e1.z * sx),   0,
+                         (float)(e2.x * sx),   (float)(e2.y * sx),   (float)(e2.z * sx),   0,
+                         (float)(axis.x * sz), (float)(axis.y * sz), (float)(axis.z * sz), 0,
+                         (float)at.x,          (float)at.y,          (float)at.z,          1};
+    memcpy(m, c, sizeof c);
+}
+
 /* ---- drawing ------------------------------------------------------------------------------- */
 
 static float *scratch(ftm_render *r, size_t floats)
@@ -642,9 +770,11 @@ double ftm_render_view_top(const ftm_render_opts *o, int nhud)
 static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
                       const ftm_render_opts *o, const char *const *hud, int nhud)
 {
-    size_t chars = 2 + strlen(v->banner);
+    size_t chars = 3 + strlen(v->banner);
     for (int i = 0; i < nhud; i++)
         chars += strlen(hud[i]) + 1;
+    for (int i = 0; o->help && i < o->nhelp; i++)
+        chars += strlen(o->help[i]) + 1;
     float *buf = scratch(r, (chars + 4) * 6 * TEXT_FLOATS);
     if (!buf)
         return;
@@ -706,6 +836,29 @@ static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
             n += text_line(buf + (size_t)n * TEXT_FLOATS, rx, by + (float)i * lh, px, rows[i], fg);
         }
     }
+    if (o->help && o->nhelp > 0) {
+        /* the help overlay: a deep blue panel in the middle, over the rest */
+        size_t wmax = 0;
+        for (int i = 0; i < o->nhelp; i++)
+            if (strlen(o->help[i]) > wmax)
+                wmax = strlen(o->help[i]);
+        float hp = px, bw, bh;
+        while (hp > 1 && ((float)wmax * FTM_FONT_CELL_W * hp + 32 > (float)w ||
+                          (float)o->nhelp * (FTM_FONT_CELL_H + 2) * hp + 32 > (float)h))
+            hp -= 1; /* a small window: a smaller font rather than cut off */
+        bw = (float)wmax * FTM_FONT_CELL_W * hp;
+        bh = (float)o->nhelp * (FTM_FONT_CELL_H + 2) * hp;
+        float bx = 0.5f * ((float)w - bw), by = 0.5f * ((float)h - bh);
+        if (bx < 16)
+            bx = 16;
+        if (by < 16)
+            by = 16;
+        const float bg[4] = {0.06f, 0.10f, 0.36f, 0.94f}, fg[4] = {1, 1, 1, 1};
+        n += text_box(buf + (size_t)n * TEXT_FLOATS, bx - 16, by - 14, bw + 32, bh + 24, bg);
+        for (int i = 0; i < o->nhelp; i++)
+            n += text_line(buf + (size_t)n * TEXT_FLOATS, bx, by + (float)i * (FTM_FONT_CELL_H + 2) * hp,
+                           hp, o->help[i], fg);
+    }
     if (!n)
         return;
     glDisable(GL_DEPTH_TEST);
@@ -750,7 +903,7 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
         glBindVertexArray(r->surf_vao);
         glDrawElements(GL_TRIANGLES, 3 * r->ntri, GL_UNSIGNED_INT, (void *)0);
     }
-    /* probes: HIP spheres, contact markers */
+    /* probes: the instrument (tip and shaft) at each HIP, contact markers */
     glUniform1i(r->lit_usemap, 0);
     double link = r->link > 0 ? r->link : 0.01;
     glBindVertexArray(r->sph_vao);
@@ -758,34 +911,99 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
         const ftm_client_probe *p = &v->probes[i];
         float c[3];
         probe_color(p, c);
-        if (p->have_hip)
-            sphere_at(r, p->hip, 0.35 * link, c);
+        if (p->have_hip) {
+            ftm_instrument in;
+            ftm_render_instrument(r, p, &in);
+            const ftm_vec3 a = in.axis, t = in.tip;
+            const double rt = in.tip_radius;
+            sphere_at(r, (ftm_vec3){t.x + rt * a.x, t.y + rt * a.y, t.z + rt * a.z}, rt, c);
+        }
         if (p->in_contact) {
             const float white[3] = {0.97f, 0.97f, 0.97f};
             sphere_at(r, p->contact, 0.18 * link, white);
         }
     }
-    /* lines from each HIP to its contact, and the region's nodes */
-    size_t nl = 0;
-    for (int32_t i = 0; i < v->nprobes; i++)
-        if (v->probes[i].have_hip && v->probes[i].in_contact)
+    glBindVertexArray(r->cyl_vao);
+    glUniform3f(r->lit_color, FTM_SHAFT_R, FTM_SHAFT_G, FTM_SHAFT_B);
+    for (int32_t i = 0; i < v->nprobes; i++) {
+        const ftm_client_probe *p = &v->probes[i];
+        if (!p->have_hip)
+            continue;
+        ftm_instrument in;
+        ftm_render_instrument(r, p, &in);
+        const ftm_vec3 a = in.axis, t = in.tip;
+        float model[16];
+        oriented(model, (ftm_vec3){t.x + in.tip_radius * a.x, t.y + in.tip_radius * a.y,
+                                   t.z + in.tip_radius * a.z},
+                 a, in.shaft_radius, in.shaft_length);
+        glUniformMatrix4fv(r->lit_model, 1, GL_FALSE, model);
+        glDrawElements(GL_TRIANGLES, r->cyl_count, GL_UNSIGNED_INT, (void *)0);
+    }
+    /* lines from each HIP to its contact; from each probe out of contact
+     * down its axis to the surface below it, with a shadow there; the
+     * region's nodes */
+    enum { DISC = 24 };
+    size_t nl = 0, nd = 0;
+    ftm_vec3 below[FTM_CLIENT_MAX_PROBES], below_n[FTM_CLIENT_MAX_PROBES];
+    bool has_below[FTM_CLIENT_MAX_PROBES];
+    for (int32_t i = 0; i < v->nprobes; i++) {
+        const ftm_client_probe *p = &v->probes[i];
+        has_below[i] = false;
+        if (p->have_hip && p->in_contact)
             nl++;
+        else if (p->have_hip) {
+            ftm_instrument in;
+            ftm_render_instrument(r, p, &in);
+            double dist;
+            ftm_vec3 down = {-in.axis.x, -in.axis.y, -in.axis.z};
+            if (ftm_render_surface_along(r, in.tip, down, &dist, &below_n[i])) {
+                has_below[i] = true;
+                below[i] = (ftm_vec3){in.tip.x + dist * down.x, in.tip.y + dist * down.y,
+                                      in.tip.z + dist * down.z};
+                nl++;
+                nd++;
+            }
+        }
+    }
     size_t npts = o->region && v->pos ? (size_t)v->region_count : 0;
-    float *buf = scratch(r, (nl * 2 + npts + 1) * 3);
+    float *buf = scratch(r, (nl * 2 + nd * DISC * 3 + npts + 1) * 3);
     if (!buf)
-        nl = npts = 0;
+        nl = nd = npts = 0;
     glUseProgram(r->flat);
     glUniformMatrix4fv(r->flat_mvp, 1, GL_FALSE, mvp);
     if (nl || npts) {
         size_t k = 0;
         for (int32_t i = 0; i < v->nprobes; i++) {
             const ftm_client_probe *p = &v->probes[i];
-            if (!(p->have_hip && p->in_contact))
+            if (!p->have_hip || !(p->in_contact || has_below[i]))
                 continue;
-            float seg[6] = {(float)p->hip.x,     (float)p->hip.y,     (float)p->hip.z,
-                            (float)p->contact.x, (float)p->contact.y, (float)p->contact.z};
+            const ftm_vec3 e = p->in_contact ? p->contact : below[i];
+            float seg[6] = {(float)p->hip.x, (float)p->hip.y, (float)p->hip.z,
+                            (float)e.x,      (float)e.y,      (float)e.z};
             memcpy(buf + k, seg, sizeof seg);
             k += 6;
+        }
+        /* the shadows: discs on the surface below, a hair above it */
+        for (int32_t i = 0; i < v->nprobes; i++) {
+            if (!has_below[i])
+                continue;
+            ftm_vec3 n = below_n[i];
+            if (n.x * v->probes[i].hip.x + n.y * v->probes[i].hip.y + n.z * v->probes[i].hip.z <
+                n.x * below[i].x + n.y * below[i].y + n.z * below[i].z)
+                n = (ftm_vec3){-n.x, -n.y, -n.z}; /* towards the probe */
+            float m[16];
+            const double lift = 0.02 * link;
+            oriented(m, (ftm_vec3){below[i].x + lift * n.x, below[i].y + lift * n.y,
+                                   below[i].z + lift * n.z},
+                     n, TIP_LINKS * link, 0.0);
+            for (int j = 0; j < DISC; j++) {
+                const double t0 = 2.0 * 3.14159265358979323846 * j / DISC,
+                             t1 = 2.0 * 3.14159265358979323846 * (j + 1) / DISC;
+                const double xy[3][2] = {{0, 0}, {cos(t0), sin(t0)}, {cos(t1), sin(t1)}};
+                for (int q = 0; q < 3; q++)
+                    for (int d = 0; d < 3; d++)
+                        buf[k++] = (float)(m[d] * xy[q][0] + m[4 + d] * xy[q][1] + m[12 + d]);
+            }
         }
         for (size_t i = 0; i < npts; i++) {
             const double *q = v->pos + 3 * (size_t)v->region[i];
@@ -799,6 +1017,15 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
         if (nl) {
             glUniform4f(r->flat_color, 1.0f, 1.0f, 1.0f, 1.0f);
             glDrawArrays(GL_LINES, 0, (GLsizei)(2 * nl));
+        }
+        if (nd) {
+            glEnable(GL_BLEND);
+            glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+            glDepthMask(GL_FALSE);
+            glUniform4f(r->flat_color, 0.0f, 0.0f, 0.0f, 0.45f);
+            glDrawArrays(GL_TRIANGLES, (GLint)(2 * nl), (GLsizei)(nd * DISC * 3));
+            glDepthMask(GL_TRUE);
+            glDisable(GL_BLEND);
         }
     }
     if (volume) {
@@ -825,7 +1052,7 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
         glEnable(GL_PROGRAM_POINT_SIZE);
         glUniform1f(r->flat_size, 4.0f);
         glUniform4f(r->flat_color, 1.0f, 0.92f, 0.2f, 1.0f);
-        glDrawArrays(GL_POINTS, (GLint)(2 * nl), (GLsizei)npts);
+        glDrawArrays(GL_POINTS, (GLint)(2 * nl + nd * DISC * 3), (GLsizei)npts);
         glEnable(GL_DEPTH_TEST);
     }
     glBindVertexArray(0);

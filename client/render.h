@@ -23,6 +23,10 @@ typedef struct ftm_render_opts {
     bool cut;             /* the volume's half nearer the eye left out: its inside shows */
     int volume_step;      /* draw every step-th slice: 1 (the paper's 9 between node
                            * planes), 2, 5 or 10 (the node planes only) */
+    /* the help overlay's lines (F1), drawn in a panel in the middle of the
+     * window over everything; nhelp 0: none */
+    const char *const *help;
+    int nhelp;
 } ftm_render_opts;
 
 ftm_render_opts ftm_render_default_opts(void);
@@ -36,6 +40,31 @@ int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, ftm_error *err);
 int32_t ftm_render_triangle_count(const ftm_render *r);
 /* Mean link length of the mesh set (0 without one): sizes the probe markers. */
 double ftm_render_link_length(const ftm_render *r);
+
+/* The instrument drawn at a probe: a tip sphere whose lowest point is the
+ * HIP (the point the server collides) and a shaft from its centre along
+ * the tool's axis: the outward normal where its contact began while in
+ * contact, else straight up (+z, "up" in every FTM scene), the way the
+ * wheel moves the mouse probe. Sizes from the scene's mean link length
+ * (the scene format has no tool model): tip radius 0.3 links, shaft
+ * radius 0.12 links, shaft 6 links long. */
+/* the shaft's colour (steel), lit as the surface is */
+#define FTM_SHAFT_R 0.66f
+#define FTM_SHAFT_G 0.70f
+#define FTM_SHAFT_B 0.76f
+typedef struct ftm_instrument {
+    ftm_vec3 tip;  /* the HIP */
+    ftm_vec3 axis; /* unit, from the tip up the shaft */
+    double tip_radius, shaft_radius, shaft_length; /* [m] */
+} ftm_instrument;
+void ftm_render_instrument(const ftm_render *r, const ftm_client_probe *p, ftm_instrument *out);
+
+/* The deformed surface (as last updated) along the ray from `from` in the
+ * unit direction dir: 1 with *dist [m] to the nearest hit ahead and the
+ * hit triangle's unit normal (either side; may be NULL), 0 when the ray
+ * misses it (or no mesh). */
+int ftm_render_surface_along(const ftm_render *r, ftm_vec3 from, ftm_vec3 dir, double *dist,
+                             ftm_vec3 *normal);
 
 /* The scene's volume and its embedding in the mesh set (both NULL: none);
  * uploads the image. */

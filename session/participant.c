@@ -627,6 +627,10 @@ static void no_session_yet(ftm_participant *p, int64_t now)
     ftm_sessions_names(seen, n, names, sizeof names);
     p->info.sessions_scanned = rc == FTM_OK;
     snprintf(p->info.sessions_heard, sizeof p->info.sessions_heard, "%s", names);
+    p->info.nsessions = 0;
+    for (int32_t i = 0; rc == FTM_OK && i < n && p->info.nsessions < FTM_PARTICIPANT_PICK; i++)
+        if (seen[i].announced)
+            p->info.sessions[p->info.nsessions++] = seen[i];
     if (rc)
         plog(p, FTM_LOG_WARN, "no server announces session '%s' on domain %u yet; the domain's "
              "sessions could not be listed: %s", p->def.session, p->def.domain, err.message);

@@ -26,6 +26,7 @@
 #include "claims.h"
 #include "pending.h"
 #include "replica.h"
+#include "sessions.h"
 
 #include "ftm/scene.h"
 #include "ftm/wire.h"
@@ -83,6 +84,8 @@ typedef struct ftm_participant_def {
 } ftm_participant_def;
 
 /* What the core knows, for its program to read (on the core's thread). */
+#define FTM_PARTICIPANT_PICK 9 /* sessions offered to pick from (keys 1..9) */
+
 typedef struct ftm_participant_info {
     /* the server process followed (0 until its first announcement) */
     uint32_t server_id;
@@ -116,6 +119,10 @@ typedef struct ftm_participant_info {
      * the log's line ("" before a scene or without an estimate) */
     int scene_feel;
     char scene_feel_text[192];
+    /* the announced ones among them, sorted by name, for a picker (the
+     * client's waiting screen) */
+    int32_t nsessions;
+    ftm_session_seen sessions[FTM_PARTICIPANT_PICK];
 } ftm_participant_info;
 
 typedef struct ftm_participant ftm_participant;

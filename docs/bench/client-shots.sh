@@ -4,7 +4,8 @@
 # the tests take them: a real ftm-server on loopback DDS, scripted trainees
 # (ftm-bot), and ftm-client under Xvfb with Mesa's software renderer.
 #   docs/bench/client-shots.sh [BUILD_DIR]      (default build/release)
-# Writes docs/img/client-*.png.
+# Writes docs/img/client-*.png. FTM_SHOTS_NO_VOLUME=1 leaves out the head's
+# volume (parts 4 and 5); parts 6 to 9 need xdotool (keys in the window).
 set -eu
 cd "$(dirname "$0")/../.."
 B=${1:-build/release}
@@ -40,6 +41,16 @@ pids="$pids $!"
 shot docs/img/client-press.png --role observer --screenshot-contact 300
 # 2. the same contact with the active BFS region drawn (key b)
 shot docs/img/client-region.png --role observer --region --screenshot-contact 300
+# 6. a trainee's own view: its mouse probe where it starts, the instrument,
+#    the line and shadow to the surface below and its height on the HUD;
+#    the bot's instrument pressing beside it
+shot docs/img/client-probe.png --role trainee --id 21 --screenshot-after 3
+# 7. the help overlay (F1), a trainee's
+: >"$dir/x.xauth"
+timeout 90 xvfb-run -a -f "$dir/x.xauth" -s "-screen 0 1280x800x24" sh -c "
+    '$B/client/ftm-client' $common --size 1280x800 --role trainee --id 22 \
+        --screenshot docs/img/client-help.png --screenshot-after 3 >'$dir/help.out' 2>&1 &
+    sleep 1.5; xdotool key F1; wait"
 kill $pids 2>/dev/null || true
 pids=
 sleep 1
@@ -58,9 +69,15 @@ for i in 1 2; do
     pids="$pids $!"
 done
 shot docs/img/client-instructor.png --role instructor --screenshot-contact 300
+# 8. the instructor's HUD in a 640 px window (wrapped, nothing cut off)
+shot docs/img/client-hud-640.png --role instructor --size 640x480 --screenshot-contact 300
+# 9. a mistyped session name (another case): the waiting screen's picker
+shot docs/img/client-picker.png --role trainee --id 23 --session "SHOTS-TWO-$$" \
+    --size 960x600 --screenshot-after 5
 kill $pids 2>/dev/null || true
 pids=
 sleep 1
+[ -n "${FTM_SHOTS_NO_VOLUME:-}" ] && { echo "wrote docs/img/client-*.png (no volume)"; exit 0; }
 
 # 4. the built-in head scene: a volume embedded in its control lattice (paper
 #    4.2), drawn as deformed slices, a trainee pressing the top of the head

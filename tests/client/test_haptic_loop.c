@@ -277,6 +277,45 @@ static void test_mouse_probe(void **state)
     ftm_device_destroy(dev);
 }
 
+/* The wheel along a push axis (the contact's inward normal): in and back
+ * out along one line whatever the view does meanwhile; zero: the view. */
+static void test_mouse_push_axis(void **state)
+{
+    const double h = sqrt(0.5);
+    ftm_device *dev = NULL;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_mouse_create(NULL, (ftm_vec3){0, 0, 0}, 0.001, 0.0, &dev, &err), FTM_OK);
+    ftm_mouse_view v = {.eye = {0, -0.5, 0.5}, .forward = {0, h, -h},
+                        .right = {1, 0, 0}, .up = {0, h, h},
+                        .fov_y = 0.7, .width = 800, .height = 400};
+    assert_int_equal(ftm_mouse_set_view(dev, &v), FTM_OK);
+    /* into a face whose outward normal is (0, 0.6, 0.8) (scaled: normalised) */
+    assert_int_equal(ftm_mouse_set_push_axis(dev, (ftm_vec3){0, -3, -4}), FTM_OK);
+    ftm_vec3 p;
+    for (int k = 0; k < 10; k++)
+        assert_int_equal(ftm_mouse_scroll(dev, 1.0), FTM_OK);
+    assert_int_equal(ftm_mouse_target(dev, &p), FTM_OK);
+    assert_true(fabs(p.x) < 1e-12 && fabs(p.y + 0.006) < 1e-12 && fabs(p.z + 0.008) < 1e-12);
+    /* the camera orbits meanwhile: the way out is the same line */
+    v.eye = (ftm_vec3){0.5, 0, 0.5};
+    v.forward = (ftm_vec3){-h, 0, -h};
+    v.right = (ftm_vec3){0, -1, 0};
+    v.up = (ftm_vec3){-h, 0, h};
+    assert_int_equal(ftm_mouse_set_view(dev, &v), FTM_OK);
+    for (int k = 0; k < 10; k++)
+        assert_int_equal(ftm_mouse_scroll(dev, -1.0), FTM_OK);
+    assert_int_equal(ftm_mouse_target(dev, &p), FTM_OK);
+    assert_true(norm(p) < 1e-12);
+    /* no axis: the viewing direction again */
+    assert_int_equal(ftm_mouse_set_push_axis(dev, (ftm_vec3){0, 0, 0}), FTM_OK);
+    assert_int_equal(ftm_mouse_scroll(dev, 2.0), FTM_OK);
+    assert_int_equal(ftm_mouse_target(dev, &p), FTM_OK);
+    assert_true(fabs(p.x + 0.002 * h) < 1e-12 && fabs(p.z + 0.002 * h) < 1e-12);
+    assert_int_equal(ftm_mouse_set_push_axis(dev, (ftm_vec3){NAN, 0, 1}), FTM_EINVAL);
+    assert_int_equal(ftm_mouse_set_push_axis(dev, (ftm_vec3){INFINITY, 0, 1}), FTM_EINVAL);
+    ftm_device_destroy(dev);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -284,6 +323,7 @@ int main(void)
         cmocka_unit_test(test_loop_device_lost),
         cmocka_unit_test(test_script_device),
         cmocka_unit_test(test_mouse_probe),
+        cmocka_unit_test(test_mouse_push_axis),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

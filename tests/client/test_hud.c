@@ -398,6 +398,71 @@ static void test_instructor_keys(void **state)
     assert_string_equal(label, "stiffer: not sent: the server is away (SERVER SILENT FOR 4 S: FORCE OFF)");
 }
 
+/* The help overlay: each role's mouse actions and keys, and only its own. */
+static void test_help_per_role(void **state)
+{
+    (void)state;
+    int n = ftm_hud_help(FTM_WIRE_ROLE_TRAINEE, true, false, lines);
+    assert_true(find(n, "lower / raise the probe") >= 0);
+    assert_true(find(n, "the probe back above the tissue") >= 0);
+    assert_true(find(n, "reset the tissue") < 0);
+    assert_true(find(n, "are the instructor's") >= 0);
+    assert_true(find(n, "v  x  n") < 0);
+    n = ftm_hud_help(FTM_WIRE_ROLE_INSTRUCTOR, false, true, lines);
+    assert_true(find(n, "reset the tissue") >= 0);
+    assert_true(find(n, "stiffer / softer") >= 0);
+    assert_true(find(n, "the probe back above") < 0);
+    assert_true(find(n, "left drag          orbit") >= 0);
+    assert_true(find(n, "v  x  n") >= 0);
+    n = ftm_hud_help(FTM_WIRE_ROLE_OBSERVER, false, false, lines);
+    assert_true(find(n, "reset the tissue") < 0 && find(n, "haptic renderer") < 0);
+}
+
+/* A trainee's probe line (height above the surface, push depth), the word
+ * for a key it cannot use, and no "fading" without a force. */
+static void test_trainee_probe_and_notice(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_TRAINEE, .id = 11, .haptic = true,
+                       .haptic_flags = 2 /* FTM_HAPTIC_STALE */, .renderer = "model",
+                       .probe_where = FTM_HUD_PROBE_ABOVE, .probe_mm = 12.34,
+                       .command_outcome = "pause: an instructor's key", .outcome_bad = true};
+    int n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "probe 12.3 mm above the surface") >= 0);
+    assert_true(find(n, "!! pause: an instructor's key") >= 0);
+    assert_true(find(n, "fading") < 0);
+    in.probe_where = FTM_HUD_PROBE_PRESSING;
+    in.probe_mm = 4.5;
+    in.force = (ftm_vec3){0, 0, 0.8};
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "probe pressing 4.5 mm deep") >= 0);
+    assert_true(find(n, "fading") >= 0);
+}
+
+/* The waiting screen's picker: the sessions heard, numbered, names in
+ * their own case; none once the session is announced. */
+static void test_session_picker(void **state)
+{
+    (void)state;
+    ftm_client_view v = sample_view();
+    v.announced = false;
+    v.nsessions = 2;
+    snprintf(v.sessions[0], sizeof v.sessions[0], "Lesson-A");
+    snprintf(v.sessions_about[0], sizeof v.sessions_about[0], "scene palpation, 1 trainee");
+    snprintf(v.sessions[1], sizeof v.sessions[1], "other");
+    snprintf(v.sessions_about[1], sizeof v.sessions_about[1], "scene default");
+    ftm_hud_info in = {.role = FTM_WIRE_ROLE_TRAINEE, .id = 11, .session = "lesson-a"};
+    int n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "session lesson-a") == 0);
+    assert_true(find(n, "a key 1..2 or a click joins one") >= 0);
+    assert_true(find(n, "  1  Lesson-A  (scene palpation, 1 trainee)") >= 0);
+    assert_true(find(n, "  2  other  (scene default)") >= 0);
+    v.announced = true;
+    n = ftm_hud_lines(&v, &in, lines);
+    assert_true(find(n, "Lesson-A") < 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -411,6 +476,9 @@ int main(void)
         cmocka_unit_test(test_instructor_keys),
         cmocka_unit_test(test_stable_range_shown),
         cmocka_unit_test(test_narrow_window_wraps),
+        cmocka_unit_test(test_help_per_role),
+        cmocka_unit_test(test_session_picker),
+        cmocka_unit_test(test_trainee_probe_and_notice),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -5,7 +5,8 @@
 #   screenshot: an undeformed frame (no trainee yet), then a scripted trainee
 #       (ftm-bot, hold.bot) presses into the tissue and a deformed frame is
 #       taken once the contact has lasted 200 ticks; client-png-check
-#       asserts the pixels around the contact changed and neither is blank.
+#       asserts the pixels around the contact changed and neither is blank,
+#       and that the trainee's instrument (its steel shaft) is drawn.
 #   instructor: an instructor client's timed commands (--commands) change
 #       the stiffness and the depth limits; server and client apply them;
 #       a trainee bot presses meanwhile, and the instructor's debriefing
@@ -25,10 +26,13 @@
 #       ticks, the pixels around the contact changed, and a slice per plane
 #       draws the dent as the default does; cut away (--cut, key x) it shows
 #       something other than the whole volume.
-#   reset: a trainee's mouse probe (xdotool) pressed into the tissue, the
-#       instructor's reset: the client moves the probe out, more wheel
-#       notches touch the tissue again, key u lifts the probe. Skipped (77)
-#       without xdotool.
+#   reset: a trainee's mouse probe (xdotool) pressed into the tissue,
+#       the camera orbited, the wheel back out: the contact releases in
+#       about as many notches as went in, the reaction along the normal;
+#       pressed again, the instructor's reset: the client moves the probe out, more wheel
+#       notches touch the tissue again, key u lifts the probe; a trainee's
+#       instructor key is answered on screen; F1 shows the help overlay.
+#       Skipped (77) without xdotool.
 #   fps: --max-fps 20 draws 10..24 fps over 3 s under Xvfb (where the swap
 #       interval does not throttle), the default cap at most 72 fps.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
@@ -83,13 +87,17 @@ screenshot)
         --duration 80 >"$dir/bot.out" 2>"$dir/bot.err" &
     client after --screenshot "$dir/after.png" --screenshot-contact 200 --screenshot-timeout 60 ||
         fail "client (deformed) exited with $?"
-    set -- $(sed -n 's/^screenshot .* view-top \([0-9]*\) contact \([0-9]*\) \([0-9]*\)$/\2 \3 \1/p' \
+    set -- $(sed -n 's/^screenshot .* view-top \([0-9]*\) .*contact \([0-9]*\) \([0-9]*\)$/\2 \3 \1/p' \
         "$dir/after.out")
     [ $# -eq 3 ] || fail "no contact pixel or view top in the client's screenshot line"
     # the view is framed below the HUD: the contact is not drawn under it
     [ "$3" -gt 0 ] && [ "$2" -gt "$3" ] || fail "contact at row $2, under the HUD (rows 0..$3)"
     "$FTM_PNG_CHECK" compare "$dir/before.png" "$dir/after.png" "$1" "$2" 40 || fail "png check"
     grep -q "synced at tick" "$dir/after.log" || fail "client never synced"
+    # the trainee's instrument: its steel shaft drawn where the client says
+    set -- $(sed -n 's/^screenshot .* shaft \([0-9]*\) \([0-9]*\) contact .*/\1 \2/p' "$dir/after.out")
+    [ $# -eq 2 ] || fail "no shaft pixel in the client's screenshot line"
+    "$FTM_PNG_CHECK" steel "$dir/after.png" "$1" "$2" 2 || fail "png check: no instrument drawn"
     [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
     echo "PASS screenshot: $(cat "$dir/after.out")"
     ;;
@@ -295,13 +303,39 @@ until_log "$dir/trainee.log" "participant id 11 is confirmed" 800 || fail "the t
 until_log "$dir/trainee.log" "drawing" 400 || fail "the trainee drew no scene"
 sleep 0.5
 xdotool mousemove 480 300
-# the wheel pushes the probe along the view ray (1 mm a notch): until it touches
+# the wheel lowers the probe (1 mm a notch) until it touches
 n=0
 while [ "\$(contacts)" -lt 1 ]; do
     n=\$((n + 1)); [ \$n -gt 300 ] && fail "no contact after 300 wheel notches"
     xdotool click 5; sleep 0.03
 done
 echo "contact after \$n notches"
+for i in 1 2 3 4 5 6 7 8; do xdotool click 5; sleep 0.05; done
+sleep 0.3
+# orbit (right drag) while in contact, then the wheel back out: the probe
+# goes back along the normal where the contact began, so the contact
+# releases in about as many notches as went in (9), the reaction staying
+# along the normal (along the view ray it dragged the tissue sideways:
+# 103 deg from the normal, issue 27)
+xdotool mousemove 480 300 mousedown 3
+for i in 1 2 3 4 5 6 7 8 9 10; do xdotool mousemove_relative -- 20 8; sleep 0.03; done
+xdotool mouseup 3
+sleep 0.3
+n=0
+until grep -q "probe: contact released" "$dir/trainee.log"; do
+    n=\$((n + 1)); [ \$n -gt 40 ] && fail "no release after 40 notches out"
+    xdotool click 4; sleep 0.08
+done
+echo "released after \$n notches out"
+[ \$n -le 12 ] || fail "released after \$n notches out for 9 in"
+ang=\$(sed -n 's/.*contact released .* at most \([0-9]*\) deg from the surface normal.*/\1/p' "$dir/trainee.log")
+[ -n "\$ang" ] && [ "\$ang" -le 20 ] || fail "the reaction turned \$ang deg from the normal"
+# back into the tissue for the reset below
+n=0
+while [ "\$(contacts)" -lt 2 ]; do
+    n=\$((n + 1)); [ \$n -gt 40 ] && fail "no contact again after 40 notches"
+    xdotool click 5; sleep 0.03
+done
 for i in 1 2 3 4 5; do xdotool click 5; sleep 0.05; done
 sleep 0.5
 timeout 60 "$FTM_BOT" --role instructor --id 12 $common --script "$dir/reset.bot" --duration 3 \
@@ -310,14 +344,26 @@ until_log "$dir/server.log" "reset at tick" 100 || fail "the server did not rese
 until_log "$dir/trainee.log" "moved out to" 200 || fail "the probe was not moved out after the reset"
 # out, so pushing again touches the tissue again (left inside, it would not)
 n=0
-while [ "\$(contacts)" -lt 2 ]; do
+while [ "\$(contacts)" -lt 3 ]; do
     n=\$((n + 1)); [ \$n -gt 40 ] && fail "no contact again after 40 notches past the reset"
     xdotool click 5; sleep 0.05
 done
 echo "contact again after \$n notches"
 xdotool key u
 until_log "$dir/trainee.log" "back above the tissue" 100 || fail "key u did not lift the probe"
+# an instructor's key from a trainee: a word on screen (the HUD's notice), not only the log
+xdotool key space
+until_log "$dir/trainee.log" "pause: an instructor's key" 100 || fail "no word for an instructor's key"
 kill \$c; wait \$c
+# the help overlay: F1 shows it in the middle of the window
+"$FTM_CLIENT" $common --role observer --size 960x600 --log "$dir/help.log" \
+    --screenshot "$dir/help.png" --screenshot-after 2.5 >"$dir/help.out" 2>"$dir/help.err" &
+c=\$!
+until_log "$dir/help.log" "joining session" 200 || fail "the help client did not start"
+sleep 0.3
+xdotool key F1
+wait \$c
+"$FTM_PNG_CHECK" panel "$dir/help.png" 480 300 100 || fail "no help overlay after F1"
 exit 0
 DRIVE
     : >"$dir/x.xauth"

@@ -18,8 +18,19 @@
  *       mean difference is at most M per channel (0..255), and at most 2% of
  *       the pixels differ by more than 4 M (mean over R, G, B). A volume
  *       drawn with fewer slices against all of them: banding fails it.
+ *   client-png-check steel IMAGE.png X Y R
+ *       the instrument's shaft is drawn at (X, Y) (its middle, from the
+ *       client's screenshot line): at least a third of the pixels within R
+ *       of it have the shaft's steel hue (the chromaticity of the colour
+ *       render.h gives it, within 0.03) and are lit (R + G + B > 180), which
+ *       neither the background nor the tissue (its colour or the map) is.
+ *   client-png-check panel IMAGE.png X Y R
+ *       the help overlay (F1) covers the square of half-side R around (X, Y):
+ *       at least half its pixels are of the panel's deep blue, and some of
+ *       its text (white) is there.
  * Exit 0 pass, 1 fail (with the reason), 2 usage or unreadable file. */
 #include <math.h>
+#include <stdbool.h>
 #include <png.h>
 #include <setjmp.h>
 #include <stdio.h>
@@ -299,8 +310,77 @@ out:
     return rc;
 }
 
+/* the shaft's colour, as client/render.h gives it (FTM_SHAFT_R, _G, _B) */
+static const double shaft_rgb[3] = {0.66, 0.70, 0.76};
+
+static int steel(const char *path, int cx, int cy, int r)
+{
+    image a;
+    if (load(path, &a))
+        return 2;
+    const double sum0 = shaft_rgb[0] + shaft_rgb[1] + shaft_rgb[2];
+    long inside = 0, match = 0;
+    for (int y = cy - r; y <= cy + r; y++)
+        for (int x = cx - r; x <= cx + r; x++) {
+            long dx = x - cx, dy = y - cy;
+            if (x < 0 || y < 0 || x >= a.w || y >= a.h || dx * dx + dy * dy > (long)r * r)
+                continue;
+            const unsigned char *p = a.rgb + ((size_t)y * a.w + x) * 3;
+            int sum = p[0] + p[1] + p[2];
+            inside++;
+            if (sum <= 180)
+                continue;
+            bool hue = true;
+            for (int k = 0; k < 3; k++)
+                hue = hue && fabs((double)p[k] / sum - shaft_rgb[k] / sum0) <= 0.03;
+            match += hue;
+        }
+    free(a.rgb);
+    printf("%s: within %d of (%d, %d): %ld of %ld pixels of the shaft's steel\n", path, r, cx, cy,
+           match, inside);
+    if (!inside || 3 * match < inside) {
+        printf("FAIL: no instrument shaft drawn there\n");
+        return 1;
+    }
+    printf("PASS\n");
+    return 0;
+}
+
+/* the help overlay's panel colour, as client/render.c draws it over the
+ * dark background (its alpha blended over 0.11 0.12 0.15) */
+static int panel(const char *path, int cx, int cy, int r)
+{
+    image a;
+    if (load(path, &a))
+        return 2;
+    long inside = 0, match = 0, text = 0;
+    for (int y = cy - r; y <= cy + r; y++)
+        for (int x = cx - r; x <= cx + r; x++) {
+            if (x < 0 || y < 0 || x >= a.w || y >= a.h)
+                continue;
+            const unsigned char *p = a.rgb + ((size_t)y * a.w + x) * 3;
+            inside++;
+            /* the panel: a deep blue, blue well above red and green */
+            match += p[2] > p[0] + 40 && p[2] > p[1] + 30 && p[0] < 60;
+            text += p[0] > 200 && p[1] > 200 && p[2] > 180;
+        }
+    free(a.rgb);
+    printf("%s: within %d of (%d, %d): %ld of %ld pixels of the help panel, %ld of text\n", path,
+           r, cx, cy, match, inside, text);
+    if (!inside || 2 * match < inside || text < inside / 50) {
+        printf("FAIL: no help overlay there\n");
+        return 1;
+    }
+    printf("PASS\n");
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
+    if (argc == 6 && strcmp(argv[1], "steel") == 0)
+        return steel(argv[2], atoi(argv[3]), atoi(argv[4]), atoi(argv[5]));
+    if (argc == 6 && strcmp(argv[1], "panel") == 0)
+        return panel(argv[2], atoi(argv[3]), atoi(argv[4]), atoi(argv[5]));
     if (argc == 7 && strcmp(argv[1], "compare") == 0)
         return compare(argv[2], argv[3], atoi(argv[4]), atoi(argv[5]), atoi(argv[6]));
     if (argc == 3 && strcmp(argv[1], "banner") == 0)
@@ -313,6 +393,8 @@ int main(int argc, char **argv)
     fprintf(stderr, "usage: client-png-check compare BEFORE.png AFTER.png X Y R\n"
                     "       client-png-check banner IMAGE.png\n"
                     "       client-png-check drawn IMAGE.png X Y R\n"
-                    "       client-png-check similar A.png B.png X Y R M\n");
+                    "       client-png-check similar A.png B.png X Y R M\n"
+                    "       client-png-check steel IMAGE.png X Y R\n"
+                    "       client-png-check panel IMAGE.png X Y R\n");
     return 2;
 }
