@@ -539,7 +539,7 @@ static int save_screenshot(app *a, const ftm_client_view *v, int w, int h)
         }
     }
     /* and the middle of the first probe's shaft (the instrument drawn) */
-    char shaft[48] = "shaft none";
+    char shaft[48] = "shaft none", label[48] = "label none";
     for (int32_t i = 0; i < v->nprobes; i++) {
         ftm_instrument in;
         double x, y;
@@ -551,10 +551,16 @@ static int save_screenshot(app *a, const ftm_client_view *v, int w, int h)
                             in.tip.z + k * in.axis.z};
         if (ftm_camera_project(&a->cam, w, h, a->view_top, m, &x, &y))
             snprintf(shaft, sizeof shaft, "shaft %.0f %.0f", x, y);
+        /* the shaft's top: its name label starts just right of it, above */
+        const double u = 2.0 * in.tip_radius + in.shaft_length;
+        const ftm_vec3 top = {in.tip.x + u * in.axis.x, in.tip.y + u * in.axis.y,
+                              in.tip.z + u * in.axis.z};
+        if (ftm_camera_project(&a->cam, w, h, a->view_top, top, &x, &y))
+            snprintf(label, sizeof label, "label %.0f %.0f", x, y);
         break;
     }
-    printf("screenshot %s %dx%d tick %" PRIu64 " view-top %.0f %s %s\n", a->o.screenshot, w, h,
-           v->tick, a->view_top, shaft, where);
+    printf("screenshot %s %dx%d tick %" PRIu64 " view-top %.0f %s %s %s\n", a->o.screenshot, w, h,
+           v->tick, a->view_top, label, shaft, where);
     fflush(stdout);
     alog(a, FTM_LOG_INFO, "screenshot %s: %dx%d, tick %" PRIu64 ", %s, view below row %.0f",
          a->o.screenshot, w, h, v->tick, where, a->view_top);
@@ -1102,7 +1108,8 @@ int main(int argc, char **argv)
         signal(SIGINT, on_signal);
         signal(SIGTERM, on_signal);
         a->ropts = ftm_render_default_opts();
-        a->ropts.colormap = !a->o.no_colormap;
+        /* tissue's own colour by default: the map is a teaching aid (key c) */
+        a->ropts.colormap = a->o.colormap && !a->o.no_colormap;
         a->ropts.region = a->o.region;
         a->ropts.hud = !a->o.no_hud;
         a->ropts.volume = !a->o.no_volume;

@@ -84,7 +84,10 @@ static const ftm_option option_table[] = {
                    "haptic force renderer (default model)"),
     FTM_OPT_SECTION("view:"),
     FTM_OPT_CUSTOM("size", "WxH", O, size, parse_size, "window size (default 1280x800)"),
-    FTM_OPT_FLAG("no-colormap", O, no_colormap, "no colour map at start (key c)"),
+    FTM_OPT_FLAG("colormap", O, colormap,
+                 "the displacement colour map at start, around the dent only\n"
+                 "(key c; off by default: the tissue's own colour)"),
+    FTM_OPT_FLAG("no-colormap", O, no_colormap, "no colour map at start (the default)"),
     FTM_OPT_FLAG("region", O, region, "the BFS region drawn at start (key b)"),
     FTM_OPT_FLAG("no-hud", O, no_hud, "no HUD at start (key h)"),
     FTM_OPT_FLAG("no-volume", O, no_volume, "a scene's surface, not its volume (key v)"),

@@ -28,7 +28,7 @@ typedef struct ftm_client_options {
     double bench;
     bool json;
     bool list; /* --list: print the domain's sessions and exit */
-    bool no_colormap, region, no_hud, no_volume, cut, verbose;
+    bool colormap, no_colormap, region, no_hud, no_volume, cut, verbose;
     int volume_step;
     double colormap_full; /* [m]; given in mm */
 } ftm_client_options;

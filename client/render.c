@@ -68,8 +68,12 @@ static const char *lit_vs =
     "  gl_Position = u_mvp * w;\n"
     "}\n";
 
-/* Two lights: a head light and a key light from above; both sides lit, so
- * open meshes look right from behind. The map runs blue-teal-yellow-red. */
+/* Tissue, not plastic: a wrapped diffuse (light bleeds past the terminator,
+ * as under a wet, translucent surface), a reddish tint where it turns away
+ * (the light that scattered inside), a narrow wet highlight. Two lights: a
+ * head light and a key light from above; both sides lit, so open meshes
+ * look right from behind. The colour map (blue-teal-yellow-red) shows only
+ * where the tissue moved: away from the dent the tissue keeps its colour. */
 static const char *lit_fs =
     "#version 330 core\n"
     "in vec3 v_pos; in vec3 v_nrm; in float v_disp;\n"
@@ -80,12 +84,18 @@ static const char *lit_fs =
     "  vec3 n = normalize(v_nrm);\n"
     "  vec3 v = normalize(u_eye - v_pos);\n"
     "  if (dot(n, v) < 0.0) n = -n;\n"
-    "  vec3 base = u_usemap != 0 ? ramp(v_disp / u_full) : u_color;\n"
+    "  vec3 base = u_color;\n"
+    "  if (u_usemap != 0) {\n"
+    "    float t = v_disp / u_full;\n"
+    "    base = mix(u_color, ramp(t), smoothstep(0.1, 0.35, t));\n"
+    "  }\n"
     "  vec3 key = normalize(vec3(0.3, -0.4, 1.0));\n"
-    "  float d = 0.55 * max(dot(n, v), 0.0) + 0.35 * max(dot(n, key), 0.0);\n"
+    "  float wv = (dot(n, v) + 0.4) / 1.4, wk = (dot(n, key) + 0.4) / 1.4;\n"
+    "  float d = 0.55 * max(wv, 0.0) + 0.35 * max(wk, 0.0);\n"
+    "  vec3 scatter = vec3(0.30, 0.04, 0.03) * (1.0 - max(dot(n, v), 0.0));\n"
     "  vec3 h = normalize(key + v);\n"
-    "  float sp = 0.25 * pow(max(dot(n, h), 0.0), 40.0);\n"
-    "  o_color = vec4(base * (0.22 + d) + vec3(sp), 1.0);\n"
+    "  float sp = 0.35 * pow(max(dot(n, h), 0.0), 80.0);\n"
+    "  o_color = vec4(base * (0.18 + d) + scatter * base + vec3(sp), 1.0);\n"
     "}\n";
 
 static const char *flat_vs =
@@ -687,17 +697,22 @@ static float *scratch(ftm_render *r, size_t floats)
     return r->scratch;
 }
 
+void ftm_render_participant_color(uint32_t participant, float c[3])
+{
+    /* by id, the same in every view: the instructor, the observers and the
+     * trainee herself see trainee 11 in one colour (ids are consecutive:
+     * neighbours differ) */
+    static const float palette[8][3] = {{0.20f, 0.90f, 0.35f}, {0.95f, 0.55f, 0.10f},
+                                        {0.10f, 0.75f, 0.95f}, {0.95f, 0.30f, 0.60f},
+                                        {0.60f, 0.35f, 0.90f}, {0.95f, 0.90f, 0.20f},
+                                        {0.55f, 0.85f, 0.20f}, {0.90f, 0.90f, 0.90f}};
+    const float *q = palette[(participant + 5u) % 8u]; /* trainee 11 green, 12 orange */
+    c[0] = q[0], c[1] = q[1], c[2] = q[2];
+}
+
 static void probe_color(const ftm_client_probe *p, float c[3])
 {
-    static const float palette[6][3] = {{0.95f, 0.55f, 0.10f}, {0.60f, 0.35f, 0.90f},
-                                        {0.10f, 0.75f, 0.95f}, {0.95f, 0.30f, 0.60f},
-                                        {0.55f, 0.85f, 0.20f}, {0.90f, 0.90f, 0.90f}};
-    if (p->own) {
-        c[0] = 0.20f, c[1] = 0.90f, c[2] = 0.35f;
-        return;
-    }
-    const float *q = palette[(p->participant * 2654435761u >> 16) % 6];
-    c[0] = q[0], c[1] = q[1], c[2] = q[2];
+    ftm_render_participant_color(p->participant, c);
 }
 
 static void sphere_at(ftm_render *r, ftm_vec3 at, double radius, const float color[3])
@@ -767,10 +782,66 @@ double ftm_render_view_top(const ftm_render_opts *o, int nhud)
     return ceil(ftm_render_hud_height(o, nhud) / step) * step;
 }
 
-static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
-                      const ftm_render_opts *o, const char *const *hud, int nhud)
+/* A participant's name as the view knows it ("trainee N" without one). */
+static void participant_label(const ftm_client_view *v, const ftm_client_probe *p, char *out,
+                              size_t cap)
 {
-    size_t chars = 3 + strlen(v->banner);
+    const char *name = NULL;
+    for (int32_t j = 0; j < v->nparts && !name; j++)
+        if (v->parts[j].id == p->participant && v->parts[j].name[0])
+            name = v->parts[j].name;
+    /* the id too: two trainees may share a name (bots default to one) */
+    if (name)
+        snprintf(out, cap, "%s (%u%s)", name, p->participant, p->own ? ", you" : "");
+    else
+        snprintf(out, cap, "trainee %u%s", p->participant, p->own ? " (you)" : "");
+}
+
+/* Each instrument's name at the top of its shaft, in its colour: who is
+ * pressing where, in every view. Returns vertices written. */
+static int probe_labels(const ftm_render *r, const ftm_client_view *v, const float mvp[16],
+                        int w, int h, float px, float below, float *buf)
+{
+    int n = 0;
+    for (int32_t i = 0; i < v->nprobes; i++) {
+        const ftm_client_probe *p = &v->probes[i];
+        if (!p->have_hip)
+            continue;
+        ftm_instrument in;
+        ftm_render_instrument(r, p, &in);
+        const double up = 2.0 * in.tip_radius + in.shaft_length;
+        const double x[3] = {in.tip.x + up * in.axis.x, in.tip.y + up * in.axis.y,
+                             in.tip.z + up * in.axis.z};
+        double c[4];
+        for (int k = 0; k < 4; k++)
+            c[k] = mvp[k] * x[0] + mvp[4 + k] * x[1] + mvp[8 + k] * x[2] + mvp[12 + k];
+        if (!(c[3] > 1e-9))
+            continue; /* behind the eye */
+        const float sx = (float)((c[0] / c[3] * 0.5 + 0.5) * w);
+        const float sy = (float)((0.5 - c[1] / c[3] * 0.5) * h);
+        if (sx < -200 || sx > (float)w + 200 || sy < -50 || sy > (float)h + 50)
+            continue;
+        char label[FTM_WIRE_DISPLAY_MAX + 16];
+        participant_label(v, p, label, sizeof label);
+        label[40] = '\0';
+        float col[4] = {0, 0, 0, 1};
+        ftm_render_participant_color(p->participant, col);
+        const float tw = (float)strlen(label) * FTM_FONT_CELL_W * px;
+        /* not under the HUD: down the shaft to just below it */
+        const float by = fmaxf(sy - FTM_FONT_CELL_H * px - 4, below + 6), bx = sx + 6;
+        const float bg[4] = {0.05f, 0.06f, 0.08f, 0.65f};
+        n += text_box(buf + (size_t)n * TEXT_FLOATS, bx - 3, by - 2, tw + 6,
+                      FTM_FONT_CELL_H * px + 4, bg);
+        n += text_line(buf + (size_t)n * TEXT_FLOATS, bx, by, px, label, col);
+    }
+    return n;
+}
+
+static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
+                      const ftm_render_opts *o, const char *const *hud, int nhud,
+                      const float mvp[16])
+{
+    size_t chars = 3 + strlen(v->banner) + (size_t)v->nprobes * 60;
     for (int i = 0; i < nhud; i++)
         chars += strlen(hud[i]) + 1;
     for (int i = 0; o->help && i < o->nhelp; i++)
@@ -779,16 +850,16 @@ static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
     if (!buf)
         return;
     float px = text_px(o), lh = line_height(o);
-    int n = 0;
-    float hud_bottom = 0;
+    float hud_bottom = o->hud && nhud > 0 ? (float)ftm_render_hud_height(o, nhud) : 0.0f;
+    int n = probe_labels(r, v, mvp, w, h, px, hud_bottom, buf); /* under the banners */
     if (o->hud && nhud > 0) {
         size_t wmax = 0;
         for (int i = 0; i < nhud; i++)
             if (strlen(hud[i]) > wmax)
                 wmax = strlen(hud[i]);
         const float bg[4] = {0.05f, 0.06f, 0.08f, 0.70f}, fg[4] = {0.92f, 0.95f, 0.90f, 1.0f};
-        n += text_box(buf, 6, 6, (float)wmax * FTM_FONT_CELL_W * px + 12, nhud * lh + 8, bg);
-        hud_bottom = (float)ftm_render_hud_height(o, nhud);
+        n += text_box(buf + (size_t)n * TEXT_FLOATS, 6, 6,
+                      (float)wmax * FTM_FONT_CELL_W * px + 12, nhud * lh + 8, bg);
         for (int i = 0; i < nhud; i++)
             n += text_line(buf + (size_t)n * TEXT_FLOATS, 12, 12 + i * lh, px, hud[i], fg);
     }
@@ -1056,5 +1127,5 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
         glEnable(GL_DEPTH_TEST);
     }
     glBindVertexArray(0);
-    draw_text(r, v, w, h, o, hud, nhud);
+    draw_text(r, v, w, h, o, hud, nhud, mvp);
 }

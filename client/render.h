@@ -59,6 +59,9 @@ typedef struct ftm_instrument {
 } ftm_instrument;
 void ftm_render_instrument(const ftm_render *r, const ftm_client_probe *p, ftm_instrument *out);
 
+/* A participant's colour (RGB 0..1), by id: the same in every view. */
+void ftm_render_participant_color(uint32_t participant, float c[3]);
+
 /* The deformed surface (as last updated) along the ray from `from` in the
  * unit direction dir: 1 with *dist [m] to the nearest hit ahead and the
  * hit triangle's unit normal (either side; may be NULL), 0 when the ray

@@ -80,12 +80,14 @@ start_server() { # extra server options...
 case $mode in
 screenshot)
     start_server
-    client before --screenshot "$dir/before.png" --screenshot-timeout 40 ||
+    # the colour map on (off by default: the tissue's own colour) makes the
+    # dent's pixels change by more than shading alone
+    client before --colormap --screenshot "$dir/before.png" --screenshot-timeout 40 ||
         fail "client (undeformed) exited with $?"
     grep -q "contact none" "$dir/before.out" || fail "a contact before any trainee joined?"
     timeout 100 "$FTM_BOT" --role trainee --script "$FTM_DATA/hold.bot" $common --id 11 \
         --duration 80 >"$dir/bot.out" 2>"$dir/bot.err" &
-    client after --screenshot "$dir/after.png" --screenshot-contact 200 --screenshot-timeout 60 ||
+    client after --colormap --screenshot "$dir/after.png" --screenshot-contact 200 --screenshot-timeout 60 ||
         fail "client (deformed) exited with $?"
     set -- $(sed -n 's/^screenshot .* view-top \([0-9]*\) .*contact \([0-9]*\) \([0-9]*\)$/\2 \3 \1/p' \
         "$dir/after.out")
@@ -98,6 +100,15 @@ screenshot)
     set -- $(sed -n 's/^screenshot .* shaft \([0-9]*\) \([0-9]*\) contact .*/\1 \2/p' "$dir/after.out")
     [ $# -eq 2 ] || fail "no shaft pixel in the client's screenshot line"
     "$FTM_PNG_CHECK" steel "$dir/after.png" "$1" "$2" 2 || fail "png check: no instrument drawn"
+    # its name label at the shaft's top, in trainee 11's colour (render.c:
+    # green, the same in every view): to the right of the shaft's top, or
+    # down the shaft to just below the HUD when the top is under it
+    set -- $(sed -n 's/^screenshot .* view-top \([0-9]*\) label \([0-9]*\) \([0-9]*\) shaft .*/\1 \2 \3/p' \
+        "$dir/after.out")
+    [ $# -eq 3 ] || fail "no label point in the client's screenshot line"
+    y1=$(( $3 > $1 + 30 ? $3 : $1 + 30 ))
+    "$FTM_PNG_CHECK" hue "$dir/after.png" "$(($2 + 4))" "$(($3 - 24))" "$(($2 + 140))" "$y1" \
+        0.20 0.90 0.35 || fail "png check: no name label in the trainee's colour"
     [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
     echo "PASS screenshot: $(cat "$dir/after.out")"
     ;;

@@ -24,6 +24,10 @@
  *       of it have the shaft's steel hue (the chromaticity of the colour
  *       render.h gives it, within 0.03) and are lit (R + G + B > 180), which
  *       neither the background nor the tissue (its colour or the map) is.
+ *   client-png-check hue IMAGE.png X0 Y0 X1 Y1 R G B
+ *       at least 12 lit pixels (R + G + B > 150) of the colour (R, G, B),
+ *       0..1, by chromaticity within 0.04, in the box: a participant's name
+ *       label drawn in the participant's colour.
  *   client-png-check panel IMAGE.png X Y R
  *       the help overlay (F1) covers the square of half-side R around (X, Y):
  *       at least half its pixels are of the panel's deep blue, and some of
@@ -313,6 +317,40 @@ out:
 /* the shaft's colour, as client/render.h gives it (FTM_SHAFT_R, _G, _B) */
 static const double shaft_rgb[3] = {0.66, 0.70, 0.76};
 
+/* Pixels of colour (r, g, b) (0..1; by chromaticity, bright ones) in the
+ * box x0..x1, y0..y1: a participant's name label drawn in its colour. */
+static int hue_box(const char *path, int x0, int y0, int x1, int y1, double r, double g, double b)
+{
+    image a;
+    if (load(path, &a))
+        return 2;
+    const double want[3] = {r, g, b}, sum0 = r + g + b;
+    long inside = 0, match = 0;
+    for (int y = y0; y <= y1; y++)
+        for (int x = x0; x <= x1; x++) {
+            if (x < 0 || y < 0 || x >= a.w || y >= a.h)
+                continue;
+            const unsigned char *p = a.rgb + ((size_t)y * a.w + x) * 3;
+            int sum = p[0] + p[1] + p[2];
+            inside++;
+            if (sum <= 150)
+                continue;
+            bool hue = true;
+            for (int k = 0; k < 3; k++)
+                hue = hue && fabs((double)p[k] / sum - want[k] / sum0) <= 0.04;
+            match += hue;
+        }
+    free(a.rgb);
+    printf("%s: in (%d, %d)..(%d, %d): %ld of %ld pixels of colour (%.2f, %.2f, %.2f)\n", path, x0,
+           y0, x1, y1, match, inside, r, g, b);
+    if (match < 12) {
+        printf("FAIL: nothing of that colour there\n");
+        return 1;
+    }
+    printf("PASS\n");
+    return 0;
+}
+
 static int steel(const char *path, int cx, int cy, int r)
 {
     image a;
@@ -377,6 +415,9 @@ static int panel(const char *path, int cx, int cy, int r)
 
 int main(int argc, char **argv)
 {
+    if (argc == 10 && strcmp(argv[1], "hue") == 0)
+        return hue_box(argv[2], atoi(argv[3]), atoi(argv[4]), atoi(argv[5]), atoi(argv[6]),
+                       atof(argv[7]), atof(argv[8]), atof(argv[9]));
     if (argc == 6 && strcmp(argv[1], "steel") == 0)
         return steel(argv[2], atoi(argv[3]), atoi(argv[4]), atoi(argv[5]));
     if (argc == 6 && strcmp(argv[1], "panel") == 0)
@@ -395,6 +436,7 @@ int main(int argc, char **argv)
                     "       client-png-check drawn IMAGE.png X Y R\n"
                     "       client-png-check similar A.png B.png X Y R M\n"
                     "       client-png-check steel IMAGE.png X Y R\n"
+                    "       client-png-check hue IMAGE.png X0 Y0 X1 Y1 R G B\n"
                     "       client-png-check panel IMAGE.png X Y R\n");
     return 2;
 }
