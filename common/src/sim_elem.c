@@ -300,7 +300,15 @@ static inline void want_block(ftm_elem *el, int32_t b, uint32_t bg, int32_t *nb)
     }
 }
 
-/* The blocks of the schedule's nodes, once per schedule. */
+static int cmp_block(const void *a, const void *b)
+{
+    const int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* The blocks of the schedule's nodes, once per schedule, ascending: their
+ * data are then read as one forward stream (blocks are independent, so
+ * the order changes no bits). */
 static void schedule_blocks(ftm_elem *el, const schedule *s)
 {
     if (el->sched_known && el->sched_version == s->version)
@@ -317,6 +325,7 @@ static void schedule_blocks(ftm_elem *el, const schedule *s)
             }
         }
     }
+    qsort(el->sched_blk, (size_t)nb, sizeof *el->sched_blk, cmp_block);
     el->nsched_blk = nb;
     el->sched_version = s->version;
     el->sched_known = true;
