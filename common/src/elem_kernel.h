@@ -5,8 +5,9 @@
  *
  * Elements are grouped in blocks of FTM_EB consecutive elements of one type
  * (hexahedra first, then tetrahedra; a type's last block may be partial),
- * and every per-element array is stored lane-minor: value k of the element
- * in lane l of block b at [b's offset + k * FTM_EB + l]. A kernel of W
+ * and every per-element input array is stored lane-minor: value k of the
+ * element in lane l of block b at [b's offset + k * FTM_EB + l]; the forces
+ * are records of 4 (ftm_eb_fe). A kernel of W
  * lanes (8 with AVX-512, 4 with AVX2 or portable) runs a block as FTM_EB / W
  * vectors, each lane doing one element's operations in one fixed order, so
  * every kernel gives the same bits on every machine: for neo-Hookean forces
