@@ -232,12 +232,13 @@ static const elem_scenario elem_scenarios[] = {
      0xd0eed73ebab4029cULL, 0xb9fe48197e7697b1ULL},
     {"linear-fem tetrahedra bfs", FTM_FORCES_LINEAR_FEM, true, FTM_ORDER_BFS,
      0xb610fbe0a202cbb5ULL, 0x0ee2c1177d1551b9ULL},
-    /* revision 3 (ftm/sim.h): co-rotational forces per element at the
-     * substep's start, in vector lanes (common/src/elem_block.inc) */
+    /* revision 4 (ftm/sim.h): co-rotational forces per element at the
+     * substep's start, in vector lanes (common/src/elem_block.inc), the
+     * polar decomposition stopping on its determinant */
     {"corot-fem hexahedra", FTM_FORCES_COROT_FEM, false, FTM_ORDER_LAYER_COLORED,
-     0xc88de8b97673617eULL, 0x76205430abd9a2f8ULL},
+     0xc47bb98aae4302d8ULL, 0xe54a1063fa34ae29ULL},
     {"corot-fem tetrahedra jacobi", FTM_FORCES_COROT_FEM, true, FTM_ORDER_LAYER_JACOBI,
-     0x1b6f77c148213d0aULL, 0x9c4962ccbc8f407cULL},
+     0x1b6f77c148213d0aULL, 0x66bb4b87bd3a35a3ULL},
     {"neo-hookean hexahedra", FTM_FORCES_NEO_HOOKEAN, false, FTM_ORDER_LAYER_COLORED,
      0x18f5985f9213b241ULL, 0x34e413af608ea098ULL},
     {"neo-hookean tetrahedra bfs", FTM_FORCES_NEO_HOOKEAN, true, FTM_ORDER_BFS,

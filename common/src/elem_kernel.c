@@ -28,6 +28,19 @@ typedef int64_t e4l __attribute__((vector_size(32)));
 #define LOAD_XYZ4(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
 #define SELECT_BITS(m, a, b) ((EV)(((m) & (EL)(a)) | (~(m) & (EL)(b))))
 
+/* Stores EW lanes' forces (x, y, z) as records (x, y, z, 0) at their
+ * slots (ftm_eb_slot) of a node's records p, the lanes from lane0 */
+#define STOREF_LANES(p, lane0, x, y, z)                                                          \
+    do {                                                                                         \
+        for (int l_ = 0; l_ < EW; l_++) {                                                        \
+            double *r_ = (p) + 4 * ftm_eb_slot((lane0) + l_);                                    \
+            r_[0] = (x)[l_];                                                                     \
+            r_[1] = (y)[l_];                                                                     \
+            r_[2] = (z)[l_];                                                                     \
+            r_[3] = 0.0;                                                                         \
+        }                                                                                        \
+    } while (0)
+
 #define EW 4
 #define EV e4d
 #define EL e4l
@@ -36,18 +49,36 @@ typedef int64_t e4l __attribute__((vector_size(32)));
 #define ESELECT SELECT_BITS
 #define EANY(m) ((m)[0] | (m)[1] | (m)[2] | (m)[3])
 #define ELOADXYZ LOAD_XYZ4
+#define ESTOREF STOREF_LANES
 #include "elem_block.inc"
+#undef ESTOREF
 #undef ETARGET
 #undef ENAME
 #undef ESELECT
 #undef EANY
 
 #if defined(__x86_64__) || defined(__i386__)
+/* 4 lanes transposed to records: (x0 y0 x2 y2) (z0 0 z2 0), ... */
+static inline __attribute__((target("avx2"), always_inline)) void
+avx2_storef(double *p, int lane0, e4d x, e4d y, e4d z)
+{
+    const __m256d t0 = _mm256_unpacklo_pd((__m256d)x, (__m256d)y),
+                  t1 = _mm256_unpackhi_pd((__m256d)x, (__m256d)y),
+                  t2 = _mm256_unpacklo_pd((__m256d)z, _mm256_setzero_pd()),
+                  t3 = _mm256_unpackhi_pd((__m256d)z, _mm256_setzero_pd());
+    _mm256_storeu_pd(p + 4 * ftm_eb_slot(lane0), _mm256_permute2f128_pd(t0, t2, 0x20));
+    _mm256_storeu_pd(p + 4 * ftm_eb_slot(lane0 + 1), _mm256_permute2f128_pd(t1, t3, 0x20));
+    _mm256_storeu_pd(p + 4 * ftm_eb_slot(lane0 + 2), _mm256_permute2f128_pd(t0, t2, 0x31));
+    _mm256_storeu_pd(p + 4 * ftm_eb_slot(lane0 + 3), _mm256_permute2f128_pd(t1, t3, 0x31));
+}
+
 #define ETARGET __attribute__((target("avx2")))
 #define ENAME(f) avx2_##f
 #define ESELECT(m, a, b) ((EV)_mm256_blendv_pd((__m256d)(b), (__m256d)(a), (__m256d)(m)))
 #define EANY(m) (_mm256_movemask_pd((__m256d)(m)) != 0)
+#define ESTOREF avx2_storef
 #include "elem_block.inc"
+#undef ESTOREF
 #undef ETARGET
 #undef ENAME
 #undef ESELECT
@@ -83,6 +114,25 @@ load_xyz8(const double *p, const size_t o[8], e8d *x, e8d *y, e8d *z)
     *z = (e8d)_mm512_unpackhi_pd(yz0, yz1);
 }
 
+/* 8 lanes transposed to records, two lanes per store: lanes (0, 2) (4, 6)
+ * (1, 3) (5, 7), slots 0 .. 7 (ftm_eb_slot) */
+static inline __attribute__((target("avx512f"), always_inline)) void
+avx512_storef(double *p, int lane0, e8d x, e8d y, e8d z)
+{
+    (void)lane0; /* (0: a block is one vector) */
+    const __m512d zero = _mm512_setzero_pd(),
+                  t0 = _mm512_unpacklo_pd((__m512d)x, (__m512d)y), /* x0 y0 x2 y2 x4 y4 x6 y6 */
+        t1 = _mm512_unpackhi_pd((__m512d)x, (__m512d)y),           /* x1 y1 x3 y3 ... */
+        t2 = _mm512_unpacklo_pd((__m512d)z, zero),                 /* z0 0 z2 0 ... */
+        t3 = _mm512_unpackhi_pd((__m512d)z, zero);
+    const __m512i lo = _mm512_set_epi64(11, 10, 3, 2, 9, 8, 1, 0),
+                  hi = _mm512_set_epi64(15, 14, 7, 6, 13, 12, 5, 4);
+    _mm512_storeu_pd(p, _mm512_permutex2var_pd(t0, lo, t2));      /* lanes 0, 2 */
+    _mm512_storeu_pd(p + 8, _mm512_permutex2var_pd(t0, hi, t2));  /* 4, 6 */
+    _mm512_storeu_pd(p + 16, _mm512_permutex2var_pd(t1, lo, t3)); /* 1, 3 */
+    _mm512_storeu_pd(p + 24, _mm512_permutex2var_pd(t1, hi, t3)); /* 5, 7 */
+}
+
 #define EW 8
 #define EV e8d
 #define EL e8l
@@ -91,7 +141,9 @@ load_xyz8(const double *p, const size_t o[8], e8d *x, e8d *y, e8d *z)
 #define ESELECT SELECT_BITS /* (a ternary logic instruction) */
 #define EANY(m) (_mm512_test_epi64_mask((__m512i)(m), (__m512i)(m)) != 0)
 #define ELOADXYZ load_xyz8
+#define ESTOREF avx512_storef
 #include "elem_block.inc"
+#undef ESTOREF
 #undef ETARGET
 #undef ENAME
 #undef ESELECT

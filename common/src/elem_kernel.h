@@ -5,8 +5,9 @@
  *
  * Elements are grouped in blocks of FTM_EB consecutive elements of one type
  * (hexahedra first, then tetrahedra; a type's last block may be partial),
- * and every per-element array is stored lane-minor: value k of the element
- * in lane l of block b at [b's offset + k * FTM_EB + l]. A kernel of W
+ * and every per-element input array is stored lane-minor: value k of the
+ * element in lane l of block b at [b's offset + k * FTM_EB + l]; the forces
+ * are records of 4 (ftm_eb_fe). A kernel of W
  * lanes (8 with AVX-512, 4 with AVX2 or portable) runs a block as FTM_EB / W
  * vectors, each lane doing one element's operations in one fixed order, so
  * every kernel gives the same bits on every machine: for neo-Hookean forces
@@ -18,6 +19,8 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
 
 #define FTM_EB 8 /* elements per block */
 
@@ -42,8 +45,14 @@ typedef struct ftm_elem_blocks {
     int32_t *lanes;     /* per block: elements in it (1 .. FTM_EB) */
     int32_t *node;      /* per block nn x FTM_EB node indices (a spare lane repeats lane 0) */
     double *gp;         /* per block the kind's element data, spare lanes 0 */
-    double *rest;       /* per block the nodes' rest positions, 3 nn x FTM_EB */
-    double *fe;         /* per block the nodal forces, 3 nn x FTM_EB */
+    double *rest;       /* per block the nodes' rest positions, 3 nn x FTM_EB
+                           (co-rotational hexahedra) */
+    double *u;          /* scratch, per node: x - rest (3 each), filled by a
+                           kernel for the nodes of the blocks it evaluates */
+    int32_t nodes;      /* the mesh's nodes (u holds 3 nodes + 1) */
+    double *fe;         /* per block the nodal forces, nn x FTM_EB records of 4
+                           (x, y, z, 0): lane l of node a at record
+                           FTM_EB a + ftm_eb_slot(l) (ftm_eb_fe) */
     double *det;        /* per block FTM_EB: neo, the smallest J of each lane's points */
     int64_t *ok;        /* per block FTM_EB: neo, all ones where J > 0 at every point;
                            co-rotational, all ones */
@@ -56,6 +65,11 @@ static inline int32_t ftm_eb_nodes(const ftm_elem_blocks *eb, int32_t b)
 {
     return b < eb->hex_blocks ? 8 : 4;
 }
+/* The record of lane l among a node's FTM_EB force records: lanes 0, 2,
+ * 4, 6 then 1, 3, 5, 7, the order in which 8 lanes leave a transpose in
+ * pairs (elem_kernel.c). One record per incidence: a node sums its
+ * elements' forces from one cache line each. */
+static inline int ftm_eb_slot(int l) { return (l & 1) * (FTM_EB / 2) + (l >> 1); }
 /* the first element of block b */
 static inline int32_t ftm_eb_first(const ftm_elem_blocks *eb, int32_t b)
 {
@@ -76,6 +90,21 @@ static inline size_t ftm_eb_node_off(const ftm_elem_blocks *eb, int32_t b)
 {
     return b < eb->hex_blocks ? 8 * (size_t)b
                               : 8 * (size_t)eb->hex_blocks + 4 * (size_t)(b - eb->hex_blocks);
+}
+/* the force record of lane l, node a of block b, in eb->fe */
+static inline size_t ftm_eb_fe(const ftm_elem_blocks *eb, int32_t b, int a, int l)
+{
+    return 4 * (FTM_EB * (ftm_eb_node_off(eb, b) + (size_t)a) + (size_t)ftm_eb_slot(l));
+}
+/* zeroed force records for every block, 64-byte aligned (free() them) */
+static inline double *ftm_eb_alloc_fe(const ftm_elem_blocks *eb)
+{
+    const size_t bytes = (4 * FTM_EB * ftm_eb_node_off(eb, eb->count) + 8) * sizeof(double);
+    const size_t size = (bytes + 63) / 64 * 64;
+    double *p = aligned_alloc(64, size);
+    if (p)
+        memset(p, 0, size);
+    return p;
 }
 static inline size_t ftm_eb_gp_off(const ftm_elem_blocks *eb, int32_t b)
 {

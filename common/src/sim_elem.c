@@ -65,8 +65,8 @@ struct ftm_elem {
     double *gp;
     size_t *goff;
     /* co-rotational and neo-Hookean: the elements in blocks, evaluated a
-     * block at a time; inc_fe[q] is where the forces of incidence q are in
-     * eb.fe (at +0, +FTM_EB, +2 FTM_EB); node i's blocks are
+     * block at a time; inc_fe[q] is where the force record (x, y, z, 0) of
+     * incidence q is in eb.fe; node i's blocks are
      * node_blk[node_blk_start[i] ..] */
     ftm_elem_blocks eb;
     ftm_blocks_fn blocks;
@@ -128,6 +128,7 @@ void ftm_elem_free(ftm_elem *el)
     free(el->eb.node);
     free(el->eb.gp);
     free(el->eb.rest);
+    free(el->eb.u);
     free(el->eb.fe);
     free(el->eb.det);
     free(el->eb.ok);
@@ -202,16 +203,63 @@ static inline void linear_force(const ftm_elem *restrict el, const ftm_mesh *res
 static inline void element_force(const ftm_elem *restrict el, const double *restrict fe,
                                  int32_t i, double f[3])
 {
-    double fx = 0.0, fy = 0.0, fz = 0.0;
+    /* a record (x, y, z, 0) at a time, x and y as a pair: the same
+     * additions, per axis, as one by one */
+    typedef double v2 __attribute__((vector_size(16)));
+    v2 xy = {0.0, 0.0};
+    double fz = 0.0;
     for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
         const double *fa = fe + el->inc_fe[q];
-        fx += fa[0];
-        fy += fa[FTM_EB];
-        fz += fa[2 * FTM_EB];
+        v2 a;
+        memcpy(&a, fa, sizeof a);
+        xy += a;
+        fz += fa[2];
     }
-    f[0] = fx;
-    f[1] = fy;
+    f[0] = xy[0];
+    f[1] = xy[1];
     f[2] = fz;
+}
+
+/* element_force of count nodes into out (3 each), four nodes' sums
+ * interleaved: each is one chain of dependent additions, which alone would
+ * wait on every add. Each node's additions are those of element_force. */
+static void element_forces_of(const ftm_elem *restrict el, const double *restrict fe,
+                              const int32_t *restrict node, int32_t count, double *restrict out)
+{
+    typedef double v2 __attribute__((vector_size(16)));
+    int32_t k = 0;
+    for (; k + 4 <= count; k += 4) {
+        int32_t q[4], end[4];
+        v2 xy[4];
+        double fz[4];
+        for (int j = 0; j < 4; j++) {
+            q[j] = el->inc_start[node[k + j]];
+            end[j] = el->inc_start[node[k + j] + 1];
+            xy[j] = (v2){0.0, 0.0};
+            fz[j] = 0.0;
+        }
+        for (;;) {
+            int live = 0;
+            for (int j = 0; j < 4; j++)
+                if (q[j] < end[j]) {
+                    const double *fa = fe + el->inc_fe[q[j]++];
+                    v2 a;
+                    memcpy(&a, fa, sizeof a);
+                    xy[j] += a;
+                    fz[j] += fa[2];
+                    live++;
+                }
+            if (!live)
+                break;
+        }
+        for (int j = 0; j < 4; j++) {
+            out[3 * (k + j)] = xy[j][0];
+            out[3 * (k + j) + 1] = xy[j][1];
+            out[3 * (k + j) + 2] = fz[j];
+        }
+    }
+    for (; k < count; k++)
+        element_force(el, fe, node[k], out + 3 * k);
 }
 
 static inline void node_force(const ftm_elem *el, const ftm_mesh *m, const double *x, int32_t i,
@@ -252,7 +300,15 @@ static inline void want_block(ftm_elem *el, int32_t b, uint32_t bg, int32_t *nb)
     }
 }
 
-/* The blocks of the schedule's nodes, once per schedule. */
+static int cmp_block(const void *a, const void *b)
+{
+    const int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* The blocks of the schedule's nodes, once per schedule, ascending: their
+ * data are then read as one forward stream (blocks are independent, so
+ * the order changes no bits). */
 static void schedule_blocks(ftm_elem *el, const schedule *s)
 {
     if (el->sched_known && el->sched_version == s->version)
@@ -269,6 +325,7 @@ static void schedule_blocks(ftm_elem *el, const schedule *s)
             }
         }
     }
+    qsort(el->sched_blk, (size_t)nb, sizeof *el->sched_blk, cmp_block);
     el->nsched_blk = nb;
     el->sched_version = s->version;
     el->sched_known = true;
@@ -348,11 +405,18 @@ static inline double integrate(const ftm_sim *sim, int32_t i, const double cur[3
 
 /* One Gauss-Seidel update of node i; the overwritten previous position goes
  * to save[0], save[stride], save[2 stride] (the schedule's rollback layout). */
-static inline bool update_node(ftm_sim *sim, int32_t i, double *save, int stride, double *mm)
+static inline bool update_node(ftm_sim *sim, int32_t i, double *save, int stride, double *mm,
+                               const double *pre)
 {
     double *xi = sim->x + 3 * i, *pi = sim->xp + 3 * i;
     double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3];
-    node_force(sim->elem, sim->m, sim->x, i, f);
+    if (pre) { /* element forces summed beforehand (element_forces_of) */
+        const double sc = sim->elem->scale;
+        for (int d = 0; d < 3; d++)
+            f[d] = sc != 1.0 ? pre[d] * sc : pre[d];
+    } else {
+        node_force(sim->elem, sim->m, sim->x, i, f);
+    }
     double m2 = integrate(sim, i, cur, f, nw);
     *mm = m2 > *mm ? m2 : *mm;
     for (int d = 0; d < 3; d++) {
@@ -391,20 +455,30 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
     el->carry = false;
     bool ok = true;
     double mm = *max_m2;
-    if (el->kind != FTM_FORCES_LINEAR_FEM) /* (an inversion is noted and fails the step) */
+    /* element forces do not depend on the positions the sweep writes: all
+     * the schedule's, summed first */
+    double *pre = NULL;
+    if (el->kind != FTM_FORCES_LINEAR_FEM) { /* (an inversion is noted and fails the step) */
         prepare(el, sim, true, NULL, 0);
+        if (sim->def.order != FTM_ORDER_LAYER_JACOBI) {
+            pre = s->tmp;
+            element_forces_of(el, el->eb.fe, s->node, s->count, pre);
+        }
+    }
     if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
         /* one node at a time in schedule order; save as the kernels do */
         const int32_t w = sim->group_lanes;
         for (int32_t g = 0, b0 = 0; g < s->groups; g++) {
             const int32_t k0 = s->group[g], k1 = s->group[g + 1];
             for (int32_t k = k0; k < k1; k++)
-                ok &= update_node(sim, s->node[k], ftm_group_save(sim, b0, k0, k), w, &mm);
+                ok &= update_node(sim, s->node[k], ftm_group_save(sim, b0, k0, k), w, &mm,
+                                  pre ? pre + 3 * (size_t)k : NULL);
             b0 += ftm_group_blocks(sim, k0, k1);
         }
     } else if (sim->def.order == FTM_ORDER_BFS) {
         for (int32_t k = 0; k < s->count; k++)
-            ok &= update_node(sim, s->node[k], s->save + 3 * (size_t)k, 1, &mm);
+            ok &= update_node(sim, s->node[k], s->save + 3 * (size_t)k, 1, &mm,
+                              pre ? pre + 3 * (size_t)k : NULL);
     } else { /* Jacobi: each layer from the state before it; save as the kernels do */
         const int32_t w = sim->group_lanes;
         for (int32_t g = 0, b0 = 0; g < s->groups; g++) {
@@ -446,7 +520,7 @@ bool ftm_elem_sweep_relax(ftm_sim *sim)
     bool ok = true;
     double mm = 0.0;
     for (int32_t r = 0; r < sim->nrelax; r++)
-        ok &= update_node(sim, sim->relax[r], NULL, 1, &mm);
+        ok &= update_node(sim, sim->relax[r], NULL, 1, &mm, NULL);
     return ok;
 }
 
@@ -567,11 +641,12 @@ static int element_forces(const ftm_sim *sim, const double *x, double *f)
      * the integrator's order; nothing written if an element is inverted */
     ftm_elem_blocks eb = el->eb;
     const size_t nb = (size_t)eb.count;
-    eb.fe = malloc((3 * FTM_EB * ftm_eb_node_off(&eb, eb.count) + 1) * sizeof *eb.fe);
+    eb.fe = ftm_eb_alloc_fe(&eb);
     eb.det = malloc((FTM_EB * nb + 1) * sizeof *eb.det);
     eb.ok = malloc((FTM_EB * nb + 1) * sizeof *eb.ok);
+    eb.u = malloc((3 * (size_t)m->node_count + 1) * sizeof *eb.u);
     int32_t *all = malloc((nb + 1) * sizeof *all);
-    int rc = eb.fe && eb.det && eb.ok && all ? FTM_OK : FTM_ENOMEM;
+    int rc = eb.fe && eb.det && eb.ok && eb.u && all ? FTM_OK : FTM_ENOMEM;
     if (!rc) {
         for (int32_t b = 0; b < eb.count; b++)
             all[b] = b;
@@ -586,6 +661,7 @@ static int element_forces(const ftm_sim *sim, const double *x, double *f)
     free(eb.fe);
     free(eb.det);
     free(eb.ok);
+    free(eb.u);
     free(all);
     return rc;
 }
@@ -913,11 +989,13 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
     const size_t ninc = (size_t)el->start[el->count];
     eb->lanes = malloc((nb + 1) * sizeof *eb->lanes);
     eb->node = malloc((slots + 1) * sizeof *eb->node);
-    eb->fe = calloc(3 * slots + 1, sizeof *eb->fe);
+    eb->fe = ftm_eb_alloc_fe(eb);
     eb->det = calloc(FTM_EB * nb + 1, sizeof *eb->det);
     eb->ok = calloc(FTM_EB * nb + 1, sizeof *eb->ok);
     eb->gp = calloc(FTM_EB * ftm_eb_gp_off(eb, eb->count) + 1, sizeof *eb->gp);
     eb->rest = calloc(3 * slots + 1, sizeof *eb->rest);
+    eb->nodes = m->node_count;
+    eb->u = calloc(3 * (size_t)m->node_count + 1, sizeof *eb->u);
     el->inc_fe = malloc((ninc + 1) * sizeof *el->inc_fe);
     el->node_blk_start = malloc(((size_t)m->node_count + 1) * sizeof *el->node_blk_start);
     el->node_blk = malloc((ninc + 1) * sizeof *el->node_blk);
@@ -926,7 +1004,7 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
     el->bstamp = calloc(nb + 1, sizeof *el->bstamp);
     el->inv_mark = calloc((size_t)el->count + 1, sizeof *el->inv_mark);
     el->sched_blk = malloc((nb + 1) * sizeof *el->sched_blk);
-    if (!eb->lanes || !eb->node || !eb->fe || !eb->det || !eb->ok || !eb->gp || !eb->rest || !el->inc_fe ||
+    if (!eb->lanes || !eb->node || !eb->fe || !eb->det || !eb->ok || !eb->gp || !eb->rest || !eb->u || !el->inc_fe ||
         !el->node_blk_start || !el->node_blk || !el->valid || !el->list || !el->bstamp ||
         !el->inv_mark || !el->sched_blk)
         return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %d element blocks",
@@ -959,9 +1037,8 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
         el->node_blk_start[i] = (int32_t)nbk;
         for (int32_t q = el->inc_start[i]; q < el->inc_start[i + 1]; q++) {
             const int32_t e = el->inc_elem[q], b = ftm_eb_block(eb, e);
-            el->inc_fe[q] = (int32_t)(FTM_EB * (3 * ftm_eb_node_off(eb, b) +
-                                                3 * (size_t)el->inc_local[q]) +
-                                      (size_t)ftm_eb_lane(eb, e));
+            el->inc_fe[q] =
+                (int32_t)ftm_eb_fe(eb, b, el->inc_local[q], ftm_eb_lane(eb, e));
             bool seen = false;
             for (size_t t = (size_t)el->node_blk_start[i]; t < nbk && !seen; t++)
                 seen = el->node_blk[t] == b;
