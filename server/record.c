@@ -23,6 +23,7 @@ struct ftm_record_writer {
     uint64_t kept;  /* bytes in the file: the magic and whole chunks */
     uint64_t kept_tick; /* the tick of the last entry in the file */
     int error;      /* first write error: stopped for good */
+    int sys_errno;  /* its errno (ENOSPC, EFBIG, ...) */
     char message[FTM_ERROR_MESSAGE_MAX];
     uint8_t *buf;   /* the open chunk: its head's room, then the body */
     size_t cap, len; /* len: head room + body bytes so far */
@@ -43,7 +44,10 @@ struct ftm_record_writer {
 
 struct ftm_record_reader {
     FILE *f;
-    char *path;
+    char *path;     /* the file being read */
+    char *base;     /* the lesson's first file */
+    uint32_t segment;
+    ftm_record_header first, hdr; /* the first segment's header, the current one's */
     uint64_t offset, index; /* of the next entry, when one is read */
     Ftm__V1__RecordEntry *cur; /* the entry handed out last */
     uint8_t *buf;   /* the current chunk's body */
@@ -144,6 +148,8 @@ static int write_all(int fd, const uint8_t *p, size_t n)
 static int stop(ftm_record_writer *w, int e, ftm_error *err)
 {
     w->error = FTM_EIO;
+    if (!w->sys_errno)
+        w->sys_errno = e;
     snprintf(w->message, sizeof w->message, "recording %s: write failed: %s", w->path,
              strerror(e));
     return rec_err(err, FTM_EIO, "%s", w->message);
@@ -307,6 +313,14 @@ int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_w
     hd.session = h->session[0] ? (char *)h->session : NULL;
     hd.has_arithmetic = true;
     hd.arithmetic = ftm_arithmetic_revision();
+    if (h->segment) {
+        hd.has_lesson_start_ns = true;
+        hd.lesson_start_ns = h->lesson_start_ns;
+        hd.has_segment = true;
+        hd.segment = h->segment;
+        hd.has_after_gap = h->after_gap;
+        hd.after_gap = h->after_gap;
+    }
     Ftm__V1__RecordEntry m = FTM__V1__RECORD_ENTRY__INIT;
     m.header = &hd;
     /* the header in a chunk of its own, in the file at once */
@@ -374,6 +388,8 @@ uint64_t ftm_record_bytes(const ftm_record_writer *w)
 }
 
 uint64_t ftm_record_kept(const ftm_record_writer *w) { return w ? w->kept : 0; }
+
+int ftm_record_errno(const ftm_record_writer *w) { return w ? w->sys_errno : 0; }
 
 uint64_t ftm_record_kept_tick(const ftm_record_writer *w) { return w ? w->kept_tick : 0; }
 
@@ -544,16 +560,26 @@ static int unpack(ftm_record_reader *r, size_t at, size_t size, uint64_t start, 
     return FTM_OK;
 }
 
-int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **out,
-                    ftm_error *err)
+/* Opens one file of the lesson into r (its per-file state afresh) and reads
+ * its magic and header into *h. */
+static int open_file(ftm_record_reader *r, const char *path, ftm_record_header *h,
+                     ftm_error *err)
 {
-    *out = NULL;
     memset(h, 0, sizeof *h);
-    ftm_record_reader *r = calloc(1, sizeof *r);
-    if (!r || !(r->path = strdup(path))) {
-        free(r);
+    if (r->f)
+        fclose(r->f);
+    if (r->cur)
+        ftm__v1__record_entry__free_unpacked(r->cur, NULL);
+    r->f = NULL;
+    r->cur = NULL;
+    free(r->path);
+    r->offset = r->index = r->chunks = r->chunk_at = r->first_tick = r->last_tick = 0;
+    r->body_at = r->next_at = r->last_good_tick = 0;
+    r->len = r->pos = 0;
+    r->left = 0;
+    r->body_bad = r->damaged = false;
+    if (!(r->path = strdup(path)))
         return rec_err(err, FTM_ENOMEM, "recording: out of memory");
-    }
     int rc = FTM_OK;
     char magic[8];
     size_t sz = 0, at = 0;
@@ -624,15 +650,82 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
             h->max_penetration = hd->has_max_penetration ? hd->max_penetration : 0.0;
             snprintf(h->session, sizeof h->session, "%s", hd->session ? hd->session : "");
             h->arithmetic = hd->has_arithmetic && hd->arithmetic ? hd->arithmetic : 1;
+            h->lesson_start_ns = hd->has_lesson_start_ns ? hd->lesson_start_ns : 0;
+            h->segment = hd->has_segment ? hd->segment : 0;
+            h->after_gap = hd->has_after_gap && hd->after_gap;
             r->index = 1;
         }
     }
+    return rc;
+}
+
+int ftm_record_segment_path(const char *path, uint32_t k, char *buf, size_t cap)
+{
+    int n = k ? snprintf(buf, cap, "%s.%u", path, k) : snprintf(buf, cap, "%s", path);
+    return n < 0 || (size_t)n >= cap ? FTM_EINVAL : FTM_OK;
+}
+
+int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **out,
+                    ftm_error *err)
+{
+    *out = NULL;
+    memset(h, 0, sizeof *h);
+    ftm_record_reader *r = calloc(1, sizeof *r);
+    if (!r || !(r->base = strdup(path))) {
+        free(r);
+        return rec_err(err, FTM_ENOMEM, "recording: out of memory");
+    }
+    int rc = open_file(r, path, h, err);
+    if (!rc && h->segment)
+        rc = rec_err(err, FTM_EPARSE, "%s: segment %u of a lesson (a server that resumed it or "
+                     "recorded on after a write error): give the lesson's first file", path,
+                     h->segment);
     if (rc) {
         ftm_record_close_reader(r);
         return rc;
     }
+    if (!h->lesson_start_ns) /* the lesson began with this file */
+        h->lesson_start_ns = h->start_unix_ns;
+    r->first = r->hdr = *h;
     *out = r;
     return FTM_OK;
+}
+
+/* At the clean end of a segment: the next one, if its file exists. 1: opened
+ * (its header checked), 0: none, < 0: an error (damage if the file cannot
+ * be read as a recording: a server killed as it began it). */
+static int next_segment(ftm_record_reader *r, ftm_error *err)
+{
+    char next[4096];
+    if (ftm_record_segment_path(r->base, r->segment + 1, next, sizeof next))
+        return 0;
+    if (access(next, F_OK) != 0)
+        return 0;
+    ftm_record_header h;
+    int rc = open_file(r, next, &h, err);
+    if (rc) {
+        r->damaged = rc == FTM_EPARSE; /* cut: what came before is whole */
+        return rc;
+    }
+    const ftm_record_header *f = &r->first;
+    const char *why = NULL;
+    if (h.segment != r->segment + 1)
+        why = "its segment number";
+    else if (h.lesson_start_ns != f->lesson_start_ns)
+        why = "its lesson's start";
+    else if (strcmp(h.scene_id, f->scene_id) != 0 || h.digest_len != f->digest_len ||
+             memcmp(h.digest, f->digest, (size_t)h.digest_len) != 0)
+        why = "its scene";
+    else if (h.tick_rate_hz != f->tick_rate_hz || h.node_count != f->node_count ||
+             h.arithmetic != f->arithmetic)
+        why = "its tick rate, node count or arithmetic revision";
+    if (why)
+        return rec_err(err, FTM_EPARSE,
+                       "%s: header: not segment %u of the lesson %s (%s differs): move it "
+                       "away to read the lesson without it", next, r->segment + 1, r->base, why);
+    r->segment++;
+    r->hdr = h;
+    return 1;
 }
 
 int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
@@ -641,7 +734,13 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
     r->damaged = false;
     size_t size = 0, at = 0;
     int got = get_raw(r, &at, &size, err);
-    if (got <= 0)
+    while (got == 0) { /* the clean end of a segment: the next one, if any */
+        got = next_segment(r, err);
+        if (got <= 0)
+            return got;
+        got = get_raw(r, &at, &size, err);
+    }
+    if (got < 0)
         return got;
     const uint64_t start = r->offset;
     int rc = unpack(r, at, size, start, err);
@@ -670,11 +769,16 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
     e->size = m->has_payload ? m->payload.len : 0;
     e->index = r->index++;
     e->offset = start;
+    e->segment = r->segment;
     r->last_good_tick = e->tick;
     return 1;
 }
 
 bool ftm_record_damaged(const ftm_record_reader *r) { return r && r->damaged; }
+
+const char *ftm_record_reader_path(const ftm_record_reader *r) { return r->path; }
+
+const ftm_record_header *ftm_record_reader_header(const ftm_record_reader *r) { return &r->hdr; }
 
 void ftm_record_close_reader(ftm_record_reader *r)
 {
@@ -686,5 +790,6 @@ void ftm_record_close_reader(ftm_record_reader *r)
         fclose(r->f);
     free(r->buf);
     free(r->path);
+    free(r->base);
     free(r);
 }

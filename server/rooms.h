@@ -201,6 +201,21 @@ typedef struct srv_rec {
     char path[1024];        /* --record-dir: this run's recording */
     ftm_report report;      /* what each participant did (--report, the closing log) */
     uint64_t tissue_changes;
+    /* the lesson, when it spans several files (FILE, FILE.1, ...) */
+    char lesson[1024];        /* its first file (--resume, or this run's after a gap) */
+    char seg_path[1100];      /* the file this run records to now */
+    uint64_t lesson_start_ns; /* its start: its first server's (announced) */
+    uint32_t segment;         /* the number of the file this run records to next */
+    uint64_t resumed_tick;    /* --resume: the tick it went on from */
+    /* after a write error: a new file once space returns (probed off the
+     * tick thread, libuv's thread pool) */
+    uv_fs_t statfs_req;
+    bool probing;
+    bool may_retry;           /* the error was a full disk: space may return */
+    uint64_t next_probe_ns, probes;
+    uint64_t free_bytes;      /* at the last probe */
+    uint64_t segments_after_gap;
+    char no_resume_why[256];  /* why recording has not resumed ("" none said) */
 } srv_rec;
 
 /* ---- the server ---- */
@@ -216,6 +231,9 @@ typedef struct server {
     char scene_path[1024]; /* the file the scene came from (its name for a built-in) */
     char replay_scene[FTM_WIRE_NAME_MAX], replay_session[128];
     bool depth_from_frames; /* --replay, --inputs without --depth: the recorded depths */
+    uint8_t resume_digest[FTM_REPLAY_DIGEST_SIZE]; /* --resume: the recorded scene's */
+    bool log_append;        /* the second set-up after --resume-recent gave up */
+    bool resume_if_unended; /* --resume-recent: a lesson that ended is no error, a new one begins */
     srv_parts parts;
     srv_tick tk;
     srv_publish pub;
@@ -293,6 +311,11 @@ void srv_record_entry(server *s, bool incoming, int kind, uint32_t sender, const
                       size_t size, bool gone, bool lost);
 void srv_record_failed(server *s, const ftm_error *err);
 int srv_open_recording(server *s, ftm_error *err);
+/* --resume-recent: the newest lesson in --record-dir to resume into s->o.resume, if any */
+void srv_pick_recent_lesson(server *s);
+/* After a write error: every second, whether space has returned, and then a
+ * new file of the lesson (server.c's status timer calls it) */
+void srv_record_retry(server *s);
 int srv_close_recording(server *s);
 int srv_finish_report(server *s);
 int srv_open_reactions(server *s);
@@ -301,6 +324,7 @@ int srv_close_reactions(server *s);
 /* offline.c */
 int srv_run_offline(server *s);
 int srv_replay_inputs(server *s);
+int srv_resume_rerun(server *s);
 
 /* check.c */
 int srv_check_setup(server *s);
