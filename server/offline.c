@@ -26,6 +26,7 @@ typedef struct feed {
     char seg_path[4096]; /* its name */
     bool gap;            /* stopped at a segment begun after a gap */
     uint64_t lesson_start_ns;
+    uint64_t cut_at; /* --resume: the last file's unfinished chunk begins here; 0: none */
 } feed;
 
 /* An input entry, handled at the tick it was handled (every tick before it
@@ -177,25 +178,34 @@ static int feed_lesson(server *s, feed *f, bool upto)
     while (!f->why[0]) {
         int got = ftm_record_next(rd, &e, &err);
         if (got < 0 && ftm_record_damaged(rd) && s->o.resume) {
-            /* a crash cuts the last file only: damage before a later file is not that */
-            char next[4096];
-            upto = ftm_record_segment_path(f->path, f->segment + 1, next, sizeof next) == 0 &&
-                   access(next, F_OK) != 0 &&
-                   ftm_record_segment_path(f->path, f->segment + 2, next, sizeof next) == 0 &&
+            /* a crash cuts the last chunk of the last file only: damage
+             * anywhere else is not that, and is not resumed over */
+            char cut[4096], next[4096];
+            uint32_t k = f->segment;
+            if (ftm_record_segment_path(f->path, k + 1, cut, sizeof cut) == 0 &&
+                strcmp(cut, ftm_record_reader_path(rd)) == 0)
+                k++; /* the next file, cut as it was begun */
+            upto = ftm_record_damaged_at_end(rd) &&
+                   ftm_record_segment_path(f->path, k + 1, next, sizeof next) == 0 &&
                    access(next, F_OK) != 0;
         }
         if (got < 0 && ftm_record_damaged(rd) && upto) {
             fprintf(stderr, "ftm-server %s: note: %s; %s up to entry %" PRIu64
                     " before it%s\n", f->mode, err.message,
-                    s->o.replay ? "replaying" : s->o.resume ? "resuming from" : "running",
+                    s->o.replay ? "replaying" : s->o.resume ? "re-running the lesson" : "running",
                     f->last_index, s->o.resume ? " (what the crash cut)" : " (--upto-damage)");
             f->at_damage = true;
+            if (s->o.resume && strcmp(ftm_record_reader_path(rd),
+                                      f->segment ? f->seg_path : f->path) == 0)
+                f->cut_at = ftm_record_damage_offset(rd); /* the next file goes on from there */
             break;
         }
         if (got < 0) {
             fprintf(stderr, "ftm-server %s: %s%s\n", f->mode, err.message,
                     !ftm_record_damaged(rd) ? ""
-                    : s->o.resume           ? " (not in the lesson's last file: not resumed)"
+                    : s->o.resume ? " (not the end of the lesson's last file, where a crash "
+                                    "cuts it: not resumed; --replay --upto-damage replays up to "
+                                    "it)"
                                             : " (--upto-damage takes it up to there)");
             rc = 1;
         }
@@ -298,6 +308,7 @@ int srv_resume_rerun(server *s)
     s->rec.lesson_start_ns = f.lesson_start_ns;
     s->rec.segment = f.segment + 1;
     s->rec.resumed_tick = s->tk.tick;
+    s->rec.previous_cut = f.cut_at;
     srv_log(s, "info",
             "resumed lesson %s at tick %" PRIu64 " hash %016" PRIx64 " (%u file%s, %" PRIu64
             " inputs and %" PRIu64 " tick frames re-run and checked in %.2f s)",

@@ -58,6 +58,9 @@ struct ftm_record_reader {
     bool body_bad;  /* the body's checksum differs: damage inside, found entry by entry */
     uint64_t last_good_tick;
     bool damaged;
+    bool damage_at_end; /* the damage is the file's last chunk: cut while written */
+    uint64_t damage_from; /* where that chunk begins */
+    uint32_t cuts;      /* crash cuts passed over (previous_cut) */
 };
 
 static int rec_err(ftm_error *err, int code, const char *fmt, ...)
@@ -320,6 +323,8 @@ int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_w
         hd.segment = h->segment;
         hd.has_after_gap = h->after_gap;
         hd.after_gap = h->after_gap;
+        hd.has_previous_cut = h->previous_cut > 0;
+        hd.previous_cut = h->previous_cut;
     }
     Ftm__V1__RecordEntry m = FTM__V1__RECORD_ENTRY__INIT;
     m.header = &hd;
@@ -451,6 +456,8 @@ static int next_chunk(ftm_record_reader *r, ftm_error *err)
                  (unsigned long long)(r->index - 1), (unsigned long long)r->last_good_tick);
     else if (r->index == 1)
         snprintf(after, sizeof after, "after the header");
+    r->damage_at_end = got < HEAD;
+    r->damage_from = at;
     if (got < HEAD)
         return bad(r, true, err,
                    "truncated: the file ends inside the head of chunk %llu at byte %llu (%zu of "
@@ -472,6 +479,7 @@ static int next_chunk(ftm_record_reader *r, ftm_error *err)
     if (grow(&r->buf, &r->cap, len))
         return rec_err(err, FTM_ENOMEM, "%s: out of memory", r->path);
     got = fread(r->buf, 1, len, r->f);
+    r->damage_at_end = got != len;
     if (got != len)
         return bad(r, true, err,
                    "truncated: chunk %llu at byte %llu (entries %llu.., ticks %llu..%llu) needs "
@@ -487,6 +495,12 @@ static int next_chunk(ftm_record_reader *r, ftm_error *err)
     /* damage inside: found entry by entry below, so that what comes
      * before it is handed out (--replay-upto-damage) */
     r->body_bad = get32(head + 12) != ftm_crc32c(0, r->buf, len);
+    if (r->body_bad) { /* the last chunk of the file? */
+        int c = fgetc(r->f);
+        r->damage_at_end = c == EOF;
+        if (c != EOF)
+            ungetc(c, r->f);
+    }
     return 1;
 }
 
@@ -577,7 +591,7 @@ static int open_file(ftm_record_reader *r, const char *path, ftm_record_header *
     r->body_at = r->next_at = r->last_good_tick = 0;
     r->len = r->pos = 0;
     r->left = 0;
-    r->body_bad = r->damaged = false;
+    r->body_bad = r->damaged = r->damage_at_end = false;
     if (!(r->path = strdup(path)))
         return rec_err(err, FTM_ENOMEM, "recording: out of memory");
     int rc = FTM_OK;
@@ -653,6 +667,7 @@ static int open_file(ftm_record_reader *r, const char *path, ftm_record_header *
             h->lesson_start_ns = hd->has_lesson_start_ns ? hd->lesson_start_ns : 0;
             h->segment = hd->has_segment ? hd->segment : 0;
             h->after_gap = hd->has_after_gap && hd->after_gap;
+            h->previous_cut = hd->has_previous_cut ? hd->previous_cut : 0;
             r->index = 1;
         }
     }
@@ -691,6 +706,25 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
     return FTM_OK;
 }
 
+/* Whether the file being read, damaged in its last chunk, is what a crash
+ * left of a lesson that a server resumed: the next file's header says the
+ * lesson goes on from the start of that chunk. */
+static bool cut_resumed(const ftm_record_reader *r)
+{
+    char next[4096];
+    if (ftm_record_segment_path(r->base, r->segment + 1, next, sizeof next) ||
+        access(next, F_OK) != 0)
+        return false;
+    ftm_record_reader *t = calloc(1, sizeof *t);
+    if (!t)
+        return false;
+    ftm_record_header h;
+    bool yes = open_file(t, next, &h, NULL) == FTM_OK && h.segment == r->segment + 1 &&
+               h.previous_cut && h.previous_cut == r->damage_from;
+    ftm_record_close_reader(t);
+    return yes;
+}
+
 /* At the clean end of a segment: the next one, if its file exists. 1: opened
  * (its header checked), 0: none, < 0: an error (damage if the file cannot
  * be read as a recording: a server killed as it began it). */
@@ -704,7 +738,8 @@ static int next_segment(ftm_record_reader *r, ftm_error *err)
     ftm_record_header h;
     int rc = open_file(r, next, &h, err);
     if (rc) {
-        r->damaged = rc == FTM_EPARSE; /* cut: what came before is whole */
+        /* cut as it was begun (a server killed then): what came before is whole */
+        r->damaged = r->damage_at_end = rc == FTM_EPARSE;
         return rc;
     }
     const ftm_record_header *f = &r->first;
@@ -734,7 +769,14 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
     r->damaged = false;
     size_t size = 0, at = 0;
     int got = get_raw(r, &at, &size, err);
-    while (got == 0) { /* the clean end of a segment: the next one, if any */
+    for (;;) {
+        if (got < 0 && r->damaged && r->damage_at_end && cut_resumed(r)) {
+            r->cuts++; /* a crash's unfinished chunk, which the next file goes on from */
+            got = 0;
+        }
+        if (got != 0)
+            break;
+        /* the clean end of a segment: the next one, if any */
         got = next_segment(r, err);
         if (got <= 0)
             return got;
@@ -775,6 +817,15 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
 }
 
 bool ftm_record_damaged(const ftm_record_reader *r) { return r && r->damaged; }
+
+uint64_t ftm_record_damage_offset(const ftm_record_reader *r) { return r->damage_from; }
+
+uint32_t ftm_record_cuts_passed(const ftm_record_reader *r) { return r->cuts; }
+
+bool ftm_record_damaged_at_end(const ftm_record_reader *r)
+{
+    return r && r->damaged && r->damage_at_end;
+}
 
 const char *ftm_record_reader_path(const ftm_record_reader *r) { return r->path; }
 

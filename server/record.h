@@ -50,6 +50,7 @@ typedef struct ftm_record_header {
     uint64_t lesson_start_ns; /* the first segment's start_unix_ns (read: filled in for it) */
     uint32_t segment;         /* 0: the first file */
     bool after_gap;           /* entries before this segment were lost (a write error) */
+    uint64_t previous_cut;    /* the previous file was cut by a crash at this byte; 0: whole */
 } ftm_record_header;
 
 typedef struct ftm_record_entry {
@@ -118,6 +119,14 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err);
  * that differs, a chunk cut short): the entries handed out before it passed
  * their checks, and a replay may stop there (--replay-upto-damage). */
 bool ftm_record_damaged(const ftm_record_reader *r);
+/* And the damage is in the file's last chunk (cut short, or its checksum
+ * differs and no byte follows it): what a crash while writing leaves. */
+bool ftm_record_damaged_at_end(const ftm_record_reader *r);
+/* The byte where the damaged chunk begins (its head). */
+uint64_t ftm_record_damage_offset(const ftm_record_reader *r);
+/* Crash cuts passed over: a file cut short whose next file, a resumed
+ * server's, says it goes on from there (previous_cut). */
+uint32_t ftm_record_cuts_passed(const ftm_record_reader *r);
 /* The file being read (the last segment opened) and its header. */
 const char *ftm_record_reader_path(const ftm_record_reader *r);
 const ftm_record_header *ftm_record_reader_header(const ftm_record_reader *r);

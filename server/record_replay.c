@@ -340,6 +340,12 @@ int ftm_server_replay(const char *path, const char *scene_name, bool upto_damage
            (int)s.depth_min_seen, (int)s.depth_max_seen, s.depth_changes, s.tissue_changes,
            s.inputs[FTM_WIRE_PROBE_INPUT], s.inputs[FTM_WIRE_STATUS], s.inputs[FTM_WIRE_CONTROL],
            s.gone, s.replies, s.refused);
+    if (s.segment)
+        printf("replay %s: one lesson in %u files (%s, then .1 to .%u), %" PRIu64
+               " begun after a gap; %u crash cut%s passed over (a resumed server went on from "
+               "there)\n",
+               path, s.segment + 1, path, s.segment, s.gaps, ftm_record_cuts_passed(rd),
+               ftm_record_cuts_passed(rd) == 1 ? "" : "s");
     printf("ftm-server: final tick %" PRIu64 " hash %016" PRIx64 "\n", tick, hash);
 done:
     ftm_sim_destroy(s.sim);

@@ -183,6 +183,8 @@ int srv_open_recording(server *s, ftm_error *err)
     rh.lesson_start_ns = r->lesson_start_ns;
     rh.segment = r->segment;
     rh.after_gap = r->failed;
+    rh.previous_cut = r->previous_cut;
+    r->previous_cut = 0; /* (a file after a gap goes on from a whole one) */
     int rc = ftm_record_create(s->o.record, &rh, &r->w, err);
     if (rc == FTM_OK && r->segment)
         srv_log(s, "info", "recording the lesson on to %s (its file %u)", s->o.record,

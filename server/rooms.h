@@ -207,6 +207,7 @@ typedef struct srv_rec {
     uint64_t lesson_start_ns; /* its start: its first server's (announced) */
     uint32_t segment;         /* the number of the file this run records to next */
     uint64_t resumed_tick;    /* --resume: the tick it went on from */
+    uint64_t previous_cut;    /* --resume: where a crash cut the lesson's last file; 0 none */
     /* after a write error: a new file once space returns (probed off the
      * tick thread, libuv's thread pool) */
     uv_fs_t statfs_req;
