@@ -315,6 +315,8 @@ static void on_statfs(uv_fs_t *req)
         if (claim_segment_path(s, &err) == 0 && srv_open_recording(s, &err) == 0) {
             r->segments_after_gap++;
             r->no_resume_why[0] = '\0';
+            r->gap_tick = s->tk.tick;
+            snprintf(r->gap_file, sizeof r->gap_file, "%s", r->seg_path);
             srv_log(s, "info", "recording resumed at tick %" PRIu64 " into %s (space has "
                     "returned: %" PRIu64 " bytes free); ticks %" PRIu64 "..%" PRIu64 " are not "
                     "in the lesson's recording", s->tk.tick, r->seg_path, r->free_bytes,
@@ -396,8 +398,12 @@ int srv_finish_report(server *s)
     ftm_report_session rs = {s->o.session, s->o.scene, s->digest, FTM_REPLAY_DIGEST_SIZE,
                              s->tk.tick, s->o.rate, s->tk.depth_lo, s->tk.depth_hi, s->tk.unstable,
                              s->rec.tissue_changes, NULL, false};
-    const ftm_report_recording stopped = {s->rec.stop_tick, s->rec.stop_s, s->rec.why,
-                                          s->rec.kept, s->rec.kept_tick};
+    const char *not_resumed = s->rec.no_resume_why[0] ? s->rec.no_resume_why
+                              : s->rec.may_retry      ? "no space came back"
+                                                      : "the error was not a full disk";
+    const ftm_report_recording stopped = {
+        s->rec.stop_tick, s->rec.stop_s, s->rec.why, s->rec.kept, s->rec.kept_tick,
+        s->rec.segments_after_gap ? s->rec.gap_file : NULL, s->rec.gap_tick, not_resumed};
     rs.recording = s->o.record && !s->o.replay ? &stopped : NULL;
     rs.recording_stopped = s->rec.failed;
     /* written whole beside it, then renamed over it: a reader (a course's
@@ -437,7 +443,13 @@ int srv_finish_report(server *s)
 int srv_close_recording(server *s)
 {
     int rc = s->rec.failed ? 3 : 0;
-    if (s->rec.failed)
+    if (s->rec.failed && s->rec.segments_after_gap)
+        srv_log(s, "error",
+                "recording %s incomplete: stopped at tick %" PRIu64 " (%.3f s into the session) "
+                "on a write error: %s; recorded on from tick %" PRIu64 " into %s: ticks %" PRIu64
+                "..%" PRIu64 " are missing", s->rec.lesson, s->rec.stop_tick, s->rec.stop_s,
+                s->rec.why, s->rec.gap_tick, s->rec.gap_file, s->rec.kept_tick, s->rec.gap_tick);
+    else if (s->rec.failed)
         srv_log(s, "error",
                 "recording %s incomplete: stopped for good at tick %" PRIu64 " (%.3f s into the "
                 "session) on a write error: %s; %" PRIu64 " bytes kept, replayable to tick %" PRIu64,

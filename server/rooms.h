@@ -216,6 +216,8 @@ typedef struct srv_rec {
     uint64_t next_probe_ns, probes;
     uint64_t free_bytes;      /* at the last probe */
     uint64_t segments_after_gap;
+    uint64_t gap_tick;        /* the last such file: from this tick */
+    char gap_file[1100];
     char no_resume_why[256];  /* why recording has not resumed ("" none said) */
 } srv_rec;
 
