@@ -158,7 +158,8 @@ int srv_open_recording(server *s, ftm_error *err)
 {
     srv_rec *r = &s->rec;
     if (s->o.resume) {
-        snprintf(r->lesson, sizeof r->lesson, "%s", s->o.resume);
+        if (s->o.resume != r->lesson) /* (--resume-recent picked it there) */
+            snprintf(r->lesson, sizeof r->lesson, "%s", s->o.resume);
         if (claim_segment_path(s, err))
             return err->code;
     } else if (s->o.record_dir && !s->o.record && claim_record_path(s, err)) {

@@ -18,7 +18,10 @@
 #            chunk (what a crash while writing leaves) resumes from the
 #            intact entries before the cut chunk, and the lesson replays
 #            past the cut; one bit flipped in a chunk in the middle is
-#            refused (damage, not a crash).
+#            refused (damage, not a crash);
+#   recent:  --record-dir with --resume-recent (what the systemd unit runs):
+#            a lesson that ended is not resumed, a new one begins; the
+#            lesson of a server SIGKILLed is resumed into its next file.
 set -u
 : "${FTM_SERVER:?}" "${FTM_BOT:?}" "${FTM_CONFIG:?}"
 here=$(cd "$(dirname "$0")" && pwd)
@@ -42,7 +45,7 @@ server=$!
 wait_for a.log "session 'srv-resume" "server did not start"
 for id in 11 12; do
     timeout 60 "$FTM_BOT" --role trainee --script "$here/press-hold.bot" $common --id $id \
-        --duration 9 --log b$id.csv >b$id.out 2>b$id.err &
+        --duration 8 --log b$id.csv >b$id.out 2>b$id.err &
 done
 wait_for a.log "participant 12 probe 0: contact" "the trainees did not touch" 300
 sleep 1.8 # about 3.5 s into the session, both pressing
@@ -53,9 +56,9 @@ cp l.rec k.rec # the killed server's file, for the cut case
 # the bots' lease on the killed server expires (2 s); a service restarts it then
 wait_for b11.err "server 1 gone" "bot 11 did not see the server gone" 100
 wait_for b12.err "server 1 gone" "bot 12 did not see the server gone" 100
-timeout 60 "$FTM_SERVER" $common --resume l.rec --duration 3.5 --log c.log >c.out 2>c.err ||
+timeout 60 "$FTM_SERVER" $common --resume l.rec --duration 3 --log c.log >c.out 2>c.err ||
     fail "--resume failed"
-wait # the bots (9 s)
+wait # the bots (8 s)
 for id in 11 12; do
     grep -q "synced\$" b$id.out || fail "bot $id did not end synced: $(cat b$id.out)"
     grep -q "server 1 resumed the lesson (a new process, going on from tick" b$id.err ||
@@ -133,4 +136,32 @@ grep -q "damaged: .* (not the end of the lesson's last file, where a crash cuts 
     fail "no message for the damage: $(tail -2 flip.err)"
 [ ! -e flip.rec.1 ] || fail "a damaged lesson was recorded on"
 echo "cut: resumed at tick $tc; a flipped bit refused: $(grep -o 'damaged: [^(]*' flip.err | head -1)"
+
+# recent: --record-dir with --resume-recent (the service's way): a lesson
+# that ended is not resumed (a new one begins), one whose server was killed
+# is; the files stay in the directory, one lesson per first file
+mkdir rd
+timeout 60 "$FTM_SERVER" $common --rate "$rate" --record-dir rd --duration 0.5 >r1.out 2>r1.err ||
+    fail "a recorded session in rd failed"
+timeout 60 "$FTM_SERVER" $common --rate "$rate" --record-dir rd --resume-recent 60 \
+    --duration 0.5 >r2.out 2>r2.err || fail "--resume-recent after an ended lesson failed"
+grep -q "resume-recent: the newest lesson rd/srv-resume-$$-[0-9TZ-]*.rec ended cleanly: a new lesson" r2.err ||
+    fail "--resume-recent did not say the newest lesson ended"
+"$FTM_SERVER" $common --rate "$rate" --record-dir rd --log r3.log >r3.out 2>r3.err &
+server=$!
+wait_for r3.log "session 'srv-resume" "server did not start (record-dir)"
+sleep 1 # a few heartbeat frames on the disk
+kill -KILL $server
+wait $server
+server=
+killed=$(ls -t rd/*.rec | head -1)
+timeout 60 "$FTM_SERVER" $common --rate "$rate" --record-dir rd --resume-recent 60 \
+    --duration 0.5 >r4.out 2>r4.err || fail "--resume-recent after a killed server failed"
+grep -q "resume-recent: the newest lesson $killed did not end (last written [0-9.]* s ago): resuming it" r4.err ||
+    fail "--resume-recent did not resume $killed"
+grep -q "resumed lesson $killed at tick" r4.err || fail "the killed lesson was not resumed"
+[ -s "$killed.1" ] || fail "no $killed.1"
+[ "$(ls rd/*.rec | wc -l)" -eq 3 ] || fail "rd has $(ls rd/*.rec | wc -l) lessons, not 3"
+timeout 60 "$FTM_SERVER" --replay "$killed" >rr.out 2>rr.err || fail "the resumed lesson in rd does not replay"
+echo "recent: an ended lesson not resumed; $killed resumed at tick $(sed -n 's/.*resumed lesson .* at tick \([0-9]*\) hash.*/\1/p' r4.err)"
 echo "PASS"
