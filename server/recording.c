@@ -290,76 +290,21 @@ void srv_pick_recent_lesson(server *s)
     s->resume_if_unended = true;
 }
 
-/* libuv's thread pool has looked at the recording's file system. */
-static void on_statfs(uv_fs_t *req)
-{
-    server *s = req->data;
-    srv_rec *r = &s->rec;
-    r->probing = false;
-    const uv_statfs_t *st = req->result == 0 ? req->ptr : NULL;
-    char why[sizeof r->no_resume_why] = "";
-    if (!st) {
-        snprintf(why, sizeof why, "cannot look at the space on %.180s: %s", r->lesson,
-                 uv_strerror((int)req->result));
-    } else {
-        r->free_bytes = st->f_bavail * st->f_bsize;
-        if (r->free_bytes < FTM_RECORD_RESUME_FREE)
-            snprintf(why, sizeof why, "%" PRIu64 " bytes free where it records, it waits for %u",
-                     r->free_bytes, (unsigned)FTM_RECORD_RESUME_FREE);
-    }
-    uv_fs_req_cleanup(req);
-    if (s->stopping || r->w)
-        return;
-    if (!why[0]) {
-        ftm_error err = {0, ""};
-        r->segment++;
-        if (claim_segment_path(s, &err) == 0 && srv_open_recording(s, &err) == 0) {
-            r->segments_after_gap++;
-            r->no_resume_why[0] = '\0';
-            r->gap_tick = s->tk.tick;
-            snprintf(r->gap_file, sizeof r->gap_file, "%s", r->seg_path);
-            srv_log(s, "info", "recording resumed at tick %" PRIu64 " into %s (space has "
-                    "returned: %" PRIu64 " bytes free); ticks %" PRIu64 "..%" PRIu64 " are not "
-                    "in the lesson's recording", s->tk.tick, r->seg_path, r->free_bytes,
-                    r->kept_tick, s->tk.tick);
-            /* the file begins as a session does: what a replay restores */
-            srv_publish_announce(s);
-            srv_publish_keyframe(s);
-            srv_publish_status(s, FTM_WIRE_STATE_SYNCED);
-            return;
-        }
-        r->segment--;
-        snprintf(why, sizeof why, "%.250s", err.message);
-        if (r->w) { /* (not reached: create closes what it made) */
-            ftm_record_close(r->w, NULL);
-            r->w = NULL;
-        }
-    }
-    if (strcmp(why, r->no_resume_why) != 0 && strncmp(why, r->no_resume_why, 12) != 0)
-        srv_log(s, "warn", "recording not resumed yet: %s", why);
-    snprintf(r->no_resume_why, sizeof r->no_resume_why, "%s", why);
-}
-
-void srv_record_retry(server *s)
+/* After a write error, once space has returned: the lesson's next file
+ * (FILE.N, after_gap), opened. 0, or an error with r->segment as it was. */
+int srv_open_next_file(server *s, ftm_error *err)
 {
     srv_rec *r = &s->rec;
-    const uint64_t now = srv_now();
-    if (!r->failed || !r->may_retry || r->w || r->probing || s->stopping || now < r->next_probe_ns ||
-        !s->loop_start_ns)
-        return;
-    r->next_probe_ns = now + 1000000000u; /* once a second */
-    char dir[sizeof r->lesson];
-    snprintf(dir, sizeof dir, "%s", r->lesson);
-    char *slash = strrchr(dir, '/');
-    if (slash)
-        slash[slash == dir] = '\0';
-    else
-        snprintf(dir, sizeof dir, ".");
-    r->statfs_req.data = s;
-    if (uv_fs_statfs(&s->loop, &r->statfs_req, dir, on_statfs) == 0) {
-        r->probing = true;
-        r->probes++;
+    r->segment++;
+    if (claim_segment_path(s, err) == 0 && srv_open_recording(s, err) == 0) {
+        r->segments_after_gap++;
+        r->no_resume_why[0] = '\0';
+        r->gap_tick = s->tk.tick;
+        snprintf(r->gap_file, sizeof r->gap_file, "%s", r->seg_path);
+        return FTM_OK;
     }
+    r->segment--;
+    return err->code ? err->code : FTM_EIO;
 }
 
 /* The session report: a closing log line per trainee probe that touched

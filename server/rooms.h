@@ -213,7 +213,7 @@ typedef struct srv_rec {
     uv_fs_t statfs_req;
     bool probing;
     bool may_retry;           /* the error was a full disk: space may return */
-    uint64_t next_probe_ns, probes;
+    uint64_t next_probe_ns, probes, told_ns;
     uint64_t free_bytes;      /* at the last probe */
     uint64_t segments_after_gap;
     uint64_t gap_tick;        /* the last such file: from this tick */
@@ -316,9 +316,8 @@ void srv_record_failed(server *s, const ftm_error *err);
 int srv_open_recording(server *s, ftm_error *err);
 /* --resume-recent: the newest lesson in --record-dir to resume into s->o.resume, if any */
 void srv_pick_recent_lesson(server *s);
-/* After a write error: every second, whether space has returned, and then a
- * new file of the lesson (server.c's status timer calls it) */
-void srv_record_retry(server *s);
+/* After a write error, once space has returned: the lesson's next file */
+int srv_open_next_file(server *s, ftm_error *err);
 int srv_close_recording(server *s);
 int srv_finish_report(server *s);
 int srv_open_reactions(server *s);

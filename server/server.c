@@ -62,6 +62,77 @@ static void drain(server *s)
         }
 }
 
+/* libuv's thread pool has looked at the recording's file system. */
+static void on_statfs(uv_fs_t *req)
+{
+    server *s = req->data;
+    srv_rec *r = &s->rec;
+    r->probing = false;
+    const uv_statfs_t *st = req->result == 0 ? req->ptr : NULL;
+    char why[sizeof r->no_resume_why] = "";
+    if (!st) {
+        snprintf(why, sizeof why, "cannot look at the space on %.180s: %s", r->lesson,
+                 uv_strerror((int)req->result));
+    } else {
+        r->free_bytes = st->f_bavail * st->f_bsize;
+        if (r->free_bytes < FTM_RECORD_RESUME_FREE)
+            snprintf(why, sizeof why, "%" PRIu64 " bytes free where it records, it waits for %u",
+                     r->free_bytes, (unsigned)FTM_RECORD_RESUME_FREE);
+    }
+    uv_fs_req_cleanup(req);
+    if (s->stopping || r->w)
+        return;
+    if (!why[0]) {
+        ftm_error err = {0, ""};
+        if (srv_open_next_file(s, &err) == 0) {
+            srv_log(s, "info", "recording resumed at tick %" PRIu64 " into %s (space has "
+                    "returned: %" PRIu64 " bytes free); ticks %" PRIu64 "..%" PRIu64 " are not "
+                    "in the lesson's recording", s->tk.tick, r->seg_path, r->free_bytes,
+                    r->kept_tick, s->tk.tick);
+            /* the file begins as a session does: what a replay restores */
+            srv_publish_announce(s);
+            srv_publish_keyframe(s);
+            srv_publish_status(s, FTM_WIRE_STATE_SYNCED);
+            return;
+        }
+        snprintf(why, sizeof why, "%.250s", err.message);
+    }
+    /* said when the reason changes, else once a minute */
+    const uint64_t now = srv_now();
+    if (strcmp(why, r->no_resume_why) != 0 &&
+        (strcspn(why, "0123456789") != strcspn(r->no_resume_why, "0123456789") ||
+         strncmp(why, r->no_resume_why, strcspn(why, "0123456789")) != 0 ||
+         now - r->told_ns >= 60000000000ull)) {
+        srv_log(s, "warn", "recording not resumed yet: %s", why);
+        r->told_ns = now;
+    }
+    snprintf(r->no_resume_why, sizeof r->no_resume_why, "%s", why);
+}
+
+/* After a full disk: whether space has returned, once a second, looked at
+ * on libuv's thread pool (statfs), off the tick thread. */
+static void record_retry(server *s)
+{
+    srv_rec *r = &s->rec;
+    const uint64_t now = srv_now();
+    if (!r->failed || !r->may_retry || r->w || r->probing || s->stopping || now < r->next_probe_ns ||
+        !s->loop_start_ns)
+        return;
+    r->next_probe_ns = now + 1000000000u; /* once a second */
+    char dir[sizeof r->lesson];
+    snprintf(dir, sizeof dir, "%s", r->lesson);
+    char *slash = strrchr(dir, '/');
+    if (slash)
+        slash[slash == dir] = '\0';
+    else
+        snprintf(dir, sizeof dir, ".");
+    r->statfs_req.data = s;
+    if (uv_fs_statfs(&s->loop, &r->statfs_req, dir, on_statfs) == 0) {
+        r->probing = true;
+        r->probes++;
+    }
+}
+
 static void on_tick_timer(uv_timer_t *h)
 {
     server *s = h->data;
@@ -91,7 +162,7 @@ static void on_status_timer(uv_timer_t *h)
     ftm_error err = {0, ""};
     if (s->rec.w && ftm_record_flush(s->rec.w, &err))
         srv_record_failed(s, &err);
-    srv_record_retry(s); /* after a full disk: space back? (probed off this thread) */
+    record_retry(s); /* after a full disk: space back? (looked at off this thread) */
     srv_check_statuses(s);
 }
 
