@@ -12,8 +12,9 @@
  *   tick.c          one tick: probes -> contacts, the step, reactions
  *   publish.c       announcements, statuses, tick frames, keyframes
  *   period.c        every 100 ms: adaptive depth, metrics, control log
- *   recording.c     the session recording and report
- *   offline.c       runs without DDS: --offline, --inputs, --replay's inputs
+ *   recording.c     the session recording (a lesson's files) and report
+ *   offline.c       runs without DDS: --offline, --inputs, --replay's inputs,
+ *                   --resume's re-run
  *   check.c         --check: what a session would be, and whether it starts
  *   log.c           the log
  *
