@@ -43,11 +43,12 @@ cd "$dir" || fail "no $dir"
 "$FTM_SERVER" --scene default $common --rate "$rate" --record l.rec --log a.log >a.out 2>a.err &
 server=$!
 wait_for a.log "session 'srv-resume" "server did not start"
-for id in 11 12; do
-    timeout 60 "$FTM_BOT" --role trainee --script "$here/press-hold.bot" $common --id $id \
-        --duration 8 --log b$id.csv >b$id.out 2>b$id.err &
-done
-wait_for a.log "participant 12 probe 0: contact" "the trainees did not touch" 300
+timeout 60 "$FTM_BOT" --role trainee --script "$here/press-hold.bot" $common --id 11 \
+    --duration 8 --log b11.csv >b11.out 2>b11.err &
+timeout 60 "$FTM_BOT" --role trainee --script "$here/press-hold-b.bot" $common --id 12 \
+    --duration 8 --log b12.csv >b12.out 2>b12.err &
+wait_for a.log "participant 11 probe 0: contact" "trainee 11 did not touch" 300
+wait_for a.log "participant 12 probe 0: contact" "trainee 12 did not touch" 100
 sleep 1.8 # about 3.5 s into the session, both pressing
 kill -KILL $server
 wait $server
