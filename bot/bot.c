@@ -499,7 +499,8 @@ static int report(bot *b, const char *why, int rc_exit)
              " refused, %" PRIu64 " unanswered", b->command_id, b->applied, b->changed, b->refused,
              b->unanswered);
     if (in->restarts)
-        blog("%u server restart%s rejoined", in->restarts, in->restarts > 1 ? "s" : "");
+        blog("%u server restart%s rejoined (%u resuming the lesson)", in->restarts,
+             in->restarts > 1 ? "s" : "", in->resumes);
     if (b->sc.nexpects > 0) {
         int failed = ftm_script_expect_report(&b->sc, b->o.script,
                                               script_time(ftm_clock_mono_ns()), stderr);

@@ -210,10 +210,18 @@ size_t ftm_metrics_render(const ftm_metrics_snapshot *s, char *buf, size_t size)
            "Bytes of the session recording (after a failure: what the file kept).");
     put(&o, "ftm_record_bytes %llu\n", (unsigned long long)s->record_bytes);
     metric(&o, "ftm_record_ok", "gauge",
-           "1 unless the recording asked for has stopped on a write error (0: for good).");
+           "1 unless the recording asked for is stopped on a write error (1 again once it "
+           "records on into a new file).");
     put(&o, "ftm_record_ok %d\n", s->record_ok ? 1 : 0);
     metric(&o, "ftm_record_errors_total", "counter", "Write errors of the session recording.");
     put(&o, "ftm_record_errors_total %llu\n", (unsigned long long)s->record_errors);
+    metric(&o, "ftm_record_resumed_total", "counter",
+           "New files of the lesson begun once space returned after a full disk.");
+    put(&o, "ftm_record_resumed_total %llu\n", (unsigned long long)s->record_files);
+    metric(&o, "ftm_record_free_bytes", "gauge",
+           "After a full disk stopped the recording: free bytes where it records, at the last "
+           "look (each second); it records on at 1 MiB.");
+    put(&o, "ftm_record_free_bytes %llu\n", (unsigned long long)s->record_free_bytes);
     metric(&o, "ftm_participants", "gauge", "Participants known (not lost).");
     put(&o, "ftm_participants %d\n", (int)s->nparts);
     metric(&o, "ftm_participant_lag_ticks", "gauge", "Ticks a participant is behind the server.");

@@ -45,6 +45,8 @@ typedef struct ftm_metrics_snapshot {
                               * the metrics thread) */
     bool record_ok;          /* 0: the recording asked for has stopped on an error */
     uint64_t record_errors;
+    uint64_t record_files;      /* files begun after a write error (space returned) */
+    uint64_t record_free_bytes; /* after a full disk: free bytes at the last look; 0: none */
     int32_t nparts;
     ftm_metrics_part parts[FTM_METRICS_PARTS];
 } ftm_metrics_snapshot;

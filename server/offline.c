@@ -12,6 +12,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* Where a recording's inputs are, while they are fed through the server. */
 typedef struct feed {
@@ -20,7 +21,12 @@ typedef struct feed {
     uint64_t frames, inputs, end_tick, last_index;
     bool leaving; /* the recorded server's final status seen: it stopped cleanly */
     bool at_damage; /* --upto-damage: stopped before a damaged entry (said so) */
-    char why[FTM_ERROR_MESSAGE_MAX + 64]; /* the first problem; "" while none */
+    char why[FTM_ERROR_MESSAGE_MAX + 4200]; /* the first problem; "" while none */
+    uint32_t segment;    /* the file of the lesson being read */
+    char seg_path[4096]; /* its name */
+    bool gap;            /* stopped at a segment begun after a gap */
+    uint64_t lesson_start_ns;
+    uint64_t cut_at; /* --resume: the last file's unfinished chunk begins here; 0: none */
 } feed;
 
 /* An input entry, handled at the tick it was handled (every tick before it
@@ -151,6 +157,82 @@ static void end_inputs(server *s, const feed *f)
            f->path, f->inputs, s->tk.tick, ftm_sim_hash(s->tk.sim));
 }
 
+/* Feeds the lesson at f->path through the server, entry by entry, up to its
+ * end or the first problem (said on stderr). upto: at damage (a checksum
+ * that differs, a file cut short), stop there with a note instead: always
+ * for --upto-damage; for --resume, only in the lesson's last file. Returns
+ * 0 or the exit status 1. */
+static int feed_lesson(server *s, feed *f, bool upto)
+{
+    ftm_record_header h;
+    ftm_record_reader *rd = NULL;
+    ftm_error err = {0, ""};
+    if (ftm_record_open(f->path, &h, &rd, &err)) {
+        fprintf(stderr, "ftm-server %s: %s\n", f->mode, err.message);
+        return 1;
+    }
+    f->lesson_start_ns = h.lesson_start_ns;
+    int rc = 0;
+    ftm_record_entry e;
+    memset(&e, 0, sizeof e);
+    while (!f->why[0]) {
+        int got = ftm_record_next(rd, &e, &err);
+        if (got < 0 && ftm_record_damaged(rd) && s->o.resume) {
+            /* a crash cuts the last chunk of the last file only: damage
+             * anywhere else is not that, and is not resumed over */
+            char cut[4096], next[4096];
+            uint32_t k = f->segment;
+            if (ftm_record_segment_path(f->path, k + 1, cut, sizeof cut) == 0 &&
+                strcmp(cut, ftm_record_reader_path(rd)) == 0)
+                k++; /* the next file, cut as it was begun */
+            upto = ftm_record_damaged_at_end(rd) &&
+                   ftm_record_segment_path(f->path, k + 1, next, sizeof next) == 0 &&
+                   access(next, F_OK) != 0;
+        }
+        if (got < 0 && ftm_record_damaged(rd) && upto) {
+            fprintf(stderr, "ftm-server %s: note: %s; %s up to entry %" PRIu64
+                    " before it%s\n", f->mode, err.message,
+                    s->o.replay ? "replaying" : s->o.resume ? "re-running the lesson" : "running",
+                    f->last_index, s->o.resume ? " (what the crash cut)" : " (--upto-damage)");
+            f->at_damage = true;
+            if (s->o.resume && strcmp(ftm_record_reader_path(rd),
+                                      f->segment ? f->seg_path : f->path) == 0)
+                f->cut_at = ftm_record_damage_offset(rd); /* the next file goes on from there */
+            break;
+        }
+        if (got < 0) {
+            fprintf(stderr, "ftm-server %s: %s%s\n", f->mode, err.message,
+                    !ftm_record_damaged(rd) ? ""
+                    : s->o.resume ? " (not the end of the lesson's last file, where a crash "
+                                    "cuts it: not resumed; --replay --upto-damage replays up to "
+                                    "it)"
+                                            : " (--upto-damage takes it up to there)");
+            rc = 1;
+        }
+        if (got <= 0)
+            break;
+        if (e.segment != f->segment) {
+            f->segment = e.segment;
+            snprintf(f->seg_path, sizeof f->seg_path, "%s", ftm_record_reader_path(rd));
+            if (ftm_record_reader_header(rd)->after_gap) {
+                snprintf(f->why, sizeof f->why, "%s begins after a gap (entries lost on a write "
+                         "error): the inputs before it are not all there, so the ones after "
+                         "it cannot be re-run", f->seg_path);
+                f->gap = true;
+                break;
+            }
+        }
+        feed_entry(s, f, &e);
+    }
+    if (f->why[0] && !f->gap) {
+        fprintf(stderr, "ftm-server %s: %s: entry %" PRIu64 " (byte %" PRIu64 "): %s\n", f->mode,
+                f->segment ? f->seg_path : f->path, e.index, e.offset, f->why);
+        rc = 1;
+    }
+    ftm_record_close_reader(rd);
+    return rc;
+}
+
 /* --replay, second pass: the recorded inputs (statuses, probe input, session
  * control, gone and lost events) go through the same handlers and tick
  * logic as online — collision, contacts, ftm_replay_step — each at the tick
@@ -159,60 +241,103 @@ static void end_inputs(server *s, const feed *f)
  * recorded frames (the controller's choices depend on the clock).
  * --inputs: the same without comparing, the frames giving only the depth
  * (unless --depth is given), recording the inputs and this run's frames if
- * --record is given. */
+ * --record is given. A lesson in several files is taken whole; one with a
+ * gap (a segment begun after a write error) up to the gap, with a note. */
 int srv_replay_inputs(server *s)
 {
     feed f = {.path = s->o.replay ? s->o.replay : s->o.inputs,
               .mode = s->o.replay ? "--replay" : "--inputs",
               .lim = {0, 0, ftm_mesh_node_count(s->mesh)}};
-    ftm_record_header h;
-    ftm_record_reader *rd = NULL;
-    ftm_error err = {0, ""};
-    if (ftm_record_open(f.path, &h, &rd, &err)) {
-        fprintf(stderr, "ftm-server %s: %s\n", f.mode, err.message);
-        return 1;
-    }
-    if (srv_open_reactions(s)) {
-        ftm_record_close_reader(rd);
+    if (srv_open_reactions(s))
         return 3;
-    }
     s->pub.replaying = true;
     s->tk.period_ns = 1e9 / s->o.rate;
-    int rc = 0;
-    ftm_record_entry e;
-    while (!f.why[0]) {
-        int got = ftm_record_next(rd, &e, &err);
-        if (got < 0 && ftm_record_damaged(rd) && s->o.upto_damage) {
-            fprintf(stderr, "ftm-server %s: note: %s; %s up to entry %" PRIu64
-                    " before it (--upto-damage)\n", f.mode, err.message,
-                    s->o.replay ? "replaying" : "running", f.last_index);
-            f.at_damage = true;
-            break;
-        }
-        if (got < 0) {
-            fprintf(stderr, "ftm-server %s: %s%s\n", f.mode, err.message,
-                    ftm_record_damaged(rd) ? " (--upto-damage takes it up to there)" : "");
-            rc = 1;
-        }
-        if (got <= 0)
-            break;
-        feed_entry(s, &f, &e);
-    }
-    if (f.why[0]) {
-        fprintf(stderr, "ftm-server %s: %s: entry %" PRIu64 " (byte %" PRIu64 "): %s\n", f.mode,
-                f.path, e.index, e.offset, f.why);
-        rc = 1;
-    } else if (rc == 0 && s->o.inputs) {
+    int rc = feed_lesson(s, &f, s->o.upto_damage);
+    if (f.gap)
+        fprintf(stderr, "ftm-server %s: note: %s; %s to tick %" PRIu64 " before it\n", f.mode,
+                f.why, s->o.replay ? "the inputs checked up" : "run up", f.end_tick);
+    if (rc == 0 && s->o.inputs) {
         end_inputs(s, &f);
     } else if (rc == 0) {
         printf("replay %s from the inputs: %" PRIu64 " inputs through collision and the step, "
                "%" PRIu64 " tick frames with equal contacts and hash\n",
                s->o.replay, f.inputs, f.frames);
     }
-    ftm_record_close_reader(rd);
     if (srv_close_reactions(s) && rc == 0)
         rc = 3;
     return rc;
+}
+
+/* --resume: the lesson's inputs re-run through this server, as --replay's
+ * second pass runs them (every recorded frame's contacts and hash checked),
+ * to its last recorded tick: the tissue, the tick counter, the participants
+ * and their probes, the tissue parameters, the pause and the report as the
+ * crashed server had them there. Not a lesson its server ended (its final
+ * LEAVING status), nor one with a gap. Returns 0 (s->rec has the lesson's
+ * start and the next file's number), or the exit status 3 after saying why
+ * not. */
+int srv_resume_rerun(server *s)
+{
+    feed f = {.path = s->o.resume, .mode = "--resume",
+              .lim = {0, 0, ftm_mesh_node_count(s->mesh)}};
+    s->pub.replaying = true;
+    s->tk.period_ns = 1e9 / s->o.rate;
+    const uint64_t t0 = srv_now();
+    int rc = feed_lesson(s, &f, false);
+    s->pub.replaying = false;
+    if (rc == 0 && f.gap) {
+        fprintf(stderr, "ftm-server --resume: %s: not resumed\n", f.why);
+        return 3;
+    }
+    if (rc)
+        return 3;
+    if (f.leaving) {
+        fprintf(stderr, "ftm-server --resume: %s: the lesson ended cleanly at tick %" PRIu64
+                " (its server's final status is in %s): nothing to resume; start a new "
+                "lesson (--record, --record-dir)\n",
+                f.path, f.end_tick, f.segment ? f.seg_path : f.path);
+        return 3;
+    }
+    if (f.frames == 0) {
+        fprintf(stderr, "ftm-server --resume: %s: no tick frame recorded: nothing to resume; "
+                "start a new lesson\n", f.path);
+        return 3;
+    }
+    while (s->tk.tick < f.end_tick) /* idle ticks after the last entry's frame */
+        srv_run_tick(s);
+    s->rec.lesson_start_ns = f.lesson_start_ns;
+    s->rec.segment = f.segment + 1;
+    s->rec.resumed_tick = s->tk.tick;
+    s->rec.previous_cut = f.cut_at;
+    srv_log(s, "info",
+            "resumed lesson %s at tick %" PRIu64 " hash %016" PRIx64 " (%u file%s, %" PRIu64
+            " inputs and %" PRIu64 " tick frames re-run and checked in %.2f s)",
+            f.path, s->tk.tick, ftm_sim_hash(s->tk.sim), f.segment + 1, f.segment ? "s" : "",
+            f.inputs, f.frames, (double)(srv_now() - t0) * 1e-9);
+    /* what follows is this process's: its own counts, its clock */
+    srv_publish *pb = &s->pub;
+    pb->frames = pb->heartbeats = pb->idle_ticks = pb->keyframes = 0;
+    pb->bytes_frames = pb->bytes_keyframes = pb->publish_fail = 0;
+    pb->ring_n = 0;
+    srv_tick *tk = &s->tk;
+    tk->step_ns_total = tk->step_ns_max = tk->step_sum_ns = 0.0;
+    tk->step_count = tk->missed_ticks = 0;
+    memset(tk->step_bucket, 0, sizeof tk->step_bucket);
+    memset(tk->period_hist, 0, sizeof tk->period_hist);
+    memset(tk->late_hist, 0, sizeof tk->late_hist);
+    memset(tk->work_hist, 0, sizeof tk->work_hist);
+    memset(tk->work_contact_hist, 0, sizeof tk->work_contact_hist);
+    tk->last_tick_ns = 0;
+    s->per.prev_tick = s->tk.tick;
+    for (int i = 0; i < 10; i++)
+        s->per.rate_tick[i] = s->tk.tick;
+    s->depth_from_frames = false;
+    s->tk.depth = s->per.ctl.depth; /* the recorded frames' depths were the controller's */
+    const uint64_t now = srv_now();
+    for (int i = 0; i < MAX_PARTICIPANTS; i++) /* each has the deadline to be heard again */
+        if (s->parts.parts[i].used)
+            s->parts.parts[i].last_status_ns = now;
+    return 0;
 }
 
 /* The --trainee arguments: each a participant slot (in the order given)

@@ -208,8 +208,10 @@ static void metrics(server *s, const ftm_wire_stats *ws, double rate)
     m->unstable_ticks = s->tk.unstable;
     for (int i = 0; i < MAX_PARTICIPANTS; i++)
         m->inputs_rejected += s->parts.parts[i].used ? s->parts.parts[i].rejected : 0;
-    m->record_bytes = s->rec.failed ? s->rec.kept : ftm_record_bytes(s->rec.w);
-    m->record_ok = !s->rec.failed;
+    m->record_bytes = s->rec.w ? ftm_record_bytes(s->rec.w) : s->rec.kept;
+    m->record_ok = !s->rec.failed || s->rec.w; /* recording now (again: a new file) */
+    m->record_files = s->rec.segments_after_gap;
+    m->record_free_bytes = s->rec.free_bytes;
     m->record_errors = s->rec.errors;
     ftm_metrics_update(s->per.metrics, m);
 }

@@ -50,6 +50,9 @@ void srv_publish_announce(server *s)
     a->tick = s->tk.tick;
     a->paused = s->tk.paused;
     a->server_start_ns = s->start_unix_ns;
+    /* a resumed lesson's start: its first server's; replicas take the new
+     * process as the same session going on */
+    a->lesson_start_ns = s->rec.lesson_start_ns ? s->rec.lesson_start_ns : s->start_unix_ns;
     a->arithmetic = ftm_arithmetic_revision();
     srv_send(s, &m, NULL);
 }

@@ -23,6 +23,7 @@ struct ftm_record_writer {
     uint64_t kept;  /* bytes in the file: the magic and whole chunks */
     uint64_t kept_tick; /* the tick of the last entry in the file */
     int error;      /* first write error: stopped for good */
+    int sys_errno;  /* its errno (ENOSPC, EFBIG, ...) */
     char message[FTM_ERROR_MESSAGE_MAX];
     uint8_t *buf;   /* the open chunk: its head's room, then the body */
     size_t cap, len; /* len: head room + body bytes so far */
@@ -43,7 +44,10 @@ struct ftm_record_writer {
 
 struct ftm_record_reader {
     FILE *f;
-    char *path;
+    char *path;     /* the file being read */
+    char *base;     /* the lesson's first file */
+    uint32_t segment;
+    ftm_record_header first, hdr; /* the first segment's header, the current one's */
     uint64_t offset, index; /* of the next entry, when one is read */
     Ftm__V1__RecordEntry *cur; /* the entry handed out last */
     uint8_t *buf;   /* the current chunk's body */
@@ -54,6 +58,9 @@ struct ftm_record_reader {
     bool body_bad;  /* the body's checksum differs: damage inside, found entry by entry */
     uint64_t last_good_tick;
     bool damaged;
+    bool damage_at_end; /* the damage is the file's last chunk: cut while written */
+    uint64_t damage_from; /* where that chunk begins */
+    uint32_t cuts;      /* crash cuts passed over (previous_cut) */
 };
 
 static int rec_err(ftm_error *err, int code, const char *fmt, ...)
@@ -144,6 +151,8 @@ static int write_all(int fd, const uint8_t *p, size_t n)
 static int stop(ftm_record_writer *w, int e, ftm_error *err)
 {
     w->error = FTM_EIO;
+    if (!w->sys_errno)
+        w->sys_errno = e;
     snprintf(w->message, sizeof w->message, "recording %s: write failed: %s", w->path,
              strerror(e));
     return rec_err(err, FTM_EIO, "%s", w->message);
@@ -307,6 +316,16 @@ int ftm_record_create(const char *path, const ftm_record_header *h, ftm_record_w
     hd.session = h->session[0] ? (char *)h->session : NULL;
     hd.has_arithmetic = true;
     hd.arithmetic = ftm_arithmetic_revision();
+    if (h->segment) {
+        hd.has_lesson_start_ns = true;
+        hd.lesson_start_ns = h->lesson_start_ns;
+        hd.has_segment = true;
+        hd.segment = h->segment;
+        hd.has_after_gap = h->after_gap;
+        hd.after_gap = h->after_gap;
+        hd.has_previous_cut = h->previous_cut > 0;
+        hd.previous_cut = h->previous_cut;
+    }
     Ftm__V1__RecordEntry m = FTM__V1__RECORD_ENTRY__INIT;
     m.header = &hd;
     /* the header in a chunk of its own, in the file at once */
@@ -375,6 +394,8 @@ uint64_t ftm_record_bytes(const ftm_record_writer *w)
 
 uint64_t ftm_record_kept(const ftm_record_writer *w) { return w ? w->kept : 0; }
 
+int ftm_record_errno(const ftm_record_writer *w) { return w ? w->sys_errno : 0; }
+
 uint64_t ftm_record_kept_tick(const ftm_record_writer *w) { return w ? w->kept_tick : 0; }
 
 int ftm_record_close(ftm_record_writer *w, ftm_error *err)
@@ -435,6 +456,8 @@ static int next_chunk(ftm_record_reader *r, ftm_error *err)
                  (unsigned long long)(r->index - 1), (unsigned long long)r->last_good_tick);
     else if (r->index == 1)
         snprintf(after, sizeof after, "after the header");
+    r->damage_at_end = got < HEAD;
+    r->damage_from = at;
     if (got < HEAD)
         return bad(r, true, err,
                    "truncated: the file ends inside the head of chunk %llu at byte %llu (%zu of "
@@ -456,6 +479,7 @@ static int next_chunk(ftm_record_reader *r, ftm_error *err)
     if (grow(&r->buf, &r->cap, len))
         return rec_err(err, FTM_ENOMEM, "%s: out of memory", r->path);
     got = fread(r->buf, 1, len, r->f);
+    r->damage_at_end = got != len;
     if (got != len)
         return bad(r, true, err,
                    "truncated: chunk %llu at byte %llu (entries %llu.., ticks %llu..%llu) needs "
@@ -471,6 +495,12 @@ static int next_chunk(ftm_record_reader *r, ftm_error *err)
     /* damage inside: found entry by entry below, so that what comes
      * before it is handed out (--replay-upto-damage) */
     r->body_bad = get32(head + 12) != ftm_crc32c(0, r->buf, len);
+    if (r->body_bad) { /* the last chunk of the file? */
+        int c = fgetc(r->f);
+        r->damage_at_end = c == EOF;
+        if (c != EOF)
+            ungetc(c, r->f);
+    }
     return 1;
 }
 
@@ -544,16 +574,26 @@ static int unpack(ftm_record_reader *r, size_t at, size_t size, uint64_t start, 
     return FTM_OK;
 }
 
-int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **out,
-                    ftm_error *err)
+/* Opens one file of the lesson into r (its per-file state afresh) and reads
+ * its magic and header into *h. */
+static int open_file(ftm_record_reader *r, const char *path, ftm_record_header *h,
+                     ftm_error *err)
 {
-    *out = NULL;
     memset(h, 0, sizeof *h);
-    ftm_record_reader *r = calloc(1, sizeof *r);
-    if (!r || !(r->path = strdup(path))) {
-        free(r);
+    if (r->f)
+        fclose(r->f);
+    if (r->cur)
+        ftm__v1__record_entry__free_unpacked(r->cur, NULL);
+    r->f = NULL;
+    r->cur = NULL;
+    free(r->path);
+    r->offset = r->index = r->chunks = r->chunk_at = r->first_tick = r->last_tick = 0;
+    r->body_at = r->next_at = r->last_good_tick = 0;
+    r->len = r->pos = 0;
+    r->left = 0;
+    r->body_bad = r->damaged = r->damage_at_end = false;
+    if (!(r->path = strdup(path)))
         return rec_err(err, FTM_ENOMEM, "recording: out of memory");
-    }
     int rc = FTM_OK;
     char magic[8];
     size_t sz = 0, at = 0;
@@ -624,15 +664,103 @@ int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **
             h->max_penetration = hd->has_max_penetration ? hd->max_penetration : 0.0;
             snprintf(h->session, sizeof h->session, "%s", hd->session ? hd->session : "");
             h->arithmetic = hd->has_arithmetic && hd->arithmetic ? hd->arithmetic : 1;
+            h->lesson_start_ns = hd->has_lesson_start_ns ? hd->lesson_start_ns : 0;
+            h->segment = hd->has_segment ? hd->segment : 0;
+            h->after_gap = hd->has_after_gap && hd->after_gap;
+            h->previous_cut = hd->has_previous_cut ? hd->previous_cut : 0;
             r->index = 1;
         }
     }
+    return rc;
+}
+
+int ftm_record_segment_path(const char *path, uint32_t k, char *buf, size_t cap)
+{
+    int n = k ? snprintf(buf, cap, "%s.%u", path, k) : snprintf(buf, cap, "%s", path);
+    return n < 0 || (size_t)n >= cap ? FTM_EINVAL : FTM_OK;
+}
+
+int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **out,
+                    ftm_error *err)
+{
+    *out = NULL;
+    memset(h, 0, sizeof *h);
+    ftm_record_reader *r = calloc(1, sizeof *r);
+    if (!r || !(r->base = strdup(path))) {
+        free(r);
+        return rec_err(err, FTM_ENOMEM, "recording: out of memory");
+    }
+    int rc = open_file(r, path, h, err);
+    if (!rc && h->segment)
+        rc = rec_err(err, FTM_EPARSE, "%s: segment %u of a lesson (a server that resumed it or "
+                     "recorded on after a write error): give the lesson's first file", path,
+                     h->segment);
     if (rc) {
         ftm_record_close_reader(r);
         return rc;
     }
+    if (!h->lesson_start_ns) /* the lesson began with this file */
+        h->lesson_start_ns = h->start_unix_ns;
+    r->first = r->hdr = *h;
     *out = r;
     return FTM_OK;
+}
+
+/* Whether the file being read, damaged in its last chunk, is what a crash
+ * left of a lesson that a server resumed: the next file's header says the
+ * lesson goes on from the start of that chunk. */
+static bool cut_resumed(const ftm_record_reader *r)
+{
+    char next[4096];
+    if (ftm_record_segment_path(r->base, r->segment + 1, next, sizeof next) ||
+        access(next, F_OK) != 0)
+        return false;
+    ftm_record_reader *t = calloc(1, sizeof *t);
+    if (!t)
+        return false;
+    ftm_record_header h;
+    bool yes = open_file(t, next, &h, NULL) == FTM_OK && h.segment == r->segment + 1 &&
+               h.previous_cut && h.previous_cut == r->damage_from;
+    ftm_record_close_reader(t);
+    return yes;
+}
+
+/* At the clean end of a segment: the next one, if its file exists. 1: opened
+ * (its header checked), 0: none, < 0: an error (damage if the file cannot
+ * be read as a recording: a server killed as it began it). */
+static int next_segment(ftm_record_reader *r, ftm_error *err)
+{
+    char next[4096];
+    if (ftm_record_segment_path(r->base, r->segment + 1, next, sizeof next))
+        return 0;
+    if (access(next, F_OK) != 0)
+        return 0;
+    ftm_record_header h;
+    int rc = open_file(r, next, &h, err);
+    if (rc) {
+        /* cut as it was begun (a server killed then): what came before is whole */
+        r->damaged = r->damage_at_end = rc == FTM_EPARSE;
+        return rc;
+    }
+    const ftm_record_header *f = &r->first;
+    const char *why = NULL;
+    if (h.segment != r->segment + 1)
+        why = "its segment number";
+    else if (h.lesson_start_ns != f->lesson_start_ns)
+        why = "its lesson's start";
+    else if (strcmp(h.scene_id, f->scene_id) != 0 || h.digest_len != f->digest_len ||
+             memcmp(h.digest, f->digest, (size_t)h.digest_len) != 0)
+        why = "its scene";
+    else if (h.tick_rate_hz != f->tick_rate_hz || h.node_count != f->node_count ||
+             h.arithmetic != f->arithmetic)
+        why = "its tick rate, node count or arithmetic revision";
+    if (why)
+        return rec_err(err, FTM_EPARSE,
+                       "%s: header: not segment %u of the lesson %s (%s differs): move it "
+                       "away to read the lesson without it", next, r->segment + 1, r->base, why);
+    r->segment++;
+    r->hdr = h;
+    return 1;
 }
 
 int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
@@ -641,7 +769,20 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
     r->damaged = false;
     size_t size = 0, at = 0;
     int got = get_raw(r, &at, &size, err);
-    if (got <= 0)
+    for (;;) {
+        if (got < 0 && r->damaged && r->damage_at_end && cut_resumed(r)) {
+            r->cuts++; /* a crash's unfinished chunk, which the next file goes on from */
+            got = 0;
+        }
+        if (got != 0)
+            break;
+        /* the clean end of a segment: the next one, if any */
+        got = next_segment(r, err);
+        if (got <= 0)
+            return got;
+        got = get_raw(r, &at, &size, err);
+    }
+    if (got < 0)
         return got;
     const uint64_t start = r->offset;
     int rc = unpack(r, at, size, start, err);
@@ -670,11 +811,25 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err)
     e->size = m->has_payload ? m->payload.len : 0;
     e->index = r->index++;
     e->offset = start;
+    e->segment = r->segment;
     r->last_good_tick = e->tick;
     return 1;
 }
 
 bool ftm_record_damaged(const ftm_record_reader *r) { return r && r->damaged; }
+
+uint64_t ftm_record_damage_offset(const ftm_record_reader *r) { return r->damage_from; }
+
+uint32_t ftm_record_cuts_passed(const ftm_record_reader *r) { return r->cuts; }
+
+bool ftm_record_damaged_at_end(const ftm_record_reader *r)
+{
+    return r && r->damaged && r->damage_at_end;
+}
+
+const char *ftm_record_reader_path(const ftm_record_reader *r) { return r->path; }
+
+const ftm_record_header *ftm_record_reader_header(const ftm_record_reader *r) { return &r->hdr; }
 
 void ftm_record_close_reader(ftm_record_reader *r)
 {
@@ -686,5 +841,6 @@ void ftm_record_close_reader(ftm_record_reader *r)
         fclose(r->f);
     free(r->buf);
     free(r->path);
+    free(r->base);
     free(r);
 }

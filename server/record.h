@@ -46,6 +46,11 @@ typedef struct ftm_record_header {
     char session[128];      /* the session's name; "" in recordings made before it */
     uint32_t arithmetic;    /* read: the recording core's ftm_arithmetic_revision() (1 in
                                recordings made before it); written: always this build's */
+    /* Segments (a lesson in several files: FILE, FILE.1, FILE.2, ...): */
+    uint64_t lesson_start_ns; /* the first segment's start_unix_ns (read: filled in for it) */
+    uint32_t segment;         /* 0: the first file */
+    bool after_gap;           /* entries before this segment were lost (a write error) */
+    uint64_t previous_cut;    /* the previous file was cut by a crash at this byte; 0: whole */
 } ftm_record_header;
 
 typedef struct ftm_record_entry {
@@ -58,6 +63,8 @@ typedef struct ftm_record_entry {
     size_t size;
     uint64_t index;      /* entry number, header = 0 */
     uint64_t offset;     /* byte offset of the entry's length prefix */
+    uint32_t segment;    /* the file it is in: 0 the first, k FILE.k; index and offset are
+                            that file's */
 } ftm_record_entry;
 
 typedef struct ftm_record_writer ftm_record_writer;
@@ -85,12 +92,24 @@ uint64_t ftm_record_bytes(const ftm_record_writer *w);
 uint64_t ftm_record_kept(const ftm_record_writer *w);
 /* The tick of the last entry in the file (0: none yet). */
 uint64_t ftm_record_kept_tick(const ftm_record_writer *w);
+/* The errno of the write that stopped the writer (0: none). */
+int ftm_record_errno(const ftm_record_writer *w);
+/* Free bytes a server waits for, after a full disk stopped its recording,
+ * before it records on into a new file of the lesson. */
+#define FTM_RECORD_RESUME_FREE (1u << 20)
 /* Flushes and closes; returns the first write error if any. NULL is fine. */
 int ftm_record_close(ftm_record_writer *w, ftm_error *err);
 
 typedef struct ftm_record_reader ftm_record_reader;
 
-/* Opens path and reads the magic and the header entry. */
+/* The name of a lesson's segment k: path itself for 0, "path.k" after. */
+int ftm_record_segment_path(const char *path, uint32_t k, char *buf, size_t cap);
+
+/* Opens path and reads the magic and the header entry. The reader reads
+ * the whole lesson: at the clean end of a segment it goes on to the next
+ * one if that file exists (path.1, path.2, ...), whose header must be the
+ * same lesson's (its lesson_start_ns, segment number, scene and rate); its
+ * entries carry their segment. */
 int ftm_record_open(const char *path, ftm_record_header *h, ftm_record_reader **out,
                     ftm_error *err);
 /* The next entry: 1, 0 at a clean end of file (after a whole chunk), or a
@@ -100,6 +119,17 @@ int ftm_record_next(ftm_record_reader *r, ftm_record_entry *e, ftm_error *err);
  * that differs, a chunk cut short): the entries handed out before it passed
  * their checks, and a replay may stop there (--replay-upto-damage). */
 bool ftm_record_damaged(const ftm_record_reader *r);
+/* And the damage is in the file's last chunk (cut short, or its checksum
+ * differs and no byte follows it): what a crash while writing leaves. */
+bool ftm_record_damaged_at_end(const ftm_record_reader *r);
+/* The byte where the damaged chunk begins (its head). */
+uint64_t ftm_record_damage_offset(const ftm_record_reader *r);
+/* Crash cuts passed over: a file cut short whose next file, a resumed
+ * server's, says it goes on from there (previous_cut). */
+uint32_t ftm_record_cuts_passed(const ftm_record_reader *r);
+/* The file being read (the last segment opened) and its header. */
+const char *ftm_record_reader_path(const ftm_record_reader *r);
+const ftm_record_header *ftm_record_reader_header(const ftm_record_reader *r);
 void ftm_record_close_reader(ftm_record_reader *r);
 
 #endif

@@ -48,6 +48,11 @@ typedef struct rstate {
     uint64_t final_status_tick, final_status_hash;
     bool have_final_status;
     uint64_t last_index; /* the last entry read */
+    uint32_t segment;    /* the segment of the last entry read */
+    bool seg_start;      /* a segment began: its first keyframe takes the replay on */
+    bool seg_gap;        /* and entries before it were lost (restore, do not step) */
+    uint64_t gaps;
+    char seg_path[4096]; /* the file of the last entry read (messages name it) */
 } rstate;
 
 static int fail(const char *path, const ftm_record_entry *e, const char *fmt, ...)
@@ -136,11 +141,31 @@ static int on_frame(rstate *s, const ftm_record_entry *e, const ftm_wire_tick *t
 static int on_keyframe(rstate *s, const ftm_record_entry *e, const ftm_wire_keyframe *k)
 {
     uint64_t cur = sim_tick(s->sim);
+    bool gap = false;
+    if (s->seg_start && k->tick > cur && !s->pending_mismatch) {
+        /* a segment's first keyframe: a resumed server's (the ticks since
+         * the last frame were idle: stepped as a replica steps them, and the
+         * keyframe must have that hash), or one after a gap (restored) */
+        if (s->seg_gap) {
+            gap = true;
+        } else {
+            ftm_error err = {0, ""};
+            while (sim_tick(s->sim) < k->tick) {
+                uint64_t before = sim_tick(s->sim);
+                ftm_replay_step(s->sim, s->last_depth, s->last_c, s->last_n, &err);
+                s->idle++;
+                if (sim_tick(s->sim) == before)
+                    break;
+            }
+            cur = sim_tick(s->sim);
+        }
+    }
+    s->seg_start = false;
     /* a tick whose step failed here as it did on the server (which then
      * reset the tissue): the replay stayed on the tick before, and this
      * keyframe of the failed tick is the reset */
     const bool failed_step = s->pending_mismatch == k->tick && cur + 1 == k->tick;
-    if (k->tick != cur && !failed_step)
+    if (k->tick != cur && !failed_step && !gap)
         return fail(s->path, e, "keyframe at tick %" PRIu64 " but the replay is at tick %" PRIu64,
                     k->tick, cur);
     bool after_mismatch = s->pending_mismatch != 0;
@@ -150,7 +175,7 @@ static int on_keyframe(rstate *s, const ftm_record_entry *e, const ftm_wire_keyf
                     ", replayed %016" PRIx64,
                     s->pending_mismatch, s->pending_hash, ftm_sim_hash(s->sim));
     s->pending_mismatch = 0;
-    if (!after_mismatch && k->state_hash == ftm_sim_hash(s->sim)) {
+    if (!gap && !after_mismatch && k->state_hash == ftm_sim_hash(s->sim)) {
         s->keyframes_checked++;
         return 0;
     }
@@ -171,7 +196,10 @@ static int on_keyframe(rstate *s, const ftm_record_entry *e, const ftm_wire_keyf
         if (keep_last(s, &kt))
             return fail(s->path, e, "out of memory");
     }
-    s->resets++;
+    if (gap)
+        s->gaps++;
+    else
+        s->resets++;
     return 0;
 }
 
@@ -244,6 +272,13 @@ int ftm_server_replay(const char *path, const char *scene_name, bool upto_damage
         }
         if (got == 0)
             break;
+        if (e.segment != s.segment) { /* the next file of the lesson */
+            snprintf(s.seg_path, sizeof s.seg_path, "%s", ftm_record_reader_path(rd));
+            s.path = s.seg_path;
+            s.segment = e.segment;
+            s.seg_start = true;
+            s.seg_gap = ftm_record_reader_header(rd)->after_gap;
+        }
         s.last_index = e.index;
         if (e.gone || e.lost) { /* events without a payload */
             s.gone += e.gone;
@@ -251,7 +286,7 @@ int ftm_server_replay(const char *path, const char *scene_name, bool upto_damage
         }
         ftm_wire_msg m;
         if (ftm_wire_decode(e.kind, e.payload, e.size, &lim, &m, &err)) {
-            rc = fail(path, &e, "%s %s: %s", e.incoming ? "received" : "published",
+            rc = fail(s.path, &e, "%s %s: %s", e.incoming ? "received" : "published",
                       ftm_wire_kind_name(e.kind), err.message);
             goto done;
         }
@@ -305,6 +340,12 @@ int ftm_server_replay(const char *path, const char *scene_name, bool upto_damage
            (int)s.depth_min_seen, (int)s.depth_max_seen, s.depth_changes, s.tissue_changes,
            s.inputs[FTM_WIRE_PROBE_INPUT], s.inputs[FTM_WIRE_STATUS], s.inputs[FTM_WIRE_CONTROL],
            s.gone, s.replies, s.refused);
+    if (s.segment)
+        printf("replay %s: one lesson in %u files (%s, then .1 to .%u), %" PRIu64
+               " begun after a gap; %u crash cut%s passed over (a resumed server went on from "
+               "there)\n",
+               path, s.segment + 1, path, s.segment, s.gaps, ftm_record_cuts_passed(rd),
+               ftm_record_cuts_passed(rd) == 1 ? "" : "s");
     printf("ftm-server: final tick %" PRIu64 " hash %016" PRIx64 "\n", tick, hash);
 done:
     ftm_sim_destroy(s.sim);

@@ -10,6 +10,8 @@
 #include <math.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <dirent.h>
+#include <stdlib.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -28,12 +30,24 @@ void srv_record_failed(server *s, const ftm_error *err)
     r->kept = ftm_record_kept(r->w);
     r->kept_tick = ftm_record_kept_tick(r->w);
     snprintf(r->why, sizeof r->why, "%s", err->message);
+    const int e = ftm_record_errno(r->w);
+    /* a full disk (or quota) may get space again; a file size limit, an I/O
+     * error or a file system gone read-only are not waited out */
+    r->may_retry = e == ENOSPC || e == EDQUOT;
     ftm_record_close(r->w, NULL);
     r->w = NULL;
-    srv_log(s, "error",
-            "%s; recording stopped for good at tick %" PRIu64 " (%.3f s): the file keeps %" PRIu64
-            " bytes, replayable to tick %" PRIu64 "; it does not resume",
-            err->message, r->stop_tick, r->stop_s, r->kept, r->kept_tick);
+    if (r->may_retry)
+        srv_log(s, "error",
+                "%s; recording stopped at tick %" PRIu64 " (%.3f s): the file keeps %" PRIu64
+                " bytes, replayable to tick %" PRIu64 "; it goes on into a new file of the "
+                "lesson once %u bytes are free there",
+                err->message, r->stop_tick, r->stop_s, r->kept, r->kept_tick,
+                (unsigned)FTM_RECORD_RESUME_FREE);
+    else
+        srv_log(s, "error",
+                "%s; recording stopped for good at tick %" PRIu64 " (%.3f s): the file keeps "
+                "%" PRIu64 " bytes, replayable to tick %" PRIu64 "; it does not resume",
+                err->message, r->stop_tick, r->stop_s, r->kept, r->kept_tick);
 }
 
 void srv_record_entry(server *s, bool incoming, int kind, uint32_t sender, const uint8_t *buf,
@@ -125,10 +139,36 @@ static int claim_record_path(server *s, ftm_error *err)
     return FTM_EIO;
 }
 
+/* The next file of the lesson this run records: FILE.N after --resume (a
+ * file there that holds no whole header, a server killed as it began it,
+ * is begun again), or after a write error. */
+static int claim_segment_path(server *s, ftm_error *err)
+{
+    srv_rec *r = &s->rec;
+    if (ftm_record_segment_path(r->lesson, r->segment, r->seg_path, sizeof r->seg_path)) {
+        err->code = FTM_EINVAL;
+        snprintf(err->message, sizeof err->message, "recording %.300s: path too long", r->lesson);
+        return FTM_EINVAL;
+    }
+    s->o.record = r->seg_path;
+    return FTM_OK;
+}
+
 int srv_open_recording(server *s, ftm_error *err)
 {
-    if (s->o.record_dir && !s->o.record && claim_record_path(s, err))
+    srv_rec *r = &s->rec;
+    if (s->o.resume) {
+        if (s->o.resume != r->lesson) /* (--resume-recent picked it there) */
+            snprintf(r->lesson, sizeof r->lesson, "%s", s->o.resume);
+        if (claim_segment_path(s, err))
+            return err->code;
+    } else if (s->o.record_dir && !s->o.record && claim_record_path(s, err)) {
         return err->code;
+    }
+    if (!r->lesson[0])
+        snprintf(r->lesson, sizeof r->lesson, "%s", s->o.record);
+    if (!r->lesson_start_ns) /* this server begins the lesson */
+        r->lesson_start_ns = s->start_unix_ns;
     ftm_record_header rh;
     memset(&rh, 0, sizeof rh);
     snprintf(rh.scene_id, sizeof rh.scene_id, "%s", s->o.scene);
@@ -140,11 +180,131 @@ int srv_open_recording(server *s, ftm_error *err)
     rh.depth_min = s->per.ctl.def.floor;
     rh.node_count = ftm_mesh_node_count(s->mesh);
     rh.max_penetration = isfinite(s->tk.max_push) ? s->tk.max_push : 0.0;
-    rh.start_unix_ns = (uint64_t)ftm_clock_real_ns();
-    int rc = ftm_record_create(s->o.record, &rh, &s->rec.w, err);
-    if (rc == FTM_OK)
+    rh.start_unix_ns = s->start_unix_ns;
+    rh.lesson_start_ns = r->lesson_start_ns;
+    rh.segment = r->segment;
+    rh.after_gap = r->failed;
+    rh.previous_cut = r->previous_cut;
+    r->previous_cut = 0; /* (a file after a gap goes on from a whole one) */
+    int rc = ftm_record_create(s->o.record, &rh, &r->w, err);
+    if (rc == FTM_OK && r->segment)
+        srv_log(s, "info", "recording the lesson on to %s (its file %u)", s->o.record,
+                r->segment + 1);
+    else if (rc == FTM_OK)
         srv_log(s, "info", "recording the session to %s", s->o.record);
     return rc;
+}
+
+/* Whether name is a lesson's first file in --record-dir for this session:
+ * SESSION-YYYYMMDDTHHMMSSZ[-k].rec */
+static bool lesson_name(const char *name, const char *prefix)
+{
+    size_t n = strlen(name), p = strlen(prefix);
+    return n > p + 4 && strncmp(name, prefix, p) == 0 && strcmp(name + n - 4, ".rec") == 0;
+}
+
+/* Whether a lesson's server ended it: its final LEAVING status is the last
+ * status it published (a scan of the entries, without the physics). */
+static bool lesson_ended(const char *path)
+{
+    ftm_record_header h;
+    ftm_record_reader *rd = NULL;
+    ftm_error err = {0, ""};
+    if (ftm_record_open(path, &h, &rd, &err))
+        return false;
+    const ftm_wire_limits lim = {0, 0, h.node_count};
+    bool leaving = false;
+    ftm_record_entry e;
+    while (ftm_record_next(rd, &e, &err) > 0) {
+        if (e.incoming || e.kind != FTM_WIRE_STATUS)
+            continue;
+        ftm_wire_msg m;
+        if (ftm_wire_decode(e.kind, e.payload, e.size, &lim, &m, &err) == FTM_OK) {
+            leaving = m.u.status.state == FTM_WIRE_STATE_LEAVING;
+            ftm_wire_msg_free(&m);
+        }
+    }
+    ftm_record_close_reader(rd);
+    return leaving;
+}
+
+void srv_pick_recent_lesson(server *s)
+{
+    char prefix[80];
+    size_t n = 0;
+    for (const char *c = s->o.session; *c && n + 1 < 64; c++) /* as claim_record_path names it */
+        prefix[n++] = (*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') ||
+                              (*c >= '0' && *c <= '9') || *c == '-' || *c == '_' || *c == '.'
+                          ? *c
+                          : '_';
+    prefix[n] = '\0';
+    if (!prefix[0] || prefix[0] == '.')
+        snprintf(prefix, sizeof prefix, "session");
+    strcat(prefix, "-");
+    DIR *d = opendir(s->o.record_dir);
+    if (!d)
+        return; /* (--check and the recording say why) */
+    char best[sizeof s->rec.lesson] = "";
+    double best_t = -1.0;
+    struct dirent *de;
+    while ((de = readdir(d))) {
+        if (!lesson_name(de->d_name, prefix))
+            continue;
+        char first[sizeof s->rec.lesson], seg[sizeof s->rec.seg_path];
+        if (snprintf(first, sizeof first, "%s/%s", s->o.record_dir, de->d_name) >= (int)sizeof first)
+            continue;
+        double t = -1.0; /* the newest write of any of its files */
+        struct stat st;
+        for (uint32_t k = 0; k < 100000 &&
+                             ftm_record_segment_path(first, k, seg, sizeof seg) == 0 &&
+                             stat(seg, &st) == 0;
+             k++)
+            if ((double)st.st_mtim.tv_sec + st.st_mtim.tv_nsec * 1e-9 > t)
+                t = (double)st.st_mtim.tv_sec + st.st_mtim.tv_nsec * 1e-9;
+        if (t > best_t) {
+            best_t = t;
+            snprintf(best, sizeof best, "%s", first);
+        }
+    }
+    closedir(d);
+    const double now = (double)ftm_clock_real_ns() * 1e-9;
+    if (!best[0]) {
+        srv_log(s, "info", "--resume-recent: no lesson of '%s' in %s: a new lesson",
+                s->o.session, s->o.record_dir);
+        return;
+    }
+    if (now - best_t >= s->o.resume_recent) {
+        srv_log(s, "info", "--resume-recent: the newest lesson %s was last written %.0f s ago "
+                "(not less than %g s): a new lesson", best, now - best_t, s->o.resume_recent);
+        return;
+    }
+    if (lesson_ended(best)) {
+        srv_log(s, "info", "--resume-recent: the newest lesson %s ended cleanly: a new lesson",
+                best);
+        return;
+    }
+    srv_log(s, "info", "--resume-recent: the newest lesson %s did not end (last written %.1f s "
+            "ago): resuming it", best, now - best_t);
+    snprintf(s->rec.lesson, sizeof s->rec.lesson, "%s", best);
+    s->o.resume = s->rec.lesson;
+    s->resume_if_unended = true;
+}
+
+/* After a write error, once space has returned: the lesson's next file
+ * (FILE.N, after_gap), opened. 0, or an error with r->segment as it was. */
+int srv_open_next_file(server *s, ftm_error *err)
+{
+    srv_rec *r = &s->rec;
+    r->segment++;
+    if (claim_segment_path(s, err) == 0 && srv_open_recording(s, err) == 0) {
+        r->segments_after_gap++;
+        r->no_resume_why[0] = '\0';
+        r->gap_tick = s->tk.tick;
+        snprintf(r->gap_file, sizeof r->gap_file, "%s", r->seg_path);
+        return FTM_OK;
+    }
+    r->segment--;
+    return err->code ? err->code : FTM_EIO;
 }
 
 /* The session report: a closing log line per trainee probe that touched
@@ -169,9 +329,14 @@ int srv_finish_report(server *s)
     /* --record-dir: each run's report beside its recording, NAME.json */
     const char *path = s->o.report;
     char beside[sizeof s->rec.path + 8];
-    if (!path && s->rec.path[0]) {
-        size_t n = strlen(s->rec.path);
-        snprintf(beside, sizeof beside, "%.*s.json", (int)(n > 4 ? n - 4 : n), s->rec.path);
+    /* --record-dir's recording, or the first file of a resumed lesson:
+     * NAME.rec -> NAME.json (the lesson's one report) */
+    const char *rec = s->rec.path[0] ? s->rec.path : s->o.resume;
+    if (!path && rec) {
+        size_t n = strlen(rec);
+        if (n > 4 && strcmp(rec + n - 4, ".rec") == 0)
+            n -= 4;
+        snprintf(beside, sizeof beside, "%.*s.json", (int)(n < 1000 ? n : 1000), rec);
         path = beside;
     }
     if (!path)
@@ -179,8 +344,12 @@ int srv_finish_report(server *s)
     ftm_report_session rs = {s->o.session, s->o.scene, s->digest, FTM_REPLAY_DIGEST_SIZE,
                              s->tk.tick, s->o.rate, s->tk.depth_lo, s->tk.depth_hi, s->tk.unstable,
                              s->rec.tissue_changes, NULL, false};
-    const ftm_report_recording stopped = {s->rec.stop_tick, s->rec.stop_s, s->rec.why,
-                                          s->rec.kept, s->rec.kept_tick};
+    const char *not_resumed = s->rec.no_resume_why[0] ? s->rec.no_resume_why
+                              : s->rec.may_retry      ? "no space came back"
+                                                      : "the error was not a full disk";
+    const ftm_report_recording stopped = {
+        s->rec.stop_tick, s->rec.stop_s, s->rec.why, s->rec.kept, s->rec.kept_tick,
+        s->rec.segments_after_gap ? s->rec.gap_file : NULL, s->rec.gap_tick, not_resumed};
     rs.recording = s->o.record && !s->o.replay ? &stopped : NULL;
     rs.recording_stopped = s->rec.failed;
     /* written whole beside it, then renamed over it: a reader (a course's
@@ -220,7 +389,13 @@ int srv_finish_report(server *s)
 int srv_close_recording(server *s)
 {
     int rc = s->rec.failed ? 3 : 0;
-    if (s->rec.failed)
+    if (s->rec.failed && s->rec.segments_after_gap)
+        srv_log(s, "error",
+                "recording %s incomplete: stopped at tick %" PRIu64 " (%.3f s into the session) "
+                "on a write error: %s; recorded on from tick %" PRIu64 " into %s: ticks %" PRIu64
+                "..%" PRIu64 " are missing", s->rec.lesson, s->rec.stop_tick, s->rec.stop_s,
+                s->rec.why, s->rec.gap_tick, s->rec.gap_file, s->rec.kept_tick, s->rec.gap_tick);
+    else if (s->rec.failed)
         srv_log(s, "error",
                 "recording %s incomplete: stopped for good at tick %" PRIu64 " (%.3f s into the "
                 "session) on a write error: %s; %" PRIu64 " bytes kept, replayable to tick %" PRIu64,

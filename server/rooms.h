@@ -12,8 +12,9 @@
  *   tick.c          one tick: probes -> contacts, the step, reactions
  *   publish.c       announcements, statuses, tick frames, keyframes
  *   period.c        every 100 ms: adaptive depth, metrics, control log
- *   recording.c     the session recording and report
- *   offline.c       runs without DDS: --offline, --inputs, --replay's inputs
+ *   recording.c     the session recording (a lesson's files) and report
+ *   offline.c       runs without DDS: --offline, --inputs, --replay's inputs,
+ *                   --resume's re-run
  *   check.c         --check: what a session would be, and whether it starts
  *   log.c           the log
  *
@@ -201,6 +202,24 @@ typedef struct srv_rec {
     char path[1024];        /* --record-dir: this run's recording */
     ftm_report report;      /* what each participant did (--report, the closing log) */
     uint64_t tissue_changes;
+    /* the lesson, when it spans several files (FILE, FILE.1, ...) */
+    char lesson[1024];        /* its first file (--resume, or this run's after a gap) */
+    char seg_path[1100];      /* the file this run records to now */
+    uint64_t lesson_start_ns; /* its start: its first server's (announced) */
+    uint32_t segment;         /* the number of the file this run records to next */
+    uint64_t resumed_tick;    /* --resume: the tick it went on from */
+    uint64_t previous_cut;    /* --resume: where a crash cut the lesson's last file; 0 none */
+    /* after a write error: a new file once space returns (probed off the
+     * tick thread, libuv's thread pool) */
+    uv_fs_t statfs_req;
+    bool probing;
+    bool may_retry;           /* the error was a full disk: space may return */
+    uint64_t next_probe_ns, probes, told_ns;
+    uint64_t free_bytes;      /* at the last probe */
+    uint64_t segments_after_gap;
+    uint64_t gap_tick;        /* the last such file: from this tick */
+    char gap_file[1100];
+    char no_resume_why[256];  /* why recording has not resumed ("" none said) */
 } srv_rec;
 
 /* ---- the server ---- */
@@ -216,6 +235,9 @@ typedef struct server {
     char scene_path[1024]; /* the file the scene came from (its name for a built-in) */
     char replay_scene[FTM_WIRE_NAME_MAX], replay_session[128];
     bool depth_from_frames; /* --replay, --inputs without --depth: the recorded depths */
+    uint8_t resume_digest[FTM_REPLAY_DIGEST_SIZE]; /* --resume: the recorded scene's */
+    bool log_append;        /* the second set-up after --resume-recent gave up */
+    bool resume_if_unended; /* --resume-recent: a lesson that ended is no error, a new one begins */
     srv_parts parts;
     srv_tick tk;
     srv_publish pub;
@@ -293,6 +315,10 @@ void srv_record_entry(server *s, bool incoming, int kind, uint32_t sender, const
                       size_t size, bool gone, bool lost);
 void srv_record_failed(server *s, const ftm_error *err);
 int srv_open_recording(server *s, ftm_error *err);
+/* --resume-recent: the newest lesson in --record-dir to resume into s->o.resume, if any */
+void srv_pick_recent_lesson(server *s);
+/* After a write error, once space has returned: the lesson's next file */
+int srv_open_next_file(server *s, ftm_error *err);
 int srv_close_recording(server *s);
 int srv_finish_report(server *s);
 int srv_open_reactions(server *s);
@@ -301,6 +327,7 @@ int srv_close_reactions(server *s);
 /* offline.c */
 int srv_run_offline(server *s);
 int srv_replay_inputs(server *s);
+int srv_resume_rerun(server *s);
 
 /* check.c */
 int srv_check_setup(server *s);

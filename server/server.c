@@ -62,6 +62,77 @@ static void drain(server *s)
         }
 }
 
+/* libuv's thread pool has looked at the recording's file system. */
+static void on_statfs(uv_fs_t *req)
+{
+    server *s = req->data;
+    srv_rec *r = &s->rec;
+    r->probing = false;
+    const uv_statfs_t *st = req->result == 0 ? req->ptr : NULL;
+    char why[sizeof r->no_resume_why] = "";
+    if (!st) {
+        snprintf(why, sizeof why, "cannot look at the space on %.180s: %s", r->lesson,
+                 uv_strerror((int)req->result));
+    } else {
+        r->free_bytes = st->f_bavail * st->f_bsize;
+        if (r->free_bytes < FTM_RECORD_RESUME_FREE)
+            snprintf(why, sizeof why, "%" PRIu64 " bytes free where it records, it waits for %u",
+                     r->free_bytes, (unsigned)FTM_RECORD_RESUME_FREE);
+    }
+    uv_fs_req_cleanup(req);
+    if (s->stopping || r->w)
+        return;
+    if (!why[0]) {
+        ftm_error err = {0, ""};
+        if (srv_open_next_file(s, &err) == 0) {
+            srv_log(s, "info", "recording resumed at tick %" PRIu64 " into %s (space has "
+                    "returned: %" PRIu64 " bytes free); ticks %" PRIu64 "..%" PRIu64 " are not "
+                    "in the lesson's recording", s->tk.tick, r->seg_path, r->free_bytes,
+                    r->kept_tick, s->tk.tick);
+            /* the file begins as a session does: what a replay restores */
+            srv_publish_announce(s);
+            srv_publish_keyframe(s);
+            srv_publish_status(s, FTM_WIRE_STATE_SYNCED);
+            return;
+        }
+        snprintf(why, sizeof why, "%.250s", err.message);
+    }
+    /* said when the reason changes, else once a minute */
+    const uint64_t now = srv_now();
+    if (strcmp(why, r->no_resume_why) != 0 &&
+        (strcspn(why, "0123456789") != strcspn(r->no_resume_why, "0123456789") ||
+         strncmp(why, r->no_resume_why, strcspn(why, "0123456789")) != 0 ||
+         now - r->told_ns >= 60000000000ull)) {
+        srv_log(s, "warn", "recording not resumed yet: %s", why);
+        r->told_ns = now;
+    }
+    snprintf(r->no_resume_why, sizeof r->no_resume_why, "%s", why);
+}
+
+/* After a full disk: whether space has returned, once a second, looked at
+ * on libuv's thread pool (statfs), off the tick thread. */
+static void record_retry(server *s)
+{
+    srv_rec *r = &s->rec;
+    const uint64_t now = srv_now();
+    if (!r->failed || !r->may_retry || r->w || r->probing || s->stopping || now < r->next_probe_ns ||
+        !s->loop_start_ns)
+        return;
+    r->next_probe_ns = now + 1000000000u; /* once a second */
+    char dir[sizeof r->lesson];
+    snprintf(dir, sizeof dir, "%s", r->lesson);
+    char *slash = strrchr(dir, '/');
+    if (slash)
+        slash[slash == dir] = '\0';
+    else
+        snprintf(dir, sizeof dir, ".");
+    r->statfs_req.data = s;
+    if (uv_fs_statfs(&s->loop, &r->statfs_req, dir, on_statfs) == 0) {
+        r->probing = true;
+        r->probes++;
+    }
+}
+
 static void on_tick_timer(uv_timer_t *h)
 {
     server *s = h->data;
@@ -91,6 +162,7 @@ static void on_status_timer(uv_timer_t *h)
     ftm_error err = {0, ""};
     if (s->rec.w && ftm_record_flush(s->rec.w, &err))
         srv_record_failed(s, &err);
+    record_retry(s); /* after a full disk: space back? (looked at off this thread) */
     srv_check_statuses(s);
 }
 
@@ -142,7 +214,7 @@ static int run_loop(server *s)
     s->tick_timer.data = s->status_timer.data = s->stop_timer.data = s;
     s->sigint.data = s->sigterm.data = s;
     s->tk.base_ns = srv_now();
-    s->tk.base_tick = 0;
+    s->tk.base_tick = s->tk.tick; /* 0, or where a resumed lesson goes on */
     s->loop_start_ns = s->tk.base_ns;
     uv_timer_start(&s->tick_timer, on_tick_timer, 1, 1);
     uv_timer_start(&s->status_timer, on_status_timer, 500, 500);
@@ -161,15 +233,25 @@ static int run_loop(server *s)
  * 0, or the exit status 1. */
 static int settings_from_recording(server *s)
 {
-    const char *path = s->o.replay ? s->o.replay : s->o.inputs;
+    const char *path = s->o.replay ? s->o.replay : s->o.inputs ? s->o.inputs : s->o.resume;
+    const char *mode = s->o.replay ? "--replay" : s->o.inputs ? "--inputs" : "--resume";
     ftm_record_header rh;
     ftm_record_reader *rr = NULL;
     ftm_error err = {0, ""};
     if (ftm_record_open(path, &rh, &rr, &err)) {
-        fprintf(stderr, "ftm-server %s: %s\n", s->o.replay ? "--replay" : "--inputs", err.message);
-        return 1;
+        fprintf(stderr, "ftm-server %s: %s\n", mode, err.message);
+        return s->o.resume ? 3 : 1;
     }
     ftm_record_close_reader(rr);
+    if (s->o.resume) { /* the lesson goes on as it was, but for what a session chooses */
+        if (rh.arithmetic != ftm_arithmetic_revision()) {
+            fprintf(stderr, "ftm-server --resume: %s: recorded by a physics core of arithmetic "
+                    "revision %u, this build's is %u: it cannot go on here\n", path,
+                    (unsigned)rh.arithmetic, (unsigned)ftm_arithmetic_revision());
+            return 3;
+        }
+        memcpy(s->resume_digest, rh.digest, sizeof s->resume_digest);
+    }
     if (!s->o.scene) {
         snprintf(s->replay_scene, sizeof s->replay_scene, "%s", rh.scene_id);
         s->o.scene = s->replay_scene;
@@ -179,6 +261,12 @@ static int settings_from_recording(server *s)
         s->o.session = s->replay_session;
     }
     s->o.rate = rh.tick_rate_hz;
+    if (s->o.resume) {
+        s->o.depth = rh.depth_max;
+        s->o.max_penetration = rh.max_penetration > 0 ? rh.max_penetration : INFINITY;
+        s->depth_from_frames = true; /* while it is re-run */
+        return 0;
+    }
     /* --inputs may try another depth or push limit; --replay must not */
     s->depth_from_frames = s->o.replay || s->o.depth < 0;
     if (s->depth_from_frames)
@@ -194,7 +282,15 @@ static int settings_from_recording(server *s)
 /* The log file, the scene, the simulation. Returns 0 or the exit status. */
 static int setup(server *s)
 {
-    if (s->o.replay || s->o.inputs) {
+    s->t_start_ns = srv_now();
+    s->start_unix_ns = (uint64_t)ftm_clock_real_ns();
+    if (s->o.log_path && !(s->logf = fopen(s->o.log_path, s->log_append ? "a" : "w"))) {
+        fprintf(stderr, "ftm-server: cannot open %s: %s\n", s->o.log_path, strerror(errno));
+        return 3;
+    }
+    if (s->o.resume_recent > 0 && !s->o.resume && !s->o.check)
+        srv_pick_recent_lesson(s);
+    if (s->o.replay || s->o.inputs || s->o.resume) {
         int rc = settings_from_recording(s);
         if (rc)
             return rc;
@@ -203,12 +299,6 @@ static int setup(server *s)
         s->o.scene = "default";
     if (!s->o.session)
         s->o.session = "ftm";
-    s->t_start_ns = srv_now();
-    s->start_unix_ns = (uint64_t)ftm_clock_real_ns();
-    if (s->o.log_path && !(s->logf = fopen(s->o.log_path, "w"))) {
-        fprintf(stderr, "ftm-server: cannot open %s: %s\n", s->o.log_path, strerror(errno));
-        return 3;
-    }
     ftm_error err = {0, ""};
     if (ftm_wire_open_scene(s->o.scene, &s->scene, s->scene_path, sizeof s->scene_path, &err)) {
         srv_log(s, "error", "%s", err.message);
@@ -219,6 +309,11 @@ static int setup(server *s)
     s->mesh = ftm_scene_mesh(s->scene);
     if (ftm_replay_scene_digest(s->scene, s->digest)) {
         srv_log(s, "error", "scene digest: out of memory");
+        return 3;
+    }
+    if (s->o.resume && memcmp(s->digest, s->resume_digest, sizeof s->digest) != 0) {
+        srv_log(s, "error", "--resume %s: scene '%s' differs from the recorded one (content "
+                "digest)", s->o.resume, s->o.scene);
         return 3;
     }
     int rc = srv_tick_setup(s);
@@ -336,11 +431,18 @@ static void closing_lines(server *s)
             " frames (%" PRIu64 " heartbeats, %" PRIu64 " idle ticks not sent), %.1f bytes/frame, "
             "%.1f bytes/tick; %" PRIu64 " keyframes (%" PRIu64 " bytes); step mean %.1f us max "
             "%.1f us; rexmit %" PRIu64 " bytes",
-            tk->tick, run_s, (double)tk->tick / run_s, tk->missed_ticks, pb->frames,
+            tk->tick - s->rec.resumed_tick, run_s, (double)(tk->tick - s->rec.resumed_tick) / run_s,
+            tk->missed_ticks, pb->frames,
             pb->heartbeats, pb->idle_ticks,
             pb->frames ? (double)pb->bytes_frames / (double)pb->frames : 0.0,
-            tk->tick ? (double)pb->bytes_frames / (double)tk->tick : 0.0, pb->keyframes,
-            pb->bytes_keyframes, tk->tick ? tk->step_ns_total / (double)tk->tick * 1e-3 : 0.0,
+            tk->tick > s->rec.resumed_tick
+                ? (double)pb->bytes_frames / (double)(tk->tick - s->rec.resumed_tick)
+                : 0.0,
+            pb->keyframes,
+            pb->bytes_keyframes,
+            tk->tick > s->rec.resumed_tick
+                ? tk->step_ns_total / (double)(tk->tick - s->rec.resumed_tick) * 1e-3
+                : 0.0,
             tk->step_ns_max * 1e-3, ws.rexmit_bytes);
     srv_log(s, "info",
             "tick period p50 %.2f ms p99 %.2f ms; start after due p50 %.2f ms p99 %.2f ms "
@@ -378,7 +480,7 @@ static int run_session(server *s)
     /* last of what may fail: a start that fails (a metrics port in use)
      * leaves no recording of a session that never ran in --record-dir */
     ftm_error err = {0, ""};
-    if ((s->o.record || s->o.record_dir) && srv_open_recording(s, &err)) {
+    if ((s->o.record || s->o.record_dir || s->o.resume) && srv_open_recording(s, &err)) {
         srv_log(s, "error", "%s", err.message);
         return 3;
     }
@@ -442,6 +544,18 @@ int ftm_server_run(const ftm_server_def *def)
     }
     s->o = *def;
     int rc = setup(s);
+    if (rc == 0 && s->o.resume) {
+        rc = srv_resume_rerun(s); /* says why not */
+        if (rc && s->resume_if_unended) { /* --resume-recent: a new lesson instead */
+            srv_log(s, "warn", "--resume-recent: %s not resumed: a new lesson", s->o.resume);
+            teardown(s);
+            memset(s, 0, sizeof *s);
+            s->o = *def;
+            s->o.resume_recent = 0;
+            s->log_append = true; /* (the lines above stay) */
+            rc = setup(s);
+        }
+    }
     if (rc == 0)
         rc = s->o.offline_ticks > 0 || s->o.replay || s->o.inputs ? run_without_dds(s)
                                                                  : run_session(s);

@@ -50,6 +50,9 @@ typedef struct ftm_server_def {
     int32_t rt_cpu;       /* >= 0, FTM_SERVER_RT_CPU_START or _ANY */
     bool check;           /* --check: set everything up, report, exit */
     bool upto_damage;     /* --upto-damage: replay a damaged recording up to the damage */
+    /* resuming a lesson (docs/server.md, Resuming a lesson) */
+    const char *resume;   /* --resume FILE: the lesson's first file */
+    double resume_recent; /* --resume-recent S (with --record-dir); 0: off */
 } ftm_server_def;
 
 /* The defaults, as --help states them. */

@@ -126,6 +126,14 @@ static const ftm_option options[] = {
     FTM_OPT_FLAG("upto-damage", D, upto_damage,
                  "(replay, inputs) take a damaged recording up to its first\n"
                  "damaged entry, with a note, instead of refusing it"),
+    FTM_OPT_STRING("resume", "FILE", D, resume,
+                   "resume the lesson recorded in FILE (and FILE.1, ...) that its\n"
+                   "server did not end: re-run it to its last tick, go on from\n"
+                   "there and record on to its next file FILE.N"),
+    FTM_OPT_DOUBLE("resume-recent", "S", D, resume_recent, 0, SECONDS, FTM_OPTION_ABOVE_LO,
+                   "seconds",
+                   "(record-dir) resume the newest lesson there if its server did\n"
+                   "not end it and it was written less than S s ago; else a new one"),
     FTM_OPT_INT("metrics-port", "N", D, metrics_port, 0, 65535,
                 "Prometheus metrics on http://ADDR:N/metrics (0: off)"),
     FTM_OPT_CUSTOM("metrics-addr", "ADDR", D, metrics_addr, parse_metrics_addr,
@@ -185,6 +193,13 @@ static int check_combined(const ftm_server_def *o)
         why = "--reactions goes with --offline, --replay or --inputs";
     else if (o->upto_damage && !o->replay && !o->inputs)
         why = "--upto-damage goes with --replay or --inputs";
+    else if (o->resume && (o->record || o->record_dir || o->replay || o->inputs ||
+                           o->offline_ticks || o->check || o->resume_recent > 0))
+        why = "--resume goes with a session, without --record or --record-dir (the lesson is "
+              "recorded on to its next file), --replay, --inputs, --offline, --check or "
+              "--resume-recent";
+    else if (o->resume_recent > 0 && !o->record_dir)
+        why = "--resume-recent goes with --record-dir (the lessons it looks at)";
     if (why)
         fprintf(stderr, "ftm-server: %s\n", why);
     return why ? -1 : 0;
@@ -214,6 +229,8 @@ static int outputs_apart_from_input(const ftm_server_def *o)
     if (o->replay || o->inputs)
         in[nin++] = (ftm_option_path){o->replay ? "--replay" : "--inputs",
                                       o->replay ? o->replay : o->inputs};
+    else if (o->resume)
+        in[nin++] = (ftm_option_path){"--resume", o->resume};
     if (o->scene) /* a built-in name is no file: skipped */
         in[nin++] = (ftm_option_path){"--scene", o->scene};
     if (o->config)
@@ -230,7 +247,8 @@ static int outputs_apart_from_input(const ftm_server_def *o)
         return 0;
     fprintf(stderr, "ftm-server: %s %s is the %s %s %s reads: it would be overwritten; write to "
                     "another file\n", out[i].opt, out[i].path,
-            k == 0 && (o->replay || o->inputs) ? "recording" : "file", in[k].opt, in[k].path);
+            k == 0 && (o->replay || o->inputs || o->resume) ? "recording" : "file", in[k].opt,
+            in[k].path);
     return -1;
 }
 

@@ -219,9 +219,18 @@ static int make_replica(ftm_participant *p)
 static void rejoin(ftm_participant *p, const ftm_wire_announce *a)
 {
     ftm_participant_info *in = &p->info;
-    plog(p, FTM_LOG_INFO, "server %u restarted (a new process, announcing tick %" PRIu64 "; we "
-         "were at tick %" PRIu64 "): rejoining", in->server_id, a->tick,
-         p->rep ? ftm_replay_tick(p->rep) : 0);
+    /* a server that resumed the lesson from its recording (ftm-server
+     * --resume): the same session going on, from a tick up to about 100 ms
+     * before where the crashed one was; the replica resyncs all the same */
+    const bool resumed = a->lesson_start_ns && a->lesson_start_ns == in->lesson_start;
+    if (resumed)
+        plog(p, FTM_LOG_INFO, "server %u resumed the lesson (a new process, going on from tick "
+             "%" PRIu64 "; we were at tick %" PRIu64 "): resyncing", in->server_id, a->tick,
+             p->rep ? ftm_replay_tick(p->rep) : 0);
+    else
+        plog(p, FTM_LOG_INFO, "server %u restarted (a new process, announcing tick %" PRIu64
+             "; we were at tick %" PRIu64 "): rejoining", in->server_id, a->tick,
+             p->rep ? ftm_replay_tick(p->rep) : 0);
     force_off(p, "server restarted");
     const bool same = p->rep && ftm_replay_check_announce(p->rep, a, NULL) == FTM_OK;
     ftm_replay_destroy(p->rep);
@@ -236,7 +245,8 @@ static void rejoin(ftm_participant *p, const ftm_wire_announce *a)
     p->held_late_told = false;
     in->held_since_ns = 0;
     in->last_frame_ns = ftm_clock_mono_ns();
-    if (p->def.hooks.restarted)
+    in->resumes += resumed;
+    if (p->def.hooks.restarted && !resumed)
         p->def.hooks.restarted(p->def.hooks_user);
     if (!same && !p->def.scene && p->nretired < RETIRED_MAX) {
         plog(p, FTM_LOG_INFO, "the restarted server has another scene: '%s'", a->scene_id);
@@ -311,6 +321,7 @@ static void on_announce(ftm_participant *p, const ftm_wire_announce *a)
      * fit, which a restarted server may fix */
     if (p->scene && a->server_start_ns && in->server_start && a->server_start_ns != in->server_start)
         rejoin(p, a);
+    in->lesson_start = a->lesson_start_ns;
     if (p->scene && !p->rep)
         return; /* it did not fit (below): until the server restarts */
     if (!p->scene)

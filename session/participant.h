@@ -46,7 +46,10 @@ typedef struct ftm_participant_hooks {
      * FTM_EVERSION: another arithmetic revision, FTM_EINVAL: another
      * scene). Logged already. */
     void (*scene_refused)(void *user, bool loading, const char *name, const ftm_error *err);
-    /* The server restarted (a new process): the replica starts afresh. */
+    /* The server restarted (a new process): the replica starts afresh.
+     * Not called for a server that resumed the same lesson (its
+     * announcement's lesson start is the one before): the session goes
+     * on, only the replica resyncs from its keyframe. */
     void (*restarted)(void *user);
     /* A tick frame from the server. taken_ns: the wall clock when this
      * thread took it, before the replica did; stepped: the replica's tick
@@ -91,6 +94,7 @@ typedef struct ftm_participant_info {
     uint32_t server_id;
     uint64_t server_origin;
     uint64_t server_start;  /* its announced start (a restart changes it) */
+    uint64_t lesson_start;  /* its announced lesson start (a resumed lesson keeps it) */
     bool have_ann;
     ftm_wire_announce ann;  /* its last announcement */
     /* left: a LEAVING status or a `gone` event; gone: by the event (its
@@ -101,6 +105,7 @@ typedef struct ftm_participant_info {
      * process or a restarted one is not known yet */
     bool need_announce;
     uint32_t restarts;      /* server restarts rejoined */
+    uint32_t resumes;       /* of them, servers that resumed the same lesson */
     int64_t last_frame_ns;  /* monotonic: the last tick frame (or paused status) */
     uint64_t keyframes_heard, foreign;
     bool scene_failed;      /* the announced scene could not be loaded */

@@ -197,8 +197,17 @@ int ftm_report_write_json(const ftm_report *r, const ftm_report_session *s, FILE
                    "\"error\":",
                 (unsigned long long)g->stop_tick, num(b[0], g->stop_seconds));
         json_str(f, g->why ? g->why : "");
-        fprintf(f, ",\"kept_bytes\":%llu,\"kept_to_tick\":%llu}",
+        fprintf(f, ",\"kept_bytes\":%llu,\"kept_to_tick\":%llu",
                 (unsigned long long)g->kept_bytes, (unsigned long long)g->kept_tick);
+        if (g->resumed_file) {
+            fprintf(f, ",\"resumed_tick\":%llu,\"resumed_file\":",
+                    (unsigned long long)g->resumed_tick);
+            json_str(f, g->resumed_file);
+        } else if (g->not_resumed && g->not_resumed[0]) {
+            fprintf(f, ",\"not_resumed\":");
+            json_str(f, g->not_resumed);
+        }
+        fputc('}', f);
     }
     /* what the instructors changed, for the debriefing's timeline */
     fprintf(f, ",\"events_not_reported\":%llu,\"events\":[",

@@ -67,6 +67,11 @@ typedef struct ftm_report_recording {
     double stop_seconds;  /* into the session */
     const char *why;      /* the error */
     uint64_t kept_bytes, kept_tick; /* what the file kept: its size, its last tick */
+    /* it recorded on into a new file of the lesson once space returned:
+     * resumed_file from resumed_tick; or why it has not (NULL: no word) */
+    const char *resumed_file;
+    uint64_t resumed_tick;
+    const char *not_resumed;
 } ftm_report_recording;
 
 /* What the report says of the session as a whole. */

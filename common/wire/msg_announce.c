@@ -17,6 +17,7 @@ static const wire_field fields[] = {
     {11, WIRE_C(T, paused), WF_BOOL},
     {12, WIRE_C(T, server_start_ns), WF_U64, .flags = WF_OPTIONAL},
     {13, WIRE_C(T, arithmetic), WF_U32, .flags = WF_OPTIONAL},
+    {14, WIRE_C(T, lesson_start_ns), WF_U64, .flags = WF_OPTIONAL},
 };
 #undef T
 

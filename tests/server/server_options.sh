@@ -99,6 +99,13 @@ refused "--report $dir is a directory" --offline 3 --report "$dir"
 refused "$dir: is a directory, not a file" --offline 3 --scene "$dir"
 # --upto-damage goes with what reads a recording
 refused "--upto-damage goes with --replay or --inputs" --offline 3 --upto-damage
+# --resume: a session of its own lesson; --resume-recent: with --record-dir
+refused "--resume goes with a session, without --record or --record-dir" --resume a.rec --record b.rec
+refused "--resume goes with a session, without --record or --record-dir" --resume a.rec --record-dir /tmp
+refused "--resume goes with a session, without --record or --record-dir" --resume a.rec --replay b.rec
+refused "--resume-recent goes with --record-dir" --resume-recent 60 --offline 3
+refused "ftm-server --resume: /nonexistent/a.rec: cannot open" --resume /nonexistent/a.rec
+refused "--resume-recent must be a number of seconds" --resume-recent 0 --record-dir /tmp
 refused "--reactions $dir is a directory" --offline 3 --reactions "$dir"
 refused "--log $dir is a directory" --offline 3 --log "$dir"
 [ -z "$(ls "$dir"/*.json 2>/dev/null)" ] || fail "a report was written"

@@ -117,7 +117,7 @@ size=$(wc -c <f.rec)
 [ $(( size * 10 )) -ge $(( limit * 9 )) ] ||
     fail "the recording kept $size bytes of the $limit allowed (< 90 %)"
 grep -q "^ok 0 errors 1 bytes $size\$" fm.out || fail "metrics after the stop: $(cat fm.out), the file $size bytes"
-grep -q '"recording":{"ok":false,"stopped_tick":[0-9]*,"stopped_seconds":[0-9.]*,"error":"recording f.rec: write failed: File too large","kept_bytes":'"$size"',"kept_to_tick":[0-9]*}' f.json ||
+grep -q '"recording":{"ok":false,"stopped_tick":[0-9]*,"stopped_seconds":[0-9.]*,"error":"recording f.rec: write failed: File too large","kept_bytes":'"$size"',"kept_to_tick":[0-9]*,"not_resumed":"the error was not a full disk"}' f.json ||
     fail "the report does not say the recording stopped: $(grep -o '"recording":{[^}]*}' f.json)"
 # whole chunks: replayed to there with a note
 timeout 30 "$FTM_SERVER" --replay f.rec >fr.out 2>fr.err ||

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Session recording file (server/record.h): round trip, the reader's
  * clear errors on truncated, oversized, damaged and corrupted files and
- * headers (every bit flip detected), the writer's chunks of < 100 ms and
- * what it keeps when a write fails. */
+ * headers (every bit flip detected), the writer's chunks of < 100 ms,
+ * what it keeps when a write fails, and a lesson in several files. */
 #include "crc32c.h"
 #include "depth_ctl.h" /* FTM_DEPTH_CTL_MAX */
 #include "record.h"
@@ -477,6 +477,125 @@ static void write_error_keeps_what_fits(void **state)
     assert_int_equal(entries, 20 + 14);
 }
 
+/* A lesson's file: header h, `n` entries from tick t0, 30 ms apart (a
+ * chunk every 4 entries or so). */
+static void write_segment(const char *p, const ftm_record_header *h, int n, uint64_t t0)
+{
+    ftm_record_writer *w = NULL;
+    ftm_error err = {0, ""};
+    assert_int_equal(ftm_record_create(p, h, &w, &err), FTM_OK);
+    uint8_t payload[64] = {1, 2, 3};
+    for (int i = 0; i < n; i++) {
+        ftm_record_entry e = {.tick = t0 + (uint64_t)i, .kind = 3, .sender = 11, .incoming = true,
+                              .time_ns = (uint64_t)i * 30000000u, .payload = payload,
+                              .size = sizeof payload};
+        assert_int_equal(ftm_record_write(w, &e, &err), FTM_OK);
+    }
+    assert_int_equal(ftm_record_close(w, &err), FTM_OK);
+}
+
+/* Reads a lesson: its entries' count and how many were in its later files. */
+static int read_lesson(const char *p, int *entries, int *later, ftm_error *err)
+{
+    ftm_record_header h;
+    ftm_record_reader *r = NULL;
+    int rc = ftm_record_open(p, &h, &r, err);
+    *entries = *later = 0;
+    if (rc)
+        return rc;
+    ftm_record_entry e;
+    uint64_t tick = 0;
+    while ((rc = ftm_record_next(r, &e, err)) == 1) {
+        assert_true(e.tick >= tick); /* in order across the files */
+        tick = e.tick;
+        (*entries)++;
+        *later += e.segment > 0;
+    }
+    ftm_record_close_reader(r);
+    return rc;
+}
+
+/* A lesson in two files (a resumed server's): read as one, in order; a
+ * later file of another lesson refused by name; a later file given alone
+ * refused; the first file cut short by a crash passed over when the next
+ * file says it goes on from there, damage otherwise. */
+static void segments(void **state)
+{
+    (void)state;
+    char first[300], second[320];
+    snprintf(first, sizeof first, "%s-lesson.rec", path);
+    snprintf(second, sizeof second, "%s.1", first);
+    ftm_record_header h0, h1;
+    sample_header(&h0);
+    h0.start_unix_ns = 1000;
+    write_segment(first, &h0, 20, 0);
+    ftm_error err = {0, ""};
+    int n = 0, later = 0;
+    assert_int_equal(read_lesson(first, &n, &later, &err), 0);
+    assert_int_equal(n, 20);
+    h1 = h0;
+    h1.start_unix_ns = 2000;
+    h1.lesson_start_ns = 1000; /* the first file's start: the lesson's */
+    h1.segment = 1;
+    write_segment(second, &h1, 7, 19);
+    assert_int_equal(read_lesson(first, &n, &later, &err), 0);
+    assert_int_equal(n, 27);
+    assert_int_equal(later, 7);
+    /* given alone */
+    assert_int_equal(read_lesson(second, &n, &later, &err), FTM_EPARSE);
+    assert_non_null(strstr(err.message, "segment 1 of a lesson"));
+    /* another lesson's */
+    h1.lesson_start_ns = 999;
+    write_segment(second, &h1, 7, 19);
+    assert_int_equal(read_lesson(first, &n, &later, &err), FTM_EPARSE);
+    assert_int_equal(n, 20);
+    assert_non_null(strstr(err.message, "not segment 1 of the lesson"));
+    assert_non_null(strstr(err.message, "its lesson's start differs"));
+    /* the first file cut 5 bytes short: damage at its end */
+    FILE *f = fopen(first, "rb");
+    assert_non_null(f);
+    uint8_t buf[65536];
+    size_t len = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    assert_true(len > 100 && len < sizeof buf);
+    f = fopen(first, "wb");
+    fwrite(buf, 1, len - 5, f);
+    fclose(f);
+    unlink(second);
+    ftm_record_reader *r = NULL;
+    ftm_record_entry e;
+    assert_int_equal(ftm_record_open(first, &h0, &r, &err), FTM_OK);
+    int intact = 0;
+    int rc;
+    while ((rc = ftm_record_next(r, &e, &err)) == 1)
+        intact++;
+    assert_true(rc < 0);
+    assert_true(ftm_record_damaged_at_end(r));
+    const uint64_t cut = ftm_record_damage_offset(r);
+    ftm_record_close_reader(r);
+    assert_true(intact < 20 && cut > 8 && cut < len);
+    /* a resumed server's next file that goes on from the cut: passed over */
+    h1.lesson_start_ns = 1000;
+    h1.previous_cut = cut;
+    write_segment(second, &h1, 7, 19);
+    assert_int_equal(ftm_record_open(first, &h0, &r, &err), FTM_OK);
+    n = 0;
+    while ((rc = ftm_record_next(r, &e, &err)) == 1)
+        n++;
+    assert_int_equal(rc, 0);
+    assert_int_equal(n, intact + 7);
+    assert_int_equal(ftm_record_cuts_passed(r), 1);
+    ftm_record_close_reader(r);
+    /* one that says another byte: the cut stays damage */
+    h1.previous_cut = cut + 1;
+    write_segment(second, &h1, 7, 19);
+    assert_int_equal(read_lesson(first, &n, &later, &err), FTM_EPARSE);
+    assert_int_equal(n, intact);
+    assert_non_null(strstr(err.message, "truncated"));
+    unlink(first);
+    unlink(second);
+}
+
 int main(void)
 {
     snprintf(path, sizeof path, "/tmp/ftm-test-record-%d.rec", (int)getpid());
@@ -490,6 +609,7 @@ int main(void)
         cmocka_unit_test(every_bit_flip_detected),
         cmocka_unit_test(chunks_of_100ms),
         cmocka_unit_test(write_error_keeps_what_fits),
+        cmocka_unit_test(segments),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     unlink(path);

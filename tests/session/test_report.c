@@ -157,7 +157,7 @@ static void test_recording(void **state)
     (void)state;
     ftm_report r = {0};
     ftm_report_recording g = {1503, 1.5, "recording s.rec: write failed: No space left on device",
-                              241664, 1490};
+                              241664, 1490, NULL, 0, NULL};
     ftm_report_session s = {"ward3", "default", NULL, 0, 3000, 1000.0, 8, 8, 0, 0, NULL, false};
     char *buf = json_of(&r, &s);
     assert_null(strstr(buf, "\"recording\""));
@@ -173,6 +173,19 @@ static void test_recording(void **state)
                      "\"error\":\"recording s.rec: write failed: No space left on device\","
                      "\"kept_bytes\":241664,\"kept_to_tick\":1490},"))
         fail_msg("recording stopped: %s", buf);
+    free(buf);
+    /* why it has not recorded on, then where it did */
+    g.not_resumed = "204800 bytes free where it records, it waits for 1048576";
+    buf = json_of(&r, &s);
+    if (!strstr(buf, "\"kept_to_tick\":1490,\"not_resumed\":\"204800 bytes free where it "
+                     "records, it waits for 1048576\"},"))
+        fail_msg("recording not resumed: %s", buf);
+    free(buf);
+    g.resumed_file = "s.rec.1";
+    g.resumed_tick = 2200;
+    buf = json_of(&r, &s);
+    if (!strstr(buf, "\"kept_to_tick\":1490,\"resumed_tick\":2200,\"resumed_file\":\"s.rec.1\"},"))
+        fail_msg("recording resumed: %s", buf);
     free(buf);
     ftm_report_free(&r);
 }

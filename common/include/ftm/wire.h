@@ -88,6 +88,7 @@ typedef struct ftm_wire_announce {
     bool paused;
     uint64_t server_start_ns; /* the server process's start (its incarnation); 0: not sent */
     uint32_t arithmetic; /* the server core's ftm_arithmetic_revision(); 0: not sent (revision 1) */
+    uint64_t lesson_start_ns; /* when the lesson began (a resumed server: not its own start); 0: not sent */
 } ftm_wire_announce;
 
 typedef struct ftm_wire_probe_sample {
