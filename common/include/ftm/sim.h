@@ -213,7 +213,7 @@ uint64_t ftm_sim_hash(const ftm_sim *sim);
 /* Revision of the core's arithmetic: raised whenever a change makes the same
  * scene and inputs give other bits (2: one division per pair of links,
  * 2026-11-25; 3: co-rotational forces evaluated per element at the substep's
- * start, in vector lanes, 2026-11-29; 4: their polar decomposition stops
+ * start, in vector lanes, 2026-11-28; 4: their polar decomposition stops
  * on the determinant, 2026-11-28). Hashes and replays agree only between
  * cores of one revision, so a session announces its server's
  * (ftm_wire_announce.arithmetic). */
