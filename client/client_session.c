@@ -368,6 +368,7 @@ static bool banner_text(ftm_client_session *s, int64_t now, char *banner, size_t
         /* stays while the scene does: an instructor may have picked it on purpose */
         snprintf(banner, cap, "SCENE '%s': %s", ftm_scene_name(ftm_participant_scene(s->part)),
                  in->scene_feel_text);
+        return false; /* a warning, not a fault: grey */
     }
     return true;
 }

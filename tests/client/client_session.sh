@@ -23,6 +23,9 @@
 #       server heard its contact again after the stall)
 #   idforge: as idwait, but only a forger under the stand-in's id (another
 #       process) confirms the id: never believed
+#   softscene: the server runs `membrane` (0.019 N at a 7.5 mm press): an
+#       instructor's log warns and its banner says the scene is far softer
+#       than tissue (grey, not red), once synced
 # Every process runs under timeout; no timing is asserted.
 set -u
 mode=${1:?mode}
@@ -37,7 +40,9 @@ session="client-session-$mode-$$"
 rate=${FTM_TEST_RATE:-500}
 fail() { echo "FAIL: $*"; for f in "$dir"/*.log "$dir"/*.err; do [ -f "$f" ] && { echo "== $f"; tail -n 30 "$f"; }; done; exit 1; }
 if [ "$mode" != idwait ] && [ "$mode" != idforge ]; then # (test_session serves the session itself)
-    "$FTM_SERVER" --scene default --session "$session" --domain $domain --config "$FTM_CONFIG" \
+    scene=default
+    [ "$mode" = softscene ] && scene=membrane
+    "$FTM_SERVER" --scene $scene --session "$session" --domain $domain --config "$FTM_CONFIG" \
         --rate "$rate" --duration 60 --log "$dir/server.log" >"$dir/server.out" 2>"$dir/server.err" &
     server=$!
     wait_for "$dir/server.log" "session '$session'" "server did not start"
@@ -93,6 +98,11 @@ idwait)
     ;;
 idforge)
     run 6 37 "$FTM_DATA/side.bot"
+    ;;
+softscene)
+    run 4 43 -
+    grep -q "warn: scene 'membrane': .*far softer than tissue" "$dir/server.log" ||
+        fail "the server did not warn of the soft scene"
     ;;
 stall)
     # (not under timeout: the signals go to test_session itself; it ends by

@@ -81,7 +81,7 @@ typedef struct tapp {
     atomic_int valid_unconfirmed; /* idwait: on_force with a force to render, unconfirmed */
     atomic_bool said_confirmed, said_late, said_impostor;
     atomic_int frames;
-    atomic_int silent_logged, lost_logged;
+    atomic_int silent_logged, lost_logged, soft_logged;
     atomic_bool stalled;            /* stall: the stall is over (a clock jump seen) */
     atomic_int gone_logged, back_logged, nonzero_after_stall;
     double t0;
@@ -105,6 +105,8 @@ static void on_log(void *user, ftm_log_level level, const char *msg)
         atomic_store(&a->back, true);
     if (strstr(msg, "no tick frames"))
         atomic_fetch_add(&a->silent_logged, 1);
+    if (level >= FTM_LOG_WARN && strstr(msg, "far softer than tissue"))
+        atomic_fetch_add(&a->soft_logged, 1);
     if (strstr(msg, "declared this client lost"))
         atomic_fetch_add(&a->lost_logged, 1);
     if (strstr(msg, "is confirmed: the server hears this process"))
@@ -401,14 +403,15 @@ static int failures;
 int main(int argc, char **argv)
 {
     if (argc != 8) {
-        fprintf(stderr, "usage: test_session idtaken|idback|slow|pause|idwait|idforge|stall DOMAIN SESSION CONFIG ID "
+        fprintf(stderr, "usage: test_session idtaken|idback|slow|pause|idwait|idforge|stall|softscene DOMAIN SESSION CONFIG ID "
                         "SCRIPT SECONDS\n");
         return 2;
     }
     const char *mode = argv[1];
     static tapp a;
     a.t0 = ftm_haptic_clock();
-    bool trainee = strcmp(mode, "pause") != 0;
+    const bool softscene = strcmp(mode, "softscene") == 0;
+    bool trainee = strcmp(mode, "pause") != 0 && !softscene;
     ftm_error err = {0, ""};
     ftm_device *dev = NULL;
     if (trainee) {
@@ -463,7 +466,7 @@ int main(int argc, char **argv)
     int wait_banners = 0, late_banners = 0, synced_unconfirmed = 0, own_unconfirmed = 0;
     double paused_since = -1, resumed_at = -1, taken_at = -1;
     double last_t = 0, stall_end = -1, stall_len = 0;
-    int left_banners_late = 0, valid_views_after = 0;
+    int left_banners_late = 0, valid_views_after = 0, soft_banners = 0, soft_red = 0;
     bool sent_pause = false, sent_resume = false, banner_after_resume = false;
     bool pause_answered = false, resume_answered = false; /* the server's replies in the view */
     for (double t = 0; t < secs; t = ftm_haptic_clock() - a.t0) {
@@ -485,6 +488,10 @@ int main(int argc, char **argv)
         }
         if (strstr(v.banner, "SILENT"))
             silent_banners++;
+        if (strstr(v.banner, "far softer than tissue a trainee can feel")) {
+            soft_banners++;
+            soft_red += v.banner_error;
+        }
         if (taken_at < 0 && atomic_load(&a.taken))
             taken_at = t;
         /* (a view published before it may still be the newest for a moment) */
@@ -614,6 +621,14 @@ int main(int argc, char **argv)
         CHECK(valid_views_after > 0 && v.force_valid, "the view's force did not come back");
         CHECK(left_banners_late == 0, "%d views still said SERVER LEFT more than 3 s after the "
                                       "stall (banner '%s')", left_banners_late, v.banner);
+    } else if (softscene) {
+        /* the server runs `membrane` (the paper's 2D lattice, 0.019 N at a
+         * 7.5 mm press): said on screen, as a warning, once synced */
+        CHECK(v.synced_once, "never synced");
+        CHECK(soft_banners > 0, "no banner for a scene far softer than tissue (last: '%s')",
+              v.banner);
+        CHECK(soft_red == 0, "the soft scene's banner was red (a fault) %d times", soft_red);
+        CHECK(atomic_load(&a.soft_logged) > 0, "the log did not warn of the soft scene");
     } else if (strcmp(mode, "slow") == 0) {
         CHECK(v.synced_once, "never synced");
         CHECK(atomic_load(&a.frames) > 100, "only %d frames applied", atomic_load(&a.frames));
