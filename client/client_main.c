@@ -446,6 +446,7 @@ static void mesh_box(const ftm_mesh *m, ftm_vec3 *lo, ftm_vec3 *hi)
 static void new_mesh(app *a)
 {
     ftm_error err = {0, ""};
+    ftm_render_set_tool(a->ren, a->view.tool);
     if (ftm_render_set_mesh(a->ren, a->view.mesh, &err))
         alog(a, FTM_LOG_ERROR, "%s", err.message);
     if (ftm_render_set_volume(a->ren, a->view.volume, a->view.ffd, &err))

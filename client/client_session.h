@@ -89,6 +89,7 @@ typedef struct ftm_client_view {
     /* the scene's volume and its embedding in mesh (NULL: none; as long) */
     const ftm_volume *volume;
     const ftm_ffd *ffd;
+    ftm_scene_tool tool; /* the scene's [tool]; zeros: none given */
     char scene_name[FTM_WIRE_NAME_MAX];
     int32_t node_count;
     double *pos; /* 3 * node_count, the replica's positions */

@@ -36,6 +36,7 @@ struct ftm_render {
     float *rest;     /* 3 * nvert */
     float *verts;    /* VERT_FLOATS * nvert */
     double link;
+    ftm_scene_tool tool; /* the scene's instrument; zeros: scaled to the links */
 
     float *scratch; /* dynamic vertices */
     size_t scratch_cap;
@@ -611,8 +612,11 @@ void ftm_render_instrument(const ftm_render *r, const ftm_client_probe *p, ftm_i
         if (len > 0 && isfinite(len))
             a = (ftm_vec3){n.x / len, n.y / len, n.z / len};
     }
-    *out = (ftm_instrument){p->hip, a, TIP_LINKS * link, SHAFT_RADIUS_LINKS * link,
-                            SHAFT_LINKS * link};
+    /* the scene's own tool where it gives one, each size on its own */
+    *out = (ftm_instrument){p->hip, a, r->tool.tip_radius > 0 ? r->tool.tip_radius : TIP_LINKS * link,
+                            r->tool.shaft_radius > 0 ? r->tool.shaft_radius
+                                                     : SHAFT_RADIUS_LINKS * link,
+                            r->tool.shaft_length > 0 ? r->tool.shaft_length : SHAFT_LINKS * link};
 }
 
 int ftm_render_surface_along(const ftm_render *r, ftm_vec3 from, ftm_vec3 dir, double *dist,
@@ -1066,7 +1070,7 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
             const double lift = 0.02 * link;
             oriented(m, (ftm_vec3){below[i].x + lift * n.x, below[i].y + lift * n.y,
                                    below[i].z + lift * n.z},
-                     n, TIP_LINKS * link, 0.0);
+                     n, r->tool.tip_radius > 0 ? r->tool.tip_radius : TIP_LINKS * link, 0.0);
             for (int j = 0; j < DISC; j++) {
                 const double t0 = 2.0 * 3.14159265358979323846 * j / DISC,
                              t1 = 2.0 * 3.14159265358979323846 * (j + 1) / DISC;
@@ -1129,3 +1133,5 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
     glBindVertexArray(0);
     draw_text(r, v, w, h, o, hud, nhud, mvp);
 }
+
+void ftm_render_set_tool(ftm_render *r, ftm_scene_tool tool) { r->tool = tool; }

@@ -59,6 +59,9 @@ typedef struct ftm_instrument {
 } ftm_instrument;
 void ftm_render_instrument(const ftm_render *r, const ftm_client_probe *p, ftm_instrument *out);
 
+/* The scene's instrument ([tool]; zeros: sizes scaled to the mesh's links). */
+void ftm_render_set_tool(ftm_render *r, ftm_scene_tool tool);
+
 /* A participant's colour (RGB 0..1), by id: the same in every view. */
 void ftm_render_participant_color(uint32_t participant, float c[3]);
 

@@ -689,6 +689,27 @@ static void expect_bad(const char *text, int line, const char *needle)
         fail_msg("rc %d, message '%s'; wanted '%s...%s'", rc, err.message, prefix, needle);
 }
 
+/* [tool]: the instrument the client draws; each size optional */
+static void test_tool_section(void **state)
+{
+    (void)state;
+    ftm_scene *scene = parse_ok(MESH2D MAT "[tool]\ntip_radius = 0.004\nshaft_length = 0.12\n");
+    ftm_scene_tool t = ftm_scene_get_tool(scene);
+    assert_near(t.tip_radius, 0.004, 0);
+    assert_near(t.shaft_length, 0.12, 0);
+    assert_near(t.shaft_radius, 0, 0); /* not given: the client's own */
+    ftm_scene_destroy(scene);
+    scene = parse_ok(MESH2D MAT);
+    t = ftm_scene_get_tool(scene);
+    assert_true(t.tip_radius == 0 && t.shaft_radius == 0 && t.shaft_length == 0);
+    ftm_scene_destroy(scene);
+    expect_bad(MESH2D MAT "[tool]\ntip_radius = 0\n", 10, "tip_radius must be > 0, got 0");
+    expect_bad(MESH2D MAT "[tool]\nshaft_length = 2\n", 10,
+               "shaft_length must be at most 1 m, got 2");
+    expect_bad(MESH2D MAT "[tool]\nshaft_radius = -1e-3\n", 10, "shaft_radius must be > 0");
+    expect_bad(MESH2D MAT "[tool]\nlength = 0.1\n", 10, "length");
+}
+
 static void test_fem_section(void **state)
 {
     (void)state;
@@ -752,6 +773,7 @@ int main(void)
         cmocka_unit_test(test_contacts_at),
         cmocka_unit_test(test_sequential_loads_same_node),
         cmocka_unit_test(test_fem_section),
+        cmocka_unit_test(test_tool_section),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

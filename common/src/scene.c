@@ -52,6 +52,7 @@ struct ftm_scene {
     int32_t label_material_count;
     ftm_volume *volume;            /* [volume], with generator = volume */
     ftm_ffd *ffd;
+    ftm_scene_tool tool;           /* [tool]; zeros = not given */
 };
 
 /* ---------------------------------------------------------------- keys */
@@ -66,11 +67,12 @@ typedef enum section {
     SEC_FEM,
     SEC_VOLUME,
     SEC_FEM_LABEL, /* [fem LABEL]: the [fem] of one mesh label's elements */
+    SEC_TOOL,
     SEC_COUNT
 } section;
 
 static const char *const section_names[SEC_COUNT] = {
-    "", "scene", "mesh", "material", "sim", "load", "fem", "volume", "fem LABEL"};
+    "", "scene", "mesh", "material", "sim", "load", "fem", "volume", "fem LABEL", "tool"};
 
 typedef enum key {
     K_NAME,
@@ -118,6 +120,9 @@ typedef enum key {
     K_SCALE,
     K_ORIGIN,
     K_AXES,
+    K_TIP_RADIUS,
+    K_SHAFT_RADIUS,
+    K_SHAFT_LENGTH,
     K_NODE, /* first [load] key: load keys are recorded per load */
     K_KIND,
     K_VALUE,
@@ -176,6 +181,9 @@ static const struct {
     [K_HARD] = {SEC_VOLUME, "hard", false},
     [K_AIR] = {SEC_VOLUME, "air", false},
     [K_FIT_SURFACE] = {SEC_VOLUME, "fit_surface", false},
+    [K_TIP_RADIUS] = {SEC_TOOL, "tip_radius", false},
+    [K_SHAFT_RADIUS] = {SEC_TOOL, "shaft_radius", false},
+    [K_SHAFT_LENGTH] = {SEC_TOOL, "shaft_length", false},
     [K_FIX] = {SEC_VOLUME, "fix", false},
     [K_WINDOW] = {SEC_VOLUME, "window", false},
     [K_SCALE] = {SEC_VOLUME, "scale", false},
@@ -243,6 +251,8 @@ typedef struct spec {
     int64_t steps;
     /* [fem] */
     double young, poisson, density;
+    /* [tool] */
+    ftm_scene_tool tool;
     /* [fem LABEL] */
     label_fem *label_fems;
     size_t label_fem_count, label_fem_cap;
@@ -819,6 +829,18 @@ static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
     }
     case K_YOUNG:
         return scalar(p, kn, v, vlen, true, &s->young);
+    case K_TIP_RADIUS:
+    case K_SHAFT_RADIUS:
+    case K_SHAFT_LENGTH: { /* metres: a hand tool, from a needle to a finger */
+        double *out = k == K_TIP_RADIUS     ? &s->tool.tip_radius
+                      : k == K_SHAFT_RADIUS ? &s->tool.shaft_radius
+                                            : &s->tool.shaft_length;
+        if ((rc = scalar(p, kn, v, vlen, true, out)) != FTM_OK)
+            return rc;
+        if (*out > 1.0)
+            return fail_at(p, p->line, FTM_EPARSE, "%s must be at most 1 m, got %g", kn, *out);
+        return FTM_OK;
+    }
     case K_POISSON: {
         token t[1];
         int n = 0;
@@ -1715,6 +1737,7 @@ static int parse_scene(const char *text, size_t length, const char *name, const 
         scene->young = p.s.young;
         scene->poisson = p.s.poisson;
         scene->density = p.s.density;
+        scene->tool = p.s.tool;
         *out = scene;
         scene = NULL;
     }
@@ -1947,4 +1970,9 @@ int32_t ftm_scene_contacts_at(const ftm_scene *scene, double t, ftm_contact *con
         n++;
     }
     return n;
+}
+
+ftm_scene_tool ftm_scene_get_tool(const ftm_scene *scene)
+{
+    return scene ? scene->tool : (ftm_scene_tool){0, 0, 0};
 }

@@ -82,6 +82,15 @@ bool ftm_scene_fem_material(const ftm_scene *scene, double *young, double *poiss
  * ftm_fem as per-element materials). count may be NULL. */
 const ftm_label_material *ftm_scene_label_materials(const ftm_scene *scene, int32_t *count);
 
+/* The scene's [tool] (docs/scene-format.md): the instrument a trainee holds,
+ * as the client draws it [m]; 0 where the scene gives none (the client then
+ * scales its own to the mesh). The physics does not use it: the contact is
+ * the point at the tip (paper section 3.3). */
+typedef struct ftm_scene_tool {
+    double tip_radius, shaft_radius, shaft_length;
+} ftm_scene_tool;
+ftm_scene_tool ftm_scene_get_tool(const ftm_scene *scene);
+
 /* The scene's [volume] (paper section 4.2): the image, and its embedding in
  * the scene's mesh, which is then the volume's control lattice
  * (docs/scene-format.md). NULL both for a scene without one. */
