@@ -47,7 +47,7 @@ struct ftm_render {
 
 ftm_render_opts ftm_render_default_opts(void)
 {
-    return (ftm_render_opts){true, 0.0, false, true, 2, true, false, 1};
+    return (ftm_render_opts){true, 0.0, false, true, 2, true, false, 1, 0.0};
 }
 
 /* ---- shaders --------------------------------------------------------------------------- */
@@ -804,7 +804,8 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
     if (volume) {
         /* after everything opaque: the slices, back to front, then the
          * control lattice's surface as a faint cage over them */
-        ftm_volume_render_draw(r->vol, mvp, eye, o->colormap, o->cut, o->volume_step, full, w, h);
+        ftm_volume_render_draw(r->vol, mvp, eye, o->colormap, o->cut, o->volume_step,
+                               o->volume_scale, full, w, h);
         if (r->mesh && r->cage_count > 0) {
             glUseProgram(r->flat);
             glEnable(GL_BLEND);

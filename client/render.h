@@ -23,6 +23,7 @@ typedef struct ftm_render_opts {
     bool cut;             /* the volume's half nearer the eye left out: its inside shows */
     int volume_step;      /* draw every step-th slice: 1 (the paper's 9 between node
                            * planes), 2, 5 or 10 (the node planes only) */
+    double volume_scale;  /* the slices' framebuffer pixels per voxel (0: default) */
 } ftm_render_opts;
 
 ftm_render_opts ftm_render_default_opts(void);
