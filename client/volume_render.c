@@ -28,8 +28,7 @@
 /* The slices' shader, compiled in variants (llvmpipe runs a shader's every
  * line under lane masks, whether a branch is taken or not, so a variant
  * holds only what it draws): bit 0 the colour map, bit 1 a slice per
- * plane (one sample), bit 2 the
- * cut-away's section. */
+ * plane (one sample), bit 2 the cut-away's section. */
 enum { VAR_MAP = 1, VAR_ONE = 2, VAR_SECTION = 4, VARIANTS = 8 };
 
 typedef struct vol_prog {
@@ -124,8 +123,8 @@ static const char *vol_vs =
  * fragments to blend. The samples stop at the end of the lattice's box
  * along the axis and at the opaque parts (the window's depth, u_depth).
  * With a slice per plane (ONE) there is one sample, and the path and the
- * light come from the vertices. The transfer function, for intensities as on CT or
- * the phantom (air 0, soft tissue about 0.2 to 0.6, bone 1): air
+ * light come from the vertices. The transfer function, for intensities as
+ * on CT or the phantom (air 0, soft tissue about 0.2 to 0.6, bone 1): air
  * transparent; low soft tissue a faint grey; the skin (about 0.45) a warm,
  * half-transparent shell; brain-like tissue pink and faint; hard tissue
  * white and the most opaque. Boundaries (a strong gradient) are more
