@@ -1116,6 +1116,7 @@ int main(int argc, char **argv)
         a->ropts.volume = !a->o.no_volume;
         a->ropts.cut = a->o.cut;
         a->ropts.volume_step = a->o.volume_step;
+        a->ropts.volume_scale = a->o.volume_scale;
         a->ropts.colormap_full = a->o.colormap_full;
         /* window and GL first: without a display there is nothing to join for */
         rc = open_window(a) && start(a) ? run(a) : 3;

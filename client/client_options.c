@@ -93,9 +93,14 @@ static const ftm_option option_table[] = {
     FTM_OPT_FLAG("no-volume", O, no_volume, "a scene's surface, not its volume (key v)"),
     FTM_OPT_FLAG("cut", O, cut, "the volume cut away through its middle (key x)"),
     FTM_OPT_CUSTOM("volume-step", "N", O, volume_step, parse_volume_step,
-                   "a volume's planes per slice drawn: 1 (a slice per plane, 9\n"
-                   "between node planes, as the paper), 2, 5 (default), 10\n"
-                   "(key n); each slice samples its N planes: the same picture"),
+                   "a volume's planes per slice drawn: 1 (default: a slice per\n"
+                   "plane, 9 between node planes, as the paper), 2, 5, 10 (key\n"
+                   "n); each slice samples its N planes: nearly the same picture"),
+    FTM_OPT_DOUBLE("volume-scale", "PX", O, volume_scale, 0, FTM_VOLUME_SCALE_MAX,
+                   FTM_OPTION_ABOVE_LO, NULL,
+                   "a volume's slices drawn at PX pixels per voxel of its\n"
+                   "image, then scaled up over the window (default 1.5; at most\n"
+                   "the window's resolution, 16 for it)"),
     FTM_OPT_DOUBLE("colormap-full", "MM", O, colormap_full, 0, DBL_MAX, 0, "millimetres",
                    "displacement at the top of the colour map"),
     FTM_OPT_INT("swap-interval", "N", O, swap_interval, -1, 8,
@@ -140,7 +145,9 @@ int ftm_client_options_parse(int argc, char **argv, ftm_client_options *o)
 {
     *o = (ftm_client_options){.role = "observer", .session = "ftm", .server_timeout = 3.0,
                    .size = {1280, 800}, .swap_interval = 1, .max_fps = 60, .shot_contact = -1,
-                   .shot_timeout = 60.0, .volume_step = FTM_VOLUME_STEP_DEFAULT, .device = "mouse", .renderer = "model"};
+                   .shot_timeout = 60.0, .volume_step = FTM_VOLUME_STEP_DEFAULT,
+                   .volume_scale = FTM_VOLUME_SCALE_DEFAULT, .device = "mouse",
+                   .renderer = "model"};
     uint64_t given = 0;
     int rc = ftm_options_parse(&option_set, argc, argv, o, &given, NULL);
     if (rc != FTM_OPTIONS_OK)

@@ -30,6 +30,7 @@ typedef struct ftm_client_options {
     bool list; /* --list: print the domain's sessions and exit */
     bool colormap, no_colormap, region, no_hud, no_volume, cut, verbose;
     int volume_step;
+    double volume_scale; /* the slices' framebuffer pixels per voxel */
     double colormap_full; /* [m]; given in mm */
 } ftm_client_options;
 

@@ -50,7 +50,17 @@ struct ftm_render {
 
 ftm_render_opts ftm_render_default_opts(void)
 {
-    return (ftm_render_opts){true, 0.0, false, true, 2, true, false, 1, NULL, 0};
+    return (ftm_render_opts){.colormap = true,
+                             .colormap_full = 0.0,
+                             .region = false,
+                             .hud = true,
+                             .text_scale = 2,
+                             .volume = true,
+                             .cut = false,
+                             .volume_step = 1,
+                             .help = NULL,
+                             .nhelp = 0,
+                             .volume_scale = 0.0};
 }
 
 /* ---- shaders --------------------------------------------------------------------------- */
@@ -1106,7 +1116,8 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
     if (volume) {
         /* after everything opaque: the slices, back to front, then the
          * control lattice's surface as a faint cage over them */
-        ftm_volume_render_draw(r->vol, mvp, eye, o->colormap, o->cut, o->volume_step, full, w, h);
+        ftm_volume_render_draw(r->vol, mvp, eye, o->colormap, o->cut, o->volume_step,
+                               o->volume_scale, full, w, h);
         if (r->mesh && r->cage_count > 0) {
             glUseProgram(r->flat);
             glEnable(GL_BLEND);

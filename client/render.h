@@ -27,6 +27,7 @@ typedef struct ftm_render_opts {
      * window over everything; nhelp 0: none */
     const char *const *help;
     int nhelp;
+    double volume_scale;  /* the slices' framebuffer pixels per voxel (0: default) */
 } ftm_render_opts;
 
 ftm_render_opts ftm_render_default_opts(void);

@@ -19,18 +19,26 @@
 #define AIR 0.08
 /* The slices are drawn at 1 / ds of the window's resolution, over the
  * rectangle their quads cover on screen, then scaled up over the window:
- * ds (DOWNSAMPLE_MIN..MAX) keeps about PX_PER_VOXEL framebuffer pixels per
- * voxel, so that a volume drawn large costs what it costs small and still
- * shows every voxel. */
-#define DOWNSAMPLE_MIN 2
-#define DOWNSAMPLE_MAX 8
-#define PX_PER_VOXEL 1.5
+ * ds (1..DOWNSAMPLE_MAX) keeps the scale asked for (framebuffer pixels
+ * per voxel), so that a volume drawn large costs what it costs small and
+ * still shows every voxel. */
+#define DOWNSAMPLE_MAX 16
 #define REACH_MAX 4 /* blocks a slice's quads reach aside for its oblique rays */
 
-struct ftm_volume_render {
+/* The slices' shader, compiled in variants (llvmpipe runs a shader's every
+ * line under lane masks, whether a branch is taken or not, so a variant
+ * holds only what it draws): bit 0 the colour map, bit 1 a slice per
+ * plane (one sample), bit 2 the cut-away's section. */
+enum { VAR_MAP = 1, VAR_ONE = 2, VAR_SECTION = 4, VARIANTS = 8 };
+
+typedef struct vol_prog {
     GLuint prog;
-    GLint u_mvp, u_tex, u_depth, u_usedepth, u_air, u_usemap, u_full, u_eye, u_section;
+    GLint u_mvp, u_tex, u_depth, u_usedepth, u_air, u_full, u_eye;
     GLint u_planes, u_axis, u_tscale, u_voxels, u_spacing, u_trange;
+} vol_prog;
+
+struct ftm_volume_render {
+    vol_prog progs[VARIANTS]; /* (VAR_SECTION | VAR_ONE unused) */
     /* the slices are drawn into a framebuffer of 1 / ds the window's size
      * (over the part they cover), then blended over the window; the
      * window's depth is copied into a texture of the same size, which the
@@ -87,19 +95,25 @@ struct ftm_volume_render {
  * space, for the depth test of each sample (both linear across a
  * triangle). */
 static const char *vol_vs =
-    "#version 330 core\n"
     "layout(location=0) in vec3 a_pos;\n"
     "layout(location=1) in vec3 a_tex;\n"
     "layout(location=2) in float a_disp;\n"
     "layout(location=3) in vec3 a_ray;\n"
     "uniform mat4 u_mvp; uniform vec3 u_eye;\n"
+    "uniform vec3 u_axis, u_tscale, u_voxels; uniform float u_spacing;\n"
     "out vec3 v_pos; out vec3 v_tex; out float v_disp; out vec3 v_ray;\n"
     "out vec2 v_cz, v_dz;\n"
+    "out float v_density; out vec3 v_light;\n"
     "void main() {\n"
     "  v_pos = a_pos; v_tex = a_tex; v_disp = a_disp; v_ray = a_ray;\n"
     "  gl_Position = u_mvp * vec4(a_pos, 1.0);\n"
     "  v_cz = gl_Position.zw;\n"
     "  v_dz = (u_mvp * vec4(a_pos - u_eye, 0.0)).zw;\n"
+    /* a slice per plane: the path to the next plane (in voxels) and the
+     * head light's direction vary slowly across a slice, so per vertex */
+    "  float ra = max(abs(dot(a_ray, u_axis)), 0.2 * length(a_ray));\n"
+    "  v_density = length(a_ray * (u_spacing / ra) * u_tscale * u_voxels);\n"
+    "  v_light = normalize(u_eye - a_pos);\n"
     "}\n";
 
 /* Each slice stands for u_planes planes: its own and those behind it along
@@ -108,23 +122,25 @@ static const char *vol_vs =
  * same order, as drawing every plane, with fewer triangles to set up and
  * fragments to blend. The samples stop at the end of the lattice's box
  * along the axis and at the opaque parts (the window's depth, u_depth).
- * The transfer function, for intensities as on CT or the phantom (air 0,
- * soft tissue about 0.2 to 0.6, bone 1): air transparent; low soft tissue
- * a faint grey; the skin (about 0.45) a warm, half-transparent shell;
- * brain-like tissue pink and faint; hard tissue white and the most opaque.
- * Boundaries (a strong gradient) are more opaque than the inside of a
- * tissue, so the head reads as solid and the structures inside show;
- * they are lit by a head light, the gradient standing for the normal.
- * Opacities are per voxel and corrected for the path between two planes
- * along the ray, in voxels (density d): 1 - (1 - a)^d by its series to
- * a^2, for the opacities here (a <= 0.21) within 0.6 % at d = 0.5..2 and
- * 4 % at the steepest rays (d = 3.5). */
+ * With a slice per plane (ONE) there is one sample, and the path and the
+ * light come from the vertices. The transfer function, for intensities as
+ * on CT or the phantom (air 0, soft tissue about 0.2 to 0.6, bone 1): air
+ * transparent; low soft tissue a faint grey; the skin (about 0.45) a warm,
+ * half-transparent shell; brain-like tissue pink and faint; hard tissue
+ * white and the most opaque. Boundaries (a strong gradient) are more
+ * opaque than the inside of a tissue, so the head reads as solid and the
+ * structures inside show; they are lit by a head light, the gradient
+ * standing for the normal. Opacities are per voxel and corrected for the
+ * path between two planes along the ray, in voxels (density d):
+ * 1 - (1 - a)^d by its series to a^2, for the opacities here (a <= 0.21)
+ * within 0.6 % at d = 0.5..2 and 4 % at the steepest rays (d = 3.5). The
+ * cut-away's section (SECTION) is the plane's intensity, opaque. */
 static const char *vol_fs =
-    "#version 330 core\n"
     "in vec3 v_pos; in vec3 v_tex; in float v_disp; in vec3 v_ray; in vec2 v_cz, v_dz;\n"
+    "in float v_density; in vec3 v_light;\n"
     "uniform sampler3D u_tex; uniform sampler2D u_depth; uniform int u_usedepth;\n"
-    "uniform float u_air, u_full; uniform int u_usemap;\n"
-    "uniform vec3 u_eye; uniform int u_section, u_planes;\n"
+    "uniform float u_air, u_full;\n"
+    "uniform vec3 u_eye; uniform int u_planes;\n"
     "uniform vec3 u_axis, u_tscale, u_voxels; uniform float u_spacing; uniform vec2 u_trange;\n"
     "out vec4 o_color;\n"
     FTM_GL_RAMP_GLSL
@@ -133,19 +149,45 @@ static const char *vol_fs =
     "  c = mix(c, vec3(0.90, 0.50, 0.52), smoothstep(0.48, 0.58, v));\n"
     "  return mix(c, vec3(1.0, 0.96, 0.88), smoothstep(0.68, 0.95, v));\n"
     "}\n"
+    /* a sample's colour (premultiplied), its opacity for the path d */
+    "vec4 sample1(vec4 s, vec3 l, float density, float da, vec3 mapc, float map) {\n"
+    "  float v = s.r;\n"
+    "  vec3 g = s.gba - 0.5;\n"
+    "  float gm = length(g);\n"
+    "  float a = 0.05 * smoothstep(u_air, 0.40, v) + 0.16 * smoothstep(0.65, 1.0, v);\n"
+    "  a *= mix(0.12, 1.0, smoothstep(0.02, 0.15, gm));\n"
+    "#ifdef MAP\n"
+    "  vec3 c = mix(base(v), mapc, map);\n"
+    "#else\n"
+    "  vec3 c = base(v);\n"
+    "#endif\n"
+    "  float dl = gm > 1e-4 ? abs(dot(g, l)) / gm : 1.0;\n"
+    "  float d4 = dl * dl; d4 *= d4;\n"
+    "  float d24 = d4 * d4; d24 *= d24 * d4 * d4;\n"
+    "  c = c * mix(1.0, 0.4 + 0.6 * dl, smoothstep(0.01, 0.06, gm)) +\n"
+    "      vec3(0.12 * d24 * smoothstep(0.02, 0.1, gm));\n"
+    "  a = density * a * (1.0 - da * a);\n"
+    "  return vec4(c * a, a);\n"
+    "}\n"
     "void main() {\n"
     "  float map = 0.0; vec3 mapc = vec3(0.0);\n"
-    "  if (u_usemap != 0) {\n"
-    "    float t = v_disp / u_full;\n"
-    "    mapc = ramp(t); map = 0.85 * smoothstep(0.03, 0.25, t);\n"
-    "  }\n"
-    "  if (u_section != 0) {\n"
-    "    float v = texture(u_tex, v_tex).r;\n"
-    "    if (v < u_air) discard;\n"
-    "    vec3 c = mix(vec3(min(1.0, 1.15 * v)), base(v), 0.3);\n"
-    "    o_color = vec4(mix(c, mapc, map), 1.0);\n"
-    "    return;\n"
-    "  }\n"
+    "#ifdef MAP\n"
+    "  float tm = v_disp / u_full;\n"
+    "  mapc = ramp(tm); map = 0.85 * smoothstep(0.03, 0.25, tm);\n"
+    "#endif\n"
+    "#if defined(SECTION)\n"
+    "  float v = texture(u_tex, v_tex).r;\n"
+    "  if (v < u_air) discard;\n"
+    "  vec3 c = mix(vec3(min(1.0, 1.15 * v)), base(v), 0.3);\n"
+    "  o_color = vec4(mix(c, mapc, map), 1.0);\n"
+    "#elif defined(ONE)\n"
+    "  if (u_usedepth != 0 &&\n"
+    "      (2.0 * texelFetch(u_depth, ivec2(gl_FragCoord.xy), 0).r - 1.0) * v_cz.y <= v_cz.x)\n"
+    "    discard;\n"
+    "  vec4 s = texture(u_tex, v_tex);\n"
+    "  if (s.r < u_air) discard;\n"
+    "  o_color = sample1(s, v_light, v_density, 0.5 * (v_density - 1.0), mapc, map);\n"
+    "#else\n"
     /* one plane further along the ray: in texture coordinates, in voxels */
     "  float ra = max(abs(dot(v_ray, u_axis)), 0.2 * length(v_ray));\n"
     "  vec3 st = v_ray * (u_spacing / ra) * u_tscale;\n"
@@ -171,23 +213,12 @@ static const char *vol_fs =
     "  vec3 t = v_tex;\n"
     "  for (int k = 0; k < planes; k++, t += st) {\n"
     "    vec4 s = texture(u_tex, t);\n"
-    "    float v = s.r;\n"
-    "    if (v < u_air) continue;\n"
-    "    vec3 g = s.gba - 0.5;\n"
-    "    float gm = length(g);\n"
-    "    float a = 0.05 * smoothstep(u_air, 0.40, v) + 0.16 * smoothstep(0.65, 1.0, v);\n"
-    "    a *= mix(0.12, 1.0, smoothstep(0.02, 0.15, gm));\n"
-    "    vec3 c = mix(base(v), mapc, map);\n"
-    "    float dl = gm > 1e-4 ? abs(dot(g, l)) / gm : 1.0;\n"
-    "    float d4 = dl * dl; d4 *= d4;\n"
-    "    float d24 = d4 * d4; d24 *= d24 * d4 * d4;\n"
-    "    c = c * mix(1.0, 0.4 + 0.6 * dl, smoothstep(0.01, 0.06, gm)) +\n"
-    "        vec3(0.12 * d24 * smoothstep(0.02, 0.1, gm));\n"
-    "    a = density * a * (1.0 - da * a);\n"
-    "    acc += (1.0 - acc.a) * vec4(c * a, a);\n"
+    "    if (s.r < u_air) continue;\n"
+    "    acc += (1.0 - acc.a) * sample1(s, l, density, da, mapc, map);\n"
     "  }\n"
     "  if (acc.a <= 0.0) discard;\n"
     "  o_color = acc;\n"
+    "#endif\n"
     "}\n";
 
 /* The slices' framebuffer over the window: premultiplied colour, scaled up
@@ -204,15 +235,78 @@ static const char *comp_fs =
     "uniform sampler2D u_tex; uniform vec2 u_origin, u_scale; out vec4 o_color;\n"
     "void main() { o_color = texture(u_tex, (gl_FragCoord.xy - u_origin) * u_scale); }\n";
 
+/* Compiles variant `var` of the slices' shader into vr->progs[var]. */
+static int compile_variant(ftm_volume_render *vr, int var, ftm_error *err)
+{
+    char head[128];
+    snprintf(head, sizeof head, "#version 330 core\n%s%s%s", var & VAR_MAP ? "#define MAP\n" : "",
+             var & VAR_ONE ? "#define ONE\n" : "", var & VAR_SECTION ? "#define SECTION\n" : "");
+    size_t hn = strlen(head), vn = strlen(vol_vs), fn = strlen(vol_fs);
+    char *vs = malloc(hn + vn + 1), *fs = malloc(hn + fn + 1);
+    if (!vs || !fs) {
+        free(vs);
+        free(fs);
+        return ftm_gl_fail(err, "volume", "out of memory");
+    }
+    memcpy(vs, head, hn);
+    memcpy(vs + hn, vol_vs, vn + 1);
+    memcpy(fs, head, hn);
+    memcpy(fs + hn, vol_fs, fn + 1);
+    vol_prog *p = &vr->progs[var];
+    p->prog = ftm_gl_program(vs, fs, "volume shader", err);
+    free(vs);
+    free(fs);
+    if (!p->prog)
+        return FTM_EINVAL;
+    static const struct {
+        const char *name;
+        size_t at;
+    } uni[] = {
+        {"u_mvp", offsetof(vol_prog, u_mvp)},
+        {"u_tex", offsetof(vol_prog, u_tex)},
+        {"u_depth", offsetof(vol_prog, u_depth)},
+        {"u_usedepth", offsetof(vol_prog, u_usedepth)},
+        {"u_air", offsetof(vol_prog, u_air)},
+        {"u_full", offsetof(vol_prog, u_full)},
+        {"u_eye", offsetof(vol_prog, u_eye)},
+        {"u_planes", offsetof(vol_prog, u_planes)},
+        {"u_axis", offsetof(vol_prog, u_axis)},
+        {"u_tscale", offsetof(vol_prog, u_tscale)},
+        {"u_voxels", offsetof(vol_prog, u_voxels)},
+        {"u_spacing", offsetof(vol_prog, u_spacing)},
+        {"u_trange", offsetof(vol_prog, u_trange)},
+    };
+    for (size_t i = 0; i < sizeof uni / sizeof uni[0]; i++)
+        *(GLint *)((char *)p + uni[i].at) = glGetUniformLocation(p->prog, uni[i].name);
+    return FTM_OK;
+}
+
+static void delete_programs(ftm_volume_render *vr)
+{
+    for (int v = 0; v < VARIANTS; v++)
+        if (vr->progs[v].prog)
+            glDeleteProgram(vr->progs[v].prog);
+    if (vr->comp)
+        glDeleteProgram(vr->comp);
+}
+
 int ftm_volume_render_create(ftm_volume_render **out, ftm_error *err)
 {
     ftm_volume_render *vr = calloc(1, sizeof *vr);
     if (!vr)
         return ftm_gl_fail(err, "volume", "out of memory");
-    vr->prog = ftm_gl_program(vol_vs, vol_fs, "volume shader", err);
-    vr->comp = vr->prog ? ftm_gl_program(comp_vs, comp_fs, "volume composite shader", err) : 0;
+    for (int v = 0; v < VARIANTS; v++) {
+        if ((v & VAR_SECTION) && (v & VAR_ONE))
+            continue;
+        if (compile_variant(vr, v, err)) {
+            delete_programs(vr);
+            free(vr);
+            return FTM_EINVAL;
+        }
+    }
+    vr->comp = ftm_gl_program(comp_vs, comp_fs, "volume composite shader", err);
     if (!vr->comp) {
-        glDeleteProgram(vr->prog);
+        delete_programs(vr);
         free(vr);
         return FTM_EINVAL;
     }
@@ -221,28 +315,6 @@ int ftm_volume_render_create(ftm_volume_render **out, ftm_error *err)
     vr->comp_scale = glGetUniformLocation(vr->comp, "u_scale");
     glGenVertexArrays(1, &vr->comp_vao);
     vr->depth_copy = true;
-    static const struct {
-        const char *name;
-        size_t at;
-    } uni[] = {
-        {"u_mvp", offsetof(ftm_volume_render, u_mvp)},
-        {"u_tex", offsetof(ftm_volume_render, u_tex)},
-        {"u_depth", offsetof(ftm_volume_render, u_depth)},
-        {"u_usedepth", offsetof(ftm_volume_render, u_usedepth)},
-        {"u_air", offsetof(ftm_volume_render, u_air)},
-        {"u_usemap", offsetof(ftm_volume_render, u_usemap)},
-        {"u_full", offsetof(ftm_volume_render, u_full)},
-        {"u_eye", offsetof(ftm_volume_render, u_eye)},
-        {"u_section", offsetof(ftm_volume_render, u_section)},
-        {"u_planes", offsetof(ftm_volume_render, u_planes)},
-        {"u_axis", offsetof(ftm_volume_render, u_axis)},
-        {"u_tscale", offsetof(ftm_volume_render, u_tscale)},
-        {"u_voxels", offsetof(ftm_volume_render, u_voxels)},
-        {"u_spacing", offsetof(ftm_volume_render, u_spacing)},
-        {"u_trange", offsetof(ftm_volume_render, u_trange)},
-    };
-    for (size_t i = 0; i < sizeof uni / sizeof uni[0]; i++)
-        *(GLint *)((char *)vr + uni[i].at) = glGetUniformLocation(vr->prog, uni[i].name);
     glGenVertexArrays(1, &vr->vao);
     glGenBuffers(1, &vr->vbo);
     glGenBuffers(1, &vr->ibo);
@@ -298,8 +370,7 @@ void ftm_volume_render_destroy(ftm_volume_render *vr)
     glDeleteFramebuffers(1, &vr->zfbo);
     glDeleteTextures(1, &vr->fbo_color);
     glDeleteTextures(1, &vr->fbo_depth);
-    glDeleteProgram(vr->prog);
-    glDeleteProgram(vr->comp);
+    delete_programs(vr);
     free(vr);
 }
 
@@ -683,12 +754,15 @@ static int build_quads(ftm_volume_render *vr, int a, int step, int reach, int32_
     return 0;
 }
 
-/* The slices' framebuffer (colour) and the depth copy's, fw x fh; false
- * when they cannot be made. */
-static bool framebuffer(ftm_volume_render *vr, int fw, int fh)
+/* The slices' framebuffer (colour) and the depth copy's, at least need_w x
+ * need_h (grown in steps of 64 pixels, never shrunk); false when they
+ * cannot be made. */
+static bool framebuffer(ftm_volume_render *vr, int need_w, int need_h)
 {
-    if (vr->fbo && vr->fw == fw && vr->fh == fh)
+    if (vr->fbo && vr->fw >= need_w && vr->fh >= need_h)
         return true;
+    int fw = need_w > vr->fw ? (need_w + 63) / 64 * 64 : vr->fw;
+    int fh = need_h > vr->fh ? (need_h + 63) / 64 * 64 : vr->fh;
     if (!vr->fbo) {
         glGenFramebuffers(1, &vr->fbo);
         glGenFramebuffers(1, &vr->zfbo);
@@ -787,7 +861,7 @@ static int32_t choose_planes(ftm_volume_render *vr, int a, const double e[3], bo
 }
 
 void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3 eye, bool colormap,
-                            bool cut, int step, double full, int w, int h)
+                            bool cut, int step, double scale, double full, int w, int h)
 {
     if (!ftm_volume_render_active(vr))
         return;
@@ -876,57 +950,70 @@ void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3
         glBindVertexArray(0);
         return;
     }
-    /* ds: PX_PER_VOXEL framebuffer pixels per voxel along the rectangle's
-     * diagonal, taken as the tissue's box's */
+    /* ds: window pixels per framebuffer pixel (along each axis), so that
+     * the framebuffer has `scale` pixels per voxel along the rectangle's
+     * diagonal, taken as the tissue's box's; 1 (the window's resolution) to
+     * DOWNSAMPLE_MAX */
     double vox = 0, diag = hypot(box[2] - box[0], box[3] - box[1]);
     for (int k = 0; k < 3; k++) {
         double nv = (vr->ohi[k] - vr->olo[k]) / vr->voxel[k];
         vox += nv * nv;
     }
-    int ds = (int)floor(diag / (sqrt(vox) * PX_PER_VOXEL));
-    ds = ds < DOWNSAMPLE_MIN ? DOWNSAMPLE_MIN : ds > DOWNSAMPLE_MAX ? DOWNSAMPLE_MAX : ds;
-    /* the rectangle on the framebuffer's pixel grid, a pixel of margin for
-     * the bilinear scaling; a pixel of the framebuffer per ds x ds of the
-     * window's: a viewport transform after mvp */
+    if (!(scale > 0) || !isfinite(scale))
+        scale = FTM_VOLUME_SCALE_DEFAULT;
+    double ds = diag / (sqrt(vox) * scale);
+    ds = !(ds > 1) ? 1 : ds > DOWNSAMPLE_MAX ? DOWNSAMPLE_MAX : ds;
+    /* the window's rectangle, with a framebuffer pixel of margin for the
+     * bilinear scaling, drawn over rw x rh framebuffer pixels: a viewport
+     * transform after mvp */
     int rect[4];
-    rect[0] = (int)fmax(0.0, (floor(box[0] / ds) - 1) * ds);
-    rect[1] = (int)fmax(0.0, (floor(box[1] / ds) - 1) * ds);
-    rect[2] = (int)fmin((double)w, (ceil(box[2] / ds) + 1) * ds);
-    rect[3] = (int)fmin((double)h, (ceil(box[3] / ds) + 1) * ds);
-    int fw = (w + DOWNSAMPLE_MIN - 1) / DOWNSAMPLE_MIN, fh = (h + DOWNSAMPLE_MIN - 1) / DOWNSAMPLE_MIN;
-    int rw = (rect[2] - rect[0] + ds - 1) / ds, rh = (rect[3] - rect[1] + ds - 1) / ds;
-    bool low = framebuffer(vr, fw, fh) && rw <= fw && rh <= fh;
+    rect[0] = (int)fmax(0.0, floor(box[0] - ds));
+    rect[1] = (int)fmax(0.0, floor(box[1] - ds));
+    rect[2] = (int)fmin((double)w, ceil(box[2] + ds));
+    rect[3] = (int)fmin((double)h, ceil(box[3] + ds));
+    const int rx = rect[2] - rect[0], ry = rect[3] - rect[1];
+    int rw = (int)ceil(rx / ds), rh = (int)ceil(ry / ds);
+    rw = rw < 1 ? 1 : rw > rx ? rx : rw;
+    rh = rh < 1 ? 1 : rh > ry ? ry : rh;
+    bool low = framebuffer(vr, rw, rh);
     float m[16];
     memcpy(m, mvp, sizeof m);
     if (low) {
-        double sx = (double)w / (ds * rw), sy = (double)h / (ds * rh);
-        double tx = (double)(w - 2 * rect[0]) / (ds * rw) - 1;
-        double ty = (double)(h - 2 * rect[1]) / (ds * rh) - 1;
+        double sx = (double)w / rx, sy = (double)h / ry;
+        double tx = (double)(w - 2 * rect[0]) / rx - 1, ty = (double)(h - 2 * rect[1]) / ry - 1;
         for (int col = 0; col < 4; col++) {
             m[4 * col] = (float)(sx * mvp[4 * col] + tx * mvp[4 * col + 3]);
             m[4 * col + 1] = (float)(sy * mvp[4 * col + 1] + ty * mvp[4 * col + 3]);
         }
     }
-    glUseProgram(vr->prog);
-    glUniformMatrix4fv(vr->u_mvp, 1, GL_FALSE, m);
-    glUniform1f(vr->u_air, (float)AIR);
-    glUniform1i(vr->u_usemap, colormap ? 1 : 0);
-    glUniform1f(vr->u_full, (float)(full > 0 ? full : 1e-3));
-    glUniform3f(vr->u_eye, (float)eye.x, (float)eye.y, (float)eye.z);
-    glUniform1i(vr->u_planes, step);
-    glUniform3f(vr->u_axis, a == 0 ? 1.0f : 0.0f, a == 1 ? 1.0f : 0.0f, a == 2 ? 1.0f : 0.0f);
-    glUniform3f(vr->u_tscale, (float)(1 / vr->tsz[0]), (float)(1 / vr->tsz[1]),
-                (float)(1 / vr->tsz[2]));
-    glUniform3f(vr->u_voxels, (float)vr->nvox[0], (float)vr->nvox[1], (float)vr->nvox[2]);
-    glUniform1f(vr->u_spacing, (float)spacing);
+    /* a slice per plane: one sample */
+    const bool one = step == 1;
+    const int var = (colormap ? VAR_MAP : 0) | (one ? VAR_ONE : 0);
+    const vol_prog *progs[2] = {&vr->progs[var],
+                                &vr->progs[(colormap ? VAR_MAP : 0) | VAR_SECTION]};
     /* the planes' texture coordinates along a, a hair wider for rounding */
     double t0 = (vr->lo[a] - vr->tlo[a]) / vr->tsz[a], t1 = (vr->hi[a] - vr->tlo[a]) / vr->tsz[a];
     double eps = 1e-4 * (t1 - t0);
-    glUniform2f(vr->u_trange, (float)(t0 - eps), (float)(t1 + eps));
+    for (int i = 0; i < 2; i++) {
+        const vol_prog *p = progs[i];
+        glUseProgram(p->prog);
+        glUniformMatrix4fv(p->u_mvp, 1, GL_FALSE, m);
+        glUniform1f(p->u_air, (float)AIR);
+        glUniform1f(p->u_full, (float)(full > 0 ? full : 1e-3));
+        glUniform3f(p->u_eye, (float)eye.x, (float)eye.y, (float)eye.z);
+        glUniform1i(p->u_planes, step);
+        glUniform3f(p->u_axis, a == 0 ? 1.0f : 0.0f, a == 1 ? 1.0f : 0.0f, a == 2 ? 1.0f : 0.0f);
+        glUniform3f(p->u_tscale, (float)(1 / vr->tsz[0]), (float)(1 / vr->tsz[1]),
+                    (float)(1 / vr->tsz[2]));
+        glUniform3f(p->u_voxels, (float)vr->nvox[0], (float)vr->nvox[1], (float)vr->nvox[2]);
+        glUniform1f(p->u_spacing, (float)spacing);
+        glUniform2f(p->u_trange, (float)(t0 - eps), (float)(t1 + eps));
+        glUniform1i(p->u_tex, 1);
+        glUniform1i(p->u_depth, 2);
+        glUniform1i(p->u_usedepth, low && vr->depth_copy ? 1 : 0);
+    }
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_3D, vr->tex);
-    glUniform1i(vr->u_tex, 1);
-    glUniform1i(vr->u_depth, 2);
     glEnable(GL_BLEND);
     glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA); /* premultiplied */
     if (low) {
@@ -936,7 +1023,7 @@ void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3
         glClear(GL_DEPTH_BUFFER_BIT);
         if (vr->depth_copy) {
             glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-            glBlitFramebuffer(rect[0], rect[1], rect[0] + ds * rw, rect[1] + ds * rh, 0, 0, rw, rh,
+            glBlitFramebuffer(rect[0], rect[1], rect[2], rect[3], 0, 0, rw, rh,
                               GL_DEPTH_BUFFER_BIT, GL_NEAREST);
             if (glGetError() != GL_NO_ERROR) /* another depth format, multisampling */
                 vr->depth_copy = false;
@@ -949,19 +1036,16 @@ void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3
         glActiveTexture(GL_TEXTURE2);
         glBindTexture(GL_TEXTURE_2D, vr->fbo_depth);
         glActiveTexture(GL_TEXTURE1);
-        glUniform1i(vr->u_usedepth, vr->depth_copy ? 1 : 0);
-    } else {
-        glUniform1i(vr->u_usedepth, 0); /* the window's depth test, per slice */
     }
     glDepthMask(GL_FALSE);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, vr->ibo);
-    glUniform1i(vr->u_section, 0);
+    glUseProgram(progs[0]->prog);
     if (nd)
         glMultiDrawElements(GL_TRIANGLES, vr->dcount, GL_UNSIGNED_INT, vr->doff, nd);
     /* a cut-away's face, the middle plane, last and opaque: the section
      * through the tissue, as a scan viewer shows it */
     if (face >= 0 && vr->count[face]) {
-        glUniform1i(vr->u_section, 1);
+        glUseProgram(progs[1]->prog);
         glDrawElements(GL_TRIANGLES, vr->count[face], GL_UNSIGNED_INT,
                        (const void *)(uintptr_t)(vr->first[face] * sizeof(GLuint)));
     }
@@ -975,7 +1059,8 @@ void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3
         glBindTexture(GL_TEXTURE_2D, vr->fbo_color); /* (unit 1) */
         glUniform1i(vr->comp_tex, 1);
         glUniform2f(vr->comp_origin, (float)rect[0], (float)rect[1]);
-        glUniform2f(vr->comp_scale, 1.0f / (float)(ds * fw), 1.0f / (float)(ds * fh));
+        glUniform2f(vr->comp_scale, (float)rw / ((float)rx * (float)vr->fw),
+                    (float)rh / ((float)ry * (float)vr->fh));
         glBindVertexArray(vr->comp_vao);
         glDrawArrays(GL_TRIANGLES, 0, 3);
         glBindTexture(GL_TEXTURE_2D, 0);

@@ -21,7 +21,11 @@
 #include <stdbool.h>
 
 /* The planes a slice stands for unless told (ftm-client --volume-step). */
-#define FTM_VOLUME_STEP_DEFAULT 5
+#define FTM_VOLUME_STEP_DEFAULT 1
+/* The slices' framebuffer pixels per voxel of the image unless told
+ * (ftm-client --volume-scale), and the most asked for. */
+#define FTM_VOLUME_SCALE_DEFAULT 1.5
+#define FTM_VOLUME_SCALE_MAX 16.0
 
 typedef struct ftm_volume_render ftm_volume_render;
 
@@ -45,14 +49,18 @@ void ftm_volume_render_update(ftm_volume_render *vr, const double *pos, int32_t 
  * opaque parts, which hide what is behind them: blending and depth writes
  * as they were after; the slices go through a framebuffer of lower
  * resolution over the part of the window they cover, blended over the
- * window). colormap: tint by displacement magnitude, full [m] at the top of
- * the map. cut: the planes on the eye's side of the box's middle plane are
- * left out, and the middle plane is drawn opaque, so the section through
- * the middle faces the eye (a cut-away: the inside of a head shows). step:
+ * window: scale of its pixels per voxel of the image, along the diagonal,
+ * at most the window's; 0 or less: FTM_VOLUME_SCALE_DEFAULT). colormap:
+ * tint by displacement magnitude, full [m] at the top of the map. cut:
+ * the planes on the eye's side of the box's middle plane are left out, and
+ * the middle plane is drawn opaque, so the section through the middle
+ * faces the eye (a cut-away: the inside of a head shows). step:
  * each slice samples step planes, 1..10 (anything else is taken as 1): a
  * slice per plane (the paper's drawing) at 1, a tenth of the slices at 10,
- * the same picture. */
+ * nearly the same picture (a slice per plane is the cheapest per plane
+ * sampled under llvmpipe: one sample per fragment, no loop). */
 void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3 eye,
-                            bool colormap, bool cut, int step, double full, int w, int h);
+                            bool colormap, bool cut, int step, double scale, double full, int w,
+                            int h);
 
 #endif

@@ -30,6 +30,8 @@ refused "--volume-step must be 1, 2, 5 or 10, a divisor of the 10 slices per lat
     --volume-step 3
 refused "--volume-step must be 1, 2, 5 or 10, a divisor of the 10 slices per lattice cell (got '20')" \
     --volume-step 20
+refused "--volume-scale must be a number in (0, 16] (got '0')" --volume-scale 0
+refused "--volume-scale must be a number in (0, 16] (got '17')" --volume-scale 17
 refused "--screenshot-contact must be an integer in 0..9223372036854775807 (got '-5')" \
     --screenshot-contact -5
 refused "--screenshot-tick must be an integer in 0..9223372036854775807 (got ' 7')" \

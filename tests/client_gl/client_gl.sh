@@ -20,11 +20,13 @@
 #   volume: the built-in `head` scene (a head phantom embedded in a 10x10x10
 #       control lattice, paper 4.2): the client draws the volume (the middle
 #       of the view drawn, the corners background; unlike its --no-volume
-#       surface); drawn with a slice per plane (--volume-step 1) and a slice
-#       per 10 planes (key n), the picture is the default's (no banding);
-#       once a scripted trainee (head.bot) has pressed the top for 200
-#       ticks, the pixels around the contact changed, and a slice per plane
-#       draws the dent as the default does; cut away (--cut, key x) it shows
+#       surface); the default (a slice per plane, drawn at a lower
+#       resolution and scaled up) draws what the same slices draw at the
+#       window's resolution (--volume-scale 16), and a slice per 10 planes
+#       (key n) the default's picture (no banding); once a scripted trainee
+#       (head.bot) has pressed the top, the pixels around the contact
+#       changed, and the window's resolution and a slice per 5 planes draw
+#       the dent as the default does; cut away (--cut, key x) it shows
 #       something other than the whole volume.
 #   reset: a trainee's mouse probe (xdotool) pressed into the tissue,
 #       the camera orbited, the wheel back out: the contact releases in
@@ -250,16 +252,18 @@ volume)
     "$FTM_PNG_CHECK" drawn "$dir/before.png" $cx $cy 60 || fail "png check: volume not drawn"
     "$FTM_PNG_CHECK" compare "$dir/surface.png" "$dir/before.png" $cx $cy 60 ||
         fail "png check: the volume looks like the surface"
-    # a slice per plane (--volume-step 1, the paper's drawing) and a slice per
-    # 10 planes (key n): each slice samples the planes it stands for, so the
-    # picture is the default's (5), with no banding
-    client all --volume-step 1 --screenshot "$dir/all.png" --screenshot-timeout 40 ||
-        fail "client (--volume-step 1) exited with $?"
-    "$FTM_PNG_CHECK" similar "$dir/all.png" "$dir/before.png" $cx $cy 60 6 ||
-        fail "png check: the default slices do not draw what all planes draw"
+    # the default (a slice per plane, drawn at 1.5 pixels per voxel and
+    # scaled up) against the same slices at the window's resolution
+    # (--volume-scale 16): the same picture, a little softer
+    client ref --volume-scale 16 --screenshot "$dir/ref.png" --screenshot-timeout 40 ||
+        fail "client (--volume-scale 16) exited with $?"
+    "$FTM_PNG_CHECK" similar "$dir/ref.png" "$dir/before.png" $cx $cy 60 4 ||
+        fail "png check: the scaled-up slices do not draw the window-resolution picture"
+    # a slice per 10 planes (key n): each slice samples the planes it stands
+    # for, so the picture is the default's, with no banding
     client coarse --volume-step 10 --screenshot "$dir/coarse.png" --screenshot-timeout 40 ||
         fail "client (--volume-step 10) exited with $?"
-    "$FTM_PNG_CHECK" similar "$dir/all.png" "$dir/coarse.png" $cx $cy 60 6 ||
+    "$FTM_PNG_CHECK" similar "$dir/before.png" "$dir/coarse.png" $cx $cy 60 6 ||
         fail "png check: a slice per 10 planes does not draw what all planes draw"
     timeout 100 "$FTM_BOT" --role trainee --script "$FTM_DATA/head.bot" $common --id 11 \
         --duration 80 >"$dir/bot.out" 2>"$dir/bot.err" &
@@ -274,11 +278,17 @@ volume)
     [ $# -eq 2 ] || fail "no contact pixel in the client's screenshot line"
     "$FTM_PNG_CHECK" compare "$dir/before.png" "$dir/after.png" "$1" "$2" 40 ||
         fail "png check: the volume did not change at the contact"
-    # deformed too (the slices sample through the deformation's Jacobian)
-    client afterall --volume-step 1 --screenshot "$dir/afterall.png" --screenshot-contact $settled \
-        --screenshot-timeout 60 || fail "client (deformed, --volume-step 1) exited with $?"
-    "$FTM_PNG_CHECK" similar "$dir/afterall.png" "$dir/after.png" "$1" "$2" 60 6 ||
-        fail "png check: the default slices do not draw the dent as all planes do"
+    # deformed too: at the window's resolution, and a slice per 5 planes
+    # (sampling through the deformation's Jacobian)
+    client afterref --volume-scale 16 --screenshot "$dir/afterref.png" \
+        --screenshot-contact $settled --screenshot-timeout 60 ||
+        fail "client (deformed, --volume-scale 16) exited with $?"
+    "$FTM_PNG_CHECK" similar "$dir/afterref.png" "$dir/after.png" "$1" "$2" 60 4 ||
+        fail "png check: the scaled-up slices do not draw the dent as the window's resolution does"
+    client after5 --volume-step 5 --screenshot "$dir/after5.png" --screenshot-contact $settled \
+        --screenshot-timeout 60 || fail "client (deformed, --volume-step 5) exited with $?"
+    "$FTM_PNG_CHECK" similar "$dir/after.png" "$dir/after5.png" "$1" "$2" 60 6 ||
+        fail "png check: a slice per 5 planes does not draw the dent as all planes do"
     # the cut-away (key x): the section through the middle, not the outside
     client cut --cut --screenshot "$dir/cut.png" --screenshot-contact 200 \
         --screenshot-timeout 60 || fail "client (cut away) exited with $?"
