@@ -816,7 +816,8 @@ static void participant_label(const ftm_client_view *v, const ftm_client_probe *
 static int probe_labels(const ftm_render *r, const ftm_client_view *v, const float mvp[16],
                         int w, int h, float px, float below, float *buf)
 {
-    int n = 0;
+    int n = 0, placed = 0;
+    float boxes[16][4]; /* labels placed so far: x0, y0, x1, y1 */
     for (int32_t i = 0; i < v->nprobes; i++) {
         const ftm_client_probe *p = &v->probes[i];
         if (!p->have_hip)
@@ -833,7 +834,7 @@ static int probe_labels(const ftm_render *r, const ftm_client_view *v, const flo
             continue; /* behind the eye */
         const float sx = (float)((c[0] / c[3] * 0.5 + 0.5) * w);
         const float sy = (float)((0.5 - c[1] / c[3] * 0.5) * h);
-        if (sx < -200 || sx > (float)w + 200 || sy < -50 || sy > (float)h + 50)
+        if (sx < -200 || sx > (float)w + 200 || sy > (float)h + 50) /* above: slides down */
             continue;
         char label[FTM_WIRE_DISPLAY_MAX + 16];
         participant_label(v, p, label, sizeof label);
@@ -841,8 +842,24 @@ static int probe_labels(const ftm_render *r, const ftm_client_view *v, const flo
         float col[4] = {0, 0, 0, 1};
         ftm_render_participant_color(p->participant, col);
         const float tw = (float)strlen(label) * FTM_FONT_CELL_W * px;
-        /* not under the HUD: down the shaft to just below it */
-        const float by = fmaxf(sy - FTM_FONT_CELL_H * px - 4, below + 6), bx = sx + 6;
+        /* not under the HUD: down the shaft to just below it; not over
+         * another's label: a line further down */
+        const float lh = FTM_FONT_CELL_H * px + 6, bx = sx + 6;
+        float by = fmaxf(sy - FTM_FONT_CELL_H * px - 4, below + 6);
+        for (int moved = 1; moved;) {
+            moved = 0;
+            for (int k = 0; k < placed; k++)
+                if (bx < boxes[k][2] && bx + tw > boxes[k][0] && by < boxes[k][3] &&
+                    by + lh > boxes[k][1]) {
+                    by = boxes[k][3] + 1;
+                    moved = 1;
+                }
+        }
+        if (placed < 16) {
+            boxes[placed][0] = bx - 3, boxes[placed][1] = by - 2;
+            boxes[placed][2] = bx + tw + 3, boxes[placed][3] = by + lh - 2;
+            placed++;
+        }
         const float bg[4] = {0.05f, 0.06f, 0.08f, 0.65f};
         n += text_box(buf + (size_t)n * TEXT_FLOATS, bx - 3, by - 2, tw + 6,
                       FTM_FONT_CELL_H * px + 4, bg);

@@ -32,15 +32,15 @@ shot() { # file, then client options
     cat "$dir/shot.out"
 }
 
-# 1. the default scene, one trainee pressing 6 mm off-centre: colour map of
-#    displacement and the HUD, seen by an observer
+# 1. the default scene, one trainee pressing 6 mm off-centre: the tissue as
+#    drawn by default, its name label and the HUD, seen by an observer
 session_start press default
 "$B/bot/ftm-bot" --role trainee --script tests/client_gl/hold.bot $common --id 11 \
     --duration 50 >/dev/null 2>&1 &
 pids="$pids $!"
 shot docs/img/client-press.png --role observer --screenshot-contact 300
 # 2. the same contact with the active BFS region drawn (key b)
-shot docs/img/client-region.png --role observer --region --screenshot-contact 300
+shot docs/img/client-region.png --role observer --region --colormap --screenshot-contact 300
 # 6. a trainee's own view: its mouse probe where it starts, the instrument,
 #    the line and shadow to the surface below and its height on the HUD;
 #    the bot's instrument pressing beside it
