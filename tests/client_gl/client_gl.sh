@@ -68,7 +68,7 @@ client() { # name, then client options
     n=$1; shift
     : >"$dir/$n.xauth"
     ASAN_OPTIONS=$client_asan timeout 90 xvfb-run -a -f "$dir/$n.xauth" -s "-screen 0 1280x800x24" \
-        "$FTM_CLIENT" $common --size 960x600 --log "$dir/$n.log" "$@" >"$dir/$n.out" 2>"$dir/$n.err"
+        "$FTM_CLIENT" $common --size "${size:-960x600}" --log "$dir/$n.log" "$@" >"$dir/$n.out" 2>"$dir/$n.err"
 }
 start_server() { # extra server options...
     # no `timeout` wrapper: $server must be the server itself (SIGKILL below);
@@ -125,8 +125,13 @@ instructor)
     timeout 60 "$FTM_BOT" --role trainee --script "$FTM_DATA/hold.bot" $common --id 11 \
         --duration 5.5 --log "$dir/bot11.csv" >"$dir/bot.out" 2>"$dir/bot.err" &
     bpid=$!
-    client instr --role instructor --id 21 --commands "$FTM_DATA/instructor.cmds" \
+    # (in a 640 px window: the instructor's HUD, the widest, wraps and fits)
+    size=640x480 client instr --role instructor --id 21 --commands "$FTM_DATA/instructor.cmds" \
         --screenshot "$dir/instr.png" --screenshot-after 7 || fail "instructor client exited with $?"
+    top=$(sed -n 's/^screenshot .* view-top \([0-9]*\) .*/\1/p' "$dir/instr.out")
+    [ -n "$top" ] || fail "no view top in the instructor's screenshot line"
+    "$FTM_PNG_CHECK" hudfit "$dir/instr.png" "$top" ||
+        fail "png check: the instructor's HUD is cut off at 640 px"
     wait $bpid || fail "trainee bot exited with $?"
     grep -q "tissue from tick [0-9]* (instructor 21): stiffness 100 N/m (was 50)" "$dir/server.log" ||
         fail "the server did not apply the instructor's stiffness"

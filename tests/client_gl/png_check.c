@@ -24,6 +24,9 @@
  *       of it have the shaft's steel hue (the chromaticity of the colour
  *       render.h gives it, within 0.03) and are lit (R + G + B > 180), which
  *       neither the background nor the tissue (its colour or the map) is.
+ *   client-png-check hudfit IMAGE.png Y1
+ *       the HUD's text (R + G + B >= 600) in rows 0..Y1 is there (200+
+ *       pixels) and none of it is in the last 4 columns: nothing cut off.
  *   client-png-check hue IMAGE.png X0 Y0 X1 Y1 R G B
  *       at least 12 lit pixels (R + G + B > 150) of the colour (R, G, B),
  *       0..1, by chromaticity within 0.04, in the box: a participant's name
@@ -317,6 +320,38 @@ out:
 /* the shaft's colour, as client/render.h gives it (FTM_SHAFT_R, _G, _B) */
 static const double shaft_rgb[3] = {0.66, 0.70, 0.76};
 
+/* The HUD fits the window: its text (bright pixels) in rows 0..y1 is
+ * there, and none of it touches the last 4 columns (text running past the
+ * right edge would). */
+static int hudfit(const char *path, int y1)
+{
+    image a;
+    if (load(path, &a))
+        return 2;
+    long text = 0, edge = 0;
+    for (int y = 0; y <= y1 && y < a.h; y++)
+        for (int x = 0; x < a.w; x++) {
+            const unsigned char *p = a.rgb + ((size_t)y * a.w + x) * 3;
+            if (p[0] + p[1] + p[2] < 600)
+                continue;
+            text++;
+            edge += x >= a.w - 4;
+        }
+    free(a.rgb);
+    printf("%s: %dx%d, HUD rows 0..%d: %ld bright pixels, %ld at the right edge\n", path, a.w,
+           a.h, y1, text, edge);
+    if (text < 200) {
+        printf("FAIL: no HUD text\n");
+        return 1;
+    }
+    if (edge > 0) {
+        printf("FAIL: the HUD's text runs past the right edge\n");
+        return 1;
+    }
+    printf("PASS\n");
+    return 0;
+}
+
 /* Pixels of colour (r, g, b) (0..1; by chromaticity, bright ones) in the
  * box x0..x1, y0..y1: a participant's name label drawn in its colour. */
 static int hue_box(const char *path, int x0, int y0, int x1, int y1, double r, double g, double b)
@@ -415,6 +450,8 @@ static int panel(const char *path, int cx, int cy, int r)
 
 int main(int argc, char **argv)
 {
+    if (argc == 4 && strcmp(argv[1], "hudfit") == 0)
+        return hudfit(argv[2], atoi(argv[3]));
     if (argc == 10 && strcmp(argv[1], "hue") == 0)
         return hue_box(argv[2], atoi(argv[3]), atoi(argv[4]), atoi(argv[5]), atoi(argv[6]),
                        atof(argv[7]), atof(argv[8]), atof(argv[9]));
@@ -437,6 +474,7 @@ int main(int argc, char **argv)
                     "       client-png-check similar A.png B.png X Y R M\n"
                     "       client-png-check steel IMAGE.png X Y R\n"
                     "       client-png-check hue IMAGE.png X0 Y0 X1 Y1 R G B\n"
+                    "       client-png-check hudfit IMAGE.png Y1\n"
                     "       client-png-check panel IMAGE.png X Y R\n");
     return 2;
 }
