@@ -176,6 +176,55 @@ static void expect_refused(const char *sim_keys, const char *extra, const char *
         fail_msg("message '%s' lacks the file or '%s'", err.message, part);
 }
 
+/* fixed_label: every node of the label's elements held (issue 31, item 4) */
+static void test_fixed_label(void **state)
+{
+    (void)state;
+    char text[1024];
+    ftm_scene *scene = NULL;
+    ftm_error err;
+    snprintf(text, sizeof text,
+             "[mesh]\nfile = %s\nfixed_label = 9\n"
+             "[material]\nmass = 0.01\nstiffness = 100\n",
+             msh_path);
+    assert_int_equal(ftm_scene_parse(text, strlen(text), "bar.scene", &scene, &err), FTM_OK);
+    const ftm_mesh *m = ftm_scene_mesh(scene);
+    int32_t fixed = 0;
+    for (int32_t i = 0; i < ftm_mesh_node_count(m); i++) {
+        const ftm_vec3 x = ftm_mesh_rest_position(m, i);
+        /* label 9 is the hexahedron x 1..2: its 8 nodes, the shared face too */
+        assert_int_equal(ftm_mesh_fixed(m, i), x.x >= 1.0);
+        fixed += ftm_mesh_fixed(m, i);
+    }
+    assert_int_equal(fixed, 8);
+    ftm_scene_destroy(scene);
+    /* both labels, on one line: every node */
+    snprintf(text, sizeof text,
+             "[mesh]\nfile = %s\nfixed_label = 5 9\n"
+             "[material]\nmass = 0.01\nstiffness = 100\n",
+             msh_path);
+    assert_int_equal(ftm_scene_parse(text, strlen(text), "bar.scene", &scene, &err), FTM_OK);
+    m = ftm_scene_mesh(scene);
+    for (int32_t i = 0; i < ftm_mesh_node_count(m); i++)
+        assert_true(ftm_mesh_fixed(m, i));
+    ftm_scene_destroy(scene);
+    /* a label no element carries: refused, naming the line */
+    snprintf(text, sizeof text,
+             "[mesh]\nfile = %s\nfixed_label = 7\n"
+             "[material]\nmass = 0.01\nstiffness = 100\n",
+             msh_path);
+    assert_int_equal(ftm_scene_parse(text, strlen(text), "bar.scene", &scene, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "bar.scene:3: fixed_label: no element of the mesh has "
+                                        "label 7 (0 tetrahedra, 2 hexahedra)"));
+    snprintf(text, sizeof text,
+             "[mesh]\nfile = %s\nfixed_label = 0\n"
+             "[material]\nmass = 0.01\nstiffness = 100\n",
+             msh_path);
+    assert_int_not_equal(ftm_scene_parse(text, strlen(text), "bar.scene", &scene, &err), FTM_OK);
+    assert_non_null(strstr(err.message, "bar.scene:3: fixed_label"));
+    printf("fixed_label = 0: %s\n", err.message);
+}
+
 static void test_refusals(void **state)
 {
     (void)state;
@@ -243,6 +292,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_labels_in_series),
         cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_fixed_label),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }

@@ -104,6 +104,26 @@ int ftm_mesh_builder_set_fixed(ftm_mesh_builder *b, int32_t node, bool fixed)
     return FTM_OK;
 }
 
+int32_t ftm_mesh_builder_fix_label(ftm_mesh_builder *b, int32_t label)
+{
+    if (!b || label < 1)
+        return 0;
+    int32_t found = 0;
+    for (int32_t e = 0; b->tet_labels && e < b->tet_count; e++)
+        if (b->tet_labels[e] == label) {
+            for (int k = 0; k < 4; k++)
+                b->nodes[b->tets[4 * (size_t)e + k]].fixed = true;
+            found++;
+        }
+    for (int32_t e = 0; b->hex_labels && e < b->hex_count; e++)
+        if (b->hex_labels[e] == label) {
+            for (int k = 0; k < 8; k++)
+                b->nodes[b->hexes[8 * (size_t)e + k]].fixed = true;
+            found++;
+        }
+    return found;
+}
+
 static bool finite3(ftm_vec3 v)
 {
     return isfinite(v.x) && isfinite(v.y) && isfinite(v.z);

@@ -88,6 +88,7 @@ typedef enum key {
     K_FIXED_FACES,
     K_FIXED_NODES,
     K_FIXED_BOX,
+    K_FIXED_LABEL,
     K_MASS,
     K_DAMPING,
     K_STIFFNESS,
@@ -153,6 +154,7 @@ static const struct {
     [K_CLASS_SCALE] = {SEC_MESH, "class_scale", false},
     [K_FIXED_FACES] = {SEC_MESH, "fixed_faces", false},
     [K_FIXED_NODES] = {SEC_MESH, "fixed_nodes", true},
+    [K_FIXED_LABEL] = {SEC_MESH, "fixed_label", true},
     [K_FIXED_BOX] = {SEC_MESH, "fixed_box", true},
     [K_MASS] = {SEC_MATERIAL, "mass", false},
     [K_DAMPING] = {SEC_MATERIAL, "damping", false},
@@ -244,6 +246,8 @@ typedef struct spec {
     size_t fixed_node_count, fixed_node_cap;
     fixed_box *fixed_boxes;
     size_t fixed_box_count, fixed_box_cap;
+    fixed_index *fixed_labels; /* fixed_label: input = the label */
+    size_t fixed_label_count, fixed_label_cap;
     /* [material] */
     ftm_material_def material;
     /* [sim] */
@@ -676,6 +680,26 @@ static int set_mesh_key(parser *p, key k, const char *kn, const char *v, size_t 
         }
         if (count == 0)
             return fail_at(p, p->line, FTM_EPARSE, "fixed_nodes: expected node indices");
+        return FTM_OK;
+    }
+    case K_FIXED_LABEL: { /* element labels, >= 1; checked against the mesh once built */
+        const char *cur = v, *end = v + vlen;
+        token one;
+        int count = 0;
+        while (ftm_text_token(&cur, end, &one.s, &one.n)) {
+            int64_t label = 0;
+            if ((rc = integer(p, kn, one, 1, INT32_MAX, &label)) != FTM_OK)
+                return rc;
+            fixed_index *fi = push((void **)&s->fixed_labels, &s->fixed_label_count,
+                                   &s->fixed_label_cap, sizeof *fi);
+            if (!fi)
+                return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
+            fi->input = label;
+            fi->line = p->line;
+            count++;
+        }
+        if (count == 0)
+            return fail_at(p, p->line, FTM_EPARSE, "fixed_label: expected element labels");
         return FTM_OK;
     }
     case K_FIXED_BOX: {
@@ -1362,15 +1386,24 @@ static bool in_box(const fixed_box *b, ftm_vec3 x)
            x.z >= b->lo[2] && x.z <= b->hi[2];
 }
 
-/* fixed_nodes and fixed_box, on top of what the generator fixed. Node
- * indices were checked against the node count already. */
-static void apply_fixed(const parser *p, ftm_mesh_builder *b)
+/* fixed_nodes, fixed_label and fixed_box, on top of what the generator
+ * fixed. Node indices were checked against the node count already; a label
+ * that no element carries is an error (a typo would otherwise hold nothing). */
+static int apply_fixed(const parser *p, ftm_mesh_builder *b)
 {
     const spec *s = &p->s;
     for (size_t i = 0; i < s->fixed_node_count; i++)
         ftm_mesh_builder_set_fixed(b, (int32_t)s->fixed_nodes[i].input, true);
+    for (size_t i = 0; i < s->fixed_label_count; i++)
+        if (ftm_mesh_builder_fix_label(b, (int32_t)s->fixed_labels[i].input) == 0)
+            return fail_at(p, s->fixed_labels[i].line, FTM_EINVAL,
+                           "fixed_label: no element of the mesh has label %lld (%d tetrahedra, "
+                           "%d hexahedra)",
+                           (long long)s->fixed_labels[i].input,
+                           (int)ftm_mesh_builder_tetrahedron_count(b),
+                           (int)ftm_mesh_builder_hexahedron_count(b));
     if (!s->fixed_box_count)
-        return;
+        return FTM_OK;
     for (int32_t i = 0, n = ftm_mesh_builder_node_count(b); i < n; i++) {
         ftm_vec3 x;
         ftm_mesh_builder_node_position(b, i, &x);
@@ -1378,6 +1411,7 @@ static void apply_fixed(const parser *p, ftm_mesh_builder *b)
             if (in_box(&s->fixed_boxes[j], x))
                 ftm_mesh_builder_set_fixed(b, i, true);
     }
+    return FTM_OK;
 }
 
 /* The mesh, and for the volume generator the image and its embedding. */
@@ -1401,8 +1435,9 @@ static int build_mesh(const parser *p, ftm_scene *scene)
             }
         }
     }
+    if (rc == FTM_OK)
+        rc = apply_fixed(p, b);
     if (rc == FTM_OK) {
-        apply_fixed(p, b);
         ftm_error sub;
         ftm_error_clear(&sub);
         ftm_mesh_build_def bd = ftm_default_mesh_build_def();
@@ -1637,6 +1672,7 @@ static void free_spec(spec *s)
     free(s->volume_file);
     free(s->fixed_nodes);
     free(s->fixed_boxes);
+    free(s->fixed_labels);
     free(s->loads);
     free(s->label_fems);
 }

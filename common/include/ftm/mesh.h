@@ -74,6 +74,10 @@ int ftm_mesh_builder_node_position(const ftm_mesh_builder *builder, int32_t node
 /* Fixes or frees a node added so far: boundary conditions chosen after a
  * generator or loader has made the nodes. */
 int ftm_mesh_builder_set_fixed(ftm_mesh_builder *builder, int32_t node, bool fixed);
+/* Fixes every node of every element labelled `label` (>= 1): a part of the
+ * body held in place, the skull around a brain, a bone under a muscle.
+ * Returns how many elements carry the label (0: none; nothing changed). */
+int32_t ftm_mesh_builder_fix_label(ftm_mesh_builder *builder, int32_t label);
 
 /* Builds the mesh; the builder may be reused or destroyed afterwards.
  * Fails (FTM_EINVAL, message in err) on an empty mesh. */
