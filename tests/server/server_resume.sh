@@ -68,6 +68,15 @@ for id in 11 12; do
         fail "bot $id did not count the resume"
 done
 line=$(grep "resumed lesson l.rec at tick" c.err) || fail "the server did not say it resumed"
+# the fast path: the ticks up to the last keyframe taken from the frames,
+# only those after it stepped (fewer than a keyframe interval, 1 s)
+! grep -q "the fast resume gives up\|did not reach the lesson's last keyframe" c.err ||
+    fail "the fast resume gave up: $(grep 'fast resume' c.err)"
+kt=$(echo "$line" | sed -n 's/.* taken from the frames, the tissue from the keyframe of tick \([0-9]*\), ticks \([0-9]*\)\.\.\([0-9]*\) stepped and checked)$/\1 \2 \3/p')
+[ -n "$kt" ] || fail "the resume does not say which ticks it stepped: $line"
+set -- $kt
+[ "$1" -gt 0 ] && [ "$2" -eq $(( $1 + 1 )) ] && [ $(( $3 - $1 )) -le $(( rate + rate / 5 )) ] ||
+    fail "stepped ticks $2..$3 after the keyframe of tick $1: not the last second only"
 t1=$(echo "$line" | sed 's/.* at tick \([0-9]*\) hash.*/\1/')
 h1=$(echo "$line" | sed 's/.* hash \([0-9a-f]*\) .*/\1/')
 # T: the newest tick a bot had from the killed server (its resync line)
