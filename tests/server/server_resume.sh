@@ -12,6 +12,9 @@
 #            kept (one report with both trainees, seen before and after);
 #            the lesson is two files, l.rec and l.rec.1, which one --replay
 #            checks whole, to the resumed server's final tick and hash;
+#            the ticks up to the lesson's last keyframe are taken from its
+#            frames, only those after it stepped (the log line says which);
+#   full:    --resume-full re-runs the whole lesson to the same tick and hash;
 #   ended:   that lesson, ended cleanly by the resumed server, is refused by
 #            --resume (status 3, saying so);
 #   cut:     the killed server's file cut 5 bytes short inside its last
@@ -120,6 +123,15 @@ grep -q "ftm-server --resume: l.rec: the lesson ended cleanly at tick [0-9]* (it
     fail "no message for an ended lesson: $(cat e.err)"
 [ ! -e l.rec.2 ] || fail "an ended lesson got a file l.rec.2"
 echo "ended: $(tail -1 e.err)"
+
+# full: --resume-full re-runs the whole killed lesson's physics to the same
+# tick and hash as the fast path
+cp k.rec full.rec
+timeout 60 "$FTM_SERVER" $common --resume full.rec --resume-full --duration 0.3 >f.out 2>f.err ||
+    fail "--resume-full failed: $(tail -2 f.err)"
+grep -q "resumed lesson full.rec at tick $t1 hash $h1 .* ticks 1\.\.$t1 stepped, --resume-full)" f.err ||
+    fail "--resume-full did not go on at tick $t1 hash $h1: $(grep 'resumed lesson' f.err)"
+echo "full: $(sed -n 's/.*(1 file, \(.*\))$/\1/p' f.err)"
 
 # cut: k.rec 5 bytes short, then a copy with a bit flipped in a middle chunk
 size=$(wc -c <k.rec)
