@@ -37,8 +37,6 @@ typedef struct feed {
     uint64_t kf_tick;   /* the keyframe before, while emulating */
     bool moved;         /* a frame with contacts since the tissue was last reset */
     uint64_t resets;    /* s->tk.resets when moved was last cleared */
-    bool gave_up;       /* the fast path cannot go on: f->why says why */
-    uint64_t emulated;  /* ticks taken from the frames */
 } feed;
 
 /* The longest run of ticks the stability guard keeps more than one substep
@@ -48,6 +46,7 @@ typedef struct feed {
  * need; the frames do not say). */
 #define GUARD_EPISODE_MIN 1024u
 
+/* The fast path cannot go on (feed_lesson then says so and gives status 4). */
 static void give_up(feed *f, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void give_up(feed *f, const char *fmt, ...)
 {
@@ -55,7 +54,6 @@ static void give_up(feed *f, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(f->why, sizeof f->why, fmt, ap);
     va_end(ap);
-    f->gave_up = true;
 }
 
 /* Every tick up to `tick` that has no frame of its own (an idle tick, or
@@ -70,7 +68,6 @@ static void run_to(server *s, feed *f, uint64_t tick)
         char why[512] = "";
         if (srv_emulate_tick(s, NULL, why, sizeof why))
             give_up(f, "%s", why);
-        f->emulated++;
     }
 }
 
@@ -185,7 +182,6 @@ static void feed_frame(server *s, feed *f, const ftm_wire_tick *t)
         char why[512] = "";
         if (srv_emulate_tick(s, t, why, sizeof why))
             give_up(f, "%s", why);
-        f->emulated++;
         f->frames++;
         f->moved |= t->contact_count > 0;
         return;
@@ -283,7 +279,8 @@ static void end_inputs(server *s, const feed *f)
  * end or the first problem (said on stderr). upto: at damage (a checksum
  * that differs, a file cut short), stop there with a note instead: always
  * for --upto-damage; for --resume, only in the lesson's last file. Returns
- * 0 or the exit status 1. */
+ * 0 or the exit status 1; 4 where --resume's fast path gave up (said on
+ * stderr). */
 static int feed_lesson(server *s, feed *f, bool upto)
 {
     ftm_record_header h;

@@ -15,6 +15,8 @@
 #            the ticks up to the lesson's last keyframe are taken from its
 #            frames, only those after it stepped (the log line says which);
 #   full:    --resume-full re-runs the whole lesson to the same tick and hash;
+#   giveup:  a lesson whose keyframes are too far apart for the fast path is
+#            re-run whole, with a note saying why;
 #   ended:   that lesson, ended cleanly by the resumed server, is refused by
 #            --resume (status 3, saying so);
 #   cut:     the killed server's file cut 5 bytes short inside its last
@@ -132,6 +134,20 @@ timeout 60 "$FTM_SERVER" $common --resume full.rec --resume-full --duration 0.3 
 grep -q "resumed lesson full.rec at tick $t1 hash $h1 .* ticks 1\.\.$t1 stepped, --resume-full)" f.err ||
     fail "--resume-full did not go on at tick $t1 hash $h1: $(grep 'resumed lesson' f.err)"
 echo "full: $(sed -n 's/.*(1 file, \(.*\))$/\1/p' f.err)"
+
+# giveup: keyframes further apart than the guard's shortest episode (1024
+# ticks): the fast path cannot tell the report's unstable ticks, says so
+# and re-runs the whole lesson (no trainee: idle ticks, quick)
+timeout -s KILL 3 "$FTM_SERVER" $common --rate 1000 --keyframe-every 1.2 --record g.rec \
+    >g.out 2>g.err
+[ -s g.rec ] || fail "no recording g.rec"
+timeout 60 "$FTM_SERVER" $common --resume g.rec --duration 0.2 >gr.out 2>gr.err ||
+    fail "--resume of g.rec failed: $(tail -2 gr.err)"
+grep -q "the fast resume gives up: keyframes at ticks 0 and 1[0-9]* are more than 1024 ticks apart.*the whole lesson is re-run instead" gr.err ||
+    fail "the fast resume did not give up on keyframes 1200 ticks apart: $(grep 'resume' gr.err)"
+grep -q "resumed lesson g.rec at tick [0-9]* hash [0-9a-f]* (.* ticks 1\.\.[0-9]* stepped, --resume-full)" gr.err ||
+    fail "g.rec was not re-run whole: $(grep 'resumed lesson' gr.err)"
+echo "giveup: $(sed -n 's/.*(1 file, \(.*\))$/\1/p' gr.err)"
 
 # cut: k.rec 5 bytes short, then a copy with a bit flipped in a middle chunk
 size=$(wc -c <k.rec)
