@@ -10,6 +10,7 @@
 
 #include <inttypes.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -27,7 +28,48 @@ typedef struct feed {
     bool gap;            /* stopped at a segment begun after a gap */
     uint64_t lesson_start_ns;
     uint64_t cut_at; /* --resume: the last file's unfinished chunk begins here; 0: none */
+    /* --resume's fast path: up to the lesson's last keyframe (its file and
+     * entry) the server's own state is taken on from the frames without the
+     * physics (emulate), the tissue then restored from that keyframe */
+    bool fast, emulate, have_key;
+    uint32_t key_segment;
+    uint64_t key_index, key_tick;
+    uint64_t kf_tick;   /* the keyframe before, while emulating */
+    bool moved;         /* a frame with contacts since the tissue was last reset */
+    uint64_t resets;    /* s->tk.resets when moved was last cleared */
 } feed;
+
+/* The longest run of ticks the stability guard keeps more than one substep
+ * for, once it raises them: sim.c's FTM_SUBSTEP_RETRY clean steps before it
+ * halves them. Keyframes at most this far apart, each with one substep,
+ * mean one substep on every tick between (what the report's unstable marks
+ * need; the frames do not say). */
+#define GUARD_EPISODE_MIN 1024u
+
+/* The fast path cannot go on (feed_lesson then says so and gives status 4). */
+static void give_up(feed *f, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void give_up(feed *f, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(f->why, sizeof f->why, fmt, ap);
+    va_end(ap);
+}
+
+/* Every tick up to `tick` that has no frame of its own (an idle tick, or
+ * ticks before an input). */
+static void run_to(server *s, feed *f, uint64_t tick)
+{
+    while (s->tk.tick < tick && !f->why[0]) {
+        if (!f->emulate) {
+            srv_run_tick(s);
+            continue;
+        }
+        char why[512] = "";
+        if (srv_emulate_tick(s, NULL, why, sizeof why))
+            give_up(f, "%s", why);
+    }
+}
 
 /* An input entry, handled at the tick it was handled (every tick before it
  * is run: the server runs every tick, idle or not). */
@@ -38,8 +80,9 @@ static void feed_input(server *s, feed *f, const ftm_record_entry *e)
                  e->tick, s->tk.tick);
         return;
     }
-    while (s->tk.tick < e->tick)
-        srv_run_tick(s);
+    run_to(s, f, e->tick);
+    if (f->why[0])
+        return;
     f->inputs++;
     /* --inputs --record: as the loop records them (server.c), before handling */
     srv_record_entry(s, true, e->kind, e->sender, e->payload, e->size, e->gone, e->lost);
@@ -68,6 +111,61 @@ static void feed_input(server *s, feed *f, const ftm_record_entry *e)
     else if (e->kind == FTM_WIRE_PROBE_INPUT)
         srv_on_probe_input(s, &rx);
     ftm_wire_received_free(&rx);
+    if (s->tk.resets != f->resets) { /* the instructor's reset: the tissue at rest */
+        f->resets = s->tk.resets;
+        f->moved = false;
+    }
+}
+
+/* A keyframe while emulating: each says the guard kept one substep (see
+ * GUARD_EPISODE_MIN) and no failed step reset the tissue; the lesson's last
+ * is restored, and the physics runs from there. */
+static void feed_keyframe(server *s, feed *f, const ftm_wire_keyframe *k, bool last)
+{
+    run_to(s, f, k->tick);
+    if (f->why[0])
+        return;
+    if (k->tick != s->tk.tick) {
+        give_up(f, "keyframe of tick %" PRIu64 " at tick %" PRIu64, k->tick, s->tk.tick);
+        return;
+    }
+    if (k->tick - f->kf_tick > GUARD_EPISODE_MIN) {
+        give_up(f, "keyframes at ticks %" PRIu64 " and %" PRIu64 " are more than %u ticks apart: "
+                "whether the stability guard substepped between them is not known",
+                f->kf_tick, k->tick, GUARD_EPISODE_MIN);
+        return;
+    }
+    if (k->has_mode && k->mode.substeps > 1) {
+        give_up(f, "tick %" PRIu64 ": the stability guard had %d substeps (its ticks are marked "
+                "unstable in the report; the frames do not say which)", k->tick,
+                (int)k->mode.substeps);
+        return;
+    }
+    if (k->count == 0 && f->moved) {
+        give_up(f, "tick %" PRIu64 ": the tissue back at rest without the instructor's reset "
+                "(a failed step reset it?)", k->tick);
+        return;
+    }
+    f->kf_tick = k->tick;
+    if (!last)
+        return;
+    srv_tick *tk = &s->tk;
+    ftm_error err = {0, ""};
+    if (ftm_replay_set_tissue(&tk->mat, tk->sim, k->has_tissue ? &k->tissue : NULL, &err) ||
+        ftm_sim_load_state(tk->sim, k->tick, k->depth, k->nodes, k->positions, k->previous,
+                           k->count, k->contacts, k->contact_count, k->has_mode ? &k->mode : NULL,
+                           &err)) {
+        give_up(f, "keyframe at tick %" PRIu64 ": %s", k->tick, err.message);
+        return;
+    }
+    if (ftm_sim_hash(tk->sim) != k->state_hash) {
+        give_up(f, "keyframe at tick %" PRIu64 " restores to another hash", k->tick);
+        return;
+    }
+    /* the collision grid was left at rest: the keyframe's nodes moved */
+    ftm_collide_update(tk->collide, ftm_sim_positions(tk->sim), k->nodes, k->count);
+    f->emulate = false;
+    f->key_tick = k->tick;
 }
 
 /* A recorded tick frame: its depth is this run's for that tick; with
@@ -76,9 +174,18 @@ static void feed_frame(server *s, feed *f, const ftm_wire_tick *t)
 {
     if (t->tick <= s->tk.tick)
         return; /* the frame of a tick sent again before a reset */
-    while (s->tk.tick + 1 < t->tick)
-        srv_run_tick(s);
+    run_to(s, f, t->tick - 1);
+    if (f->why[0])
+        return;
     s->tk.depth = t->depth;
+    if (f->emulate) {
+        char why[512] = "";
+        if (srv_emulate_tick(s, t, why, sizeof why))
+            give_up(f, "%s", why);
+        f->frames++;
+        f->moved |= t->contact_count > 0;
+        return;
+    }
     srv_run_tick(s);
     f->frames++;
     if (s->o.inputs)
@@ -117,6 +224,17 @@ static void feed_entry(server *s, feed *f, const ftm_record_entry *e)
         f->end_tick = e->tick;
     if (e->incoming) {
         feed_input(s, f, e);
+        return;
+    }
+    if (f->emulate && e->kind == FTM_WIRE_KEYFRAME) {
+        ftm_wire_msg m;
+        ftm_error err = {0, ""};
+        if (ftm_wire_decode(e->kind, e->payload, e->size, &f->lim, &m, &err)) {
+            snprintf(f->why, sizeof f->why, "%s", err.message);
+            return;
+        }
+        feed_keyframe(s, f, &m.u.keyframe, e->segment == f->key_segment && e->index == f->key_index);
+        ftm_wire_msg_free(&m);
         return;
     }
     const bool status = e->kind == FTM_WIRE_STATUS && !f->leaving;
@@ -161,7 +279,8 @@ static void end_inputs(server *s, const feed *f)
  * end or the first problem (said on stderr). upto: at damage (a checksum
  * that differs, a file cut short), stop there with a note instead: always
  * for --upto-damage; for --resume, only in the lesson's last file. Returns
- * 0 or the exit status 1. */
+ * 0 or the exit status 1; 4 where --resume's fast path gave up (said on
+ * stderr). */
 static int feed_lesson(server *s, feed *f, bool upto)
 {
     ftm_record_header h;
@@ -224,7 +343,12 @@ static int feed_lesson(server *s, feed *f, bool upto)
         }
         feed_entry(s, f, &e);
     }
-    if (f->why[0] && !f->gap) {
+    if (f->why[0] && !f->gap && f->fast) {
+        fprintf(stderr, "ftm-server --resume: note: %s: entry %" PRIu64 ": the fast resume "
+                "gives up: %s; the whole lesson is re-run instead\n",
+                f->segment ? f->seg_path : f->path, e.index, f->why);
+        rc = 4;
+    } else if (f->why[0] && !f->gap) {
         fprintf(stderr, "ftm-server %s: %s: entry %" PRIu64 " (byte %" PRIu64 "): %s\n", f->mode,
                 f->segment ? f->seg_path : f->path, e.index, e.offset, f->why);
         rc = 1;
@@ -268,6 +392,25 @@ int srv_replay_inputs(server *s)
     return rc;
 }
 
+/* The lesson's last keyframe, where --resume's physics starts (none: the
+ * whole lesson is re-run). Read up to the end or the first damage. */
+static void find_last_keyframe(feed *f)
+{
+    ftm_record_header h;
+    ftm_record_reader *rd = NULL;
+    ftm_error err = {0, ""};
+    if (ftm_record_open(f->path, &h, &rd, &err))
+        return;
+    ftm_record_entry e;
+    while (ftm_record_next(rd, &e, &err) > 0)
+        if (!e.incoming && e.kind == FTM_WIRE_KEYFRAME) {
+            f->have_key = true;
+            f->key_segment = e.segment;
+            f->key_index = e.index;
+        }
+    ftm_record_close_reader(rd);
+}
+
 /* --resume: the lesson's inputs re-run through this server, as --replay's
  * second pass runs them (every recorded frame's contacts and hash checked),
  * to its last recorded tick: the tissue, the tick counter, the participants
@@ -275,7 +418,9 @@ int srv_replay_inputs(server *s)
  * crashed server had them there. Not a lesson its server ended (its final
  * LEAVING status), nor one with a gap. Returns 0 (s->rec has the lesson's
  * start and the next file's number), or the exit status 3 after saying why
- * not. */
+ * not; 4 when the fast path (up to the last keyframe from the frames, see
+ * feed_keyframe) gave up, said on stderr: the caller runs it again with
+ * --resume-full. */
 int srv_resume_rerun(server *s)
 {
     feed f = {.path = s->o.resume, .mode = "--resume",
@@ -283,8 +428,15 @@ int srv_resume_rerun(server *s)
     s->pub.replaying = true;
     s->tk.period_ns = 1e9 / s->o.rate;
     const uint64_t t0 = srv_now();
+    if (!s->o.resume_full) {
+        find_last_keyframe(&f);
+        f.fast = f.emulate = f.have_key;
+        f.resets = s->tk.resets;
+    }
     int rc = feed_lesson(s, &f, false);
     s->pub.replaying = false;
+    if (rc == 4)
+        return 4;
     if (rc == 0 && f.gap) {
         fprintf(stderr, "ftm-server --resume: %s: not resumed\n", f.why);
         return 3;
@@ -303,17 +455,35 @@ int srv_resume_rerun(server *s)
                 "start a new lesson\n", f.path);
         return 3;
     }
+    if (f.emulate) {
+        fprintf(stderr, "ftm-server --resume: note: %s: the fast resume did not reach the "
+                "lesson's last keyframe; the whole lesson is re-run instead\n", f.path);
+        return 4;
+    }
     while (s->tk.tick < f.end_tick) /* idle ticks after the last entry's frame */
         srv_run_tick(s);
     s->rec.lesson_start_ns = f.lesson_start_ns;
     s->rec.segment = f.segment + 1;
     s->rec.resumed_tick = s->tk.tick;
     s->rec.previous_cut = f.cut_at;
-    srv_log(s, "info",
-            "resumed lesson %s at tick %" PRIu64 " hash %016" PRIx64 " (%u file%s, %" PRIu64
-            " inputs and %" PRIu64 " tick frames re-run and checked in %.2f s)",
-            f.path, s->tk.tick, ftm_sim_hash(s->tk.sim), f.segment + 1, f.segment ? "s" : "",
-            f.inputs, f.frames, (double)(srv_now() - t0) * 1e-9);
+    const double took = (double)(srv_now() - t0) * 1e-9;
+    if (f.fast)
+        srv_log(s, "info",
+                "resumed lesson %s at tick %" PRIu64 " hash %016" PRIx64 " (%u file%s, %" PRIu64
+                " inputs and %" PRIu64 " tick frames in %.2f s: ticks 1..%" PRIu64
+                " taken from the frames, the tissue from the keyframe of tick %" PRIu64
+                ", ticks %" PRIu64 "..%" PRIu64 " stepped and checked)",
+                f.path, s->tk.tick, ftm_sim_hash(s->tk.sim), f.segment + 1,
+                f.segment ? "s" : "", f.inputs, f.frames, took, f.key_tick, f.key_tick,
+                f.key_tick + 1, s->tk.tick);
+    else
+        srv_log(s, "info",
+                "resumed lesson %s at tick %" PRIu64 " hash %016" PRIx64 " (%u file%s, %" PRIu64
+                " inputs and %" PRIu64 " tick frames re-run and checked in %.2f s: ticks 1..%"
+                PRIu64 " stepped%s)",
+                f.path, s->tk.tick, ftm_sim_hash(s->tk.sim), f.segment + 1,
+                f.segment ? "s" : "", f.inputs, f.frames, took, s->tk.tick,
+                s->o.resume_full ? ", --resume-full" : "");
     /* what follows is this process's: its own counts, its clock */
     srv_publish *pb = &s->pub;
     pb->frames = pb->heartbeats = pb->idle_ticks = pb->keyframes = 0;

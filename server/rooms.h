@@ -137,6 +137,7 @@ typedef struct srv_tick {
     double max_push;       /* longest push a probe imposes [m]; INFINITY: none */
     uint64_t push_limited; /* probe-ticks whose push was shortened to max_push */
     uint64_t unstable, missed_ticks;
+    uint64_t resets; /* srv_reset calls: a failed step's or the instructor's */
     ftm_contact *contacts;
     ftm_wire_reaction *reactions;
     int32_t contact_cap;
@@ -277,6 +278,7 @@ void srv_on_control(server *s, ftm_wire_received *rx);
 int srv_tick_setup(server *s); /* 0, or the exit status */
 void srv_tick_free(server *s);
 void srv_run_tick(server *s);
+int srv_emulate_tick(server *s, const ftm_wire_tick *rec, char *why, size_t why_size);
 void srv_reset(server *s, bool publish_now);
 void srv_run_due_ticks(server *s);
 void srv_log_limits(server *s);

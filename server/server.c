@@ -546,6 +546,16 @@ int ftm_server_run(const ftm_server_def *def)
     int rc = setup(s);
     if (rc == 0 && s->o.resume) {
         rc = srv_resume_rerun(s); /* says why not */
+        if (rc == 4) { /* the fast path gave up (said why): the whole lesson */
+            teardown(s);
+            memset(s, 0, sizeof *s);
+            s->o = *def;
+            s->o.resume_full = true;
+            s->log_append = true;
+            rc = setup(s);
+            if (rc == 0)
+                rc = srv_resume_rerun(s);
+        }
         if (rc && s->resume_if_unended) { /* --resume-recent: a new lesson instead */
             srv_log(s, "warn", "--resume-recent: %s not resumed: a new lesson", s->o.resume);
             teardown(s);

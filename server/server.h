@@ -53,6 +53,7 @@ typedef struct ftm_server_def {
     /* resuming a lesson (docs/server.md, Resuming a lesson) */
     const char *resume;   /* --resume FILE: the lesson's first file */
     double resume_recent; /* --resume-recent S (with --record-dir); 0: off */
+    bool resume_full;     /* --resume-full: the whole lesson's physics re-run */
 } ftm_server_def;
 
 /* The defaults, as --help states them. */

@@ -130,6 +130,9 @@ static const ftm_option options[] = {
                    "resume the lesson recorded in FILE (and FILE.1, ...) that its\n"
                    "server did not end: re-run it to its last tick, go on from\n"
                    "there and record on to its next file FILE.N"),
+    FTM_OPT_FLAG("resume-full", D, resume_full,
+                 "(resume) re-run the whole lesson's physics, not only the ticks\n"
+                 "after its last keyframe"),
     FTM_OPT_DOUBLE("resume-recent", "S", D, resume_recent, 0, SECONDS, FTM_OPTION_ABOVE_LO,
                    "seconds",
                    "(record-dir) resume the newest lesson there if its server did\n"
@@ -198,6 +201,8 @@ static int check_combined(const ftm_server_def *o)
         why = "--resume goes with a session, without --record or --record-dir (the lesson is "
               "recorded on to its next file), --replay, --inputs, --offline, --check or "
               "--resume-recent";
+    else if (o->resume_full && !o->resume && !(o->resume_recent > 0))
+        why = "--resume-full goes with --resume or --resume-recent";
     else if (o->resume_recent > 0 && !o->record_dir)
         why = "--resume-recent goes with --record-dir (the lessons it looks at)";
     if (why)

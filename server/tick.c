@@ -115,9 +115,91 @@ static ftm_vec3 probe_push(server *s, const participant *p, int k, probe *pr)
     return pen;
 }
 
+/* How far p (rest coordinates) lies outside rest triangle tr, in
+ * barycentric units; 0 inside. */
+static double outside(server *s, int32_t tr, ftm_vec3 p)
+{
+    const int32_t *v = ftm_mesh_triangles(s->mesh) + 3 * tr;
+    ftm_vec3 X0 = ftm_mesh_rest_position(s->mesh, v[0]);
+    ftm_vec3 e1 = v_sub(ftm_mesh_rest_position(s->mesh, v[1]), X0);
+    ftm_vec3 e2 = v_sub(ftm_mesh_rest_position(s->mesh, v[2]), X0), d = v_sub(p, X0);
+    double a = v_dot(e1, e1), b = v_dot(e1, e2), c = v_dot(e2, e2);
+    double p1 = v_dot(d, e1), p2 = v_dot(d, e2), det = a * c - b * b;
+    if (!(det > 0.0))
+        return INFINITY;
+    double w1 = (c * p1 - b * p2) / det, w2 = (a * p2 - b * p1) / det, w0 = 1.0 - w1 - w2;
+    double o = 0.0;
+    o = fmax(o, -w0);
+    o = fmax(o, -w1);
+    return fmax(o, -w2);
+}
+
+/* --resume's first pass: the triangle a contact that began at this tick
+ * (recorded reaction re) was on. The collision that chose it needs the
+ * deformed surface, which that pass does not have; the frame has what it
+ * chose: the contact point (rest coordinates, exact), the triangle's unit
+ * normal and the nodes the probe pressed. The triangle is the one with
+ * that normal giving those nodes (after the fixed ones and those earlier
+ * probes have, contacts[0..n)) closest to the point. -1: none can be told
+ * (no node pressed, no plane): the fast resume gives up. */
+static int32_t tri_of_reaction(server *s, const ftm_wire_tick *rec, const ftm_wire_reaction *re,
+                               int32_t n)
+{
+    int32_t want[3], nw = 0;
+    for (int32_t j = 0; j < rec->contact_count; j++)
+        if (rec->contacts[j].group == re->group) {
+            if (nw == 3)
+                return -1;
+            want[nw++] = rec->contacts[j].node;
+        }
+    if (nw == 0 || !re->has_plane)
+        return -1;
+    const int32_t *tris = ftm_mesh_triangles(s->mesh);
+    const int32_t nt = ftm_mesh_triangle_count(s->mesh);
+    int32_t best = -1;
+    double best_out = INFINITY;
+    for (int32_t tr = 0; tr < nt; tr++) {
+        const int32_t *v = tris + 3 * tr;
+        int32_t got = 0;
+        bool same = true;
+        for (int q = 0; q < 3 && same; q++) {
+            bool taken = ftm_mesh_fixed(s->mesh, v[q]);
+            for (int32_t j = 0; j < n && !taken; j++)
+                taken = s->tk.contacts[j].node == v[q];
+            if (!taken)
+                same = got < nw && want[got++] == v[q];
+        }
+        if (!same || got != nw)
+            continue;
+        ftm_vec3 nm = rest_normal(s, tr);
+        double nl = sqrt(v_dot(nm, nm));
+        if (!(nl > 0.0) || nm.x / nl != re->contact_normal.x || nm.y / nl != re->contact_normal.y ||
+            nm.z / nl != re->contact_normal.z)
+            continue;
+        double o = outside(s, tr, re->contact_point);
+        if (best < 0 || o < best_out) {
+            best = tr;
+            best_out = o;
+        }
+    }
+    return best;
+}
+
+static const ftm_wire_reaction *reaction_of(const ftm_wire_tick *rec, int32_t group)
+{
+    for (int32_t r = 0; rec && r < rec->reaction_count; r++)
+        if (rec->reactions[r].group == group)
+            return &rec->reactions[r];
+    return NULL;
+}
+
 /* Probe HIPs -> displacement contacts on the collided triangles' vertices.
- * Returns the contact count; *nreact the probes in contact. */
-static int32_t probe_contacts(server *s, int32_t *nreact)
+ * Returns the contact count; *nreact the probes in contact. emulate
+ * (--resume's first pass): no collision; a contact begins where the
+ * recorded frame rec (NULL: none was sent) has its reaction; *why says when
+ * that cannot be told. */
+static int32_t probe_contacts(server *s, int32_t *nreact, bool emulate, const ftm_wire_tick *rec,
+                              char *why, size_t why_size)
 {
     const double *x = ftm_sim_positions(s->tk.sim);
     const int32_t *tris = ftm_mesh_triangles(s->mesh);
@@ -134,6 +216,24 @@ static int32_t probe_contacts(server *s, int32_t *nreact)
                 ftm_vec3 pen = v_sub(pr->hip, pr->anchor);
                 if (v_dot(pen, pr->normal) >= 0.0)
                     pr->contact = false; /* back on the side it came from: released */
+            } else if (pr->have_prev && emulate) {
+                const ftm_wire_reaction *re = reaction_of(rec, i * MAX_PROBES + k);
+                int32_t tr = re ? tri_of_reaction(s, rec, re, n) : -1;
+                if (re && tr < 0 && !why[0])
+                    snprintf(why, why_size, "tick %" PRIu64 ": participant %u probe %d: the "
+                             "triangle its contact began on cannot be told from the frame",
+                             s->tk.tick + 1, p->id, k);
+                if (tr >= 0) {
+                    pr->anchor = re->contact_point;
+                    pr->normal = rest_normal(s, tr);
+                    pr->tri = tr;
+                    pr->contact = true;
+                    pr->limit_told = false;
+                    if (p->report >= 0)
+                        s->rec.report.parts[p->report].probes[k].touches++;
+                    srv_log(s, "info", "participant %u probe %d: contact on triangle %d", p->id, k,
+                            (int)tr);
+                }
             } else if (pr->have_prev) {
                 double t, w[3];
                 int32_t tr = ftm_collide_segment(s->tk.collide, x, pr->prev, pr->hip, &t, w);
@@ -220,23 +320,26 @@ static void note_start(server *s, uint64_t begin)
 /* The reactions of the probes in contact after the step: the force, the
  * local force model for the client's haptic loop (docs/haptics.md), the
  * contact plane; counted in the report and written to --reactions. */
-static void fill_reactions(server *s, int32_t nreact)
+static void fill_reactions(server *s, int32_t nreact, const ftm_wire_tick *rec)
 {
     srv_tick *tk = &s->tk;
     /* a tick the guard substepped: the tissue past its stable step, its
-     * forces marked in the report (report.h, unstable) */
-    ftm_sim_mode mode;
-    ftm_sim_get_mode(tk->sim, &mode);
+     * forces marked in the report (report.h, unstable); --resume's first
+     * pass takes the forces from the frame, and runs only where the
+     * keyframes show one substep throughout (offline.c) */
+    ftm_sim_mode mode = {.substeps = 1};
+    if (!rec)
+        ftm_sim_get_mode(tk->sim, &mode);
     const bool unstable = mode.substeps > 1;
     for (int32_t r = 0; r < nreact; r++) {
         ftm_wire_reaction *re = &tk->reactions[r];
-        re->force = ftm_sim_reaction(tk->sim, re->group);
+        re->force = rec ? rec->reactions[r].force : ftm_sim_reaction(tk->sim, re->group);
         const probe *pb = &s->parts.parts[re->group / MAX_PROBES].probes[re->group % MAX_PROBES];
         re->hip = pb->hip;
         /* a limited push does not follow the HIP: no local model, the client
          * holds the force */
         re->push_limited = pb->limited;
-        re->has_model = !pb->limited &&
+        re->has_model = !rec && !pb->limited &&
                         ftm_sim_contact_stiffness(tk->sim, re->group, re->stiffness) > 0;
         if (re->has_model) {
             ftm_stiffness_make_passive(re->stiffness);
@@ -268,7 +371,8 @@ void srv_run_tick(server *s)
     const uint64_t tick_t0 = srv_now(); /* the whole tick, for the depth controller */
     note_start(s, tick_t0);
     int32_t nreact = 0;
-    int32_t n = probe_contacts(s, &nreact);
+    char none[1] = "";
+    int32_t n = probe_contacts(s, &nreact, false, NULL, none, sizeof none);
     uint64_t t0 = srv_now();
     ftm_error err = {0, ""};
     int rc = ftm_replay_step(tk->sim, tk->depth, tk->contacts, n, &err);
@@ -285,7 +389,7 @@ void srv_run_tick(server *s)
         srv_reset(s, false);
         n = nreact = 0;
     }
-    fill_reactions(s, nreact);
+    fill_reactions(s, nreact, NULL);
     if (tk->depth_lo == 0 || tk->depth < tk->depth_lo)
         tk->depth_lo = tk->depth;
     if (tk->depth > tk->depth_hi)
@@ -299,6 +403,56 @@ void srv_run_tick(server *s)
     ftm_sim_get_stats(tk->sim, &st);
     srv_publish_tick(s, n, nreact, st.updated_nodes > 0);
     note_step(s, (double)(srv_now() - tick_t0), n > 0);
+}
+
+/* --resume's first pass (offline.c): tick rec->tick (rec NULL: a tick
+ * whose frame was not sent, idle) without collision or the step, the
+ * participants' probes, the contacts and the report taken on as
+ * srv_run_tick takes them, the new contacts and the forces from the frame.
+ * What this makes must be what the frame has (contacts bit-exact, the
+ * probes in contact, their push limits). Returns 0, or -1 with *why. */
+int srv_emulate_tick(server *s, const ftm_wire_tick *rec, char *why, size_t why_size)
+{
+    srv_tick *tk = &s->tk;
+    int32_t nreact = 0;
+    int32_t n = probe_contacts(s, &nreact, true, rec, why, why_size);
+    tk->tick++;
+    if (why[0])
+        return -1;
+    bool same = rec ? rec->tick == tk->tick && rec->contact_count == n &&
+                          rec->reaction_count == nreact
+                    : n == 0 && nreact == 0;
+    for (int32_t i = 0; same && rec && i < n; i++) {
+        const ftm_contact *a = &tk->contacts[i], *b = &rec->contacts[i];
+        same = a->node == b->node && a->group == b->group && a->kind == b->kind &&
+               memcmp(&a->value, &b->value, sizeof a->value) == 0;
+    }
+    for (int32_t r = 0; same && rec && r < nreact; r++) {
+        const probe *pb = &s->parts.parts[tk->reactions[r].group / MAX_PROBES]
+                               .probes[tk->reactions[r].group % MAX_PROBES];
+        same = rec->reactions[r].group == tk->reactions[r].group &&
+               rec->reactions[r].push_limited == pb->limited;
+    }
+    if (!same) {
+        snprintf(why, why_size, "tick %" PRIu64 ": the probes give %d contacts of %d probes, "
+                 "the frame %s %d of %d", tk->tick, (int)n, (int)nreact,
+                 rec ? "has" : "was not sent: idle,", rec ? (int)rec->contact_count : 0,
+                 rec ? (int)rec->reaction_count : 0);
+        return -1;
+    }
+    fill_reactions(s, nreact, rec);
+    if (tk->depth_lo == 0 || tk->depth < tk->depth_lo)
+        tk->depth_lo = tk->depth;
+    if (tk->depth > tk->depth_hi)
+        tk->depth_hi = tk->depth;
+    if (rec) { /* as srv_publish_frame leaves it */
+        s->pub.tissue_frame = false;
+        s->pub.pub_n = n;
+        s->pub.pub_depth = tk->depth;
+        s->pub.pub_tick = tk->tick;
+        s->pub.published_any = true;
+    }
+    return 0;
 }
 
 /* The ticks that are due by the monotonic clock (tick k at start + k /
@@ -327,6 +481,7 @@ void srv_run_due_ticks(server *s)
  * which replicas restore because its hash differs from the frame's. */
 void srv_reset(server *s, bool publish_now)
 {
+    s->tk.resets++;
     if (publish_now)
         srv_publish_tick_frame(s);
     ftm_error err = {0, ""};

@@ -104,6 +104,7 @@ refused "--resume goes with a session, without --record or --record-dir" --resum
 refused "--resume goes with a session, without --record or --record-dir" --resume a.rec --record-dir /tmp
 refused "--resume goes with a session, without --record or --record-dir" --resume a.rec --replay b.rec
 refused "--resume-recent goes with --record-dir" --resume-recent 60 --offline 3
+refused "--resume-full goes with --resume or --resume-recent" --resume-full --offline 3
 refused "ftm-server --resume: /nonexistent/a.rec: cannot open" --resume /nonexistent/a.rec
 refused "--resume-recent must be a number of seconds" --resume-recent 0 --record-dir /tmp
 refused "--reactions $dir is a directory" --offline 3 --reactions "$dir"

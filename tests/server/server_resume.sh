@@ -12,6 +12,11 @@
 #            kept (one report with both trainees, seen before and after);
 #            the lesson is two files, l.rec and l.rec.1, which one --replay
 #            checks whole, to the resumed server's final tick and hash;
+#            the ticks up to the lesson's last keyframe are taken from its
+#            frames, only those after it stepped (the log line says which);
+#   full:    --resume-full re-runs the whole lesson to the same tick and hash;
+#   giveup:  a lesson whose keyframes are too far apart for the fast path is
+#            re-run whole, with a note saying why;
 #   ended:   that lesson, ended cleanly by the resumed server, is refused by
 #            --resume (status 3, saying so);
 #   cut:     the killed server's file cut 5 bytes short inside its last
@@ -68,6 +73,15 @@ for id in 11 12; do
         fail "bot $id did not count the resume"
 done
 line=$(grep "resumed lesson l.rec at tick" c.err) || fail "the server did not say it resumed"
+# the fast path: the ticks up to the last keyframe taken from the frames,
+# only those after it stepped (fewer than a keyframe interval, 1 s)
+! grep -q "the fast resume gives up\|did not reach the lesson's last keyframe" c.err ||
+    fail "the fast resume gave up: $(grep 'fast resume' c.err)"
+kt=$(echo "$line" | sed -n 's/.* taken from the frames, the tissue from the keyframe of tick \([0-9]*\), ticks \([0-9]*\)\.\.\([0-9]*\) stepped and checked)$/\1 \2 \3/p')
+[ -n "$kt" ] || fail "the resume does not say which ticks it stepped: $line"
+set -- $kt
+[ "$1" -gt 0 ] && [ "$2" -eq $(( $1 + 1 )) ] && [ $(( $3 - $1 )) -le $(( rate + rate / 5 )) ] ||
+    fail "stepped ticks $2..$3 after the keyframe of tick $1: not the last second only"
 t1=$(echo "$line" | sed 's/.* at tick \([0-9]*\) hash.*/\1/')
 h1=$(echo "$line" | sed 's/.* hash \([0-9a-f]*\) .*/\1/')
 # T: the newest tick a bot had from the killed server (its resync line)
@@ -111,6 +125,29 @@ grep -q "ftm-server --resume: l.rec: the lesson ended cleanly at tick [0-9]* (it
     fail "no message for an ended lesson: $(cat e.err)"
 [ ! -e l.rec.2 ] || fail "an ended lesson got a file l.rec.2"
 echo "ended: $(tail -1 e.err)"
+
+# full: --resume-full re-runs the whole killed lesson's physics to the same
+# tick and hash as the fast path
+cp k.rec full.rec
+timeout 60 "$FTM_SERVER" $common --resume full.rec --resume-full --duration 0.3 >f.out 2>f.err ||
+    fail "--resume-full failed: $(tail -2 f.err)"
+grep -q "resumed lesson full.rec at tick $t1 hash $h1 .* ticks 1\.\.$t1 stepped, --resume-full)" f.err ||
+    fail "--resume-full did not go on at tick $t1 hash $h1: $(grep 'resumed lesson' f.err)"
+echo "full: $(sed -n 's/.*(1 file, \(.*\))$/\1/p' f.err)"
+
+# giveup: keyframes further apart than the guard's shortest episode (1024
+# ticks): the fast path cannot tell the report's unstable ticks, says so
+# and re-runs the whole lesson (no trainee: idle ticks, quick)
+timeout -s KILL 3 "$FTM_SERVER" $common --rate 1000 --keyframe-every 1.2 --record g.rec \
+    >g.out 2>g.err
+[ -s g.rec ] || fail "no recording g.rec"
+timeout 60 "$FTM_SERVER" $common --resume g.rec --duration 0.2 >gr.out 2>gr.err ||
+    fail "--resume of g.rec failed: $(tail -2 gr.err)"
+grep -q "the fast resume gives up: keyframes at ticks 0 and 1[0-9]* are more than 1024 ticks apart.*the whole lesson is re-run instead" gr.err ||
+    fail "the fast resume did not give up on keyframes 1200 ticks apart: $(grep 'resume' gr.err)"
+grep -q "resumed lesson g.rec at tick [0-9]* hash [0-9a-f]* (.* ticks 1\.\.[0-9]* stepped, --resume-full)" gr.err ||
+    fail "g.rec was not re-run whole: $(grep 'resumed lesson' gr.err)"
+echo "giveup: $(sed -n 's/.*(1 file, \(.*\))$/\1/p' gr.err)"
 
 # cut: k.rec 5 bytes short, then a copy with a bit flipped in a middle chunk
 size=$(wc -c <k.rec)
