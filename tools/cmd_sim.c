@@ -468,7 +468,7 @@ int ftm_cmd_sim(int argc, char **argv)
             s.have_press = true;
             ftm_press_describe(&s.pe, s.press, sizeof s.press);
         } else {
-            snprintf(s.press, sizeof s.press, "none: %s", perr.message);
+            snprintf(s.press, sizeof s.press, "none: %.200s", perr.message);
         }
     }
     s.nodes = ftm_mesh_node_count(mesh);
