@@ -662,6 +662,7 @@ int ftm_client_session_start(const ftm_client_config *cfg, ftm_client_session **
         .name = s->cfg.name ? s->cfg.name : "ftm-client", .scene = s->cfg.scene,
         .dds_config = s->cfg.dds_config, .dds_security = s->cfg.dds_security,
         .watch_probes = true, /* the others' HIPs, to draw them */
+        .feel_check = true,   /* a scene a hand cannot feel, on the banner */
         .hold = s->cfg.hold, .hold_tick = s->cfg.hold_tick,
         .log = s->cfg.log, .log_user = s->cfg.log_user,
         .hooks = {.force_off = force_off, .scene_loaded = on_scene_loaded,

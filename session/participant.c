@@ -297,7 +297,10 @@ static void load_scene(ftm_participant *p, const ftm_wire_announce *a)
         return;
     }
     p->info.scene_failed = false;
-    scene_feel(p);
+    if (p->def.feel_check)
+        scene_feel(p);
+    else
+        p->info.scene_feel = 0, p->info.scene_feel_text[0] = '\0';
     if (strcmp(path, name) != 0)
         plog(p, FTM_LOG_INFO, "scene '%s': %s", name, path);
     /* (the announcement's tick is when it was made, not where we sync:

@@ -78,6 +78,10 @@ typedef struct ftm_participant_def {
     const char *scene;    /* local scene (name or file); NULL: the announced id */
     const char *dds_config, *dds_security;
     bool watch_probes;    /* also read the others' probe input (hooks.probe_input) */
+    /* estimate what a press on the scene feels like when it loads
+     * (info.scene_feel): a person's client says a scene a hand cannot feel;
+     * a bot need not spend the 0.05-0.5 s before its join */
+    bool feel_check;
     bool hold;            /* stop taking frames at the first tick >= hold_tick */
     uint64_t hold_tick;
     ftm_log_fn log;       /* the core's messages; NULL: silent */
