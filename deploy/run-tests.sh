@@ -54,6 +54,8 @@ tests/fuzz/run.sh --build build/fuzz --runs 3000 fuzz_scene fuzz_mesh fuzz_nifti
 # fuzz_stl: Assimp leaks on most malformed files, and each leak makes
 # libFuzzer run a whole leak check (10 ms): 1000 inputs take 10 s
 tests/fuzz/run.sh --build build/fuzz --runs 1000 fuzz_stl || status=1
-tests/fuzz/run.sh --build build/fuzz --runs 150 fuzz_replica fuzz_session || status=1
+# fuzz_replica and fuzz_session run a whole replica or session core per
+# input (3-7 inputs/s): 60 each beyond the corpus, which is replayed first
+tests/fuzz/run.sh --build build/fuzz --runs 60 fuzz_replica fuzz_session || status=1
 
 exit $status
