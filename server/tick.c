@@ -90,6 +90,22 @@ static ftm_vec3 rest_normal(server *s, int32_t tr)
 /* Whether a HIP moving by d crosses the triangle from outside to inside. */
 static bool entering(server *s, int32_t tr, ftm_vec3 d) { return v_dot(rest_normal(s, tr), d) < 0.0; }
 
+/* A probe's contact begins on triangle tr at its rest-surface point anchor:
+ * the anchor and normal the release rule and the push take, a touch in the
+ * report, a line in the log. */
+static void begin_contact(server *s, const participant *p, int k, probe *pr, int32_t tr,
+                          ftm_vec3 anchor)
+{
+    pr->anchor = anchor;
+    pr->normal = rest_normal(s, tr);
+    pr->tri = tr;
+    pr->contact = true;
+    pr->limit_told = false;
+    if (p->report >= 0)
+        s->rec.report.parts[p->report].probes[k].touches++;
+    srv_log(s, "info", "participant %u probe %d: contact on triangle %d", p->id, k, (int)tr);
+}
+
 /* A probe's push: HIP - anchor, shortened along itself to the limit. A HIP
  * far inside the tissue (a device glitch, a forged input) would otherwise
  * impose a displacement no step can follow: the guard would give up and the
@@ -223,17 +239,8 @@ static int32_t probe_contacts(server *s, int32_t *nreact, bool emulate, const ft
                     snprintf(why, why_size, "tick %" PRIu64 ": participant %u probe %d: the "
                              "triangle its contact began on cannot be told from the frame",
                              s->tk.tick + 1, p->id, k);
-                if (tr >= 0) {
-                    pr->anchor = re->contact_point;
-                    pr->normal = rest_normal(s, tr);
-                    pr->tri = tr;
-                    pr->contact = true;
-                    pr->limit_told = false;
-                    if (p->report >= 0)
-                        s->rec.report.parts[p->report].probes[k].touches++;
-                    srv_log(s, "info", "participant %u probe %d: contact on triangle %d", p->id, k,
-                            (int)tr);
-                }
+                if (tr >= 0)
+                    begin_contact(s, p, k, pr, tr, re->contact_point);
             } else if (pr->have_prev) {
                 double t, w[3];
                 int32_t tr = ftm_collide_segment(s->tk.collide, x, pr->prev, pr->hip, &t, w);
@@ -244,17 +251,10 @@ static int32_t probe_contacts(server *s, int32_t *nreact, bool emulate, const ft
                     ftm_vec3 X[3];
                     for (int q = 0; q < 3; q++)
                         X[q] = ftm_mesh_rest_position(s->mesh, v[q]);
-                    pr->anchor = (ftm_vec3){w[0] * X[0].x + w[1] * X[1].x + w[2] * X[2].x,
-                                            w[0] * X[0].y + w[1] * X[1].y + w[2] * X[2].y,
-                                            w[0] * X[0].z + w[1] * X[1].z + w[2] * X[2].z};
-                    pr->normal = rest_normal(s, tr);
-                    pr->tri = tr;
-                    pr->contact = true;
-                    pr->limit_told = false;
-                    if (p->report >= 0)
-                        s->rec.report.parts[p->report].probes[k].touches++;
-                    srv_log(s, "info", "participant %u probe %d: contact on triangle %d", p->id, k,
-                            (int)tr);
+                    begin_contact(s, p, k, pr, tr,
+                                  (ftm_vec3){w[0] * X[0].x + w[1] * X[1].x + w[2] * X[2].x,
+                                             w[0] * X[0].y + w[1] * X[1].y + w[2] * X[2].y,
+                                             w[0] * X[0].z + w[1] * X[1].z + w[2] * X[2].z});
                 }
             }
             pr->prev = pr->hip;
