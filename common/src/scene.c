@@ -601,6 +601,30 @@ static int set_volume_key(parser *p, key k, const char *kn, const char *v, size_
 }
 
 
+/* A repeatable key's list of integers min..INT32_MAX (fixed_nodes,
+ * fixed_label), any number of them, each remembered with its line. */
+static int index_list(parser *p, const char *kn, const char *v, size_t vlen, int64_t min,
+                      fixed_index **list, size_t *count, size_t *cap, const char *what)
+{
+    const char *cur = v, *end = v + vlen;
+    token one;
+    int n = 0, rc;
+    while (ftm_text_token(&cur, end, &one.s, &one.n)) {
+        int64_t x = 0;
+        if ((rc = integer(p, kn, one, min, INT32_MAX, &x)) != FTM_OK)
+            return rc;
+        fixed_index *fi = push((void **)list, count, cap, sizeof *fi);
+        if (!fi)
+            return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
+        fi->input = x;
+        fi->line = p->line;
+        n++;
+    }
+    if (n == 0)
+        return fail_at(p, p->line, FTM_EPARSE, "%s: expected %s", kn, what);
+    return FTM_OK;
+}
+
 static int set_mesh_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
 {
     spec *s = &p->s;
@@ -661,47 +685,12 @@ static int set_mesh_key(parser *p, key k, const char *kn, const char *v, size_t 
         return triple(p, kn, v, vlen, true, s->class_scale);
     case K_FIXED_FACES:
         return faces_value(p, kn, v, vlen, &s->fixed_faces);
-    case K_FIXED_NODES: {
-        /* Any number of indices: walk the tokens without a fixed limit. */
-        const char *cur = v, *end = v + vlen;
-        token one;
-        int count = 0;
-        while (ftm_text_token(&cur, end, &one.s, &one.n)) {
-            int64_t idx = 0;
-            if ((rc = integer(p, kn, one, 0, INT32_MAX, &idx)) != FTM_OK)
-                return rc;
-            fixed_index *fi = push((void **)&s->fixed_nodes, &s->fixed_node_count,
-                                   &s->fixed_node_cap, sizeof *fi);
-            if (!fi)
-                return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
-            fi->input = idx;
-            fi->line = p->line;
-            count++;
-        }
-        if (count == 0)
-            return fail_at(p, p->line, FTM_EPARSE, "fixed_nodes: expected node indices");
-        return FTM_OK;
-    }
-    case K_FIXED_LABEL: { /* element labels, >= 1; checked against the mesh once built */
-        const char *cur = v, *end = v + vlen;
-        token one;
-        int count = 0;
-        while (ftm_text_token(&cur, end, &one.s, &one.n)) {
-            int64_t label = 0;
-            if ((rc = integer(p, kn, one, 1, INT32_MAX, &label)) != FTM_OK)
-                return rc;
-            fixed_index *fi = push((void **)&s->fixed_labels, &s->fixed_label_count,
-                                   &s->fixed_label_cap, sizeof *fi);
-            if (!fi)
-                return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
-            fi->input = label;
-            fi->line = p->line;
-            count++;
-        }
-        if (count == 0)
-            return fail_at(p, p->line, FTM_EPARSE, "fixed_label: expected element labels");
-        return FTM_OK;
-    }
+    case K_FIXED_NODES:
+        return index_list(p, kn, v, vlen, 0, &s->fixed_nodes, &s->fixed_node_count,
+                          &s->fixed_node_cap, "node indices");
+    case K_FIXED_LABEL: /* element labels, >= 1; checked against the mesh once built */
+        return index_list(p, kn, v, vlen, 1, &s->fixed_labels, &s->fixed_label_count,
+                          &s->fixed_label_cap, "element labels");
     case K_FIXED_BOX: {
         double x[6];
         if ((rc = split(p, kn, v, vlen, t, 6, 6, &n)) != FTM_OK)
