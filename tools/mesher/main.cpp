@@ -7,6 +7,7 @@
 
 #include "ftm/labels.h"
 #include "ftm/load.h"
+#include "ftm/stl.h"
 
 #include <getopt.h>
 
@@ -255,13 +256,19 @@ struct Result {
     double smooth_mm = 0, min_part_mm = 0;
     size_t merged = 0, smoothed = 0;
     double agree_meshed = -1, agree_given = -1; // % of elements
+    double agree_interior = -1;                  // % of those off the staircase
+    size_t interior = 0;                         // elements off the staircase
 };
 
 // Of the tetrahedra, the percentage whose centroid is in a voxel of their
 // own tissue.
-double agreement(const Tet_mesh &m, const Tissue_map &map, const double voxel_mm[3])
+// interior: only the elements whose centroid's voxel and its 26 neighbours
+// are of one tissue (elements on a boundary's voxel staircase left out);
+// *counted: how many elements the figure is of.
+double agreement(const Tet_mesh &m, const Tissue_map &map, const double voxel_mm[3],
+                 bool interior = false, size_t *counted = nullptr)
 {
-    size_t ok = 0;
+    size_t ok = 0, n = 0;
     for (size_t t = 0; t < m.tet_count(); t++) {
         double c[3] = {0, 0, 0};
         for (int i = 0; i < 4; i++)
@@ -273,10 +280,25 @@ double agreement(const Tet_mesh &m, const Tissue_map &map, const double voxel_mm
             idx[k] = (int)std::lround(c[k] / voxel_mm[k]); // CGAL: voxel i's centre at i v
             inside = inside && idx[k] >= 0 && idx[k] < map.n[k];
         }
+        if (interior) { // the 3 x 3 x 3 voxels around the centroid's all one tissue
+            bool uniform = inside;
+            for (int k = 0; uniform && k < 3; k++)
+                uniform = idx[k] >= 1 && idx[k] + 1 < map.n[k];
+            for (int dz = -1; uniform && dz <= 1; dz++)
+                for (int dy = -1; uniform && dy <= 1; dy++)
+                    for (int dx = -1; uniform && dx <= 1; dx++)
+                        uniform = map.v[map.at(idx[0] + dx, idx[1] + dy, idx[2] + dz)] ==
+                                  map.v[map.at(idx[0], idx[1], idx[2])];
+            if (!uniform)
+                continue;
+        }
+        n++;
         if (inside && map.v[map.at(idx[0], idx[1], idx[2])] == m.tissue[t])
             ok++;
     }
-    return m.tet_count() ? 100.0 * (double)ok / (double)m.tet_count() : 0;
+    if (counted)
+        *counted = n;
+    return n ? 100.0 * (double)ok / (double)n : 0;
 }
 
 int run_image(const Options &o, const Clock &clock, Result *r, ftm_volume_info *frame)
@@ -395,6 +417,7 @@ int run_image(const Options &o, const Clock &clock, Result *r, ftm_volume_info *
     }
     r->agree_meshed = agreement(r->mesh, map, voxel_mm);
     r->agree_given = agreement(r->mesh, given, voxel_mm);
+    r->agree_interior = agreement(r->mesh, given, voxel_mm, true, &r->interior);
     // the meshing frame (mm, voxel 0's centre at 0) in metres, for the world
     *frame = map.info;
     frame->origin.x += 0.5 * map.info.spacing.x;
@@ -525,8 +548,9 @@ int main(int argc, char **argv)
                     "\"below_min_angle\": %zu, \"volume_mm3\": %.8g",
                     r.size_mm, q.mean_edge, q.min_angle, q.below, q.volume);
         if (r.agree_meshed >= 0)
-            std::printf(", \"centroid_in_tissue_pct\": %.4f, \"centroid_in_given_map_pct\": %.4f",
-                        r.agree_meshed, r.agree_given);
+            std::printf(", \"centroid_in_tissue_pct\": %.4f, \"centroid_in_given_map_pct\": %.4f"
+                        ", \"off_staircase_elements\": %zu, \"off_staircase_in_given_map_pct\": %.4f",
+                        r.agree_meshed, r.agree_given, r.interior, r.agree_interior);
         std::printf(", \"seconds\": %.3f}\n", seconds);
     } else {
         std::printf("ftm mesh: %s: %s tetrahedra (%s), %s nodes\n", o.output.c_str(),
@@ -538,8 +562,11 @@ int main(int argc, char **argv)
                     q.below, o.min_angle);
         if (r.agree_meshed >= 0)
             std::printf("  centroid in its own tissue: %.2f %% of the elements in the map as "
-                        "meshed, %.2f %% in the map as given\n",
-                        r.agree_meshed, r.agree_given);
+                        "meshed, %.2f %% in the map as given;\n"
+                        "  off the voxel staircase (%s elements whose centroid's 27 voxels are "
+                        "one tissue): %.2f %% in the map as given\n",
+                        r.agree_meshed, r.agree_given, thousands(r.interior).c_str(),
+                        r.agree_interior);
         std::printf("  %.1f s\n", seconds);
     }
     if (q.below > 0)
