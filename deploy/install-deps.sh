@@ -20,6 +20,7 @@ packages=(
   zlib1g-dev                                      # libftm: .nii.gz volumes through libnifti's znzlib
   libnifti2-dev                                   # libftm: NIfTI-1/-2 volumes and label maps (optional)
   libassimp-dev                                   # ftm_stl: STL surfaces (-DFTM_BUILD_STL=OFF without)
+  libcgal-dev                                     # ftm-mesh: tissue meshes from scans (optional; GPL-3+)
   gnuplot-nox                                     # benchmark plots in docs/
   libsuitesparse-dev                              # FEM reference (CHOLMOD)
   calculix-ccx                                    # CalculiX: re-runs the FEM references (tests/calculix)

@@ -28,20 +28,24 @@ ctest --test-dir build/release --output-on-failure -j "$jobs" || status=1
 # (the ASan build leaves out a few tests that check behaviour the same in
 # every build, within CI's 30 minutes: the network-namespace tests, the
 # window's frame-rate cap and reset, the session benchmarks' JSON)
+# ftm-mesh (tools/mesher, C++ and CGAL: minutes to compile) is built and
+# tested in the release build only
 echo "== ASan + UBSan build =="
 cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTM_WERROR=ON \
-      -DFTM_SANITIZE=address,undefined
+      -DFTM_SANITIZE=address,undefined -DFTM_BUILD_MESHER=OFF
 cmake --build build/asan -j "$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build/asan --output-on-failure -j "$jobs" || status=1
 
 echo "== clang build (-Werror, every target): the golden hashes must match GCC's bit for bit =="
-CC=clang cmake -S . -B build/clang -G Ninja -DCMAKE_BUILD_TYPE=Release -DFTM_WERROR=ON
+CC=clang cmake -S . -B build/clang -G Ninja -DCMAKE_BUILD_TYPE=Release -DFTM_WERROR=ON \
+      -DFTM_BUILD_MESHER=OFF
 cmake --build build/clang -j "$jobs"
 ctest --test-dir build/clang --output-on-failure -R 'test_determinism|test_sim_kernel' || status=1
 
 echo "== ThreadSanitizer build: the client's threads (haptic loop and its exchanges) =="
-cmake -S . -B build/tsan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTM_WERROR=ON -DFTM_SANITIZE=thread
+cmake -S . -B build/tsan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTM_WERROR=ON -DFTM_SANITIZE=thread \
+      -DFTM_BUILD_MESHER=OFF
 cmake --build build/tsan -j "$jobs" --target test_haptic test_haptic_loop
 TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 \
   ctest --test-dir build/tsan --output-on-failure -R '^test_haptic(_loop)?$' || status=1

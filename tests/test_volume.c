@@ -946,6 +946,11 @@ static void test_label_map(void **state)
     assert_int_equal(ftm_label_map_at(m, (ftm_vec3){0.0061, 0.0244, -0.0041}), -7);
     assert_int_equal(ftm_label_map_at(m, (ftm_vec3){0.0049, 0.023, -0.004}), 0); /* outside */
     assert_int_equal(ftm_label_map_at(m, (ftm_vec3){NAN, 0.023, -0.004}), 0);
+    /* the file's voxel of a map's voxel: (2 - x, z, y) */
+    int32_t ijk[3];
+    assert_int_equal(ftm_label_map_file_voxel(m, 0, 1, 0, ijk), FTM_OK);
+    assert_true(ijk[0] == 2 && ijk[1] == 0 && ijk[2] == 1);
+    assert_int_equal(ftm_label_map_file_voxel(m, 3, 0, 0, ijk), FTM_ERANGE);
     ftm_label_map_destroy(m);
     free(b);
 

@@ -46,5 +46,7 @@ int ftm_experiment_volume(int argc, char **argv, bool json);
 /* `ftm experiment organs` (exp_organs.c), the same way. */
 int ftm_experiment_organs(int argc, char **argv, bool json);
 int ftm_cmd_stability(int argc, char **argv);
+/* `ftm mesh` (cmd_mesh.c): runs ftm-mesh from beside ftm, or says why not. */
+int ftm_cmd_mesh(int argc, char **argv);
 
 #endif

@@ -21,6 +21,7 @@ static const command commands[] = {
     {"bench", ftm_cmd_bench, "run benchmarks (e.g. the paper's Table 3)"},
     {"experiment", ftm_cmd_experiment, "the paper's experiments: depth, tissue, anisotropy"},
     {"stability", ftm_cmd_stability, "stability sweep: measured boundary vs critical time step"},
+    {"mesh", ftm_cmd_mesh, "a tissue mesh (.msh) from a segmented scan or a closed STL surface"},
 #ifdef FTM_HAVE_FEM
     {"fem", ftm_cmd_fem, "solve a scene's linear static FEM reference (displacements as CSV)"},
     {"fit", ftm_cmd_fit, "identify spring parameters against the FEM reference (paper Tables 1-2)"},

@@ -12,6 +12,8 @@
 struct ftm_label_map {
     ftm_volume_info info;
     int32_t *labels;
+    int axis[3];  /* the file's axis along each of the map's */
+    bool flip[3]; /* running the other way */
 };
 
 ftm_label_map_def ftm_default_label_map_def(void)
@@ -101,6 +103,10 @@ int ftm_label_map_parse_nifti(const void *data, size_t size, const char *name,
             }
     m->info = (ftm_volume_info){
         .nx = g.n[0], .ny = g.n[1], .nz = g.n[2], .spacing = g.spacing, .origin = g.origin};
+    for (int a = 0; a < 3; a++) {
+        m->axis[a] = g.axis[a];
+        m->flip[a] = g.flip[a];
+    }
     *out = m;
     return FTM_OK;
 }
@@ -140,6 +146,18 @@ ftm_volume_info ftm_label_map_get_info(const ftm_label_map *map)
 const int32_t *ftm_label_map_data(const ftm_label_map *map)
 {
     return map->labels;
+}
+
+int ftm_label_map_file_voxel(const ftm_label_map *map, int32_t x, int32_t y, int32_t z,
+                             int32_t ijk[3])
+{
+    const int32_t c[3] = {x, y, z}, n[3] = {map->info.nx, map->info.ny, map->info.nz};
+    for (int a = 0; a < 3; a++)
+        if (c[a] < 0 || c[a] >= n[a])
+            return FTM_ERANGE;
+    for (int a = 0; a < 3; a++)
+        ijk[map->axis[a]] = map->flip[a] ? n[a] - 1 - c[a] : c[a];
+    return FTM_OK;
 }
 
 int32_t ftm_label_map_at(const ftm_label_map *map, ftm_vec3 point)

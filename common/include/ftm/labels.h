@@ -46,6 +46,11 @@ void ftm_label_map_destroy(ftm_label_map *map);
 ftm_volume_info ftm_label_map_get_info(const ftm_label_map *map);
 /* nx * ny * nz labels, x fastest */
 const int32_t *ftm_label_map_data(const ftm_label_map *map);
+/* The file's voxel (i, j, k) that is voxel (x, y, z) of the map (the map's
+ * axes may be the file's permuted and flipped): for messages a user can
+ * look up in a viewer. FTM_ERANGE outside the map. */
+int ftm_label_map_file_voxel(const ftm_label_map *map, int32_t x, int32_t y, int32_t z,
+                             int32_t ijk[3]);
 /* The label of the voxel holding a point [m]; 0 outside the box (or NaN). */
 int32_t ftm_label_map_at(const ftm_label_map *map, ftm_vec3 point);
 
