@@ -107,6 +107,7 @@ typedef enum key {
     K_YOUNG,
     K_POISSON,
     K_DENSITY,
+    K_MASS_SCALING,
     K_VOLUME_FILE,
     K_PHANTOM,
     K_VOXELS,
@@ -174,6 +175,7 @@ static const struct {
     [K_YOUNG] = {SEC_FEM, "young", false},
     [K_POISSON] = {SEC_FEM, "poisson", false},
     [K_DENSITY] = {SEC_FEM, "density", false},
+    [K_MASS_SCALING] = {SEC_FEM, "mass_scaling", false},
     [K_VOLUME_FILE] = {SEC_VOLUME, "file", false},
     [K_PHANTOM] = {SEC_VOLUME, "phantom", false},
     [K_VOXELS] = {SEC_VOLUME, "voxels", false},
@@ -869,6 +871,15 @@ static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
     }
     case K_DENSITY:
         return scalar(p, kn, v, vlen, true, &s->density);
+    case K_MASS_SCALING: {
+        static const char *const bools[] = {"on", "off", "true", "false", "yes", "no", "1", "0",
+                                            NULL};
+        int b;
+        if ((rc = word(p, kn, v, vlen, bools, "on or off", &b)) != FTM_OK)
+            return rc;
+        s->sim.mass_scaling = (b % 2) == 0;
+        return FTM_OK;
+    }
     default:
         if (key_table[k].sec == SEC_VOLUME)
             return set_volume_key(p, k, kn, v, vlen);

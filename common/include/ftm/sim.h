@@ -133,6 +133,13 @@ typedef struct ftm_sim_def {
     ftm_forces forces;
     double young, poisson, density;
     ftm_far_field far_field; /* default FTM_FAR_FIELD_FIXED */
+    /* Selective mass scaling (element forces only; default false): a node
+     * whose row of K would put the critical time step (the Gershgorin bound,
+     * ftm_sim_critical_time_step) below time_step gets the least extra mass
+     * that puts it at time_step, as explicit FEM codes do for the few small
+     * elements of a mesh from a scan. The log says how many nodes and how
+     * much mass; the others keep their lumped masses. */
+    bool mass_scaling;
     /* Per-label materials (default none): an element whose label is one of
      * these takes its young and poisson, any other element the def's own.
      * Each label once and carried by some element of the mesh. So far with
