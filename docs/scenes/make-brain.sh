@@ -11,7 +11,8 @@
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 data=${MRICRON_DATA:-/usr/share/mricron/templates}
-ftm=${FTM:-ftm}
+ftm=${FTM:-$(cd "$here/../.." && pwd)/build/release/tools/ftm}
+[ -x "$ftm" ] || ftm=ftm
 for f in aal.nii.gz ch2bet.nii.gz; do
     [ -r "$data/$f" ] || { echo "make-brain.sh: $data/$f not found (Debian: apt-get install mricron-data)" >&2; exit 2; }
 done
