@@ -29,6 +29,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <dirent.h>
 #include <unistd.h>
 
 static char tmp_dir[256];
@@ -97,12 +98,17 @@ static int group_teardown(void **state)
     (void)state;
     unlink(msh_path);
     unlink(long_path);
-    char cmd[400]; /* the far field's cache files */
-    snprintf(cmd, sizeof cmd, "rm -f %s/*.g", tmp_dir);
-    if (system(cmd) != 0)
-        return -1;
-    rmdir(tmp_dir);
-    return 0;
+    DIR *d = opendir(tmp_dir); /* and the far field's cache files */
+    for (struct dirent *e; d && (e = readdir(d));) {
+        char path[600];
+        if (strncmp(e->d_name, "far-", 4) == 0) {
+            snprintf(path, sizeof path, "%s/%s", tmp_dir, e->d_name);
+            unlink(path);
+        }
+    }
+    if (d)
+        closedir(d);
+    return rmdir(tmp_dir) == 0 ? 0 : -1;
 }
 
 /* The scene: the bar, clamped at x = 0, [fem] for label 5 and `extra`
