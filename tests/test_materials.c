@@ -557,6 +557,33 @@ static void test_two_materials_fem_transmittal_far_field(void **state)
     ftm_scene_destroy(one);
 }
 
+/* The press estimate (scene_feel.c) runs the scene's own simulation: a
+ * stiffer label gives a larger force, for element forces ([fem LABEL]) and
+ * for springs ([material LABEL]). */
+static void test_press_estimate_per_label(void **state)
+{
+    (void)state;
+    const char *sims[] = {"forces = corot-fem\ntime_step = 2e-4", "forces = springs\ntime_step = 2e-4"};
+    const char *labels[] = {"[fem 5]\nyoung = 4e4\npoisson = 0\n", "[material 5]\nstiffness = 400\n"};
+    for (int k = 0; k < 2; k++) {
+        double force[2];
+        for (int with = 0; with < 2; with++) {
+            ftm_scene *scene = NULL;
+            ftm_error err;
+            if (parse_bar(sims[k], with ? labels[k] : "", &scene, &err))
+                fail_msg("%s", err.message);
+            ftm_press_estimate e;
+            if (ftm_scene_press_estimate(scene, 0.01, &e, &err))
+                fail_msg("%s", err.message);
+            force[with] = e.force;
+            ftm_scene_destroy(scene);
+        }
+        print_message("press estimate, %s: %.4g N with the stiffer label, %.4g N without\n",
+                      k ? "springs" : "co-rotational", force[1], force[0]);
+        assert_true(force[1] > 1.2 * force[0]);
+    }
+}
+
 static void expect_refused(const char *sim_keys, const char *extra, const char *part)
 {
     ftm_scene *scene = NULL;
@@ -727,6 +754,7 @@ int main(void)
         cmocka_unit_test(test_density_per_label),
         cmocka_unit_test(test_spring_stiffness_per_label),
         cmocka_unit_test(test_two_materials_fem_transmittal_far_field),
+        cmocka_unit_test(test_press_estimate_per_label),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }
