@@ -13,7 +13,8 @@
  *   ccx_compare forces SCENE REF.dat --forces F [--tol T]
  *       FTM's element forces (ftm_sim_internal_forces) at CalculiX's
  *       equilibrium positions: at PRESS they must be CalculiX's reactions,
- *       at every free node zero (relative to the total reaction).
+ *       at every free node zero, or the force load on it (relative to the
+ *       total reaction).
  *   ccx_compare sim SCENE REF.dat [--forces F] [--depth D] [--order O]
  *                   [--far-field fixed|elastic] [--settle T] [--max-steps N]
  *                   [--tol-force T] [--tol-u T] [--tol-dent T]
@@ -666,6 +667,16 @@ static int mode_forces(const options *o, const ftm_scene *sc, const ccx_result *
         dmax = fmax(dmax, sqrt(d2));
         fmaxv = fmax(fmaxv, sqrt(f2));
     }
+    /* a node loaded by a force holds it: there the internal force is the
+     * load's full value (CalculiX applies it in full at the end of the step) */
+    const ftm_scene_load *l = ftm_scene_loads(sc);
+    for (int32_t k = 0; !rc && k < ftm_scene_load_count(sc); k++)
+        if (l[k].contact.kind == FTM_CONTACT_FORCE) {
+            const int32_t v = l[k].contact.node;
+            f[3 * v] -= l[k].contact.value.x;
+            f[3 * v + 1] -= l[k].contact.value.y;
+            f[3 * v + 2] -= l[k].contact.value.z;
+        }
     for (int32_t v = 0; !rc && v < n; v++) {
         if (pressed[v] || ftm_mesh_fixed(m, v))
             continue;
