@@ -46,6 +46,8 @@ cube6-large neo-hookean 20
 cube6-large linear 1
 elastin-cube-10mm neo-hookean 10
 elastin-cube-2mm linear 1
+inclusion-hex neo-hookean 10
 inclusion-hex linear 1
+inclusion-tets neo-hookean 10
 inclusion-tets linear 1
 LIST
