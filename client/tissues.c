@@ -10,7 +10,7 @@
  * surface), ivory (white matter, fat), dark red (muscle), liver brown,
  * bluish cartilage, yellow fat, vessel purple, bile green, orange, slate. */
 static const float palette[FTM_TISSUE_PALETTE][3] = {
-    {0.84f, 0.50f, 0.50f}, {0.93f, 0.86f, 0.66f}, {0.66f, 0.20f, 0.18f}, {0.52f, 0.30f, 0.20f},
+    {0.80f, 0.36f, 0.40f}, {0.93f, 0.86f, 0.66f}, {0.66f, 0.20f, 0.18f}, {0.52f, 0.30f, 0.20f},
     {0.60f, 0.72f, 0.80f}, {0.92f, 0.74f, 0.30f}, {0.55f, 0.36f, 0.62f}, {0.52f, 0.64f, 0.38f},
     {0.90f, 0.55f, 0.26f}, {0.50f, 0.52f, 0.58f}};
 

@@ -108,22 +108,22 @@ static void test_surface_labels(void **state)
 static void test_palette(void **state)
 {
     (void)state;
-    float c0[3], c[FTM_TISSUE_PALETTE][3];
-    ftm_tissue_color(0, c0);
-    assert_true(c0[0] == 0.86f && c0[1] == 0.56f && c0[2] == 0.52f);
-    for (int i = 0; i < FTM_TISSUE_PALETTE; i++)
-        ftm_tissue_color(i + 1, c[i]);
-    for (int i = 0; i < FTM_TISSUE_PALETTE; i++)
+    float c[FTM_TISSUE_PALETTE + 1][3]; /* c[0]: label 0 */
+    ftm_tissue_color(0, c[0]);
+    assert_true(c[0][0] == 0.86f && c[0][1] == 0.56f && c[0][2] == 0.52f);
+    for (int i = 1; i <= FTM_TISSUE_PALETTE; i++)
+        ftm_tissue_color(i, c[i]);
+    for (int i = 0; i <= FTM_TISSUE_PALETTE; i++)
         for (int j = 0; j < i; j++) {
             double d = 0;
             for (int k = 0; k < 3; k++)
                 d += (double)(c[i][k] - c[j][k]) * (c[i][k] - c[j][k]);
             if (d < 0.02) /* about 0.08 per channel */
-                fail_msg("labels %d and %d look alike", i + 1, j + 1);
+                fail_msg("labels %d and %d look alike", i, j);
         }
     float r[3];
     ftm_tissue_color(FTM_TISSUE_PALETTE + 2, r);
-    assert_memory_equal(r, c[1], sizeof r);
+    assert_memory_equal(r, c[2], sizeof r);
 }
 
 /* The legend of tests/data/scenes/two_tissue.scene: its names and E. */
