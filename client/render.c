@@ -18,7 +18,11 @@
 
 struct ftm_render {
     GLuint lit, flat, text; /* programs */
-    GLint lit_mvp, lit_model, lit_eye, lit_color, lit_usemap, lit_full, lit_labels, lit_tricolor;
+    GLint lit_mvp, lit_model, lit_eye, lit_color, lit_usemap, lit_full;
+    /* the surface of a mesh with labels: the same shading, each triangle's
+     * tissue colour (a program of its own: the other scenes' costs nothing) */
+    GLuint tis;
+    GLint tis_mvp, tis_model, tis_eye, tis_usemap, tis_full, tis_tricolor;
     GLint flat_mvp, flat_color, flat_size;
     GLint text_screen, text_tex;
 
@@ -95,31 +99,37 @@ static const char *lit_vs =
  * head light and a key light from above; both sides lit, so open meshes
  * look right from behind. The colour map (blue-teal-yellow-red) shows only
  * where the tissue moved: away from the dent the tissue keeps its colour. */
-static const char *lit_fs =
-    "#version 330 core\n"
-    "in vec3 v_pos; in vec3 v_nrm; in float v_disp;\n"
-    "uniform vec3 u_eye; uniform vec3 u_color; uniform int u_usemap; uniform float u_full;\n"
-    "uniform int u_labels; uniform samplerBuffer u_tricolor;\n"
-    "out vec4 o_color;\n"
-    FTM_GL_RAMP_GLSL
-    "void main() {\n"
-    "  vec3 n = normalize(v_nrm);\n"
-    "  vec3 v = normalize(u_eye - v_pos);\n"
-    "  if (dot(n, v) < 0.0) n = -n;\n"
-    "  vec3 tissue = u_labels != 0 ? texelFetch(u_tricolor, gl_PrimitiveID).rgb : u_color;\n"
-    "  vec3 base = tissue;\n"
-    "  if (u_usemap != 0) {\n"
-    "    float t = v_disp / u_full;\n"
-    "    base = mix(tissue, ramp(t), smoothstep(0.1, 0.35, t));\n"
-    "  }\n"
-    "  vec3 key = normalize(vec3(0.3, -0.4, 1.0));\n"
-    "  float wv = (dot(n, v) + 0.4) / 1.4, wk = (dot(n, key) + 0.4) / 1.4;\n"
-    "  float d = 0.55 * max(wv, 0.0) + 0.35 * max(wk, 0.0);\n"
-    "  vec3 scatter = vec3(0.30, 0.04, 0.03) * (1.0 - max(dot(n, v), 0.0));\n"
-    "  vec3 h = normalize(key + v);\n"
-    "  float sp = 0.35 * pow(max(dot(n, h), 0.0), 80.0);\n"
-    "  o_color = vec4(base * (0.18 + d) + scatter * base + vec3(sp), 1.0);\n"
-    "}\n";
+#define LIT_FS_BODY                                                                               \
+    "in vec3 v_pos; in vec3 v_nrm; in float v_disp;\n"                                          \
+    "uniform vec3 u_eye; uniform vec3 u_color; uniform int u_usemap; uniform float u_full;\n"   \
+    "#ifdef TISSUES\n"                                                                          \
+    "uniform samplerBuffer u_tricolor;\n"                                                       \
+    "vec3 tissue_color() { return texelFetch(u_tricolor, gl_PrimitiveID).rgb; }\n"              \
+    "#else\n"                                                                                   \
+    "vec3 tissue_color() { return u_color; }\n"                                                 \
+    "#endif\n"                                                                                  \
+    "out vec4 o_color;\n"                                                                       \
+    FTM_GL_RAMP_GLSL                                                                            \
+    "void main() {\n"                                                                           \
+    "  vec3 n = normalize(v_nrm);\n"                                                            \
+    "  vec3 v = normalize(u_eye - v_pos);\n"                                                    \
+    "  if (dot(n, v) < 0.0) n = -n;\n"                                                          \
+    "  vec3 tissue = tissue_color();\n"                                                         \
+    "  vec3 base = tissue;\n"                                                                 \
+    "  if (u_usemap != 0) {\n"                                                                \
+    "    float t = v_disp / u_full;\n"                                                        \
+    "    base = mix(tissue, ramp(t), smoothstep(0.1, 0.35, t));\n"                            \
+    "  }\n"                                                                                   \
+    "  vec3 key = normalize(vec3(0.3, -0.4, 1.0));\n"                                         \
+    "  float wv = (dot(n, v) + 0.4) / 1.4, wk = (dot(n, key) + 0.4) / 1.4;\n"                 \
+    "  float d = 0.55 * max(wv, 0.0) + 0.35 * max(wk, 0.0);\n"                                \
+    "  vec3 scatter = vec3(0.30, 0.04, 0.03) * (1.0 - max(dot(n, v), 0.0));\n"                \
+    "  vec3 h = normalize(key + v);\n"                                                        \
+    "  float sp = 0.35 * pow(max(dot(n, h), 0.0), 80.0);\n"                                   \
+    "  o_color = vec4(base * (0.18 + d) + scatter * base + vec3(sp), 1.0);\n"                 \
+    "}\n"
+static const char *lit_fs = "#version 330 core\n" LIT_FS_BODY;
+static const char *tis_fs = "#version 330 core\n#define TISSUES 1\n" LIT_FS_BODY;
 
 static const char *flat_vs =
     "#version 330 core\n"
@@ -327,7 +337,8 @@ int ftm_render_create(ftm_render **out, ftm_error *err)
     r->lit = ftm_gl_program(lit_vs, lit_fs, "surface shader", err);
     r->flat = r->lit ? ftm_gl_program(flat_vs, flat_fs, "line shader", err) : 0;
     r->text = r->flat ? ftm_gl_program(text_vs, text_fs, "text shader", err) : 0;
-    if (!r->text || ftm_volume_render_create(&r->vol, err)) {
+    r->tis = r->text ? ftm_gl_program(lit_vs, tis_fs, "tissue shader", err) : 0;
+    if (!r->tis || ftm_volume_render_create(&r->vol, err)) {
         ftm_render_destroy(r);
         return FTM_EINVAL;
     }
@@ -337,8 +348,12 @@ int ftm_render_create(ftm_render **out, ftm_error *err)
     r->lit_color = glGetUniformLocation(r->lit, "u_color");
     r->lit_usemap = glGetUniformLocation(r->lit, "u_usemap");
     r->lit_full = glGetUniformLocation(r->lit, "u_full");
-    r->lit_labels = glGetUniformLocation(r->lit, "u_labels");
-    r->lit_tricolor = glGetUniformLocation(r->lit, "u_tricolor");
+    r->tis_mvp = glGetUniformLocation(r->tis, "u_mvp");
+    r->tis_model = glGetUniformLocation(r->tis, "u_model");
+    r->tis_eye = glGetUniformLocation(r->tis, "u_eye");
+    r->tis_usemap = glGetUniformLocation(r->tis, "u_usemap");
+    r->tis_full = glGetUniformLocation(r->tis, "u_full");
+    r->tis_tricolor = glGetUniformLocation(r->tis, "u_tricolor");
     r->flat_mvp = glGetUniformLocation(r->flat, "u_mvp");
     r->flat_color = glGetUniformLocation(r->flat, "u_color");
     r->flat_size = glGetUniformLocation(r->flat, "u_size");
@@ -447,6 +462,7 @@ void ftm_render_destroy(ftm_render *r)
     glDeleteProgram(r->lit);
     glDeleteProgram(r->flat);
     glDeleteProgram(r->text);
+    glDeleteProgram(r->tis);
     free(r);
 }
 
@@ -512,7 +528,7 @@ int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, const ftm_scene *sc
     }
     free(map);
     nt = kept;
-    r->ntissues = ftm_tissue_list(label, nt, scene, r->tissues, FTM_RENDER_MAX_TISSUES);
+    r->ntissues = ftm_tissue_list(label, nt, mesh, scene, r->tissues, FTM_RENDER_MAX_TISSUES);
     r->labelled = ftm_mesh_has_labels(mesh);
     r->rest = malloc(((size_t)nv * 3 + 1) * sizeof *r->rest);
     r->verts = malloc(((size_t)nv * VERT_FLOATS + 1) * sizeof *r->verts);
@@ -1182,18 +1198,27 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
     glUniform1f(r->lit_full, (float)full);
     if (r->mesh && r->ntri > 0 && !volume) {
         glUniformMatrix4fv(r->lit_model, 1, GL_FALSE, identity);
-        float tc[3];
-        ftm_tissue_color(0, tc);
-        glUniform3f(r->lit_color, tc[0], tc[1], tc[2]);
-        glUniform1i(r->lit_usemap, o->colormap ? 1 : 0);
-        glUniform1i(r->lit_labels, r->labelled ? 1 : 0);
-        glUniform1i(r->lit_tricolor, 1);
-        glActiveTexture(GL_TEXTURE1);
-        glBindTexture(GL_TEXTURE_BUFFER, r->labelled ? r->tri_tex : 0);
-        glActiveTexture(GL_TEXTURE0);
         glBindVertexArray(r->surf_vao);
-        glDrawElements(GL_TRIANGLES, 3 * r->ntri, GL_UNSIGNED_INT, (void *)0);
-        glUniform1i(r->lit_labels, 0);
+        if (r->labelled) { /* each triangle its tissue's colour */
+            glUseProgram(r->tis);
+            glUniformMatrix4fv(r->tis_mvp, 1, GL_FALSE, mvp);
+            glUniformMatrix4fv(r->tis_model, 1, GL_FALSE, identity);
+            glUniform3f(r->tis_eye, (float)eye.x, (float)eye.y, (float)eye.z);
+            glUniform1f(r->tis_full, (float)full);
+            glUniform1i(r->tis_usemap, o->colormap ? 1 : 0);
+            glUniform1i(r->tis_tricolor, 1);
+            glActiveTexture(GL_TEXTURE1);
+            glBindTexture(GL_TEXTURE_BUFFER, r->tri_tex);
+            glActiveTexture(GL_TEXTURE0);
+            glDrawElements(GL_TRIANGLES, 3 * r->ntri, GL_UNSIGNED_INT, (void *)0);
+            glUseProgram(r->lit);
+        } else {
+            float tc[3];
+            ftm_tissue_color(0, tc);
+            glUniform3f(r->lit_color, tc[0], tc[1], tc[2]);
+            glUniform1i(r->lit_usemap, o->colormap ? 1 : 0);
+            glDrawElements(GL_TRIANGLES, 3 * r->ntri, GL_UNSIGNED_INT, (void *)0);
+        }
     }
     /* probes: the instrument (tip and shaft) at each HIP, contact markers */
     glUniform1i(r->lit_usemap, 0);

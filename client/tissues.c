@@ -97,8 +97,8 @@ static int cmp_i32(const void *x, const void *y)
     return a < b ? -1 : a > b;
 }
 
-int32_t ftm_tissue_list(const int32_t *labels, int32_t ntri, const ftm_scene *scene,
-                        ftm_tissue *out, int32_t cap)
+int32_t ftm_tissue_list(const int32_t *labels, int32_t ntri, const ftm_mesh *mesh,
+                        const ftm_scene *scene, ftm_tissue *out, int32_t cap)
 {
     if (ntri <= 0 || cap <= 0)
         return 0;
@@ -128,6 +128,8 @@ int32_t ftm_tissue_list(const int32_t *labels, int32_t ntri, const ftm_scene *sc
             t->triangles = j - i;
             ftm_tissue_color(label, t->color);
             const char *name = scene && label > 0 ? ftm_scene_label_name(scene, label) : NULL;
+            if (!name && mesh && label > 0)
+                name = ftm_mesh_label_name(mesh, label);
             if (name)
                 snprintf(t->name, sizeof t->name, "%s", name);
             else if (label > 0)

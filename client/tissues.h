@@ -34,16 +34,19 @@ typedef struct ftm_tissue {
     int32_t label;     /* 0: unlabelled */
     int32_t triangles; /* surface triangles drawn in it */
     float color[3];
-    char name[FTM_TISSUE_NAME_MAX]; /* the scene's name, else "label N" ("unlabelled") */
+    /* the scene's name ([fem LABEL] name), else the mesh's (a Gmsh physical
+     * name), else "label N" ("unlabelled") */
+    char name[FTM_TISSUE_NAME_MAX];
     double young;                   /* [Pa] from [fem LABEL] or [fem]; 0: not known */
 } ftm_tissue;
 
-/* The tissues of labels[0..ntri) (as ftm_tissue_surface_labels wrote them),
- * in increasing label order, at most cap of them (the rest left out);
- * named and with E from scene (may be NULL: "label N", E unknown). Returns
- * how many were written. A mesh without labels has one, label 0. */
-int32_t ftm_tissue_list(const int32_t *labels, int32_t ntri, const ftm_scene *scene,
-                        ftm_tissue *out, int32_t cap);
+/* The tissues of labels[0..ntri) (as ftm_tissue_surface_labels wrote them
+ * for mesh), in increasing label order, at most cap of them (the rest left
+ * out); named from scene, then mesh, and with E from scene (either may be
+ * NULL: "label N", E unknown). Returns how many were written. A mesh without
+ * labels has one, label 0. */
+int32_t ftm_tissue_list(const int32_t *labels, int32_t ntri, const ftm_mesh *mesh,
+                        const ftm_scene *scene, ftm_tissue *out, int32_t cap);
 
 /* A legend row's text: "grey matter  E 2 kPa" (E left out when unknown). */
 void ftm_tissue_legend_text(const ftm_tissue *t, char *buf, size_t cap);

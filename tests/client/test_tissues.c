@@ -85,20 +85,20 @@ static void test_surface_labels(void **state)
     }
     assert_int_equal(inside, 1);
     ftm_tissue list[4];
-    assert_int_equal(ftm_tissue_list(labels, 7, NULL, list, 4), 2); /* the interface left out */
+    assert_int_equal(ftm_tissue_list(labels, 7, m, NULL, list, 4), 2); /* the interface left out */
     assert_int_equal(list[0].label, 4);
     assert_int_equal(list[0].triangles, 3);
     assert_string_equal(list[0].name, "label 4");
     assert_true(list[0].young == 0);
     assert_int_equal(list[1].label, 7);
-    assert_int_equal(ftm_tissue_list(labels, 7, NULL, list, 1), 1); /* at most cap */
+    assert_int_equal(ftm_tissue_list(labels, 7, m, NULL, list, 1), 1); /* at most cap */
     ftm_mesh_destroy(m);
     /* no labels: every triangle label 0, one tissue, the default colour */
     m = two_tets(false, false);
     assert_int_equal(ftm_tissue_surface_labels(m, labels), FTM_OK);
     for (int32_t t = 0; t < 6; t++)
         assert_int_equal(labels[t], 0);
-    assert_int_equal(ftm_tissue_list(labels, 6, NULL, list, 4), 1);
+    assert_int_equal(ftm_tissue_list(labels, 6, m, NULL, list, 4), 1);
     assert_string_equal(list[0].name, "unlabelled");
     ftm_mesh_destroy(m);
 }
@@ -140,7 +140,7 @@ static void test_scene_names(void **state)
     int32_t labels[272];
     assert_int_equal(ftm_tissue_surface_labels(m, labels), FTM_OK);
     ftm_tissue t[4];
-    assert_int_equal(ftm_tissue_list(labels, n, scene, t, 4), 2);
+    assert_int_equal(ftm_tissue_list(labels, n, m, scene, t, 4), 2);
     char row[96];
     assert_int_equal(t[0].label, 1);
     assert_int_equal(t[0].triangles, 136);
@@ -148,8 +148,12 @@ static void test_scene_names(void **state)
     assert_string_equal(row, "grey matter  E 2 kPa");
     ftm_tissue_legend_text(&t[1], row, sizeof row);
     assert_string_equal(row, "white matter  E 6 kPa");
-    /* without the scene: the label, E unknown */
-    assert_int_equal(ftm_tissue_list(labels, n, NULL, t, 4), 2);
+    /* without the scene: the mesh's names (the .msh's $PhysicalNames), E
+     * unknown; without either, the label */
+    assert_int_equal(ftm_tissue_list(labels, n, m, NULL, t, 4), 2);
+    ftm_tissue_legend_text(&t[1], row, sizeof row);
+    assert_string_equal(row, "right tissue");
+    assert_int_equal(ftm_tissue_list(labels, n, NULL, NULL, t, 4), 2);
     ftm_tissue_legend_text(&t[1], row, sizeof row);
     assert_string_equal(row, "label 2");
     t[1].young = 1.5e6;
