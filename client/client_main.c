@@ -459,6 +459,10 @@ static void new_mesh(app *a)
     alog(a, FTM_LOG_INFO, "drawing %d surface triangles", (int)ftm_render_triangle_count(a->ren));
     const ftm_tissue *tis;
     int32_t ntis = ftm_render_tissues(a->ren, &tis);
+    if (ftm_mesh_has_labels(a->view.mesh) && ntis == 0)
+        alog(a, FTM_LOG_WARN, "the mesh's elements carry labels, but its %d surface triangles are "
+             "more than this OpenGL's buffer textures hold: one colour, no legend",
+             (int)ftm_render_triangle_count(a->ren));
     for (int32_t i = 0; i < ntis; i++) {
         char row[96];
         ftm_tissue_legend_text(&tis[i], row, sizeof row);

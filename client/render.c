@@ -19,8 +19,9 @@
 struct ftm_render {
     GLuint lit, flat, text; /* programs */
     GLint lit_mvp, lit_model, lit_eye, lit_color, lit_usemap, lit_full;
-    /* the surface of a mesh with labels: the same shading, each triangle's
-     * tissue colour (a program of its own: the other scenes' costs nothing) */
+    /* the surface of a mesh with labels: the same shading, each triangle in
+     * its tissue's colour (a program of its own, so that the surface of a
+     * mesh without labels costs what it did) */
     GLuint tis;
     GLint tis_mvp, tis_model, tis_eye, tis_usemap, tis_full, tis_tricolor;
     GLint flat_mvp, flat_color, flat_size;
@@ -100,33 +101,33 @@ static const char *lit_vs =
  * look right from behind. The colour map (blue-teal-yellow-red) shows only
  * where the tissue moved: away from the dent the tissue keeps its colour. */
 #define LIT_FS_BODY                                                                               \
-    "in vec3 v_pos; in vec3 v_nrm; in float v_disp;\n"                                          \
-    "uniform vec3 u_eye; uniform vec3 u_color; uniform int u_usemap; uniform float u_full;\n"   \
-    "#ifdef TISSUES\n"                                                                          \
-    "uniform samplerBuffer u_tricolor;\n"                                                       \
-    "vec3 tissue_color() { return texelFetch(u_tricolor, gl_PrimitiveID).rgb; }\n"              \
-    "#else\n"                                                                                   \
-    "vec3 tissue_color() { return u_color; }\n"                                                 \
-    "#endif\n"                                                                                  \
-    "out vec4 o_color;\n"                                                                       \
-    FTM_GL_RAMP_GLSL                                                                            \
-    "void main() {\n"                                                                           \
-    "  vec3 n = normalize(v_nrm);\n"                                                            \
-    "  vec3 v = normalize(u_eye - v_pos);\n"                                                    \
-    "  if (dot(n, v) < 0.0) n = -n;\n"                                                          \
-    "  vec3 tissue = tissue_color();\n"                                                         \
-    "  vec3 base = tissue;\n"                                                                 \
-    "  if (u_usemap != 0) {\n"                                                                \
-    "    float t = v_disp / u_full;\n"                                                        \
-    "    base = mix(tissue, ramp(t), smoothstep(0.1, 0.35, t));\n"                            \
-    "  }\n"                                                                                   \
-    "  vec3 key = normalize(vec3(0.3, -0.4, 1.0));\n"                                         \
-    "  float wv = (dot(n, v) + 0.4) / 1.4, wk = (dot(n, key) + 0.4) / 1.4;\n"                 \
-    "  float d = 0.55 * max(wv, 0.0) + 0.35 * max(wk, 0.0);\n"                                \
-    "  vec3 scatter = vec3(0.30, 0.04, 0.03) * (1.0 - max(dot(n, v), 0.0));\n"                \
-    "  vec3 h = normalize(key + v);\n"                                                        \
-    "  float sp = 0.35 * pow(max(dot(n, h), 0.0), 80.0);\n"                                   \
-    "  o_color = vec4(base * (0.18 + d) + scatter * base + vec3(sp), 1.0);\n"                 \
+    "in vec3 v_pos; in vec3 v_nrm; in float v_disp;\n"                                            \
+    "uniform vec3 u_eye; uniform vec3 u_color; uniform int u_usemap; uniform float u_full;\n"     \
+    "#ifdef TISSUES\n"                                                                            \
+    "uniform samplerBuffer u_tricolor;\n"                                                         \
+    "vec3 tissue_color() { return texelFetch(u_tricolor, gl_PrimitiveID).rgb; }\n"                \
+    "#else\n"                                                                                     \
+    "vec3 tissue_color() { return u_color; }\n"                                                   \
+    "#endif\n"                                                                                    \
+    "out vec4 o_color;\n"                                                                         \
+    FTM_GL_RAMP_GLSL                                                                              \
+    "void main() {\n"                                                                             \
+    "  vec3 n = normalize(v_nrm);\n"                                                              \
+    "  vec3 v = normalize(u_eye - v_pos);\n"                                                      \
+    "  if (dot(n, v) < 0.0) n = -n;\n"                                                            \
+    "  vec3 tissue = tissue_color();\n"                                                           \
+    "  vec3 base = tissue;\n"                                                                     \
+    "  if (u_usemap != 0) {\n"                                                                    \
+    "    float t = v_disp / u_full;\n"                                                            \
+    "    base = mix(tissue, ramp(t), smoothstep(0.1, 0.35, t));\n"                                \
+    "  }\n"                                                                                       \
+    "  vec3 key = normalize(vec3(0.3, -0.4, 1.0));\n"                                             \
+    "  float wv = (dot(n, v) + 0.4) / 1.4, wk = (dot(n, key) + 0.4) / 1.4;\n"                     \
+    "  float d = 0.55 * max(wv, 0.0) + 0.35 * max(wk, 0.0);\n"                                    \
+    "  vec3 scatter = vec3(0.30, 0.04, 0.03) * (1.0 - max(dot(n, v), 0.0));\n"                    \
+    "  vec3 h = normalize(key + v);\n"                                                            \
+    "  float sp = 0.35 * pow(max(dot(n, h), 0.0), 80.0);\n"                                       \
+    "  o_color = vec4(base * (0.18 + d) + scatter * base + vec3(sp), 1.0);\n"                     \
     "}\n"
 static const char *lit_fs = "#version 330 core\n" LIT_FS_BODY;
 static const char *tis_fs = "#version 330 core\n#define TISSUES 1\n" LIT_FS_BODY;
@@ -529,7 +530,11 @@ int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, const ftm_scene *sc
     free(map);
     nt = kept;
     r->ntissues = ftm_tissue_list(label, nt, mesh, scene, r->tissues, FTM_RENDER_MAX_TISSUES);
-    r->labelled = ftm_mesh_has_labels(mesh);
+    /* a colour per triangle in a buffer texture: GL 3.3 promises 65536
+     * texels, most drivers far more; past it, one colour and no legend */
+    GLint tbo_max = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &tbo_max);
+    r->labelled = ftm_mesh_has_labels(mesh) && nt <= tbo_max;
     r->rest = malloc(((size_t)nv * 3 + 1) * sizeof *r->rest);
     r->verts = malloc(((size_t)nv * VERT_FLOATS + 1) * sizeof *r->verts);
     if (!r->rest || !r->verts) {
