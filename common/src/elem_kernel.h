@@ -62,6 +62,15 @@ typedef struct ftm_elem_blocks {
      * label's young and poisson (ftm_sim_def.label_materials); a spare lane
      * repeats lane 0 */
     double *mat;
+    /* The elements in blocks by place: place p (hexahedra 0 .. hex_count-1,
+     * then tetrahedra) holds element elem_of[p], and element e is at place
+     * place_of[e]. Places follow space (sim_elem.c: a Morton order of the
+     * centroids), so that a press's elements fill few blocks even when the
+     * mesh's own order is random, as a mesher's is. Only which block and
+     * lane an element sits in changes, not what it computes: every lane is
+     * independent, and a node sums its elements in element order. NULL for
+     * both: places are elements. */
+    int32_t *elem_of, *place_of;
 } ftm_elem_blocks;
 
 #define FTM_EB_MAT 3
@@ -79,19 +88,26 @@ static inline int32_t ftm_eb_nodes(const ftm_elem_blocks *eb, int32_t b)
  * pairs (elem_kernel.c). One record per incidence: a node sums its
  * elements' forces from one cache line each. */
 static inline int ftm_eb_slot(int l) { return (l & 1) * (FTM_EB / 2) + (l >> 1); }
-/* the first element of block b */
+/* the first place of block b (its lane l holds ftm_eb_elem(eb, first + l)) */
 static inline int32_t ftm_eb_first(const ftm_elem_blocks *eb, int32_t b)
 {
     return b < eb->hex_blocks ? FTM_EB * b : eb->hex_count + FTM_EB * (b - eb->hex_blocks);
 }
+/* the element at place p */
+static inline int32_t ftm_eb_elem(const ftm_elem_blocks *eb, int32_t p)
+{
+    return eb->elem_of ? eb->elem_of[p] : p;
+}
 /* the block of element e and its lane */
 static inline int32_t ftm_eb_block(const ftm_elem_blocks *eb, int32_t e)
 {
-    return e < eb->hex_count ? e / FTM_EB : eb->hex_blocks + (e - eb->hex_count) / FTM_EB;
+    const int32_t p = eb->place_of ? eb->place_of[e] : e;
+    return p < eb->hex_count ? p / FTM_EB : eb->hex_blocks + (p - eb->hex_count) / FTM_EB;
 }
 static inline int32_t ftm_eb_lane(const ftm_elem_blocks *eb, int32_t e)
 {
-    return (e < eb->hex_count ? e : e - eb->hex_count) % FTM_EB;
+    const int32_t p = eb->place_of ? eb->place_of[e] : e;
+    return (p < eb->hex_count ? p : p - eb->hex_count) % FTM_EB;
 }
 /* offsets of block b in the arrays above, in units of FTM_EB entries: a
  * per-node array (nn per element), and the element data */

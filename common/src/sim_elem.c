@@ -129,6 +129,8 @@ void ftm_elem_free(ftm_elem *el)
     free(el->eb.gp);
     free(el->eb.rest);
     free(el->eb.mat);
+    free(el->eb.elem_of);
+    free(el->eb.place_of);
     free(el->eb.u);
     free(el->eb.fe);
     free(el->eb.det);
@@ -365,7 +367,7 @@ static bool prepare(ftm_elem *el, const ftm_sim *sim, bool sched, const node_lis
         bool all = true;
         for (int32_t l = 0; l < eb->lanes[b]; l++)
             if (!eb->ok[FTM_EB * (size_t)b + (size_t)l]) {
-                el->inv_mark[e0 + l] = bg;
+                el->inv_mark[ftm_eb_elem(eb, e0 + l)] = bg;
                 all = false;
             }
         if (all)
@@ -1010,6 +1012,72 @@ static int build_rows(ftm_elem *el, int32_t n, ftm_error *err)
     return FTM_OK;
 }
 
+/* An element's place in the Morton order: the key of its centroid, then
+ * its number (no two equal). */
+typedef struct placed {
+    uint64_t key;
+    int32_t e;
+} placed;
+
+static int cmp_placed(const void *a, const void *b)
+{
+    const placed *x = a, *y = b;
+    if (x->key != y->key)
+        return x->key < y->key ? -1 : 1;
+    return (x->e > y->e) - (x->e < y->e);
+}
+
+/* 21 bits of v spread to every third bit */
+static uint64_t spread3(uint64_t v)
+{
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffULL;
+    v = (v | v << 16) & 0x1f0000ff0000ffULL;
+    v = (v | v << 8) & 0x100f00f00f00f00fULL;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+    v = (v | v << 2) & 0x1249249249249249ULL;
+    return v;
+}
+
+/* eb->elem_of and place_of: hexahedra and tetrahedra each in the Morton
+ * order of their centroids over the mesh's bounding box (elem_kernel.h says
+ * why). Integer keys from + - * / of the rest positions: the same places on
+ * every machine (and they change no result anyway). Nonzero: out of memory. */
+static int place_elements(const ftm_elem *el, const ftm_mesh *m, ftm_elem_blocks *eb)
+{
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int32_t i = 0; i < m->node_count; i++)
+        for (int c = 0; c < 3; c++) {
+            lo[c] = fmin(lo[c], m->rest[3 * (size_t)i + (size_t)c]);
+            hi[c] = fmax(hi[c], m->rest[3 * (size_t)i + (size_t)c]);
+        }
+    placed *pl = malloc(((size_t)el->count + 1) * sizeof *pl);
+    if (!pl)
+        return -1;
+    for (int32_t e = 0; e < el->count; e++) {
+        const int32_t a0 = el->start[e], nn = el->start[e + 1] - a0;
+        uint64_t key = 0;
+        for (int c = 0; c < 3; c++) {
+            double s = 0.0;
+            for (int32_t a = 0; a < nn; a++)
+                s += m->rest[3 * (size_t)el->node[a0 + a] + (size_t)c];
+            const double span = hi[c] - lo[c];
+            double t = span > 0.0 ? (s / nn - lo[c]) / span : 0.0;
+            t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+            key |= spread3((uint64_t)(t * 2097151.0)) << c;
+        }
+        pl[e] = (placed){key, e};
+    }
+    qsort(pl, (size_t)m->hex_count, sizeof *pl, cmp_placed);
+    qsort(pl + m->hex_count, (size_t)(el->count - m->hex_count), sizeof *pl, cmp_placed);
+    for (int32_t p = 0; p < el->count; p++) {
+        eb->elem_of[p] = pl[p].e;
+        eb->place_of[pl[p].e] = p;
+    }
+    free(pl);
+    return 0;
+}
+
 /* The elements in blocks (elem_kernel.h), lane-minor: their nodes and the
  * data el->gp held per element (freed here); where each incidence's forces
  * are; each node's blocks. */
@@ -1042,11 +1110,19 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
     el->bstamp = calloc(nb + 1, sizeof *el->bstamp);
     el->inv_mark = calloc((size_t)el->count + 1, sizeof *el->inv_mark);
     el->sched_blk = malloc((nb + 1) * sizeof *el->sched_blk);
+    eb->elem_of = malloc(((size_t)el->count + 1) * sizeof *eb->elem_of);
+    eb->place_of = malloc(((size_t)el->count + 1) * sizeof *eb->place_of);
     if (!eb->lanes || !eb->node || !eb->fe || !eb->det || !eb->ok || !eb->gp || !eb->rest || !eb->mat || !eb->u || !el->inc_fe ||
+        !eb->elem_of || !eb->place_of ||
         !el->node_blk_start || !el->node_blk || !el->valid || !el->list || !el->bstamp ||
         !el->inv_mark || !el->sched_blk)
         return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %d element blocks",
                              (int)nb);
+    if (place_elements(el, m, eb)) {
+        free(eb->elem_of); /* (out of memory for the sort: places are elements) */
+        free(eb->place_of);
+        eb->elem_of = eb->place_of = NULL;
+    }
     for (int32_t b = 0; b < eb->count; b++) {
         const bool hex = ftm_eb_hex(eb, b);
         const int32_t e0 = ftm_eb_first(eb, b), e1 = hex ? eb->hex_count : el->count;
@@ -1055,7 +1131,7 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
         eb->lanes[b] = lanes;
         int32_t *node = eb->node + FTM_EB * ftm_eb_node_off(eb, b);
         for (int l = 0; l < FTM_EB; l++) {
-            const int32_t e = e0 + (l < lanes ? l : 0); /* a spare lane repeats lane 0 */
+            const int32_t e = ftm_eb_elem(eb, e0 + (l < lanes ? l : 0)); /* a spare lane repeats lane 0 */
             for (int a = 0; a < nn; a++) {
                 const int32_t i = el->node[el->start[e] + a];
                 node[FTM_EB * a + l] = i;
