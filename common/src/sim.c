@@ -264,6 +264,12 @@ int ftm_sim_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err)
         return ftm_error_set(err, FTM_EINVAL,
                              "sim set mesh: the new mesh differs in shape (nodes, rest positions, "
                              "fixed nodes, links or surface)");
+    if (sim->elem && sim->far && m->ground_k)
+        return ftm_error_set(err, FTM_EINVAL,
+                             "sim set mesh: a new material with element forces, the elastic far "
+                             "field and springs to ground is not supported (the far field's "
+                             "stiffness would no longer be a multiple of the one it was made "
+                             "for)");
     if (sim->elem) { /* a factor on E from the links, the mesh's damping */
         int rc = ftm_elem_set_mesh(sim, m, err);
         if (rc)

@@ -417,7 +417,9 @@ static inline bool update_node(ftm_sim *sim, int32_t i, double *save, int stride
     } else {
         node_force(sim->elem, sim->m, sim->x, i, f);
     }
-    double m2 = integrate(sim, i, cur, f, nw);
+    double ground;
+    double m2 = sim->m->bc && sim->m->bc[i] ? ftm_bc_update(sim, i, cur, f, nw, &ground)
+                                            : integrate(sim, i, cur, f, nw);
     *mm = m2 > *mm ? m2 : *mm;
     for (int d = 0; d < 3; d++) {
         if (save)
@@ -484,9 +486,11 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
         for (int32_t g = 0, b0 = 0; g < s->groups; g++) {
             for (int32_t k = s->group[g]; k < s->group[g + 1]; k++) {
                 int32_t i = s->node[k];
-                double f[3];
+                double f[3], ground;
                 node_force(el, sim->m, sim->x, i, f);
-                double m2 = integrate(sim, i, sim->x + 3 * i, f, s->tmp + 3 * k);
+                double m2 = sim->m->bc && sim->m->bc[i]
+                                ? ftm_bc_update(sim, i, sim->x + 3 * i, f, s->tmp + 3 * k, &ground)
+                                : integrate(sim, i, sim->x + 3 * i, f, s->tmp + 3 * k);
                 ok &= m2 <= ftm_sim_lim2(sim, i);
                 mm = m2 > mm ? m2 : mm;
             }
@@ -590,6 +594,8 @@ void ftm_elem_reactions(ftm_sim *sim)
             continue;
         double f[3];
         node_force(sim->elem, sim->m, sim->x, ct->node, f);
+        if (sim->m->bc) /* a held node on a spring to ground pulls on it too */
+            ftm_bc_ground_force(sim->m, ct->node, sim->x + 3 * ct->node, f);
         double *r = sim->reaction + 3 * ct->group;
         r[0] -= f[0];
         r[1] -= f[1];
@@ -1081,6 +1087,8 @@ static void bound_and_warn(ftm_elem *el, const ftm_sim *sim)
                 double sc = 1.0 / sqrt(el->mass[i] * el->mass[el->row_node[p]]);
                 s += (fabs(kb[0]) + fabs(kb[1]) + fabs(kb[2])) * sc;
             }
+            if (m->ground_k) /* a spring to ground: k_g / m_i on the diagonal */
+                s += m->ground_k[i] / el->mass[i];
             li = s > li ? s : li;
         }
         lmax = li > lmax ? li : lmax;

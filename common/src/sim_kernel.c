@@ -108,12 +108,13 @@ bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
     for (int32_t k = k0; k < k1; k++) {
         int32_t i = s->node[k];
         double *xi = x + 3 * i, *pi = xp + 3 * i, *sv = s->save + 3 * k;
-        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe;
+        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe, ground = 0.0;
         spring_force_pe(m, x, i, cur, f, &pe);
-        double m2 = integrate(sim, i, cur, f, nw);
+        double m2 = m->bc && m->bc[i] ? ftm_bc_update(sim, i, cur, f, nw, &ground)
+                                      : integrate(sim, i, cur, f, nw);
         ok &= m2 <= ftm_sim_lim2(sim, i); /* false for NaN too */
         mm = m2 > mm ? m2 : mm;
-        en += sim->ke_w[i] * m2 + 0.25 * pe;
+        en += sim->ke_w[i] * m2 + 0.25 * pe + ground;
         for (int d = 0; d < 3; d++) {
             sv[d] = pi[d];
             pi[d] = cur[d];
@@ -376,17 +377,42 @@ bool ftm_sweep_relax(ftm_sim *sim)
     for (int32_t r = 0; r < sim->nrelax; r++) {
         int32_t i = sim->relax[r];
         double *xi = sim->x + 3 * i, *pi = sim->xp + 3 * i;
-        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe;
+        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe, ground = 0.0;
         spring_force_pe(sim->m, sim->x, i, cur, f, &pe);
-        double m2 = integrate(sim, i, cur, f, nw);
+        double m2 = sim->m->bc && sim->m->bc[i] ? ftm_bc_update(sim, i, cur, f, nw, &ground)
+                                                : integrate(sim, i, cur, f, nw);
         ok &= m2 <= ftm_sim_lim2(sim, i);
-        en += sim->ke_w[i] * m2 + 0.25 * pe;
+        en += sim->ke_w[i] * m2 + 0.25 * pe + ground;
         for (int d = 0; d < 3; d++) {
             pi[d] = cur[d];
             xi[d] = nw[d];
         }
     }
     sim->energy += en;
+    return ok;
+}
+
+bool ftm_bc_group(ftm_sim *sim, int32_t k0, int32_t k1, double *tmp, int w, double *mm,
+                  double *en)
+{
+    const ftm_mesh *m = sim->m;
+    bool ok = true;
+    for (int32_t k = k0; k < k1; k++) {
+        const int32_t i = sim->s.node[k];
+        if (!m->bc[i])
+            continue;
+        const double *xi = sim->x + 3 * (size_t)i;
+        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe, ground;
+        spring_force_pe(m, sim->x, i, cur, f, &pe);
+        const double m2 = ftm_bc_update(sim, i, cur, f, nw, &ground);
+        ok &= m2 <= ftm_sim_lim2(sim, i);
+        *mm = m2 > *mm ? m2 : *mm;
+        *en += sim->ke_w[i] * m2 + 0.25 * pe + ground;
+        double *t = tmp + 3 * (size_t)((k - k0) & ~(w - 1)) + ((k - k0) & (w - 1));
+        t[0] = nw[0];
+        t[w] = nw[1];
+        t[2 * w] = nw[2];
+    }
     return ok;
 }
 
@@ -400,6 +426,8 @@ void ftm_sim_compute_reactions(ftm_sim *sim)
             continue;
         double f[3];
         spring_force(sim->m, sim->x, ct->node, sim->x + 3 * ct->node, f);
+        if (sim->m->bc) /* a held node on a spring to ground pulls on it too */
+            ftm_bc_ground_force(sim->m, ct->node, sim->x + 3 * ct->node, f);
         double *r = sim->reaction + 3 * ct->group;
         r[0] -= f[0];
         r[1] -= f[1];
