@@ -22,6 +22,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #define NB 6      /* nodes per side of the block */
 #define NZ 4      /* layers of the block */
@@ -183,6 +184,10 @@ static void test_ground_spring_alone(void **state)
         assert_int_equal(ftm_sim_step(sim), FTM_OK);
         ftm_vec3 r = ftm_sim_reaction(sim, 0);
         assert_true(fabs(r.x + 0.1) < 1e-12 && r.y == 0.0 && r.z == 0.0); /* -k u */
+        double K[9]; /* the haptic model's stiffness: dF/dx = -k I */
+        assert_int_equal(ftm_sim_contact_stiffness(sim, 0, K), 1);
+        for (int e = 0; e < 9; e++)
+            assert_true(K[e] == (e % 4 == 0 ? -100.0 : 0.0));
         ftm_sim_destroy(sim);
     }
     ftm_mesh_destroy(m);
@@ -317,6 +322,64 @@ static void test_scene_keys(void **state)
     ftm_scene_destroy(scene);
 }
 
+/* slide_label and ground_label on a Gmsh file: three unit hexahedra along
+ * x in physical groups 3, 3 and 8 (the last a "ligament"). */
+static const char rod_msh[] =
+    "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
+    "$Entities\n0 0 0 2\n"
+    "1 0 0 0 2 1 1 1 3 0\n2 2 0 0 3 1 1 1 8 0\n$EndEntities\n"
+    "$Nodes\n1 16 1 16\n3 1 0 16\n"
+    "1\n2\n3\n4\n5\n6\n7\n8\n9\n10\n11\n12\n13\n14\n15\n16\n"
+    "0 0 0\n1 0 0\n2 0 0\n3 0 0\n0 1 0\n1 1 0\n2 1 0\n3 1 0\n"
+    "0 0 1\n1 0 1\n2 0 1\n3 0 1\n0 1 1\n1 1 1\n2 1 1\n3 1 1\n"
+    "$EndNodes\n"
+    "$Elements\n2 3 1 3\n3 1 5 2\n1 1 2 6 5 9 10 14 13\n2 2 3 7 6 10 11 15 14\n"
+    "3 2 5 1\n3 3 4 8 7 11 12 16 15\n$EndElements\n";
+
+static void test_scene_label_keys(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/ftm-test-constraints-XXXXXX", path[64], text[1024];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/rod.msh", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(rod_msh, f);
+    fclose(f);
+    snprintf(text, sizeof text,
+             "[mesh]\nfile = %s\nfixed_nodes = 0\nslide_label = z : 3\nground_label = 40 : 8\n"
+             "[material]\nmass = 0.01\nstiffness = 100\n",
+             path);
+    ftm_scene *scene = NULL;
+    ftm_error err;
+    /* node 0 is fixed and in label 3: refused, naming the line */
+    assert_int_equal(ftm_scene_parse(text, strlen(text), "rod.scene", &scene, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "rod.scene:4: slide_label: node 0 is fixed too"));
+    snprintf(text, sizeof text,
+             "[mesh]\nfile = %s\nslide_label = z : 3\nground_label = 40 : 8\n"
+             "[material]\nmass = 0.01\nstiffness = 100\n",
+             path);
+    if (ftm_scene_parse(text, strlen(text), "rod.scene", &scene, &err))
+        fail_msg("%s", err.message);
+    const ftm_mesh *m = ftm_scene_mesh(scene);
+    for (int32_t i = 0; i < ftm_mesh_node_count(m); i++) {
+        const ftm_vec3 x = ftm_mesh_rest_position(m, i);
+        assert_int_equal(ftm_mesh_slide_normals(m, i, NULL), x.x <= 2.0); /* label 3: x 0..2 */
+        assert_true(ftm_mesh_ground_stiffness(m, i) == (x.x >= 2.0 ? 40.0 : 0.0)); /* 8: 2..3 */
+    }
+    ftm_scene_destroy(scene);
+    snprintf(text, sizeof text,
+             "[mesh]\nfile = %s\nground_label = 40 : 5\n[material]\nmass = 0.01\nstiffness = "
+             "100\n",
+             path);
+    scene = NULL;
+    assert_int_equal(ftm_scene_parse(text, strlen(text), "rod.scene", &scene, &err), FTM_EINVAL);
+    assert_non_null(strstr(err.message, "rod.scene:3: ground_label: no element of the mesh has "
+                                        "label 5 (0 tetrahedra, 3 hexahedra)"));
+    unlink(path);
+    rmdir(dir);
+}
+
 int main(void)
 {
     setenv("FTM_CACHE_DIR", "", 1);
@@ -327,6 +390,7 @@ int main(void)
         cmocka_unit_test(test_kernels_agree),
         cmocka_unit_test(test_builder_rules),
         cmocka_unit_test(test_scene_keys),
+        cmocka_unit_test(test_scene_label_keys),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -178,6 +178,26 @@ bool ftm_mesh_builder_node_fixed(const ftm_mesh_builder *b, int32_t node)
     return b && node >= 0 && node < b->node_count && b->nodes[node].fixed;
 }
 
+int32_t ftm_mesh_builder_label_nodes(const ftm_mesh_builder *b, int32_t label, uint8_t *mark)
+{
+    if (!b || label < 1)
+        return 0;
+    int32_t found = 0;
+    for (int32_t e = 0; b->tet_labels && e < b->tet_count; e++)
+        if (b->tet_labels[e] == label) {
+            for (int k = 0; k < 4; k++)
+                mark[b->tets[4 * (size_t)e + k]] = 1;
+            found++;
+        }
+    for (int32_t e = 0; b->hex_labels && e < b->hex_count; e++)
+        if (b->hex_labels[e] == label) {
+            for (int k = 0; k < 8; k++)
+                mark[b->hexes[8 * (size_t)e + k]] = 1;
+            found++;
+        }
+    return found;
+}
+
 int32_t ftm_mesh_builder_fix_label(ftm_mesh_builder *b, int32_t label)
 {
     if (!b || label < 1)

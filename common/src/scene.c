@@ -92,6 +92,8 @@ typedef enum key {
     K_SLIDE_NODES,
     K_SLIDE_BOX,
     K_GROUND_SPRINGS,
+    K_SLIDE_LABEL,
+    K_GROUND_LABEL,
     K_MASS,
     K_DAMPING,
     K_STIFFNESS,
@@ -162,6 +164,8 @@ static const struct {
     [K_SLIDE_NODES] = {SEC_MESH, "slide_nodes", true},
     [K_SLIDE_BOX] = {SEC_MESH, "slide_box", true},
     [K_GROUND_SPRINGS] = {SEC_MESH, "ground_springs", true},
+    [K_SLIDE_LABEL] = {SEC_MESH, "slide_label", true},
+    [K_GROUND_LABEL] = {SEC_MESH, "ground_label", true},
     [K_MASS] = {SEC_MATERIAL, "mass", false},
     [K_DAMPING] = {SEC_MATERIAL, "damping", false},
     [K_STIFFNESS] = {SEC_MATERIAL, "stiffness", false},
@@ -221,13 +225,13 @@ typedef struct fixed_box {
 } fixed_box;
 
 /* slide_nodes, slide_box (a normal) and ground_springs (a stiffness) */
-typedef enum bc_kind { BC_SLIDE, BC_SLIDE_BOX, BC_GROUND } bc_kind;
+typedef enum bc_kind { BC_SLIDE, BC_SLIDE_BOX, BC_GROUND, BC_SLIDE_LABEL, BC_GROUND_LABEL } bc_kind;
 typedef struct bc_spec {
     bc_kind kind;
     int32_t line;
     double normal[3]; /* slides */
     double k;         /* ground springs, N/m */
-    int64_t input;    /* slide_nodes, ground_springs: one node each */
+    int64_t input;    /* slide_nodes, ground_springs: one node each; *_label: the label */
     fixed_box box;    /* slide_box */
 } bc_spec;
 
@@ -689,22 +693,29 @@ static int normal_value(parser *p, const char *kn, const char *v, size_t vlen, d
 static int bc_value(parser *p, key k, const char *kn, const char *v, size_t vlen)
 {
     spec *s = &p->s;
-    const char *form = k == K_SLIDE_NODES ? "NORMAL : NODES (normal x, y, z or NX NY NZ)"
-                       : k == K_SLIDE_BOX ? "NORMAL : XMIN YMIN ZMIN XMAX YMAX ZMAX"
-                                          : "STIFFNESS : NODES (stiffness in N/m)";
+    const char *form = k == K_SLIDE_NODES    ? "NORMAL : NODES (normal x, y, z or NX NY NZ)"
+                       : k == K_SLIDE_BOX    ? "NORMAL : XMIN YMIN ZMIN XMAX YMAX ZMAX"
+                       : k == K_SLIDE_LABEL  ? "NORMAL : LABELS (element labels >= 1)"
+                       : k == K_GROUND_LABEL ? "STIFFNESS : LABELS (N/m; element labels >= 1)"
+                                             : "STIFFNESS : NODES (stiffness in N/m)";
+    const bool labels = k == K_SLIDE_LABEL || k == K_GROUND_LABEL;
     const char *right = v;
     size_t rlen = 0, llen = 0;
     int rc;
     if ((rc = colon_sides(p, kn, v, vlen, form, &right, &rlen, &llen)) != FTM_OK)
         return rc;
-    bc_spec b = {.kind = k == K_SLIDE_NODES ? BC_SLIDE : k == K_SLIDE_BOX ? BC_SLIDE_BOX : BC_GROUND,
+    bc_spec b = {.kind = k == K_SLIDE_NODES    ? BC_SLIDE
+                         : k == K_SLIDE_BOX    ? BC_SLIDE_BOX
+                         : k == K_SLIDE_LABEL  ? BC_SLIDE_LABEL
+                         : k == K_GROUND_LABEL ? BC_GROUND_LABEL
+                                               : BC_GROUND,
                  .line = p->line};
-    if (k == K_GROUND_SPRINGS) {
+    if (k == K_GROUND_SPRINGS || k == K_GROUND_LABEL) {
         if ((rc = scalar(p, kn, v, llen, false, &b.k)) != FTM_OK)
             return rc;
         if (!(b.k > 0.0) || !isfinite(b.k))
             return fail_at(p, p->line, FTM_EINVAL,
-                           "ground_springs: the stiffness must be > 0 N/m and finite, got %g", b.k);
+                           "%s: the stiffness must be > 0 N/m and finite, got %g", kn, b.k);
     } else if ((rc = normal_value(p, kn, v, llen, b.normal)) != FTM_OK) {
         return rc;
     }
@@ -734,7 +745,7 @@ static int bc_value(parser *p, key k, const char *kn, const char *v, size_t vlen
     token one;
     int count = 0;
     while (ftm_text_token(&cur, end, &one.s, &one.n)) {
-        if ((rc = integer(p, kn, one, 0, INT32_MAX, &b.input)) != FTM_OK)
+        if ((rc = integer(p, kn, one, labels ? 1 : 0, INT32_MAX, &b.input)) != FTM_OK)
             return rc;
         bc_spec *e = push((void **)&s->bcs, &s->bc_count, &s->bc_cap, sizeof *e);
         if (!e)
@@ -813,6 +824,8 @@ static int set_mesh_key(parser *p, key k, const char *kn, const char *v, size_t 
     case K_SLIDE_NODES:
     case K_SLIDE_BOX:
     case K_GROUND_SPRINGS:
+    case K_SLIDE_LABEL:
+    case K_GROUND_LABEL:
         return bc_value(p, k, kn, v, vlen);
     case K_FIXED_LABEL: /* element labels, >= 1; checked against the mesh once built */
         return index_list(p, kn, v, vlen, 1, &s->fixed_labels, &s->fixed_label_count,
@@ -1533,9 +1546,13 @@ static int apply_fixed(const parser *p, ftm_mesh_builder *b)
  * is fixed or sliding, not both. */
 static int constrain_node(const parser *p, ftm_mesh_builder *b, const bc_spec *c, int32_t i)
 {
-    const char *kn = c->kind == BC_SLIDE ? "slide_nodes"
-                     : c->kind == BC_SLIDE_BOX ? "slide_box"
-                                               : "ground_springs";
+    static const char *const names[] = {[BC_SLIDE] = "slide_nodes",
+                                        [BC_SLIDE_BOX] = "slide_box",
+                                        [BC_GROUND] = "ground_springs",
+                                        [BC_SLIDE_LABEL] = "slide_label",
+                                        [BC_GROUND_LABEL] = "ground_label"};
+    const char *kn = names[c->kind];
+    const bool ground = c->kind == BC_GROUND || c->kind == BC_GROUND_LABEL;
     if (i >= ftm_mesh_builder_node_count(b))
         return fail_at(p, c->line, FTM_ERANGE, "%s: node %d out of range (mesh has %d nodes)", kn,
                        (int)i, (int)ftm_mesh_builder_node_count(b));
@@ -1543,12 +1560,12 @@ static int constrain_node(const parser *p, ftm_mesh_builder *b, const bc_spec *c
         return fail_at(p, c->line, FTM_EINVAL,
                        "%s: node %d is fixed too (fixed_nodes, fixed_faces, fixed_label or "
                        "fixed_box): a node is fixed or %s, not both",
-                       kn, (int)i, c->kind == BC_GROUND ? "on a spring to ground" : "sliding");
-    int rc = c->kind == BC_GROUND
+                       kn, (int)i, ground ? "on a spring to ground" : "sliding");
+    int rc = ground
                  ? ftm_mesh_builder_add_ground_spring(b, i, c->k)
                  : ftm_mesh_builder_add_slide(b, i, (ftm_vec3){c->normal[0], c->normal[1],
                                                                c->normal[2]});
-    if (rc == FTM_EINVAL && c->kind != BC_GROUND)
+    if (rc == FTM_EINVAL && !ground)
         return fail_at(p, c->line, rc,
                        "%s: node %d would slide along no direction (three independent normals): "
                        "fix it instead",
@@ -1565,8 +1582,26 @@ static int apply_constraints(const parser *p, ftm_mesh_builder *b)
     int rc = FTM_OK;
     for (size_t k = 0; rc == FTM_OK && k < s->bc_count; k++) {
         const bc_spec *c = &s->bcs[k];
-        if (c->kind != BC_SLIDE_BOX) {
+        if (c->kind == BC_SLIDE || c->kind == BC_GROUND) {
             rc = constrain_node(p, b, c, c->input > INT32_MAX ? INT32_MAX : (int32_t)c->input);
+            continue;
+        }
+        if (c->kind == BC_SLIDE_LABEL || c->kind == BC_GROUND_LABEL) {
+            const int32_t n = ftm_mesh_builder_node_count(b);
+            uint8_t *mark = calloc((size_t)n + 1, 1);
+            if (!mark)
+                return fail_at(p, c->line, FTM_ENOMEM, "out of memory");
+            if (ftm_mesh_builder_label_nodes(b, (int32_t)c->input, mark) == 0)
+                rc = fail_at(p, c->line, FTM_EINVAL,
+                             "%s: no element of the mesh has label %lld (%d tetrahedra, %d "
+                             "hexahedra)",
+                             c->kind == BC_SLIDE_LABEL ? "slide_label" : "ground_label",
+                             (long long)c->input, (int)ftm_mesh_builder_tetrahedron_count(b),
+                             (int)ftm_mesh_builder_hexahedron_count(b));
+            for (int32_t i = 0; rc == FTM_OK && i < n; i++)
+                if (mark[i])
+                    rc = constrain_node(p, b, c, i);
+            free(mark);
             continue;
         }
         int32_t hits = 0;

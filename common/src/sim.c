@@ -1076,6 +1076,11 @@ double ftm_sim_potential_energy(const ftm_sim *sim)
         double ext = sqrt(rx * rx + ry * ry + rz * rz) - m->link_len[l];
         e += 0.5 * m->link_k[l] * ext * ext;
     }
+    for (int32_t i = 0; m->ground_k && i < m->node_count; i++) { /* springs to ground */
+        const double *x = sim->x + 3 * i, *X = m->rest + 3 * i;
+        const double ux = x[0] - X[0], uy = x[1] - X[1], uz = x[2] - X[2];
+        e += 0.5 * m->ground_k[i] * (ux * ux + uy * uy + uz * uz);
+    }
     return e;
 }
 

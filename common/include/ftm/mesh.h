@@ -80,6 +80,10 @@ bool ftm_mesh_builder_node_fixed(const ftm_mesh_builder *builder, int32_t node);
  * body held in place, the skull around a brain, a bone under a muscle.
  * Returns how many elements carry the label (0: none; nothing changed). */
 int32_t ftm_mesh_builder_fix_label(ftm_mesh_builder *builder, int32_t label);
+/* Sets mark[i] = 1 (mark: one per node added so far) for every node of
+ * every element labelled `label` (>= 1); returns how many elements carry it. */
+int32_t ftm_mesh_builder_label_nodes(const ftm_mesh_builder *builder, int32_t label,
+                                     uint8_t *mark);
 /* Partial constraints (docs/scene-format.md, Boundary conditions): node may
  * not move along `normal` (any length > 0): it slides on the plane through
  * its rest position normal to it. A second call with another direction
