@@ -352,16 +352,29 @@ static void test_scene_label_keys(void **state)
              path);
     ftm_scene *scene = NULL;
     ftm_error err;
-    /* node 0 is fixed and in label 3: refused, naming the line */
+    /* node 0 is fixed and in label 3: it stays fixed, the others slide */
+    if (ftm_scene_parse(text, strlen(text), "rod.scene", &scene, &err))
+        fail_msg("%s", err.message);
+    const ftm_mesh *m = ftm_scene_mesh(scene);
+    const int32_t n0 = ftm_mesh_node_of_input(m, 0), n1 = ftm_mesh_node_of_input(m, 1);
+    assert_true(ftm_mesh_fixed(m, n0) && ftm_mesh_slide_normals(m, n0, NULL) == 0);
+    assert_int_equal(ftm_mesh_slide_normals(m, n1, NULL), 1);
+    ftm_scene_destroy(scene);
+    /* but named by index: refused, naming the line */
+    snprintf(text, sizeof text,
+             "[mesh]\nfile = %s\nfixed_nodes = 0\nslide_nodes = z : 3 0\n"
+             "[material]\nmass = 0.01\nstiffness = 100\n",
+             path);
+    scene = NULL;
     assert_int_equal(ftm_scene_parse(text, strlen(text), "rod.scene", &scene, &err), FTM_EINVAL);
-    assert_non_null(strstr(err.message, "rod.scene:4: slide_label: node 0 is fixed too"));
+    assert_non_null(strstr(err.message, "rod.scene:4: slide_nodes: node 0 is fixed too"));
     snprintf(text, sizeof text,
              "[mesh]\nfile = %s\nslide_label = z : 3\nground_label = 40 : 8\n"
              "[material]\nmass = 0.01\nstiffness = 100\n",
              path);
     if (ftm_scene_parse(text, strlen(text), "rod.scene", &scene, &err))
         fail_msg("%s", err.message);
-    const ftm_mesh *m = ftm_scene_mesh(scene);
+    m = ftm_scene_mesh(scene);
     for (int32_t i = 0; i < ftm_mesh_node_count(m); i++) {
         const ftm_vec3 x = ftm_mesh_rest_position(m, i);
         assert_int_equal(ftm_mesh_slide_normals(m, i, NULL), x.x <= 2.0); /* label 3: x 0..2 */

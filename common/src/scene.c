@@ -1575,7 +1575,9 @@ static int constrain_node(const parser *p, ftm_mesh_builder *b, const bc_spec *c
     return FTM_OK;
 }
 
-/* slide_nodes, slide_box and ground_springs, in the file's order. */
+/* slide_nodes, slide_box, ground_springs, slide_label and ground_label, in
+ * the file's order. A node named by index that is fixed is refused; a box
+ * or a label may hold fixed nodes, which stay fixed. */
 static int apply_constraints(const parser *p, ftm_mesh_builder *b)
 {
     const spec *s = &p->s;
@@ -1599,7 +1601,7 @@ static int apply_constraints(const parser *p, ftm_mesh_builder *b)
                              (long long)c->input, (int)ftm_mesh_builder_tetrahedron_count(b),
                              (int)ftm_mesh_builder_hexahedron_count(b));
             for (int32_t i = 0; rc == FTM_OK && i < n; i++)
-                if (mark[i])
+                if (mark[i] && !ftm_mesh_builder_node_fixed(b, i)) /* fixed stays fixed */
                     rc = constrain_node(p, b, c, i);
             free(mark);
             continue;
@@ -1608,8 +1610,9 @@ static int apply_constraints(const parser *p, ftm_mesh_builder *b)
         for (int32_t i = 0, n = ftm_mesh_builder_node_count(b); rc == FTM_OK && i < n; i++) {
             ftm_vec3 x;
             ftm_mesh_builder_node_position(b, i, &x);
-            if (in_box(&c->box, x)) {
-                rc = constrain_node(p, b, c, i);
+            if (in_box(&c->box, x)) { /* (a fixed node in it stays fixed) */
+                if (!ftm_mesh_builder_node_fixed(b, i))
+                    rc = constrain_node(p, b, c, i);
                 hits++;
             }
         }
