@@ -216,17 +216,33 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #undef JNAME
 #undef JBLOCK
 /* one instance of the sweep per (links read, recorded or neither; planar;
- * rows padded or compact): constants in the body */
-#define SWEEP_PLANAR(body, sim, max_m2, linked, record, compact)                               \
-    (ftm_sim_planar(sim) ? body(sim, max_m2, linked, record, true, compact)                    \
-                         : body(sim, max_m2, linked, record, false, compact))
-#define SWEEP_ROWS(body, sim, max_m2, linked, record)                                          \
-    ((sim)->pad_rows ? SWEEP_PLANAR(body, sim, max_m2, linked, record, false)                  \
-                     : SWEEP_PLANAR(body, sim, max_m2, linked, record, true))
-#define SWEEP_VARIANTS(body, sim, max_m2)                                                      \
-    ((sim)->s.linked              ? SWEEP_PLANAR(body, sim, max_m2, true, false, false)        \
-     : ftm_sim_record_links(sim) ? SWEEP_ROWS(body, sim, max_m2, false, true)                 \
-                                  : SWEEP_ROWS(body, sim, max_m2, false, false))
+ * rows padded or compact; constrained nodes or none): constants in the body.
+ * A mesh with constrained nodes (sliding, springs to ground) runs instances
+ * of its own, so that the others' loops hold no call to ftm_bc_group (with
+ * it, GCC 12 kept their vector accumulators in memory) */
+#define SWEEP_PLANAR(body, sim, max_m2, linked, record, compact, bcs)                          \
+    (ftm_sim_planar(sim) ? body(sim, max_m2, linked, record, true, compact, bcs)               \
+                         : body(sim, max_m2, linked, record, false, compact, bcs))
+#define SWEEP_ROWS(body, sim, max_m2, linked, record, bcs)                                     \
+    ((sim)->pad_rows ? SWEEP_PLANAR(body, sim, max_m2, linked, record, false, bcs)             \
+                     : SWEEP_PLANAR(body, sim, max_m2, linked, record, true, bcs))
+#define SWEEP_LINKS(body, sim, max_m2, bcs)                                                    \
+    ((sim)->s.linked              ? SWEEP_PLANAR(body, sim, max_m2, true, false, false, bcs)   \
+     : ftm_sim_record_links(sim) ? SWEEP_ROWS(body, sim, max_m2, false, true, bcs)            \
+                                  : SWEEP_ROWS(body, sim, max_m2, false, false, bcs))
+/* the sweep of a kernel (TARGET, body) as two functions, the constrained
+ * meshes' instances in one of their own, so the other's code is as it was */
+#define SWEEP_FUNCTIONS(name, TARGET, body)                                                    \
+    TARGET __attribute__((noinline)) static bool name##_bc(ftm_sim *sim, double *max_m2)       \
+    {                                                                                          \
+        return SWEEP_LINKS(body, sim, max_m2, true);                                           \
+    }                                                                                          \
+    TARGET static bool name(ftm_sim *sim, double *max_m2)                                      \
+    {                                                                                          \
+        if (__builtin_expect((sim)->m->bc != NULL, 0))                                         \
+            return name##_bc(sim, max_m2);                                                     \
+        return SWEEP_LINKS(body, sim, max_m2, false);                                          \
+    }
 
 #if defined(__x86_64__) || defined(__i386__) /* the 8-lane build is for AVX-512 */
 #include <immintrin.h>
@@ -332,21 +348,11 @@ static inline AVX512 void load_coef8(const double *p, const size_t on[8], v8d *a
 #define JBLOCK4 block4_in8
 #include "sim_groups.inc"
 
-__attribute__((target("avx512f"))) static bool sweep_groups_avx512(ftm_sim *sim, double *max_m2)
-{
-    return SWEEP_VARIANTS(sweep_groups_body8, sim, max_m2);
-}
-
-__attribute__((target("avx"))) static bool sweep_groups_avx(ftm_sim *sim, double *max_m2)
-{
-    return SWEEP_VARIANTS(sweep_groups_body4, sim, max_m2);
-}
+SWEEP_FUNCTIONS(sweep_groups_avx512, __attribute__((target("avx512f"))), sweep_groups_body8)
+SWEEP_FUNCTIONS(sweep_groups_avx, __attribute__((target("avx"))), sweep_groups_body4)
 #endif
 
-static bool sweep_groups_portable(ftm_sim *sim, double *max_m2)
-{
-    return SWEEP_VARIANTS(sweep_groups_body4, sim, max_m2);
-}
+SWEEP_FUNCTIONS(sweep_groups_portable, , sweep_groups_body4)
 
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
 {
