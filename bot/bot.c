@@ -419,8 +419,14 @@ static const char *run(bot *b, int64_t end_ns, int *rc_exit)
             return "script leave time";
         /* a trainee waits for frames no longer than until its next input */
         int64_t wait = trainee ? next_input - now : SEC / 1000;
+        const int64_t turn_ns = now;
         ftm_participant_turn(b->part, wait < 0 ? 0 : wait > SEC / 1000 ? SEC / 1000 : wait);
         now = ftm_clock_mono_ns();
+        /* a turn that took long loaded the session's scene (a mesh from a
+         * scan takes a second or more on a busy host): the sync timeout
+         * counts from the end of it */
+        if (now - turn_ns > SEC / 4 && ftm_participant_state(b->part) != FTM_WIRE_STATE_SYNCED)
+            b->unsynced_since += now - turn_ns;
         const double t = script_time(now);
         if (trainee && now >= next_input && ftm_participant_may_press(b->part)) {
             send_probe(b, t);

@@ -70,8 +70,15 @@ trap 'stop 129' HUP
 scene=${FTM_SCENE:-palpation}
 common=(--session main-$$ --domain $((1 + $$ % 97)) --config deploy/cyclonedds-loopback.xml)
 
-script1=docs/sessions/trainee1.bot
-script2=docs/sessions/trainee2.bot
+# a scene with scripts of its own (docs/sessions/NAME/ for the scene file
+# NAME.scene, e.g. FTM_SCENE=docs/scenes/brain.scene) runs those
+scripts=docs/sessions
+base=$(basename "$scene" .scene)
+[ "$base" != "$scene" ] && [ -d "docs/sessions/$base" ] && scripts=docs/sessions/$base
+script1=$scripts/trainee1.bot
+script2=$scripts/trainee2.bot
+script15=$scripts/instructor.bot
+[ -r "$script15" ] || script15=docs/sessions/instructor.bot
 if [ -n "$gui" ]; then
   # the scripted presses again every 3 s, for as long as the window is watched
   loop() { awk -v reps=$((seconds / 3 + 1)) '!/^#/ && NF == 4 { t[n] = $1; l[n++] = $2 " " $3 " " $4 }
@@ -82,8 +89,8 @@ if [ -n "$gui" ]; then
 else
   echo "FTM headless session on loopback: ftm-server (scene '$scene', 1000 Hz, ${seconds} s)"
 fi
-echo "  + trainee 11 (docs/sessions/trainee1.bot), trainee 12 (trainee2.bot), observer 13,"
-echo "    instructor 15 (instructor.bot: damping 0.3 -> 0.33 N s/m at 1.4 s, stiffness 50 -> 80 N/m at 1.5 s)"
+echo "  + trainee 11 ($script1), trainee 12 (trainee2.bot), observer 13,"
+echo "    instructor 15 ($script15: $(grep -v '^#' "$script15" | awk 'NF' | tr '\n' ';' | sed 's/;$//;s/;/; /g'))"
 [ -n "$gui" ] && echo "  + instructor 14: ftm-client window (keys: docs/client.md)"
 timeout $((seconds + 20)) "$server" --scene "$scene" "${common[@]}" --duration "$seconds" \
   --log "$dir/server.log" --report "$dir/report.json" --record "$dir/session.rec" \
@@ -102,7 +109,7 @@ p12=$!
 timeout $((seconds + 20)) "$bot" --role observer "${common[@]}" \
   --id 13 --duration $((seconds + 10)) >"$dir/b13.out" 2>"$dir/b13.err" &
 p13=$!
-timeout $((seconds + 20)) "$bot" --role instructor --script docs/sessions/instructor.bot \
+timeout $((seconds + 20)) "$bot" --role instructor --script "$script15" \
   "${common[@]}" --id 15 --duration $((seconds + 10)) >"$dir/b15.out" 2>"$dir/b15.err" &
 p15=$!
 if [ -n "$gui" ]; then

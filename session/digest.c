@@ -94,6 +94,27 @@ int ftm_replay_scene_digest(const ftm_scene *scene, uint8_t out[FTM_REPLAY_DIGES
     put_f64(&h, d.guard_motion);
     put_u64(&h, (uint64_t)d.max_substeps);
     put_u64(&h, d.cache_layers);
+    /* element forces and their materials, per label too, and the elastic
+     * far field: appended only where they apply, so a spring scene with the
+     * paper's far field keeps the digest it always had */
+    if (d.forces != FTM_FORCES_SPRINGS) {
+        put(&h, "elements", 8);
+        put_u64(&h, (uint64_t)d.forces);
+        put_f64(&h, d.young);
+        put_f64(&h, d.poisson);
+        put_f64(&h, d.density);
+        put_u64(&h, (uint64_t)d.label_material_count);
+        for (int32_t i = 0; i < d.label_material_count; i++) {
+            put_u64(&h, (uint64_t)d.label_materials[i].label);
+            put_f64(&h, d.label_materials[i].young);
+            put_f64(&h, d.label_materials[i].poisson);
+            put_f64(&h, d.label_materials[i].density);
+        }
+    }
+    if (d.far_field != FTM_FAR_FIELD_FIXED) {
+        put(&h, "far field", 9);
+        put_u64(&h, (uint64_t)d.far_field);
+    }
     EVP_DigestUpdate(h.ctx, h.buf, h.fill);
     unsigned int len = 0;
     int ok = EVP_DigestFinal_ex(h.ctx, out, &len);

@@ -15,7 +15,8 @@
 /* SHA-256 over a canonical encoding of what determines the dynamics: the
  * mesh as built (rest positions, masses, damping, fixed flags, adjacency with
  * stiffness and rest lengths, surface triangles) and the session's sim
- * definition (ftm_replay_sim_def). Two peers with equal digests replay
+ * definition (ftm_replay_sim_def), with element forces their materials
+ * (per label too) and the elastic far field where set. Two peers with equal digests replay
  * bit-identically. FTM_OK, or FTM_ENOMEM when OpenSSL cannot make a digest
  * context (out is then all zero: equal to no real digest). */
 int ftm_replay_scene_digest(const ftm_scene *scene, uint8_t out[FTM_REPLAY_DIGEST_SIZE]);

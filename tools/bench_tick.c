@@ -54,6 +54,7 @@ typedef struct tick_options {
 typedef struct scene_info {
     char name[64];
     double cx, cy, top, radius;
+    ftm_vec3 *rest; /* the nodes' rest positions (malloc) */
     int32_t nodes, depth;
     ftm_forces forces;
     ftm_far_field far;
@@ -84,23 +85,39 @@ static int scene_info_of(const char *name, scene_info *si)
     si->depth = d.depth;
     si->forces = d.forces;
     si->far = d.far_field;
-    /* the top face: the free nodes within 1 mm of the highest one */
+    /* the top face: the nodes within 1 mm of the highest one; on a rounded
+     * top (an organ from a scan) the band widens until it is 10 mm across,
+     * and each press goes `press` below the surface where it lands */
     double top = -INFINITY;
     for (int32_t i = 0; i < si->nodes; i++)
         top = fmax(top, ftm_mesh_rest_position(m, i).z);
-    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-    for (int32_t i = 0; i < si->nodes; i++) {
-        ftm_vec3 p = ftm_mesh_rest_position(m, i);
-        if (p.z < top - 1e-3)
-            continue;
-        lo[0] = fmin(lo[0], p.x), hi[0] = fmax(hi[0], p.x);
-        lo[1] = fmin(lo[1], p.y), hi[1] = fmax(hi[1], p.y);
+    double lo[2], hi[2];
+    for (double band = 1e-3; band <= 0.032; band *= 2) {
+        lo[0] = lo[1] = INFINITY, hi[0] = hi[1] = -INFINITY;
+        for (int32_t i = 0; i < si->nodes; i++) {
+            ftm_vec3 p = ftm_mesh_rest_position(m, i);
+            if (p.z < top - band)
+                continue;
+            lo[0] = fmin(lo[0], p.x), hi[0] = fmax(hi[0], p.x);
+            lo[1] = fmin(lo[1], p.y), hi[1] = fmax(hi[1], p.y);
+        }
+        if (fmin(hi[0] - lo[0], hi[1] - lo[1]) >= 0.01)
+            break;
     }
-    ftm_scene_destroy(sc);
     si->top = top;
     si->cx = 0.5 * (lo[0] + hi[0]);
     si->cy = 0.5 * (lo[1] + hi[1]);
     si->radius = fmin(0.025, 0.3 * fmin(hi[0] - lo[0], hi[1] - lo[1]));
+    /* the surface under each press is found when its script is written */
+    si->rest = malloc(((size_t)si->nodes + 1) * sizeof *si->rest);
+    if (!si->rest) {
+        ftm_scene_destroy(sc);
+        fprintf(stderr, "ftm bench tick: out of memory\n");
+        return -1;
+    }
+    for (int32_t i = 0; i < si->nodes; i++)
+        si->rest[i] = ftm_mesh_rest_position(m, i);
+    ftm_scene_destroy(sc);
     if (!(si->radius > 0)) {
         fprintf(stderr, "ftm bench tick: scene '%s' has no flat top face to press\n", name);
         return -1;
@@ -123,7 +140,17 @@ static int write_script(const char *path, const scene_info *si, int i, int n, do
     double a = 6.283185307179586 * i / n;
     double x = si->cx + si->radius * cos(a), y = si->cy + si->radius * sin(a);
     double tx = -sin(a) * 0.003, ty = cos(a) * 0.003;
-    double up = si->top + 0.006, down = si->top - press;
+    /* the surface where the press lands: the highest node within 3 mm of
+     * the vertical through (x, y) (the top itself on a flat face) */
+    double land = -INFINITY;
+    for (int32_t k = 0; k < si->nodes; k++) {
+        const ftm_vec3 p = si->rest[k];
+        if ((p.x - x) * (p.x - x) + (p.y - y) * (p.y - y) <= 9e-6)
+            land = fmax(land, p.z);
+    }
+    if (!isfinite(land))
+        land = si->top;
+    double up = si->top + 0.006, down = land - press;
     fprintf(f, "# ftm bench tick: trainee %d of %d on %s\nclock session\n0 %.5f %.5f %.5f\n", i,
             n, si->name, x, y, up);
     for (double t = 2.0 * i / n + 0.3; t < length; t += 2.0) {
@@ -368,21 +395,22 @@ int ftm_bench_tick(int argc, char **argv)
     int prc = parse(argc, argv, &o, scenes_buf, sizeof scenes_buf);
     if (prc)
         return prc == 1 ? 0 : 2;
-    scene_info si[MAX_SCENES];
+    scene_info si[MAX_SCENES] = {0};
+    int status = 2;
     for (int k = 0; k < o.nscenes; k++)
         if (scene_info_of(o.scenes[k], &si[k]))
-            return 2;
+            goto done;
     char tmpl[] = "/tmp/ftm-bench-tick.XXXXXX";
     const char *dir = o.keep;
     if (dir) {
         if (mkdir(dir, 0755) && errno != EEXIST) {
             fprintf(stderr, "ftm bench tick: cannot create --keep %s: %s\n", dir, strerror(errno));
-            return 2;
+            goto done;
         }
     } else if (!(dir = mkdtemp(tmpl))) {
         fprintf(stderr, "ftm bench tick: cannot create a temporary directory: %s\n",
                 strerror(errno));
-        return 2;
+        goto done;
     }
     double budget_us = 1e6 / o.rate;
     FILE *t = o.json ? stderr : stdout;
@@ -431,5 +459,9 @@ int ftm_bench_tick(int argc, char **argv)
         if (ftm_proc_remove_tree(dir))
             fprintf(stderr, "ftm bench tick: could not remove %s: %s\n", dir, strerror(errno));
     }
-    return failed ? 1 : 0;
+    status = failed ? 1 : 0;
+done:
+    for (int k = 0; k < o.nscenes; k++)
+        free(si[k].rest);
+    return status;
 }

@@ -53,7 +53,9 @@ static void usage(FILE *out)
             "all load cases. 'elastin-cube' is the paper's Tables 1-2 experiment (0.1 m\n"
             "cube, 10x10x10 nodes, E = 0.6 MPa, nu = 0.45, rho = 1040 kg/m^3, bottom\n"
             "clamped, 10/20/40 N on the four central top nodes, depth 10). A SCENE needs\n"
-            "a [fem] section; its force loads are the load pattern. See docs/fit.md.\n"
+            "a [fem] section; its force loads are the load pattern. With [fem LABEL]\n"
+            "sections each element takes its label's material, each spring k times the\n"
+            "mean of its elements' young over [fem]'s ([material LABEL]). See docs/fit.md.\n"
             "\n"
             "options:\n"
             "  --stencil 6|18|26   elastin-cube lattice stencil (default 18)\n"
@@ -501,6 +503,66 @@ static bool paper_forces(const fit_options *o)
     return true;
 }
 
+/* [fem LABEL] for the fit: each element's material for the FEM reference,
+ * and each link's weight, the mean over the elements holding it of their
+ * young over [fem]'s (the rule of [material LABEL],
+ * ftm_mesh_with_label_stiffness); *max_weight the largest. 0, or the exit
+ * status after a message. */
+static int label_weights(const ftm_mesh *mesh, const ftm_fem_material *mat,
+                         const ftm_label_material *labels, int32_t nlabels, ftm_fem_material **hex,
+                         ftm_fem_material **tet, double **weight, double *max_weight)
+{
+    const int32_t nh = ftm_mesh_hexahedron_count(mesh), nt = ftm_mesh_tetrahedron_count(mesh);
+    const int32_t nl = ftm_mesh_link_count(mesh);
+    *hex = malloc(((size_t)nh + 1) * sizeof **hex);
+    *tet = malloc(((size_t)nt + 1) * sizeof **tet);
+    *weight = malloc(((size_t)nl + 1) * sizeof **weight);
+    int32_t *lab = malloc(((size_t)nlabels + 1) * sizeof *lab);
+    double *factor = malloc(((size_t)nlabels + 1) * sizeof *factor);
+    if (!*hex || !*tet || !*weight || !lab || !factor) {
+        free(lab);
+        free(factor);
+        fprintf(stderr, "ftm fit: out of memory\n");
+        return EXIT_FAIL;
+    }
+    for (int32_t e = 0; e < nh + nt; e++) {
+        const int32_t label =
+            e < nh ? ftm_mesh_hexahedron_label(mesh, e) : ftm_mesh_tetrahedron_label(mesh, e - nh);
+        ftm_fem_material em = *mat;
+        for (int32_t i = 0; i < nlabels; i++)
+            if (labels[i].label == label)
+                em = (ftm_fem_material){labels[i].young, labels[i].poisson};
+        if (e < nh)
+            (*hex)[e] = em;
+        else
+            (*tet)[e - nh] = em;
+    }
+    for (int32_t i = 0; i < nlabels; i++) {
+        lab[i] = labels[i].label;
+        factor[i] = labels[i].young / mat->young;
+    }
+    ftm_mesh *w = NULL;
+    ftm_error err;
+    int rc = ftm_mesh_with_label_stiffness(mesh, lab, factor, nlabels, &w, &err);
+    free(lab);
+    free(factor);
+    if (rc != FTM_OK) {
+        fprintf(stderr, "ftm fit: link weights: %s\n", err.message);
+        return EXIT_FAIL;
+    }
+    *max_weight = 0.0;
+    for (int32_t l = 0; l < nl; l++) {
+        int32_t a, b;
+        double k, kw, len;
+        ftm_mesh_link(mesh, l, &a, &b, &k, &len);
+        ftm_mesh_link(w, l, &a, &b, &kw, &len);
+        (*weight)[l] = kw / k;
+        *max_weight = fmax(*max_weight, (*weight)[l]);
+    }
+    ftm_mesh_destroy(w);
+    return 0;
+}
+
 int ftm_cmd_fit(int argc, char **argv)
 {
     fit_options o;
@@ -525,6 +587,12 @@ int ftm_cmd_fit(int argc, char **argv)
     model_result models[2];
     memset(models, 0, sizeof models);
     int nmodels = 0;
+    /* several tissues ([fem LABEL]): per-element materials for the
+     * reference, and each link's stiffness weighted by its labels' moduli */
+    const ftm_label_material *labels = NULL;
+    int32_t nlabels = 0;
+    ftm_fem_material *hex_mats = NULL, *tet_mats = NULL;
+    double *weight = NULL, max_weight = 1.0;
 
     if (cube) {
         ftm_lattice3d_def ld = ftm_default_lattice3d_def();
@@ -558,16 +626,7 @@ int ftm_cmd_fit(int argc, char **argv)
             ftm_scene_destroy(scene);
             return EXIT_USAGE;
         }
-        int32_t labelled = 0;
-        ftm_scene_label_materials(scene, &labelled);
-        if (labelled > 0) { /* the fit's reference is one material */
-            fprintf(stderr,
-                    "ftm fit: scene '%s' has [fem LABEL] sections: the fit takes one material "
-                    "so far (issue 31)\n",
-                    o.target);
-            ftm_scene_destroy(scene);
-            return EXIT_USAGE;
-        }
+        labels = ftm_scene_label_materials(scene, &nlabels);
         if (!(density > 0))
             density = rho;
         mesh = ftm_scene_mesh(scene);
@@ -625,6 +684,9 @@ int ftm_cmd_fit(int argc, char **argv)
     double volume = mesh_volume(mesh);
     double mass = density > 0 && volume > 0 ? density * volume / n : ftm_mesh_mass(mesh, 0);
 
+    if (nlabels > 0 && (status = label_weights(mesh, &mat, labels, nlabels, &hex_mats, &tet_mats,
+                                               &weight, &max_weight)) != 0)
+        goto done;
     /* FEM reference: one factorisation, one solve per load case */
     for (int c = 0; c < o.nforces; c++) {
         forces[c] = malloc(sizeof(double) * nd);
@@ -638,8 +700,8 @@ int ftm_cmd_fit(int argc, char **argv)
             forces[c][i] = pattern[i] * o.forces[c];
     }
     double t_fem = now_seconds();
-    if (ftm_fit_fem_reference(mesh, &mat, o.nforces, (const double *const *)forces, refs, &err) !=
-        FTM_OK) {
+    if (ftm_fit_fem_reference_each(mesh, &mat, hex_mats, tet_mats, o.nforces,
+                                   (const double *const *)forces, refs, &err) != FTM_OK) {
         fprintf(stderr, "ftm fit: FEM reference: %s\n", err.message);
         status = EXIT_USAGE;
         goto done;
@@ -655,6 +717,7 @@ int ftm_cmd_fit(int argc, char **argv)
     pd.reference = (const double *const *)refs;
     pd.tolerance = o.tolerance;
     pd.max_steps = o.max_steps;
+    pd.link_weight = weight;
     double lengths[3];
     int32_t counts[3];
     /* k0 = E a: a 6-stencil lattice of edge springs k has Young's modulus
@@ -679,7 +742,7 @@ int ftm_cmd_fit(int argc, char **argv)
             if (counts[k] > 0 && counts[k] < fewest)
                 fewest = counts[k];
         int nclass_present = (counts[0] > 0) + (counts[1] > 0) + (counts[2] > 0);
-        double kmax = 30.0 * k0;
+        double kmax = 30.0 * k0 * max_weight;
         if ((o.models & 2) && nclass_present > 1 && fewest > 0)
             kmax *= (double)total / fewest;
         int deg = ftm_mesh_max_degree(mesh);
@@ -892,6 +955,12 @@ int ftm_cmd_fit(int argc, char **argv)
                 depth,
                 o.fixed_time ? "fixed-time" : "settle", (unsigned long long)o.seed, best->name);
         fprintf(out, "\"method\":\"%s\",", best_nm ? "nelder-mead" : "anneal");
+        fprintf(out, "\"labels\":[");
+        for (int32_t i = 0; i < nlabels; i++)
+            fprintf(out, "%s{\"label\":%d,\"young\":%s,\"poisson\":%s,\"stiffness_factor\":%s}",
+                    i ? "," : "", (int)labels[i].label, FTM_JN("%.9g", labels[i].young),
+                    FTM_JN("%.9g", labels[i].poisson), FTM_JN("%.9g", labels[i].young / mat.young));
+        fprintf(out, "],");
         write_params_json(out, best_p);
         fprintf(out, ",\"cost\":%s,\"cases\":", FTM_JN("%.9g", best_ev->cost));
         write_cases_json(out, &o, best_ev, a_len);
@@ -977,6 +1046,13 @@ int ftm_cmd_fit(int argc, char **argv)
                 }
             }
         }
+        if (nlabels > 0) {
+            printf("\nlabels       a link's stiffness is k times the mean over the elements "
+                   "holding it of their young over [fem]'s:\n");
+            for (int32_t i = 0; i < nlabels; i++)
+                printf("  [material %d]  stiffness = %.6g x [material]'s\n", (int)labels[i].label,
+                       labels[i].young / mat.young);
+        }
         if (paper)
             printf("\ntarget       beat the paper's Table 2 by 5x: %s (smallest ratio %.2fx, model "
                    "%s, %s)\n",
@@ -998,5 +1074,8 @@ done:
     free(pattern);
     ftm_mesh_destroy(own_mesh);
     ftm_scene_destroy(scene);
+    free(hex_mats);
+    free(tet_mats);
+    free(weight);
     return status;
 }

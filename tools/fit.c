@@ -489,6 +489,8 @@ static int build_mesh(const ftm_fit_problem *p, const ftm_fit_params *q, ftm_mes
         ld.a = p->links[l].a;
         ld.b = p->links[l].b;
         ld.stiffness = q->k * q->scale[p->links[l].cls];
+        if (p->def.link_weight)
+            ld.stiffness *= p->def.link_weight[l];
         ld.rest_length = p->links[l].rest;
         rc = ftm_mesh_builder_add_link(b, &ld);
     }
@@ -615,8 +617,20 @@ int ftm_fit_fem_reference(const ftm_mesh *mesh, const ftm_fem_material *material
                           const double *const *forces, double *const *positions_out,
                           ftm_error *err)
 {
+    return ftm_fit_fem_reference_each(mesh, material, NULL, NULL, cases, forces, positions_out,
+                                      err);
+}
+
+int ftm_fit_fem_reference_each(const ftm_mesh *mesh, const ftm_fem_material *material,
+                               const ftm_fem_material *hex_materials,
+                               const ftm_fem_material *tet_materials, int32_t cases,
+                               const double *const *forces, double *const *positions_out,
+                               ftm_error *err)
+{
     ftm_fem_def def = ftm_default_fem_def();
     def.material = *material;
+    def.hex_materials = hex_materials;
+    def.tet_materials = tet_materials;
     def.factorization = FTM_FEM_FACTOR_SIMPLICIAL; /* same bits on every machine */
     ftm_fem *fem = NULL;
     int rc = ftm_fem_create(mesh, &def, &fem, err);

@@ -152,6 +152,10 @@ typedef struct ftm_fit_problem_def {
     int32_t fixed_steps;
     double tolerance;
     int32_t max_steps;
+    /* Several tissues: NULL, or per link (the mesh's order) a factor on its
+     * stiffness k * scale[class], e.g. the ratio of its labels' moduli
+     * (ftm_mesh_with_label_stiffness), so that one k fits every tissue. */
+    const double *link_weight;
 } ftm_fit_problem_def;
 
 ftm_fit_problem_def ftm_fit_default_problem_def(void);
@@ -201,5 +205,12 @@ int ftm_fit_problem_eval(ftm_fit_problem *p, const ftm_fit_params *params, ftm_f
 int ftm_fit_fem_reference(const ftm_mesh *mesh, const ftm_fem_material *material, int32_t cases,
                           const double *const *forces, double *const *positions_out,
                           ftm_error *err);
+/* The same with per-element materials (NULL, or one per hexahedron /
+ * tetrahedron, as ftm_fem_def's): a body of several tissues. */
+int ftm_fit_fem_reference_each(const ftm_mesh *mesh, const ftm_fem_material *material,
+                               const ftm_fem_material *hex_materials,
+                               const ftm_fem_material *tet_materials, int32_t cases,
+                               const double *const *forces, double *const *positions_out,
+                               ftm_error *err);
 
 #endif

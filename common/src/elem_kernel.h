@@ -56,9 +56,18 @@ typedef struct ftm_elem_blocks {
     double *det;        /* per block FTM_EB: neo, the smallest J of each lane's points */
     int64_t *ok;        /* per block FTM_EB: neo, all ones where J > 0 at every point;
                            co-rotational, all ones */
-    double mu, kappa;   /* neo: shear and bulk moduli */
-    double lambda;      /* co-rotational: Lame's first parameter (mu the second) */
+    /* per block FTM_EB_MAT x FTM_EB, lane-minor: each element's material,
+     * its mu (shear modulus, Lame's second parameter), kappa (bulk modulus,
+     * neo-Hookean) and lambda (Lame's first, co-rotational), from its
+     * label's young and poisson (ftm_sim_def.label_materials); a spare lane
+     * repeats lane 0 */
+    double *mat;
 } ftm_elem_blocks;
+
+#define FTM_EB_MAT 3
+#define FTM_EB_MU 0
+#define FTM_EB_KAPPA 1
+#define FTM_EB_LAMBDA 2
 
 static inline bool ftm_eb_hex(const ftm_elem_blocks *eb, int32_t b) { return b < eb->hex_blocks; }
 static inline int32_t ftm_eb_nodes(const ftm_elem_blocks *eb, int32_t b)

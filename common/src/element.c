@@ -288,13 +288,21 @@ static void element_points(const ftm_mesh *m, const int32_t *nodes, int nn, ftm_
     }
 }
 
-int ftm_mesh_lumped_masses(const ftm_mesh *m, double density, double *mass, ftm_error *err)
+/* density, or per element (hexahedra, then tetrahedra) from each[] */
+static int lumped_masses(const ftm_mesh *m, double density, const double *each, double *mass,
+                         ftm_error *err)
 {
     if (!m || !mass)
         return ftm_error_set(err, FTM_EINVAL, "lumped masses: null argument");
-    if (!(density > 0.0) || !isfinite(density))
+    if (!each && (!(density > 0.0) || !isfinite(density)))
         return ftm_error_set(err, FTM_EINVAL, "lumped masses: density must be > 0 (got %g)",
                              density);
+    for (int32_t e = 0; each && e < m->hex_count + m->tet_count; e++)
+        if (!(each[e] > 0.0) || !isfinite(each[e]))
+            return ftm_error_set(err, FTM_EINVAL,
+                                 "lumped masses: %s %d: density must be > 0 (got %g)",
+                                 e < m->hex_count ? "hexahedron" : "tetrahedron",
+                                 (int)(e < m->hex_count ? e : e - m->hex_count), each[e]);
     if (m->hex_count + m->tet_count == 0)
         return ftm_error_set(err, FTM_EINVAL,
                              "lumped masses: mesh has no hexahedra or tetrahedra");
@@ -305,7 +313,7 @@ int ftm_mesh_lumped_masses(const ftm_mesh *m, double density, double *mass, ftm_
         ftm_vec3 x[8];
         double me[8];
         element_points(m, m->hexes + 8 * e, 8, x);
-        if (ftm_hex8_lumped_mass(x, density, me) != FTM_OK) {
+        if (ftm_hex8_lumped_mass(x, each ? each[e] : density, me) != FTM_OK) {
             free(out);
             return ftm_error_set(err, FTM_EINVAL,
                                  "hexahedron %d is inverted or degenerate (det J <= 0)", (int)e);
@@ -325,10 +333,24 @@ int ftm_mesh_lumped_masses(const ftm_mesh *m, double density, double *mass, ftm_
         double bx = x[2].x - x[0].x, by = x[2].y - x[0].y, bz = x[2].z - x[0].z;
         double cx = x[3].x - x[0].x, cy = x[3].y - x[0].y, cz = x[3].z - x[0].z;
         double v6 = ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
+        const double rho = each ? each[m->hex_count + e] : density;
         for (int a = 0; a < 4; a++)
-            out[m->tets[4 * e + a]] += density * fabs(v6) / 24.0; /* rho V / 4 */
+            out[m->tets[4 * e + a]] += rho * fabs(v6) / 24.0; /* rho V / 4 */
     }
     memcpy(mass, out, (size_t)m->node_count * sizeof *out);
     free(out);
     return FTM_OK;
+}
+
+int ftm_mesh_lumped_masses(const ftm_mesh *m, double density, double *mass, ftm_error *err)
+{
+    return lumped_masses(m, density, NULL, mass, err);
+}
+
+int ftm_mesh_lumped_masses_each(const ftm_mesh *m, const double *density, double *mass,
+                                ftm_error *err)
+{
+    if (!density)
+        return ftm_error_set(err, FTM_EINVAL, "lumped masses: null argument");
+    return lumped_masses(m, 0.0, density, mass, err);
 }

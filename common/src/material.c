@@ -120,6 +120,127 @@ static bool same_constraints(const ftm_mesh *a, const ftm_mesh *b)
            memcmp(a->ground_k, b->ground_k, n * sizeof(double)) == 0;
 }
 
+/* The elements of each node (hexahedra, then tetrahedra, ascending), CSR. */
+static int node_elements(const ftm_mesh *m, int32_t **start_out, int32_t **elem_out)
+{
+    const size_t n = (size_t)m->node_count, ne = (size_t)m->hex_count + (size_t)m->tet_count;
+    const size_t inc = 8 * (size_t)m->hex_count + 4 * (size_t)m->tet_count;
+    int32_t *start = calloc(n + 2, sizeof *start), *elem = malloc((inc + 1) * sizeof *elem),
+            *fill = malloc((n + 1) * sizeof *fill);
+    if (!start || !elem || !fill) {
+        free(start);
+        free(elem);
+        free(fill);
+        return FTM_ENOMEM;
+    }
+    for (size_t e = 0; e < ne; e++) {
+        const bool hex = e < (size_t)m->hex_count;
+        const int32_t *v = hex ? m->hexes + 8 * e : m->tets + 4 * (e - (size_t)m->hex_count);
+        for (int a = 0; a < (hex ? 8 : 4); a++)
+            start[v[a] + 1]++;
+    }
+    for (size_t i = 0; i < n; i++)
+        start[i + 1] += start[i];
+    memcpy(fill, start, n * sizeof *fill);
+    for (size_t e = 0; e < ne; e++) {
+        const bool hex = e < (size_t)m->hex_count;
+        const int32_t *v = hex ? m->hexes + 8 * e : m->tets + 4 * (e - (size_t)m->hex_count);
+        for (int a = 0; a < (hex ? 8 : 4); a++)
+            elem[fill[v[a]]++] = (int32_t)e;
+    }
+    free(fill);
+    *start_out = start;
+    *elem_out = elem;
+    return FTM_OK;
+}
+
+/* The factor of the pair a-b: the mean of the factors (fe, per element)
+ * of the elements holding both, 1 if none; the same bits for b-a. */
+static double pair_factor(const ftm_mesh *m, const int32_t *start, const int32_t *elem,
+                          const double *fe, int32_t a, int32_t b)
+{
+    if (a > b) {
+        const int32_t t = a;
+        a = b;
+        b = t;
+    }
+    double sum = 0.0;
+    int32_t count = 0;
+    for (int32_t q = start[a]; q < start[a + 1]; q++) {
+        const int32_t e = elem[q];
+        const bool hex = e < m->hex_count;
+        const int32_t *v = hex ? m->hexes + 8 * (size_t)e : m->tets + 4 * (size_t)(e - m->hex_count);
+        bool has = false;
+        for (int k = 0; k < (hex ? 8 : 4); k++)
+            has |= v[k] == b;
+        if (has) {
+            sum += fe[e];
+            count++;
+        }
+    }
+    return count ? sum / count : 1.0;
+}
+
+int ftm_mesh_with_label_stiffness(const ftm_mesh *base, const int32_t *labels,
+                                  const double *factor, int32_t count, ftm_mesh **out,
+                                  ftm_error *err)
+{
+    if (!base || !out || count < 0 || (count > 0 && (!labels || !factor)))
+        return ftm_error_set(err, FTM_EINVAL, "mesh with label stiffness: null argument");
+    for (int32_t i = 0; i < count; i++) {
+        if (labels[i] < 1)
+            return ftm_error_set(err, FTM_EINVAL,
+                                 "mesh with label stiffness: label %d (labels are >= 1)",
+                                 (int)labels[i]);
+        if (!(factor[i] > 0.0) || !isfinite(factor[i]))
+            return ftm_error_set(err, FTM_EINVAL,
+                                 "mesh with label stiffness: label %d: factor must be > 0 (got %g)",
+                                 (int)labels[i], factor[i]);
+        for (int32_t j = 0; j < i; j++)
+            if (labels[j] == labels[i])
+                return ftm_error_set(err, FTM_EINVAL,
+                                     "mesh with label stiffness: label %d listed twice",
+                                     (int)labels[i]);
+    }
+    const int32_t ne = base->hex_count + base->tet_count;
+    double *fe = malloc(((size_t)ne + 1) * sizeof *fe);
+    int32_t *start = NULL, *elem = NULL;
+    ftm_mesh *m = fe ? ftm_mesh_clone(base) : NULL;
+    if (!m || node_elements(base, &start, &elem) != FTM_OK) {
+        free(fe);
+        ftm_mesh_destroy(m);
+        return ftm_error_set(err, FTM_ENOMEM, "mesh with label stiffness: out of memory");
+    }
+    for (int32_t e = 0; e < ne; e++) {
+        const int32_t *lab = e < base->hex_count ? base->hex_labels : base->tet_labels;
+        const int32_t label = lab ? lab[e < base->hex_count ? e : e - base->hex_count] : 0;
+        fe[e] = 1.0;
+        for (int32_t i = 0; label > 0 && i < count; i++)
+            if (labels[i] == label)
+                fe[e] = factor[i];
+    }
+    for (int32_t l = 0; l < m->link_count; l++)
+        m->link_k[l] =
+            base->link_k[l] * pair_factor(base, start, elem, fe, base->link_a[l], base->link_b[l]);
+    const int32_t deg_max = m->max_degree;
+    for (int32_t i = 0; i < m->node_count; i++) {
+        const int32_t s0 = m->adj_start[i], deg = m->adj_start[i + 1] - s0;
+        for (int32_t k = 0; k < deg; k++) {
+            const double kk = base->adj_k[s0 + k] *
+                              pair_factor(base, start, elem, fe, i, m->adj_node[s0 + k]);
+            m->adj_k[s0 + k] = kk;
+            if (m->pad_kl)
+                m->pad_kl[2 * ((size_t)i * (size_t)deg_max + (size_t)k)] = kk;
+        }
+    }
+    free(fe);
+    free(start);
+    free(elem);
+    *out = m;
+    ftm_error_clear(err);
+    return FTM_OK;
+}
+
 bool ftm_mesh_same_shape(const ftm_mesh *a, const ftm_mesh *b)
 {
     if (a == b)

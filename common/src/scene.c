@@ -68,11 +68,13 @@ typedef enum section {
     SEC_VOLUME,
     SEC_FEM_LABEL, /* [fem LABEL]: the [fem] of one mesh label's elements */
     SEC_TOOL,
+    SEC_MATERIAL_LABEL, /* [material LABEL]: the link stiffness of one label's elements */
     SEC_COUNT
 } section;
 
 static const char *const section_names[SEC_COUNT] = {
-    "", "scene", "mesh", "material", "sim", "load", "fem", "volume", "fem LABEL", "tool"};
+    "", "scene", "mesh", "material", "sim", "load", "fem", "volume", "fem LABEL", "tool",
+    "material LABEL"};
 
 typedef enum key {
     K_NAME,
@@ -112,6 +114,7 @@ typedef enum key {
     K_YOUNG,
     K_POISSON,
     K_DENSITY,
+    K_MASS_SCALING,
     K_VOLUME_FILE,
     K_PHANTOM,
     K_VOXELS,
@@ -184,6 +187,7 @@ static const struct {
     [K_YOUNG] = {SEC_FEM, "young", false},
     [K_POISSON] = {SEC_FEM, "poisson", false},
     [K_DENSITY] = {SEC_FEM, "density", false},
+    [K_MASS_SCALING] = {SEC_FEM, "mass_scaling", false},
     [K_VOLUME_FILE] = {SEC_VOLUME, "file", false},
     [K_PHANTOM] = {SEC_VOLUME, "phantom", false},
     [K_VOXELS] = {SEC_VOLUME, "voxels", false},
@@ -246,9 +250,16 @@ typedef struct load_spec {
 
 /* A [fem LABEL] section: where it and its keys are. */
 typedef struct label_fem {
-    int32_t line, young_line, poisson_line;
+    int32_t line, young_line, poisson_line, density_line;
     ftm_label_material mat;
 } label_fem;
+
+/* A [material LABEL] section: the spring stiffness of one label. */
+typedef struct label_spring {
+    int32_t line, stiffness_line;
+    int32_t label;
+    double stiffness;
+} label_spring;
 
 typedef struct spec {
     int32_t key_line[K_COUNT]; /* line where each (non-load) key was last set, 0 = unset */
@@ -283,6 +294,9 @@ typedef struct spec {
     /* [fem LABEL] */
     label_fem *label_fems;
     size_t label_fem_count, label_fem_cap;
+    /* [material LABEL] */
+    label_spring *label_springs;
+    size_t label_spring_count, label_spring_cap;
     /* [volume] */
     char *volume_file;
     ftm_volume_phantom_def phantom;
@@ -1008,6 +1022,15 @@ static int set_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
     }
     case K_DENSITY:
         return scalar(p, kn, v, vlen, true, &s->density);
+    case K_MASS_SCALING: {
+        static const char *const bools[] = {"on", "off", "true", "false", "yes", "no", "1", "0",
+                                            NULL};
+        int b;
+        if ((rc = word(p, kn, v, vlen, bools, "on or off", &b)) != FTM_OK)
+            return rc;
+        s->sim.mass_scaling = (b % 2) == 0;
+        return FTM_OK;
+    }
     default:
         if (key_table[k].sec == SEC_VOLUME)
             return set_volume_key(p, k, kn, v, vlen);
@@ -1118,10 +1141,9 @@ static size_t strip_comment(const char *line, size_t n)
 
 #define SCENE_MAX_LABEL_FEMS 65536
 
-/* [fem LABEL]: young and poisson for the elements of one mesh label. */
-static int open_label_fem(parser *p, const char *v, size_t n, section *cur)
+/* The LABEL of a [WHAT LABEL] header. */
+static int section_label(parser *p, const char *what, const char *v, size_t n, long long *out)
 {
-    spec *sp = &p->s;
     trim(&v, &n);
     char buf[32];
     long long label = 0;
@@ -1135,9 +1157,68 @@ static int open_label_fem(parser *p, const char *v, size_t n, section *cur)
     if (n == 0 || n >= sizeof buf || *end != '\0' || errno || buf[0] == '+' || label < 1 ||
         label > INT32_MAX)
         return fail_at(p, p->line, FTM_EPARSE,
-                       "[fem %.*s]: a label is a whole number 1 .. %d, as the mesh's elements "
+                       "[%s %.*s]: a label is a whole number 1 .. %d, as the mesh's elements "
                        "carry it (a Gmsh physical group, a TetGen region)",
-                       shown(n), v, INT32_MAX);
+                       what, shown(n), v, INT32_MAX);
+    *out = label;
+    return FTM_OK;
+}
+
+/* [material LABEL]: the link stiffness of one mesh label's elements. */
+static int open_label_spring(parser *p, const char *v, size_t n, section *cur)
+{
+    spec *sp = &p->s;
+    long long label = 0;
+    int rc = section_label(p, "material", v, n, &label);
+    if (rc)
+        return rc;
+    for (size_t i = 0; i < sp->label_spring_count; i++)
+        if (sp->label_springs[i].label == label)
+            return fail_at(p, p->line, FTM_EPARSE,
+                           "duplicate section [material %lld] (first at line %d)", label,
+                           (int)sp->label_springs[i].line);
+    if (sp->label_spring_count >= SCENE_MAX_LABEL_FEMS)
+        return fail_at(p, p->line, FTM_ERANGE, "more than %d [material LABEL] sections",
+                       SCENE_MAX_LABEL_FEMS);
+    label_spring *ls = push((void **)&sp->label_springs, &sp->label_spring_count,
+                            &sp->label_spring_cap, sizeof *ls);
+    if (!ls)
+        return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
+    *ls = (label_spring){.line = p->line, .label = (int32_t)label};
+    if (!sp->section_line[SEC_MATERIAL_LABEL])
+        sp->section_line[SEC_MATERIAL_LABEL] = p->line;
+    *cur = SEC_MATERIAL_LABEL;
+    return FTM_OK;
+}
+
+/* stiffness in the [material LABEL] being read. */
+static int label_spring_key(parser *p, const char *kname, size_t kn, const char *v, size_t vn)
+{
+    label_spring *ls = &p->s.label_springs[p->s.label_spring_count - 1];
+    if (!(kn == 9 && memcmp(kname, "stiffness", 9) == 0))
+        return fail_at(p, p->line, FTM_EPARSE,
+                       "unknown key '%.*s' in [material %d] (a label's section takes stiffness; "
+                       "mass and damping are per node, the body's, in [material])",
+                       shown(kn), kname, (int)ls->label);
+    if (ls->stiffness_line)
+        return fail_at(p, p->line, FTM_EPARSE, "duplicate key 'stiffness' (first at line %d)",
+                       (int)ls->stiffness_line);
+    if (vn == 0)
+        return fail_at(p, p->line, FTM_EPARSE, "stiffness: missing value");
+    int rc = scalar(p, "stiffness", v, vn, true, &ls->stiffness);
+    if (rc == FTM_OK)
+        ls->stiffness_line = p->line;
+    return rc;
+}
+
+/* [fem LABEL]: young, poisson and density for the elements of one mesh label. */
+static int open_label_fem(parser *p, const char *v, size_t n, section *cur)
+{
+    spec *sp = &p->s;
+    long long label = 0;
+    int rc = section_label(p, "fem", v, n, &label);
+    if (rc)
+        return rc;
     for (size_t i = 0; i < sp->label_fem_count; i++)
         if (sp->label_fems[i].mat.label == label)
             return fail_at(p, p->line, FTM_EPARSE, "duplicate section [fem %lld] (first at line %d)",
@@ -1156,26 +1237,28 @@ static int open_label_fem(parser *p, const char *v, size_t n, section *cur)
     return FTM_OK;
 }
 
-/* young or poisson in the [fem LABEL] being read. */
+/* young, poisson or density in the [fem LABEL] being read. */
 static int label_fem_key(parser *p, const char *kname, size_t kn, const char *v, size_t vn)
 {
     label_fem *lf = &p->s.label_fems[p->s.label_fem_count - 1];
     bool young = kn == 5 && memcmp(kname, "young", 5) == 0;
     bool poisson = kn == 7 && memcmp(kname, "poisson", 7) == 0;
-    if (!young && !poisson)
+    bool density = kn == 7 && memcmp(kname, "density", 7) == 0;
+    if (!young && !poisson && !density)
         return fail_at(p, p->line, FTM_EPARSE,
-                       "unknown key '%.*s' in [fem %d] (a label's section takes young and "
-                       "poisson; density is the body's, in [fem])",
+                       "unknown key '%.*s' in [fem %d] (a label's section takes young, poisson "
+                       "and density)",
                        shown(kn), kname, (int)lf->mat.label);
-    int32_t *seen = young ? &lf->young_line : &lf->poisson_line;
+    const char *name = young ? "young" : poisson ? "poisson" : "density";
+    int32_t *seen = young ? &lf->young_line : poisson ? &lf->poisson_line : &lf->density_line;
     if (*seen)
-        return fail_at(p, p->line, FTM_EPARSE, "duplicate key '%s' (first at line %d)",
-                       young ? "young" : "poisson", (int)*seen);
+        return fail_at(p, p->line, FTM_EPARSE, "duplicate key '%s' (first at line %d)", name,
+                       (int)*seen);
     if (vn == 0)
-        return fail_at(p, p->line, FTM_EPARSE, "%s: missing value", young ? "young" : "poisson");
+        return fail_at(p, p->line, FTM_EPARSE, "%s: missing value", name);
     int rc;
-    if (young) {
-        rc = scalar(p, "young", v, vn, true, &lf->mat.young);
+    if (young || density) {
+        rc = scalar(p, name, v, vn, true, young ? &lf->mat.young : &lf->mat.density);
     } else {
         token t[1];
         int nt = 0;
@@ -1206,10 +1289,12 @@ static int open_section(parser *p, const char *s, size_t n, section *cur)
     }
     if (nn > 3 && memcmp(nm, "fem", 3) == 0 && (nm[3] == ' ' || nm[3] == '\t'))
         return open_label_fem(p, nm + 4, nn - 4, cur);
+    if (nn > 8 && memcmp(nm, "material", 8) == 0 && (nm[8] == ' ' || nm[8] == '\t'))
+        return open_label_spring(p, nm + 9, nn - 9, cur);
     if (sec == SEC_NONE)
         return fail_at(p, p->line, FTM_EPARSE,
-                       "unknown section [%.*s] (expected scene, mesh, material, sim, load, fem, "
-                       "fem LABEL or volume)",
+                       "unknown section [%.*s] (expected scene, mesh, material, material LABEL, "
+                       "sim, load, fem, fem LABEL, volume or tool)",
                        shown(nn), nm);
     if (sec == SEC_LOAD) {
         if (sp->load_count >= SCENE_MAX_LOADS)
@@ -1248,6 +1333,8 @@ static int key_value(parser *p, const char *s, size_t n, section cur)
         return fail_at(p, p->line, FTM_EPARSE, "key '%.*s' outside a section", shown(kn), kname);
     if (cur == SEC_FEM_LABEL)
         return label_fem_key(p, kname, kn, v, vn);
+    if (cur == SEC_MATERIAL_LABEL)
+        return label_spring_key(p, kname, kn, v, vn);
     int k = -1;
     for (int i = 0; i < K_COUNT; i++) {
         if (key_table[i].sec == cur && strlen(key_table[i].name) == kn &&
@@ -1622,6 +1709,8 @@ static int apply_constraints(const parser *p, ftm_mesh_builder *b)
     return rc;
 }
 
+static int apply_label_springs(const parser *p, ftm_mesh **m);
+
 /* The mesh, and for the volume generator the image and its embedding. */
 static int build_mesh(const parser *p, ftm_scene *scene)
 {
@@ -1655,6 +1744,8 @@ static int build_mesh(const parser *p, ftm_scene *scene)
         if (rc != FTM_OK)
             rc = fail_at(p, section_or_end(p, SEC_MESH), rc, "%s", sub.message);
     }
+    if (rc == FTM_OK)
+        rc = apply_label_springs(p, out);
     if (rc == FTM_OK && s->gen == GEN_VOLUME) {
         const int32_t *n = s->volume_lattice.nodes;
         for (size_t i = 0, count = (size_t)n[0] * n[1] * n[2]; i < count; i++)
@@ -1725,16 +1816,76 @@ static int check_label_fems(const parser *p)
             return fail_at(p, lf->line, FTM_EPARSE, "[fem %d] needs poisson (Poisson's ratio)",
                            (int)lf->mat.label);
     }
-    if (s->sim.forces != FTM_FORCES_LINEAR_FEM)
-        return fail_at(p, first->line, FTM_EPARSE,
-                       "[fem %d]: materials per label are honoured by [sim] forces = linear-fem "
-                       "only (so far)",
-                       (int)first->mat.label);
-    if (s->sim.far_field != FTM_FAR_FIELD_FIXED)
-        return fail_at(p, first->line, FTM_EPARSE,
-                       "[fem %d]: materials per label and far_field = elastic: not yet (the far "
-                       "field's compliance is of one material)",
-                       (int)first->mat.label);
+    for (size_t i = 0; i < s->label_fem_count; i++) {
+        const label_fem *lf = &s->label_fems[i];
+        if (lf->density_line && !(s->density > 0))
+            return fail_at(p, lf->density_line, FTM_EPARSE,
+                           "[fem %d]: a density per label needs [fem] density too (the other "
+                           "elements' masses would be the mesh's node masses)",
+                           (int)lf->mat.label);
+    }
+    return FTM_OK;
+}
+
+/* [material LABEL]: beside a [material] (the other elements' links), with
+ * its stiffness. */
+static int check_label_springs(const parser *p)
+{
+    const spec *s = &p->s;
+    for (size_t i = 0; i < s->label_spring_count; i++)
+        if (!s->label_springs[i].stiffness_line)
+            return fail_at(p, s->label_springs[i].line, FTM_EPARSE,
+                           "[material %d] needs stiffness", (int)s->label_springs[i].label);
+    return FTM_OK;
+}
+
+/* A label carried by some element of the mesh. */
+static bool mesh_has_label(const ftm_mesh *m, int32_t label)
+{
+    for (int32_t e = 0, n = ftm_mesh_hexahedron_count(m); e < n; e++)
+        if (ftm_mesh_hexahedron_label(m, e) == label)
+            return true;
+    for (int32_t e = 0, n = ftm_mesh_tetrahedron_count(m); e < n; e++)
+        if (ftm_mesh_tetrahedron_label(m, e) == label)
+            return true;
+    return false;
+}
+
+/* [material LABEL]: the links of the labels' elements take their
+ * stiffness (ftm_mesh_with_label_stiffness, the factor the label's
+ * stiffness over [material]'s), *m replaced by that mesh. */
+static int apply_label_springs(const parser *p, ftm_mesh **m)
+{
+    const spec *s = &p->s;
+    const size_t n = s->label_spring_count;
+    if (n == 0)
+        return FTM_OK;
+    for (size_t i = 0; i < n; i++)
+        if (!mesh_has_label(*m, s->label_springs[i].label))
+            return fail_at(p, s->label_springs[i].line, FTM_EPARSE,
+                           "[material %d]: no element of the mesh has label %d%s",
+                           (int)s->label_springs[i].label, (int)s->label_springs[i].label,
+                           ftm_mesh_has_labels(*m) ? "" : " (the mesh has no labels)");
+    int32_t *labels = malloc(n * sizeof *labels);
+    double *factor = malloc(n * sizeof *factor);
+    int rc = labels && factor ? FTM_OK : FTM_ENOMEM;
+    ftm_mesh *out = NULL;
+    ftm_error sub;
+    ftm_error_clear(&sub);
+    if (rc == FTM_OK) {
+        for (size_t i = 0; i < n; i++) {
+            labels[i] = s->label_springs[i].label;
+            factor[i] = s->label_springs[i].stiffness / s->material.stiffness;
+        }
+        rc = ftm_mesh_with_label_stiffness(*m, labels, factor, (int32_t)n, &out, &sub);
+    }
+    free(labels);
+    free(factor);
+    if (rc != FTM_OK)
+        return fail_at(p, s->label_springs[0].line, rc, "%s",
+                       sub.message[0] ? sub.message : "out of memory");
+    ftm_mesh_destroy(*m);
+    *m = out;
     return FTM_OK;
 }
 
@@ -1742,15 +1893,9 @@ static int check_label_fems(const parser *p)
 static int check_label_fems_in_mesh(const parser *p, const ftm_mesh *m)
 {
     const spec *s = &p->s;
-    const int32_t nt = ftm_mesh_tetrahedron_count(m), nh = ftm_mesh_hexahedron_count(m);
     for (size_t i = 0; i < s->label_fem_count; i++) {
         const int32_t label = s->label_fems[i].mat.label;
-        bool found = false;
-        for (int32_t e = 0; e < nh && !found; e++)
-            found = ftm_mesh_hexahedron_label(m, e) == label;
-        for (int32_t e = 0; e < nt && !found; e++)
-            found = ftm_mesh_tetrahedron_label(m, e) == label;
-        if (!found)
+        if (!mesh_has_label(m, label))
             return fail_at(p, s->label_fems[i].line, FTM_EPARSE,
                            "[fem %d]: no element of the mesh has label %d%s", (int)label,
                            (int)label,
@@ -1886,6 +2031,7 @@ static void free_spec(spec *s)
     free(s->bcs);
     free(s->loads);
     free(s->label_fems);
+    free(s->label_springs);
 }
 
 static int parse_scene(const char *text, size_t length, const char *name, const char *base_dir,
@@ -1936,6 +2082,8 @@ static int parse_scene(const char *text, size_t length, const char *name, const 
         rc = check_fem(&p);
     if (rc == FTM_OK)
         rc = check_label_fems(&p);
+    if (rc == FTM_OK)
+        rc = check_label_springs(&p);
     for (size_t i = 0; rc == FTM_OK && i < p.s.load_count; i++)
         rc = check_load_times(&p, &p.s.loads[i]);
     if (rc == FTM_OK) {

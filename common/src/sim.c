@@ -61,15 +61,10 @@ static int check_def(const ftm_sim_def *d, ftm_error *err)
     if (d->label_material_count < 0 || (d->label_material_count > 0 && !d->label_materials))
         return ftm_error_set(err, FTM_EINVAL, "sim: %d label materials at %p",
                              (int)d->label_material_count, (const void *)d->label_materials);
-    /* the co-rotational and neo-Hookean kernels take one material per
-     * simulation, and so does the far field's compliance: not yet */
-    if (d->label_material_count > 0 && d->forces != FTM_FORCES_LINEAR_FEM)
+    if (d->label_material_count > 0 && d->forces == FTM_FORCES_SPRINGS)
         return ftm_error_set(err, FTM_EINVAL,
-                             "sim: per-label materials need linear-fem element forces (so far)");
-    if (d->label_material_count > 0 && d->far_field != FTM_FAR_FIELD_FIXED)
-        return ftm_error_set(err, FTM_EINVAL,
-                             "sim: per-label materials and the elastic far field: not yet (its "
-                             "compliance is of one material)");
+                             "sim: per-label materials are for element forces (springs take "
+                             "their stiffness from the mesh's links)");
     return FTM_OK;
 }
 

@@ -128,6 +128,7 @@ void ftm_elem_free(ftm_elem *el)
     free(el->eb.node);
     free(el->eb.gp);
     free(el->eb.rest);
+    free(el->eb.mat);
     free(el->eb.u);
     free(el->eb.fe);
     free(el->eb.det);
@@ -762,6 +763,16 @@ static int check_label_materials(const ftm_mesh *m, const ftm_sim_def *d, ftm_er
             return ftm_error_set(err, FTM_EINVAL,
                                  "sim: label %d: Poisson's ratio must be > -1 and < 0.5 (got %g)",
                                  (int)lm->label, lm->poisson);
+        if (!(lm->density >= 0.0) || !isfinite(lm->density))
+            return ftm_error_set(err, FTM_EINVAL,
+                                 "sim: label %d: density must be >= 0 (got %g)", (int)lm->label,
+                                 lm->density);
+        if (lm->density > 0.0 && !(d->density > 0.0))
+            return ftm_error_set(err, FTM_EINVAL,
+                                 "sim: label %d has a density (%g kg/m^3), the body none: the "
+                                 "other elements' masses would be the mesh's node masses; give "
+                                 "the def a density too",
+                                 (int)lm->label, lm->density);
         int32_t e = 0;
         while (e < ne && element_label(m, e) != lm->label)
             e++;
@@ -772,6 +783,36 @@ static int check_label_materials(const ftm_mesh *m, const ftm_sim_def *d, ftm_er
                                  (int)lm->label);
     }
     return FTM_OK;
+}
+
+/* Element e's density: its label's if it has one, else the def's. */
+static double element_density(const ftm_mesh *m, const ftm_sim_def *d, int32_t e)
+{
+    const int32_t label = element_label(m, e);
+    for (int32_t i = 0; label > 0 && i < d->label_material_count; i++)
+        if (d->label_materials[i].label == label && d->label_materials[i].density > 0.0)
+            return d->label_materials[i].density;
+    return d->density;
+}
+
+/* Lumped masses of the def's density, or of each element's own where a
+ * label has one. */
+static int lumped(const ftm_mesh *m, const ftm_sim_def *d, double *mass, ftm_error *err)
+{
+    bool each = false;
+    for (int32_t i = 0; i < d->label_material_count; i++)
+        each |= d->label_materials[i].density > 0.0;
+    if (!each)
+        return ftm_mesh_lumped_masses(m, d->density, mass, err);
+    const int32_t ne = m->hex_count + m->tet_count;
+    double *rho = malloc(((size_t)ne + 1) * sizeof *rho);
+    if (!rho)
+        return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory");
+    for (int32_t e = 0; e < ne; e++)
+        rho[e] = element_density(m, d, e);
+    int rc = ftm_mesh_lumped_masses_each(m, rho, mass, err);
+    free(rho);
+    return rc;
 }
 
 /* Element e's elastic constants: its label's, else the def's. */
@@ -987,10 +1028,6 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
     eb->hex_count = m->hex_count;
     eb->hex_blocks = (m->hex_count + FTM_EB - 1) / FTM_EB;
     eb->count = eb->hex_blocks + (m->tet_count + FTM_EB - 1) / FTM_EB;
-    const double young = d->young, nu = d->poisson;
-    eb->mu = young / (2.0 * (1.0 + nu));
-    eb->kappa = young / (3.0 * (1.0 - 2.0 * nu));
-    eb->lambda = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
     const size_t nb = (size_t)eb->count, slots = FTM_EB * ftm_eb_node_off(eb, eb->count);
     const size_t ninc = (size_t)el->start[el->count];
     eb->lanes = malloc((nb + 1) * sizeof *eb->lanes);
@@ -1000,6 +1037,7 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
     eb->ok = calloc(FTM_EB * nb + 1, sizeof *eb->ok);
     eb->gp = calloc(FTM_EB * ftm_eb_gp_off(eb, eb->count) + 1, sizeof *eb->gp);
     eb->rest = calloc(3 * slots + 1, sizeof *eb->rest);
+    eb->mat = malloc((FTM_EB_MAT * FTM_EB * nb + 1) * sizeof *eb->mat);
     eb->nodes = m->node_count;
     eb->u = calloc(3 * (size_t)m->node_count + 1, sizeof *eb->u);
     el->inc_fe = malloc((ninc + 1) * sizeof *el->inc_fe);
@@ -1010,7 +1048,7 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
     el->bstamp = calloc(nb + 1, sizeof *el->bstamp);
     el->inv_mark = calloc((size_t)el->count + 1, sizeof *el->inv_mark);
     el->sched_blk = malloc((nb + 1) * sizeof *el->sched_blk);
-    if (!eb->lanes || !eb->node || !eb->fe || !eb->det || !eb->ok || !eb->gp || !eb->rest || !eb->u || !el->inc_fe ||
+    if (!eb->lanes || !eb->node || !eb->fe || !eb->det || !eb->ok || !eb->gp || !eb->rest || !eb->mat || !eb->u || !el->inc_fe ||
         !el->node_blk_start || !el->node_blk || !el->valid || !el->list || !el->bstamp ||
         !el->inv_mark || !el->sched_blk)
         return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %d element blocks",
@@ -1031,6 +1069,14 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
                     eb->rest[FTM_EB * (3 * ftm_eb_node_off(eb, b) + 3 * (size_t)a + (size_t)c) +
                              (size_t)l] = m->rest[3 * (size_t)i + (size_t)c];
             }
+            /* the element's own constants (the same expressions for every
+             * element, so one material gives every lane the same bits) */
+            double young, nu;
+            element_material(m, d, e, &young, &nu);
+            double *mat = eb->mat + FTM_EB * FTM_EB_MAT * (size_t)b + (size_t)l;
+            mat[FTM_EB * FTM_EB_MU] = young / (2.0 * (1.0 + nu));
+            mat[FTM_EB * FTM_EB_KAPPA] = young / (3.0 * (1.0 - 2.0 * nu));
+            mat[FTM_EB * FTM_EB_LAMBDA] = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
             if (l < lanes)
                 for (int k = 0; k < gn; k++)
                     eb->gp[FTM_EB * (ftm_eb_gp_off(eb, b) + (size_t)k) + (size_t)l] =
@@ -1067,6 +1113,72 @@ void ftm_elem_select_kernel(ftm_elem *el, ftm_elem_kernel which)
         el->blocks = ftm_blocks_kernel(el->eb.kind, which, &el->lanes);
 }
 
+/* Node i's Gershgorin row of M^-1/2 K M^-1/2: the largest over its three
+ * rows of sum_j |K_ij| / sqrt(m_i m_j). */
+static double gershgorin_row(const ftm_elem *el, const ftm_mesh *m, int32_t i)
+{
+    double li = 0.0;
+    for (int r = 0; r < 3; r++) {
+        double s = 0.0;
+        for (int32_t p = el->row_start[i]; p < el->row_start[i + 1]; p++) {
+            const double *kb = el->row_k + 9 * (size_t)p + 3 * r;
+            double sc = 1.0 / sqrt(el->mass[i] * el->mass[el->row_node[p]]);
+            s += (fabs(kb[0]) + fabs(kb[1]) + fabs(kb[2])) * sc;
+        }
+        if (m->ground_k) /* a spring to ground: k_g / m_i on the diagonal */
+            s += m->ground_k[i] / el->mass[i];
+        li = s > li ? s : li;
+    }
+    return li;
+}
+
+/* Selective mass scaling (ftm_sim_def.mass_scaling): the nodes whose row
+ * bounds the critical step below h get mass until every row allows h. A
+ * node's row falls at least as 1/sqrt of its mass factor f (its diagonal as
+ * 1/f), so a round that multiplies the offending masses by their excess
+ * halves the logarithm of the excess or better, and close to the least mass
+ * that does it; a last round by the square of what is left settles it. The
+ * neighbours' rows only fall with it. In node order, with + - * / and sqrt:
+ * the same masses on every machine. */
+static void scale_masses(ftm_elem *el, const ftm_sim *sim)
+{
+    const ftm_mesh *m = sim->m;
+    const double h = sim->def.time_step, lim = 4.0 / (h * h) * (1.0 - 1e-9);
+    double before = 0.0, after = 0.0;
+    int32_t scaled = 0;
+    uint8_t *hit = calloc((size_t)m->node_count + 1, 1);
+    if (!hit)
+        return; /* nothing scaled: the guard substeps, as without it */
+    for (int32_t i = 0; i < m->node_count; i++)
+        before += m->fixed[i] ? 0.0 : el->mass[i];
+    for (int round = 0; round <= 40; round++) {
+        bool again = false;
+        for (int32_t i = 0; i < m->node_count; i++) {
+            if (m->fixed[i])
+                continue;
+            double li = gershgorin_row(el, m, i);
+            if (li > lim) {
+                double f = li / lim;
+                el->mass[i] *= round < 40 ? f : f * f;
+                hit[i] = 1;
+                again = true;
+            }
+        }
+        if (!again)
+            break;
+    }
+    for (int32_t i = 0; i < m->node_count; i++) {
+        after += m->fixed[i] ? 0.0 : el->mass[i];
+        scaled += hit[i];
+    }
+    free(hit);
+    if (scaled > 0)
+        ftm_logf(sim->def.log, sim->def.log_user, FTM_LOG_INFO,
+                 "mass scaling: %d of %d nodes given mass for a critical step of %g s: "
+                 "%.3g %% more mass in all",
+                 (int)scaled, (int)m->node_count, h, 100.0 * (after - before) / before);
+}
+
 /* Gershgorin bound on the largest eigenvalue of M^-1/2 K M^-1/2 over the
  * free nodes' rows (h_crit = 2 / sqrt(lambda)), and the same low-damping
  * warning as springs (sim.c: d/2m >= 0.055 lambda_i h) where the update is
@@ -1079,18 +1191,7 @@ static void bound_and_warn(ftm_elem *el, const ftm_sim *sim)
     for (int32_t i = 0; i < m->node_count; i++) {
         if (m->fixed[i])
             continue;
-        double li = 0.0;
-        for (int r = 0; r < 3; r++) {
-            double s = 0.0;
-            for (int32_t p = el->row_start[i]; p < el->row_start[i + 1]; p++) {
-                const double *kb = el->row_k + 9 * (size_t)p + 3 * r;
-                double sc = 1.0 / sqrt(el->mass[i] * el->mass[el->row_node[p]]);
-                s += (fabs(kb[0]) + fabs(kb[1]) + fabs(kb[2])) * sc;
-            }
-            if (m->ground_k) /* a spring to ground: k_g / m_i on the diagonal */
-                s += m->ground_k[i] / el->mass[i];
-            li = s > li ? s : li;
-        }
+        double li = gershgorin_row(el, m, i);
         lmax = li > lmax ? li : lmax;
         double required = 0.055 * li * sim->def.time_step;
         double ratio = m->damping[i] / (2.0 * el->mass[i]) / required;
@@ -1147,7 +1248,7 @@ int ftm_elem_create(ftm_sim *sim, ftm_error *err)
         if (!el->mass)
             rc = ftm_error_set(err, FTM_ENOMEM, "sim: out of memory");
         else if (d->density > 0.0)
-            rc = ftm_mesh_lumped_masses(m, d->density, el->mass, err);
+            rc = lumped(m, d, el->mass, err);
         else
             memcpy(el->mass, m->mass, (size_t)n * sizeof *el->mass);
     }
@@ -1170,6 +1271,8 @@ int ftm_elem_create(ftm_sim *sim, ftm_error *err)
         return rc;
     }
     el->gen = 1;
+    if (d->mass_scaling)
+        scale_masses(el, sim);
     bound_and_warn(el, sim); /* the others' tangent at rest is the linear K */
     free(el->k); /* the element matrices have served (the rows hold them) */
     free(el->koff);

@@ -8,7 +8,9 @@
  *   - co-rotational: the same bits as every other kernel, and R K_e (R^T x -
  *     X) of the element matrices and a long double polar decomposition to
  *     round-off (the factorised hexahedron, the tetrahedron's R^T F - I);
- * and whole simulations give the same hash with every kernel. */
+ * and whole simulations give the same hash with every kernel. Each again
+ * with three materials in one body (per-label young and poisson, the
+ * labels alternating element by element, so a block's lanes mix them). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -30,6 +32,22 @@
 #define POISSON 0.45
 #define MU (YOUNG / (2.0 * (1.0 + POISSON)))
 #define KAPPA (YOUNG / (3.0 * (1.0 - 2.0 * POISSON)))
+
+/* Several materials: element e labelled 1 + e % 3; label 1 takes the def's
+ * material, 2 and 3 these (set by the labelled tests). */
+static bool labelled;
+static const ftm_label_material label_mats[2] = {
+    {.label = 2, .young = 2.0 * YOUNG, .poisson = 0.3},
+    {.label = 3, .young = 0.5 * YOUNG, .poisson = 0.4}};
+
+static double elem_young(int32_t e)
+{
+    return labelled && e % 3 ? label_mats[e % 3 - 1].young : YOUNG;
+}
+static double elem_poisson(int32_t e)
+{
+    return labelled && e % 3 ? label_mats[e % 3 - 1].poisson : POISSON;
+}
 
 static const ftm_elem_kernel kernels[] = {FTM_ELEM_KERNEL_BEST, FTM_ELEM_KERNEL_AVX2,
                                           FTM_ELEM_KERNEL_PORTABLE};
@@ -70,6 +88,10 @@ static ftm_mesh *block_mesh(int nx, int ny, int nz, bool tets)
                                       ID(i + 1, j + 1, k + 1), ID(i, j + 1, k + 1)};
                 if (!tets) {
                     assert_int_equal(ftm_mesh_builder_add_hexahedron(b, h), FTM_OK);
+                    const int32_t e = ftm_mesh_builder_hexahedron_count(b) - 1;
+                    if (labelled)
+                        assert_int_equal(ftm_mesh_builder_set_hexahedron_label(b, e, 1 + e % 3),
+                                         FTM_OK);
                     continue;
                 }
                 static const int path[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2},
@@ -83,6 +105,10 @@ static ftm_mesh *block_mesh(int nx, int ny, int nz, bool tets)
                     }
                     assert_int_equal(ftm_mesh_builder_add_tetrahedron(b, v[0], v[1], v[2], v[3]),
                                      FTM_OK);
+                    const int32_t e = ftm_mesh_builder_tetrahedron_count(b) - 1;
+                    if (labelled)
+                        assert_int_equal(ftm_mesh_builder_set_tetrahedron_label(b, e, 1 + e % 3),
+                                         FTM_OK);
                 }
             }
 #undef ID
@@ -108,6 +134,10 @@ static ftm_sim *make_sim(const ftm_mesh *m, ftm_forces forces)
     d.density = 1040.0;
     d.time_step = 2e-5;
     d.depth = 100;
+    if (labelled) {
+        d.label_materials = label_mats;
+        d.label_material_count = 2;
+    }
     ftm_sim *sim = NULL;
     ftm_error err;
     assert_int_equal(ftm_sim_create(m, &d, &sim, &err), FTM_OK);
@@ -168,7 +198,12 @@ static bool neo_reference(const ftm_mesh *m, const double *x, double *f)
             gp[12] = fabs(vol);
         }
         double md;
-        ok &= ftm_neo_element_forces(nn, hex ? 8 : 1, gp, u, MU, KAPPA, fe + 24 * e, &md);
+        /* the element's label counts within its type, as the mesh's labels */
+        const int32_t le = hex ? e : e - nh;
+        const double young = elem_young(le), nu = elem_poisson(le);
+        const double mu = labelled ? young / (2.0 * (1.0 + nu)) : MU,
+                     kappa = labelled ? young / (3.0 * (1.0 - 2.0 * nu)) : KAPPA;
+        ok &= ftm_neo_element_forces(nn, hex ? 8 : 1, gp, u, mu, kappa, fe + 24 * e, &md);
     }
     /* sums per node over its elements in ascending order */
     for (int32_t e = 0; e < nh + nt; e++) {
@@ -245,11 +280,14 @@ static bool corot_reference(const ftm_mesh *m, const double *x, double *f)
         double g[24], ke[576], vol;
         for (int a = 0; a < nn; a++)
             X[a] = ftm_mesh_rest_position(m, v[a]);
+        const int32_t le = hex ? e : e - nh;
         if (hex) {
-            assert_int_equal(ftm_hex8_stiffness(X, YOUNG, POISSON, ke, NULL), FTM_OK);
+            assert_int_equal(ftm_hex8_stiffness(X, elem_young(le), elem_poisson(le), ke, NULL),
+                             FTM_OK);
             assert_int_equal(ftm_hex8_centre_gradients(X, g), FTM_OK);
         } else {
-            assert_int_equal(ftm_tet4_stiffness(X, YOUNG, POISSON, ke, &vol), FTM_OK);
+            assert_int_equal(ftm_tet4_stiffness(X, elem_young(le), elem_poisson(le), ke, &vol),
+                             FTM_OK);
             assert_int_equal(ftm_tet4_gradients(X, g), FTM_OK);
         }
         double fc[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
@@ -427,6 +465,10 @@ static uint64_t run(const ftm_mesh *m, int nx, int nz, ftm_forces forces, ftm_el
     d.order = order;
     d.max_substeps = 4;
     d.log = quiet;
+    if (labelled) {
+        d.label_materials = label_mats;
+        d.label_material_count = 2;
+    }
     ftm_sim *sim = NULL;
     assert_int_equal(ftm_sim_create(m, &d, &sim, NULL), FTM_OK);
     ftm_elem_select_kernel(sim->elem, k);
@@ -475,14 +517,70 @@ static void test_runs_match(void **state)
     }
 }
 
+static int set_labelled(void **state)
+{
+    (void)state;
+    labelled = true;
+    return 0;
+}
+
+static int set_one_material(void **state)
+{
+    (void)state;
+    labelled = false;
+    return 0;
+}
+
+/* The labelled bodies' forces differ from one material's: the labels are
+ * honoured (the tests above would pass with them ignored only if the
+ * reference ignored them too). */
+static void test_labels_change_forces(void **state)
+{
+    (void)state;
+    for (int f = 0; f < 2; f++) {
+        const ftm_forces forces = f ? FTM_FORCES_COROT_FEM : FTM_FORCES_NEO_HOOKEAN;
+        labelled = true;
+        ftm_mesh *m = block_mesh(5, 4, 4, false);
+        ftm_sim *a = make_sim(m, forces);
+        labelled = false;
+        ftm_sim *b = make_sim(m, forces);
+        labelled = true;
+        const int32_t n = ftm_mesh_node_count(m);
+        double *x = malloc((size_t)n * 3 * sizeof *x), *fa = malloc((size_t)n * 3 * sizeof *fa),
+               *fb = malloc((size_t)n * 3 * sizeof *fb);
+        deform(m, 0.05, 0.001, 5, x);
+        assert_int_equal(ftm_sim_internal_forces(a, x, fa), FTM_OK);
+        assert_int_equal(ftm_sim_internal_forces(b, x, fb), FTM_OK);
+        double big = 0, diff = 0;
+        for (int32_t k = 0; k < 3 * n; k++) {
+            big = fmax(big, fabs(fb[k]));
+            diff = fmax(diff, fabs(fa[k] - fb[k]));
+        }
+        assert_true(diff > 0.1 * big);
+        ftm_sim_destroy(a);
+        ftm_sim_destroy(b);
+        ftm_mesh_destroy(m);
+        free(x);
+        free(fa);
+        free(fb);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_neo_hexahedra),
-        cmocka_unit_test(test_neo_tetrahedra),
-        cmocka_unit_test(test_corot_hexahedra),
-        cmocka_unit_test(test_corot_tetrahedra),
-        cmocka_unit_test(test_runs_match),
+        cmocka_unit_test_setup(test_neo_hexahedra, set_one_material),
+        cmocka_unit_test_setup(test_neo_tetrahedra, set_one_material),
+        cmocka_unit_test_setup(test_corot_hexahedra, set_one_material),
+        cmocka_unit_test_setup(test_corot_tetrahedra, set_one_material),
+        cmocka_unit_test_setup(test_runs_match, set_one_material),
+        /* three materials in one body */
+        cmocka_unit_test_setup(test_neo_hexahedra, set_labelled),
+        cmocka_unit_test_setup(test_neo_tetrahedra, set_labelled),
+        cmocka_unit_test_setup(test_corot_hexahedra, set_labelled),
+        cmocka_unit_test_setup(test_corot_tetrahedra, set_labelled),
+        cmocka_unit_test_setup(test_runs_match, set_labelled),
+        cmocka_unit_test_setup(test_labels_change_forces, set_labelled),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

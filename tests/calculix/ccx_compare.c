@@ -13,7 +13,8 @@
  *   ccx_compare forces SCENE REF.dat --forces F [--tol T]
  *       FTM's element forces (ftm_sim_internal_forces) at CalculiX's
  *       equilibrium positions: at PRESS they must be CalculiX's reactions,
- *       at every free node zero (relative to the total reaction).
+ *       at every free node zero, or the force load on it (relative to the
+ *       total reaction).
  *   ccx_compare sim SCENE REF.dat [--forces F] [--depth D] [--order O]
  *                   [--far-field fixed|elastic] [--settle T] [--max-steps N]
  *                   [--tol-force T] [--tol-u T] [--tol-dent T]
@@ -417,12 +418,50 @@ static void json_figures(const figures *fg, bool force)
 
 /* ---- modes ---- */
 
+/* Per-element materials from the scene's [fem LABEL] sections, as `ftm fem`
+ * gives them (the label's section, else [fem]): one per hexahedron (hex)
+ * or tetrahedron. *out NULL without sections; false when out of memory. */
+static bool element_materials(const ftm_scene *sc, bool hex, ftm_fem_material **out)
+{
+    const ftm_mesh *m = ftm_scene_mesh(sc);
+    int32_t nsec = 0;
+    const ftm_label_material *sec = ftm_scene_label_materials(sc, &nsec);
+    *out = NULL;
+    if (nsec == 0)
+        return true;
+    const int32_t ne = hex ? ftm_mesh_hexahedron_count(m) : ftm_mesh_tetrahedron_count(m);
+    ftm_fem_material *mat = malloc(((size_t)ne + 1) * sizeof *mat);
+    if (!mat)
+        return false;
+    ftm_fem_material base = ftm_default_fem_material();
+    ftm_scene_fem_material(sc, &base.young, &base.poisson, NULL);
+    for (int32_t e = 0; e < ne; e++) {
+        int32_t label = hex ? ftm_mesh_hexahedron_label(m, e) : ftm_mesh_tetrahedron_label(m, e);
+        mat[e] = base;
+        for (int32_t i = 0; i < nsec; i++)
+            if (label > 0 && sec[i].label == label) {
+                mat[e].young = sec[i].young;
+                mat[e].poisson = sec[i].poisson;
+            }
+    }
+    *out = mat;
+    return true;
+}
+
 static int mode_fem(const options *o, const ftm_scene *sc, const ccx_result *r)
 {
     const ftm_mesh *m = ftm_scene_mesh(sc);
     const int32_t n = ftm_mesh_node_count(m);
     ftm_fem_def d = ftm_default_fem_def();
     ftm_scene_fem_material(sc, &d.material.young, &d.material.poisson, NULL);
+    ftm_fem_material *hexm = NULL, *tetm = NULL;
+    if (!element_materials(sc, true, &hexm) || !element_materials(sc, false, &tetm)) {
+        free(hexm);
+        fprintf(stderr, "ccx_compare: out of memory\n");
+        return 2;
+    }
+    d.hex_materials = hexm;
+    d.tet_materials = tetm;
     double *f = calloc(3 * (size_t)n, sizeof *f), *pre = calloc(3 * (size_t)n, sizeof *pre);
     double *u = calloc(3 * (size_t)n, sizeof *u), *res = calloc(3 * (size_t)n, sizeof *res);
     bool *con = calloc(3 * (size_t)n, sizeof *con);
@@ -485,6 +524,8 @@ static int mode_fem(const options *o, const ftm_scene *sc, const ccx_result *r)
         rc = ok ? 0 : 1;
     }
     ftm_fem_destroy(fem);
+    free(hexm);
+    free(tetm);
     free(f);
     free(pre);
     free(u);
@@ -559,8 +600,10 @@ static ftm_sim *make_sim(const options *o, const ftm_scene *sc, bool log, ftm_si
     ftm_sim_def d = ftm_scene_sim_def(sc);
     if (o->forces_set) {
         d.forces = o->forces;
-        if (d.forces != FTM_FORCES_SPRINGS && d.young == 0.0) /* [fem] but forces = springs */
+        if (d.forces != FTM_FORCES_SPRINGS && d.young == 0.0) { /* [fem] but forces = springs */
             ftm_scene_fem_material(sc, &d.young, &d.poisson, &d.density);
+            d.label_materials = ftm_scene_label_materials(sc, &d.label_material_count);
+        }
     }
     if (o->depth >= 0)
         d.depth = o->depth;
@@ -624,6 +667,16 @@ static int mode_forces(const options *o, const ftm_scene *sc, const ccx_result *
         dmax = fmax(dmax, sqrt(d2));
         fmaxv = fmax(fmaxv, sqrt(f2));
     }
+    /* a node loaded by a force holds it: there the internal force is the
+     * load's full value (CalculiX applies it in full at the end of the step) */
+    const ftm_scene_load *l = ftm_scene_loads(sc);
+    for (int32_t k = 0; !rc && k < ftm_scene_load_count(sc); k++)
+        if (l[k].contact.kind == FTM_CONTACT_FORCE) {
+            const int32_t v = l[k].contact.node;
+            f[3 * v] -= l[k].contact.value.x;
+            f[3 * v + 1] -= l[k].contact.value.y;
+            f[3 * v + 2] -= l[k].contact.value.z;
+        }
     for (int32_t v = 0; !rc && v < n; v++) {
         if (pressed[v] || ftm_mesh_fixed(m, v))
             continue;

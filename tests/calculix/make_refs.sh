@@ -10,7 +10,10 @@
 # BUILD_DIR: a CMake build of FTM (for BUILD_DIR/tests/calculix/ccx_deck).
 # OUT_DIR: where to write (default tests/calculix/ref). The tetrahedral
 # meshes are inputs, not regenerated here: ccx_deck --tetgen 2 2 2 0.01 0.01
-# 0.01 tet1 and ccx_deck --tetgen 5 5 5 0.01 0.01 0.01 tets wrote them.
+# 0.01 tet1 and ccx_deck --tetgen 5 5 5 0.01 0.01 0.01 tets wrote them; the
+# two-tissue meshes ccx_deck --gmsh-hex 7 6 5 0.01 0.01 0.01 inclusion-hex.msh
+# --label-box 0.03 0.01 0.01 0.05 0.03 0.03 and ccx_deck --tetgen (the same
+# arguments, OUTBASE inclusion-tets).
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 [ $# -ge 1 ] || { echo "usage: $0 BUILD_DIR [OUT_DIR]" >&2; exit 2; }
@@ -43,4 +46,8 @@ cube6-large neo-hookean 20
 cube6-large linear 1
 elastin-cube-10mm neo-hookean 10
 elastin-cube-2mm linear 1
+inclusion-hex neo-hookean 10
+inclusion-hex linear 1
+inclusion-tets neo-hookean 10
+inclusion-tets linear 1
 LIST

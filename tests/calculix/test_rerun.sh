@@ -1,8 +1,9 @@
 #!/bin/sh
 # SPDX-License-Identifier: GPL-3.0-or-later
-# Where CalculiX is installed: the stored decks are what ccx_deck writes from
-# the scenes now, and ccx run on them gives the stored results (to 1e-5 of
-# the largest value: ccx's solvers may round differently on another CPU).
+# Where CalculiX is installed: the stored decks (and the generated meshes)
+# are what ccx_deck writes now, and ccx run on them gives the stored results
+# (to 1e-5 of the largest value: ccx's solvers may round differently on
+# another CPU).
 # Exit 77 (skipped) without ccx. Environment: BUILD (the build directory),
 # CCX_COMPARE.
 set -eu
@@ -13,8 +14,26 @@ here=$(cd "$(dirname "$0")" && pwd)
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/ftm_test_ccx_rerun.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT INT TERM
 "$here/make_refs.sh" "$BUILD" "$tmp" >/dev/null
+# the generated meshes are inputs: ccx_deck still writes them as stored
+deck="$BUILD/tests/calculix/ccx_deck"
+box="0.01 0.01 0.01"
+incl="--label-box 0.03 0.01 0.01 0.05 0.03 0.03"
+"$deck" --tetgen 2 2 2 $box "$tmp/tet1"
+"$deck" --tetgen 5 5 5 $box "$tmp/tets"
+"$deck" --tetgen 7 6 5 $box "$tmp/inclusion-tets" $incl
+"$deck" --gmsh-hex 7 6 5 $box "$tmp/inclusion-hex.msh" $incl
 bad=0
 n=0
+for mesh in tet1.node tet1.ele tets.node tets.ele inclusion-tets.node inclusion-tets.ele \
+            inclusion-hex.msh; do
+    n=$((n + 1))
+    if cmp -s "$here/$mesh" "$tmp/$mesh"; then
+        echo "ok   $mesh"
+    else
+        echo "FAIL $mesh: ccx_deck writes another mesh now" >&2
+        bad=$((bad + 1))
+    fi
+done
 for inp in "$here"/ref/*.inp; do
     name=$(basename "$inp" .inp)
     n=$((n + 1))

@@ -1,7 +1,7 @@
 #!/bin/sh
 # SPDX-License-Identifier: GPL-3.0-or-later
 # End-to-end tests of `ftm fit`. Environment: FTM = the ftm binary,
-# FIT_DIR = tests/fit (for small-cube.scene).
+# FIT_DIR = tests/fit (for small-cube.scene and two-tissue.scene).
 set -eu
 
 : "${FTM:?set FTM to the ftm binary}"
@@ -56,6 +56,16 @@ run fit "$scene" --mode fixed-time --time 0.01 --model uniform --iterations 4 --
     --nm-evals 5 --json --quiet
 check "fixed-time exits 0" [ "$rc" -eq 0 ]
 check "fixed-time mode in json" grep -q '"mode":"fixed-time"' "$tmp/out"
+
+# two tissues ([fem LABEL]): the reference of two materials, the springs
+# weighted by their labels' moduli
+run fit "$FIT_DIR/two-tissue.scene" $quick --model uniform --json --quiet
+check "two tissues: exits 0" [ "$rc" -eq 0 ]
+check "two tissues: the label's stiffness factor in json" \
+    grep -q '"labels":\[{"label":9,"young":200000,"poisson":0.45,"stiffness_factor":0.333333333}\]' \
+    "$tmp/out"
+run fit "$FIT_DIR/two-tissue.scene" $quick --model uniform
+check "two tissues: [material 9] in the text" grep -q '\[material 9\]  stiffness = 0.333333' "$tmp/out"
 
 # errors
 run fit

@@ -20,6 +20,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 static ftm_scene *open_scene(void)
 {
@@ -933,6 +934,135 @@ static void test_id_held(void **state)
     assert_false(ftm_replay_id_held(&st, 35, 0xdef));
 }
 
+
+/* Several tissues in one body (scene [fem LABEL] with a density and
+ * [material LABEL]): the server's simulation and a replica made from the
+ * same scene stay bit-identical under a press, with co-rotational and
+ * neo-Hookean forces per label and the elastic far field; an instructor's
+ * stiffness change applies to both; the scene digest tells the scene
+ * from the one without its [fem LABEL]. */
+static const char labelled_msh[] =
+    "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
+    "$Entities\n0 0 0 2\n"
+    "1 0 0 0 1 1 1 1 5 0\n2 1 0 0 2 1 1 1 9 0\n$EndEntities\n"
+    "$Nodes\n1 12 1 12\n3 1 0 12\n1\n2\n3\n4\n5\n6\n7\n8\n9\n10\n11\n12\n"
+    "0 0 0\n0.01 0 0\n0.02 0 0\n0 0.01 0\n0.01 0.01 0\n0.02 0.01 0\n"
+    "0 0 0.01\n0.01 0 0.01\n0.02 0 0.01\n0 0.01 0.01\n0.01 0.01 0.01\n0.02 0.01 0.01\n"
+    "$EndNodes\n"
+    "$Elements\n2 2 1 2\n3 1 5 1\n1 1 2 5 4 7 8 11 10\n3 2 5 1\n2 2 3 6 5 8 9 12 11\n"
+    "$EndElements\n";
+
+/* fem_label: with [fem 9] (the same [material 9] either way) */
+static ftm_scene *labelled_scene(const char *path, const char *forces, bool fem_label)
+{
+    char text[1024];
+    snprintf(text, sizeof text,
+             "[mesh]\nfile = %s\nfixed_box = -0.001 -0.001 -0.001 0.001 0.011 0.011\n"
+             "[material]\nmass = 0.0005\nstiffness = 200\ndamping = 0.05\n"
+             "[sim]\ntime_step = 1e-4\n%s\n"
+             "[fem]\nyoung = 3e3\npoisson = 0.4\ndensity = 1000\n%s",
+             path, forces,
+             fem_label ? "[material 9]\nstiffness = 800\n"
+                         "[fem 9]\nyoung = 1.2e4\npoisson = 0.3\ndensity = 1100\n"
+                       : "[material 9]\nstiffness = 800\n");
+    ftm_scene *sc = NULL;
+    ftm_error err = {0, ""};
+    if (ftm_scene_parse(text, strlen(text), "labelled.scene", &sc, &err))
+        fail_msg("%s", err.message);
+    return sc;
+}
+
+static void test_labelled_replica(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/ftm-test-labelled-XXXXXX", path[64];
+    assert_non_null(mkdtemp(dir));
+    snprintf(path, sizeof path, "%s/bar.msh", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs(labelled_msh, f);
+    fclose(f);
+    setenv("FTM_CACHE_DIR", "", 1); /* the far field's precomputation: no cache file */
+    const char *forces[] = {"forces = corot-fem", "forces = neo-hookean",
+                            "forces = corot-fem\nfar_field = elastic\ndepth = 1"};
+    for (size_t k = 0; k < sizeof forces / sizeof forces[0]; k++) {
+        ftm_scene *sc = labelled_scene(path, forces[k], true), *plain =
+            labelled_scene(path, forces[k], false);
+        uint8_t da[32], db[32];
+        ftm_replay_scene_digest(sc, da);
+        ftm_replay_scene_digest(plain, db);
+        assert_memory_not_equal(da, db, 32);
+        ftm_sim_def def = ftm_replay_sim_def(sc);
+        assert_int_equal(def.label_material_count, 1);
+        const ftm_mesh *m = ftm_scene_mesh(sc);
+        ftm_sim *server = NULL;
+        ftm_error err = {0, ""};
+        if (ftm_sim_create(m, &def, &server, &err))
+            fail_msg("%s: %s", forces[k], err.message);
+        ftm_replay *r = NULL;
+        if (ftm_replay_create(sc, NULL, NULL, &r, &err))
+            fail_msg("%s: %s", forces[k], err.message);
+        ftm_wire_keyframe k0;
+        assert_int_equal(ftm_replay_make_keyframe(server, NULL, &k0, NULL), FTM_OK);
+        ftm_replay_material mat = {.scene = sc};
+        ftm_contact c[2], store[2];
+        int32_t tip[2] = {-1, -1}, nt = 0;
+        for (int32_t i = 0; i < ftm_mesh_node_count(m) && nt < 2; i++)
+            if (ftm_mesh_rest_position(m, i).x > 0.015 && ftm_mesh_rest_position(m, i).z > 0.005)
+                tip[nt++] = i;
+        assert_int_equal(nt, 2);
+        uint64_t seq = 0;
+        for (uint64_t t = 1; t <= 600; t++) {
+            const double d = -0.001 * (double)(t < 200 ? t : 200) / 200.0;
+            int32_t n = 0;
+            if (t <= 400) {
+                c[n++] = (ftm_contact){tip[0], 0, FTM_CONTACT_DISPLACEMENT, {0, 0, d}};
+                c[n++] = (ftm_contact){tip[1], 0, FTM_CONTACT_DISPLACEMENT, {0, 0, d}};
+            }
+            if (t == 300) { /* the instructor: stiffness times 1.5, on both */
+                ftm_wire_tissue tt = ftm_replay_scene_tissue(sc);
+                tt.stiffness *= 1.5;
+                if (ftm_replay_set_tissue(&mat, server, &tt, &err))
+                    fail_msg("%s: %s", forces[k], err.message);
+            }
+            assert_int_equal(ftm_replay_step(server, def.depth, c, n, NULL), FTM_OK);
+            memcpy(store, c, sizeof c);
+            ftm_wire_received rx;
+            memset(&rx, 0, sizeof rx);
+            rx.msg.kind = FTM_WIRE_TICK;
+            rx.msg.u.tick = (ftm_wire_tick){.tick = t, .depth = def.depth, .contact_count = n,
+                                            .contacts = store,
+                                            .state_hash = ftm_sim_hash(server)};
+            if (t == 300) {
+                ftm_wire_tissue tt = ftm_replay_scene_tissue(sc);
+                tt.stiffness *= 1.5;
+                rx.msg.u.tick.tissue = tt;
+                rx.msg.u.tick.has_tissue = true;
+            }
+            rx.sender = 1;
+            rx.seq = ++seq;
+            assert_int_equal(ftm_replay_on_tick(r, &rx), FTM_OK);
+            if (t == 1)
+                assert_int_equal(ftm_replay_on_keyframe(r, &k0), FTM_OK);
+            assert_int_equal(ftm_replay_state(r), FTM_WIRE_STATE_SYNCED);
+            if (ftm_replay_hash(r) != ftm_sim_hash(server))
+                fail_msg("%s: the replica left the server at tick %d", forces[k], (int)t);
+        }
+        ftm_replay_stats st;
+        ftm_replay_get_stats(r, &st);
+        assert_int_equal(st.mismatches, 0);
+        ftm_replay_keyframe_free(&k0);
+        ftm_replay_destroy(r);
+        ftm_replay_material_free(&mat);
+        ftm_sim_destroy(server);
+        ftm_scene_destroy(sc);
+        ftm_scene_destroy(plain);
+    }
+    unsetenv("FTM_CACHE_DIR");
+    unlink(path);
+    rmdir(dir);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -950,6 +1080,7 @@ int main(void)
         cmocka_unit_test(test_tissue_range),
         cmocka_unit_test(test_tissue_replica),
         cmocka_unit_test(test_region_sleep_session),
+        cmocka_unit_test(test_labelled_replica),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

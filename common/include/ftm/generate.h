@@ -47,6 +47,18 @@ ftm_material_def ftm_default_material_def(void);
 int ftm_mesh_with_material(const ftm_mesh *base, const ftm_material_def *from,
                            const ftm_material_def *to, ftm_mesh **out, ftm_error *err);
 
+/* Link stiffness per element label (several tissues in one spring body): a
+ * copy of base whose link between nodes a and b has base's stiffness times
+ * the mean, over the elements (hexahedra, tetrahedra) holding both a and b,
+ * of their label's factor: factor[i] for labels[i], 1 for a label not
+ * listed (or none). A link no element holds keeps base's stiffness. Each
+ * label listed once, >= 1, factor finite and > 0. Deterministic like
+ * ftm_mesh_with_material (the elements in their order); FTM_EINVAL,
+ * FTM_ENOMEM. */
+int ftm_mesh_with_label_stiffness(const ftm_mesh *base, const int32_t *labels,
+                                  const double *factor, int32_t count, ftm_mesh **out,
+                                  ftm_error *err);
+
 /* 2D triangular lattice in the z = 0 plane, 6 neighbours per interior node
  * (paper Fig. 3). Rows are offset by half a spacing, row pitch spacing*sqrt(3)/2. */
 typedef struct ftm_lattice2d_def {

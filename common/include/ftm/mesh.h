@@ -206,6 +206,12 @@ int ftm_tet4_gradients(const ftm_vec3 x[4], double grad[12]);
  * int rho N_i dV (rho V / 4 for a tetrahedron). Nodes in no element get 0. */
 int ftm_mesh_lumped_masses(const ftm_mesh *mesh, double density, double *mass_out,
                            ftm_error *err);
+/* The same with each element's own density[e] > 0 (hexahedra, then
+ * tetrahedra, as ftm_mesh_hexahedron_label and _tetrahedron_label count
+ * them): several tissues in one body. Equal densities give the bits of
+ * ftm_mesh_lumped_masses. */
+int ftm_mesh_lumped_masses_each(const ftm_mesh *mesh, const double *density, double *mass_out,
+                                ftm_error *err);
 
 #ifdef __cplusplus
 }

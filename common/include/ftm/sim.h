@@ -90,6 +90,10 @@ typedef enum ftm_far_field {
 typedef struct ftm_label_material {
     int32_t label;         /* >= 1, as the mesh's elements carry it */
     double young, poisson; /* as ftm_sim_def's */
+    /* [kg/m^3] of the label's elements' lumped masses; 0: the def's
+     * density. > 0 needs the def's density > 0 too (the other elements'
+     * masses then come from it, not from the mesh's node masses). */
+    double density;
 } ftm_label_material;
 
 typedef struct ftm_sim_def {
@@ -133,12 +137,21 @@ typedef struct ftm_sim_def {
     ftm_forces forces;
     double young, poisson, density;
     ftm_far_field far_field; /* default FTM_FAR_FIELD_FIXED */
+    /* Selective mass scaling (element forces only; default false): a node
+     * whose row of K would put the critical time step (the Gershgorin bound,
+     * ftm_sim_critical_time_step) below time_step gets the least extra mass
+     * that puts it at time_step, as explicit FEM codes do for the few small
+     * elements of a mesh from a scan. The log says how many nodes and how
+     * much mass; the others keep their lumped masses. */
+    bool mass_scaling;
     /* Per-label materials (default none): an element whose label is one of
-     * these takes its young and poisson, any other element the def's own.
-     * Each label once and carried by some element of the mesh. So far with
-     * linear-fem forces and the fixed far field only (the co-rotational and
-     * neo-Hookean kernels and the far field's compliance take one material;
-     * FTM_EINVAL otherwise). The simulation keeps its own copy. */
+     * these takes its young, poisson (and density, if set), any other
+     * element the def's own. Each label once and carried by some element of
+     * the mesh; element forces only (FTM_EINVAL with springs, whose links
+     * carry their stiffness). Every element model honours them (linear,
+     * co-rotational, neo-Hookean: each element's own moduli), and so does
+     * the elastic far field (its compliance is of the assembled K). The
+     * simulation keeps its own copy. */
     const ftm_label_material *label_materials;
     int32_t label_material_count;
 } ftm_sim_def;
