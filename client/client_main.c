@@ -268,7 +268,7 @@ static void pick_session(app *a, int k)
     memset(&a->view, 0, sizeof a->view);
     ftm_error err = {0, ""};
     ftm_render_set_volume(a->ren, NULL, NULL, &err);
-    ftm_render_set_mesh(a->ren, NULL, &err);
+    ftm_render_set_mesh(a->ren, NULL, NULL, &err);
     a->drawn_mesh = NULL;
     a->o.session = a->picked;
     char title[160];
@@ -298,6 +298,7 @@ static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
         pick_session(a, key - GLFW_KEY_1);
         break;
     case GLFW_KEY_V: a->ropts.volume = !a->ropts.volume; break;
+    case GLFW_KEY_L: a->ropts.legend = !a->ropts.legend; break;
     case GLFW_KEY_X: a->ropts.cut = !a->ropts.cut; break;
     case GLFW_KEY_N: /* fewer slices, then all again: 1, 2, 5, 10 */
         a->ropts.volume_step = a->ropts.volume_step == 1   ? 2
@@ -447,7 +448,7 @@ static void new_mesh(app *a)
 {
     ftm_error err = {0, ""};
     ftm_render_set_tool(a->ren, a->view.tool);
-    if (ftm_render_set_mesh(a->ren, a->view.mesh, &err))
+    if (ftm_render_set_mesh(a->ren, a->view.mesh, a->view.scene, &err))
         alog(a, FTM_LOG_ERROR, "%s", err.message);
     if (ftm_render_set_volume(a->ren, a->view.volume, a->view.ffd, &err))
         alog(a, FTM_LOG_ERROR, "%s", err.message);
@@ -456,6 +457,18 @@ static void new_mesh(app *a)
     if (!a->view.mesh)
         return;
     alog(a, FTM_LOG_INFO, "drawing %d surface triangles", (int)ftm_render_triangle_count(a->ren));
+    const ftm_tissue *tis;
+    int32_t ntis = ftm_render_tissues(a->ren, &tis);
+    if (ftm_mesh_has_labels(a->view.mesh) && ntis == 0)
+        alog(a, FTM_LOG_WARN, "the mesh's elements carry labels, but its %d surface triangles are "
+             "more than this OpenGL's buffer textures hold: one colour, no legend",
+             (int)ftm_render_triangle_count(a->ren));
+    for (int32_t i = 0; i < ntis; i++) {
+        char row[96];
+        ftm_tissue_legend_text(&tis[i], row, sizeof row);
+        alog(a, FTM_LOG_INFO, "tissue: label %d, %s, %d surface triangles", (int)tis[i].label, row,
+             (int)tis[i].triangles);
+    }
     if (ftm_render_has_volume(a->ren)) {
         ftm_volume_info vi = ftm_volume_get_info(a->view.volume);
         alog(a, FTM_LOG_INFO, "drawing the scene's volume (%dx%dx%d voxels) as slices%s",
@@ -562,6 +575,22 @@ static int save_screenshot(app *a, const ftm_client_view *v, int w, int h)
     }
     printf("screenshot %s %dx%d tick %" PRIu64 " view-top %.0f %s %s %s\n", a->o.screenshot, w, h,
            v->tick, a->view_top, label, shaft, where);
+    /* the legend and a point of each tissue in sight, for the tests' colour checks */
+    float box[4];
+    ftm_render_legend_box(a->ren, box);
+    if (box[2] > box[0])
+        printf("legend %.0f %.0f %.0f %.0f\n", box[0], box[1], box[2], box[3]);
+    const ftm_tissue *tis;
+    int32_t ntis = ftm_render_tissues(a->ren, &tis);
+    const ftm_vec3 eye = ftm_camera_eye(&a->cam);
+    for (int32_t i = 0; i < ntis; i++) {
+        ftm_vec3 p;
+        double x, y;
+        if (ftm_render_tissue_point(a->ren, tis[i].label, eye, &p) &&
+            ftm_camera_project(&a->cam, w, h, a->view_top, p, &x, &y))
+            printf("tissue %d %.0f %.0f %.3f %.3f %.3f\n", (int)tis[i].label, x, y,
+                   tis[i].color[0], tis[i].color[1], tis[i].color[2]);
+    }
     fflush(stdout);
     alog(a, FTM_LOG_INFO, "screenshot %s: %dx%d, tick %" PRIu64 ", %s, view below row %.0f",
          a->o.screenshot, w, h, v->tick, where, a->view_top);
@@ -638,6 +667,7 @@ static void hud_info(app *a, ftm_client_view *draw, ftm_hud_info *info, int64_t 
     info->triangles = ftm_render_triangle_count(a->ren);
     info->colormap = a->ropts.colormap;
     info->region = a->ropts.region;
+    info->tissues = ftm_render_tissues(a->ren, NULL) > 0;
     info->volume = ftm_render_has_volume(a->ren) ? (a->ropts.volume ? 1 : -1) : 0;
     info->volume_slices = ftm_render_volume_slices(a->ren);
     info->colormap_full =
@@ -880,7 +910,7 @@ static int run(app *a)
         a->ropts.nhelp = 0;
         if (a->help) {
             a->ropts.nhelp = ftm_hud_help(a->role, mouse_probe(a), ftm_render_has_volume(a->ren),
-                                          help_lines);
+                                          ftm_render_tissues(a->ren, NULL) > 0, help_lines);
             for (int i = 0; i < a->ropts.nhelp; i++)
                 help[i] = help_lines[i];
             a->ropts.help = help;

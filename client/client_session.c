@@ -112,6 +112,7 @@ static void on_scene_loaded(void *user, const ftm_scene *scene, const char *name
     s->shared.volume = ftm_scene_volume(scene);
     s->shared.ffd = ftm_scene_ffd(scene);
     s->shared.tool = ftm_scene_get_tool(scene);
+    s->shared.scene = scene;
     snprintf(s->shared.scene_name, sizeof s->shared.scene_name, "%s", name);
     pthread_mutex_unlock(&s->lock);
 }

@@ -90,6 +90,7 @@ typedef struct ftm_client_view {
     const ftm_volume *volume;
     const ftm_ffd *ffd;
     ftm_scene_tool tool; /* the scene's [tool]; zeros: none given */
+    const ftm_scene *scene; /* the scene itself (its label names, materials; as long) */
     char scene_name[FTM_WIRE_NAME_MAX];
     int32_t node_count;
     double *pos; /* 3 * node_count, the replica's positions */

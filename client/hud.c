@@ -149,17 +149,18 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *in,
     if (in->role != FTM_WIRE_ROLE_INSTRUCTOR) /* (a key this role cannot use, say) */
         n = outcome_lines(in, lines, n);
     if (in->volume)
-        LINE("map %s (full %.1f mm)  region %s  volume %s   c/b/h/v/x/n [ ] home  F1 help",
+        LINE("map %s (full %.1f mm)  region %s  volume %s   c/b/h/v/x/n%s [ ] home  F1 help",
              in->colormap ? "on" : "off", in->colormap_full * 1e3, in->region ? "on" : "off",
-             in->volume > 0 ? "on" : "off");
+             in->volume > 0 ? "on" : "off", in->tissues ? "/l" : "");
     else
-        LINE("map %s (full %.1f mm)  region %s   c/b/h [ ] home  F1 help", in->colormap ? "on" : "off",
-             in->colormap_full * 1e3, in->region ? "on" : "off");
+        LINE("map %s (full %.1f mm)  region %s   c/b/h%s [ ] home  F1 help",
+             in->colormap ? "on" : "off", in->colormap_full * 1e3, in->region ? "on" : "off",
+             in->tissues ? "/l" : "");
 #undef LINE
     return n;
 }
 
-int ftm_hud_help(ftm_wire_role role, bool mouse_probe, bool volume,
+int ftm_hud_help(ftm_wire_role role, bool mouse_probe, bool volume, bool tissues,
                  char lines[FTM_HUD_LINES][FTM_HUD_WIDTH])
 {
     int n = 0;
@@ -197,6 +198,8 @@ int ftm_hud_help(ftm_wire_role role, bool mouse_probe, bool volume,
     LINE("  [  ]               colour map range / 1.5, x 1.5");
     if (volume)
         LINE("  v  x  n            volume on / off, cut away, slices per plane");
+    if (tissues)
+        LINE("  l                  the tissues' legend on / off");
     LINE("  arrows, PgUp/PgDn  orbit, zoom;  Home: the view back");
     LINE("  Esc, q             quit");
     if (!instructor)

@@ -19,6 +19,7 @@ typedef struct ftm_hud_info {
     int haptic_flags;     /* FTM_HAPTIC_* */
     const char *renderer; /* "extrapolate" / "model" */
     bool colormap, region;
+    bool tissues;          /* the mesh has labels: the legend's key l */
     int volume;            /* the scene's volume: 1 drawn, -1 not (its surface is), 0 none */
     int32_t volume_slices; /* drawn in the last frame */
     double colormap_full; /* [m] */
@@ -47,8 +48,9 @@ int ftm_hud_lines(const ftm_client_view *v, const ftm_hud_info *info,
 
 /* The help overlay (F1, ?): each mouse action and key this client offers,
  * for its role; mouse_probe: a trainee's probe follows the mouse; volume:
- * the scene has a volume (its keys). Returns the lines written. */
-int ftm_hud_help(ftm_wire_role role, bool mouse_probe, bool volume,
+ * the scene has a volume (its keys); tissues: its mesh has labels (the
+ * legend's key). Returns the lines written. */
+int ftm_hud_help(ftm_wire_role role, bool mouse_probe, bool volume, bool tissues,
                  char lines[FTM_HUD_LINES][FTM_HUD_WIDTH]);
 
 /* Wraps lines[0..n) to at most cols characters (at spaces where it can,

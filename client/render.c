@@ -5,6 +5,7 @@
 #include "render_gl.h"
 
 #include "font.h"
+#include "tissues.h"
 #include "volume_render.h"
 
 #include <math.h>
@@ -18,6 +19,11 @@
 struct ftm_render {
     GLuint lit, flat, text; /* programs */
     GLint lit_mvp, lit_model, lit_eye, lit_color, lit_usemap, lit_full;
+    /* the surface of a mesh with labels: the same shading, each triangle in
+     * its tissue's colour (a program of its own, so that the surface of a
+     * mesh without labels costs what it did) */
+    GLuint tis;
+    GLint tis_mvp, tis_model, tis_eye, tis_usemap, tis_full, tis_tricolor;
     GLint flat_mvp, flat_color, flat_size;
     GLint text_screen, text_tex;
 
@@ -36,6 +42,14 @@ struct ftm_render {
     float *rest;     /* 3 * nvert */
     float *verts;    /* VERT_FLOATS * nvert */
     double link;
+    /* the tissues: a colour per drawn triangle (RGBA8) in a buffer texture
+     * the surface shader reads by gl_PrimitiveID; the legend's rows */
+    GLuint tri_tbo, tri_tex;
+    int32_t *tri_label; /* ntri: each drawn triangle's label */
+    bool labelled; /* the mesh's elements carry labels: colour by them */
+    ftm_tissue tissues[FTM_RENDER_MAX_TISSUES];
+    int32_t ntissues;
+    float legend_box[4]; /* where the legend was drawn last (x0, y0, x1, y1; 0s: not) */
     ftm_scene_tool tool; /* the scene's instrument; zeros: scaled to the links */
 
     float *scratch; /* dynamic vertices */
@@ -60,7 +74,8 @@ ftm_render_opts ftm_render_default_opts(void)
                              .volume_step = 1,
                              .help = NULL,
                              .nhelp = 0,
-                             .volume_scale = 0.0};
+                             .volume_scale = 0.0,
+                             .legend = true};
 }
 
 /* ---- shaders --------------------------------------------------------------------------- */
@@ -85,29 +100,37 @@ static const char *lit_vs =
  * head light and a key light from above; both sides lit, so open meshes
  * look right from behind. The colour map (blue-teal-yellow-red) shows only
  * where the tissue moved: away from the dent the tissue keeps its colour. */
-static const char *lit_fs =
-    "#version 330 core\n"
-    "in vec3 v_pos; in vec3 v_nrm; in float v_disp;\n"
-    "uniform vec3 u_eye; uniform vec3 u_color; uniform int u_usemap; uniform float u_full;\n"
-    "out vec4 o_color;\n"
-    FTM_GL_RAMP_GLSL
-    "void main() {\n"
-    "  vec3 n = normalize(v_nrm);\n"
-    "  vec3 v = normalize(u_eye - v_pos);\n"
-    "  if (dot(n, v) < 0.0) n = -n;\n"
-    "  vec3 base = u_color;\n"
-    "  if (u_usemap != 0) {\n"
-    "    float t = v_disp / u_full;\n"
-    "    base = mix(u_color, ramp(t), smoothstep(0.1, 0.35, t));\n"
-    "  }\n"
-    "  vec3 key = normalize(vec3(0.3, -0.4, 1.0));\n"
-    "  float wv = (dot(n, v) + 0.4) / 1.4, wk = (dot(n, key) + 0.4) / 1.4;\n"
-    "  float d = 0.55 * max(wv, 0.0) + 0.35 * max(wk, 0.0);\n"
-    "  vec3 scatter = vec3(0.30, 0.04, 0.03) * (1.0 - max(dot(n, v), 0.0));\n"
-    "  vec3 h = normalize(key + v);\n"
-    "  float sp = 0.35 * pow(max(dot(n, h), 0.0), 80.0);\n"
-    "  o_color = vec4(base * (0.18 + d) + scatter * base + vec3(sp), 1.0);\n"
-    "}\n";
+#define LIT_FS_BODY                                                                               \
+    "in vec3 v_pos; in vec3 v_nrm; in float v_disp;\n"                                            \
+    "uniform vec3 u_eye; uniform vec3 u_color; uniform int u_usemap; uniform float u_full;\n"     \
+    "#ifdef TISSUES\n"                                                                            \
+    "uniform samplerBuffer u_tricolor;\n"                                                         \
+    "vec3 tissue_color() { return texelFetch(u_tricolor, gl_PrimitiveID).rgb; }\n"                \
+    "#else\n"                                                                                     \
+    "vec3 tissue_color() { return u_color; }\n"                                                   \
+    "#endif\n"                                                                                    \
+    "out vec4 o_color;\n"                                                                         \
+    FTM_GL_RAMP_GLSL                                                                              \
+    "void main() {\n"                                                                             \
+    "  vec3 n = normalize(v_nrm);\n"                                                              \
+    "  vec3 v = normalize(u_eye - v_pos);\n"                                                      \
+    "  if (dot(n, v) < 0.0) n = -n;\n"                                                            \
+    "  vec3 tissue = tissue_color();\n"                                                           \
+    "  vec3 base = tissue;\n"                                                                     \
+    "  if (u_usemap != 0) {\n"                                                                    \
+    "    float t = v_disp / u_full;\n"                                                            \
+    "    base = mix(tissue, ramp(t), smoothstep(0.1, 0.35, t));\n"                                \
+    "  }\n"                                                                                       \
+    "  vec3 key = normalize(vec3(0.3, -0.4, 1.0));\n"                                             \
+    "  float wv = (dot(n, v) + 0.4) / 1.4, wk = (dot(n, key) + 0.4) / 1.4;\n"                     \
+    "  float d = 0.55 * max(wv, 0.0) + 0.35 * max(wk, 0.0);\n"                                    \
+    "  vec3 scatter = vec3(0.30, 0.04, 0.03) * (1.0 - max(dot(n, v), 0.0));\n"                    \
+    "  vec3 h = normalize(key + v);\n"                                                            \
+    "  float sp = 0.35 * pow(max(dot(n, h), 0.0), 80.0);\n"                                       \
+    "  o_color = vec4(base * (0.18 + d) + scatter * base + vec3(sp), 1.0);\n"                     \
+    "}\n"
+static const char *lit_fs = "#version 330 core\n" LIT_FS_BODY;
+static const char *tis_fs = "#version 330 core\n#define TISSUES 1\n" LIT_FS_BODY;
 
 static const char *flat_vs =
     "#version 330 core\n"
@@ -315,7 +338,8 @@ int ftm_render_create(ftm_render **out, ftm_error *err)
     r->lit = ftm_gl_program(lit_vs, lit_fs, "surface shader", err);
     r->flat = r->lit ? ftm_gl_program(flat_vs, flat_fs, "line shader", err) : 0;
     r->text = r->flat ? ftm_gl_program(text_vs, text_fs, "text shader", err) : 0;
-    if (!r->text || ftm_volume_render_create(&r->vol, err)) {
+    r->tis = r->text ? ftm_gl_program(lit_vs, tis_fs, "tissue shader", err) : 0;
+    if (!r->tis || ftm_volume_render_create(&r->vol, err)) {
         ftm_render_destroy(r);
         return FTM_EINVAL;
     }
@@ -325,6 +349,12 @@ int ftm_render_create(ftm_render **out, ftm_error *err)
     r->lit_color = glGetUniformLocation(r->lit, "u_color");
     r->lit_usemap = glGetUniformLocation(r->lit, "u_usemap");
     r->lit_full = glGetUniformLocation(r->lit, "u_full");
+    r->tis_mvp = glGetUniformLocation(r->tis, "u_mvp");
+    r->tis_model = glGetUniformLocation(r->tis, "u_model");
+    r->tis_eye = glGetUniformLocation(r->tis, "u_eye");
+    r->tis_usemap = glGetUniformLocation(r->tis, "u_usemap");
+    r->tis_full = glGetUniformLocation(r->tis, "u_full");
+    r->tis_tricolor = glGetUniformLocation(r->tis, "u_tricolor");
     r->flat_mvp = glGetUniformLocation(r->flat, "u_mvp");
     r->flat_color = glGetUniformLocation(r->flat, "u_color");
     r->flat_size = glGetUniformLocation(r->flat, "u_size");
@@ -338,6 +368,9 @@ int ftm_render_create(ftm_render **out, ftm_error *err)
     glBindBuffer(GL_ARRAY_BUFFER, r->surf_vbo);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->surf_ibo);
     ftm_gl_layout_331();
+
+    glGenBuffers(1, &r->tri_tbo);
+    glGenTextures(1, &r->tri_tex);
 
     glGenVertexArrays(1, &r->sph_vao);
     glGenBuffers(1, &r->sph_vbo);
@@ -397,6 +430,8 @@ int ftm_render_create(ftm_render **out, ftm_error *err)
 static void free_mesh(ftm_render *r)
 {
     free(r->tri);
+    free(r->tri_label);
+    r->tri_label = NULL;
     free(r->node);
     free(r->rest);
     free(r->verts);
@@ -404,6 +439,8 @@ static void free_mesh(ftm_render *r)
     r->rest = r->verts = NULL;
     r->ntri = r->nvert = 0;
     r->mesh = NULL;
+    r->labelled = false;
+    r->ntissues = 0;
 }
 
 void ftm_render_destroy(ftm_render *r)
@@ -421,13 +458,39 @@ void ftm_render_destroy(ftm_render *r)
     GLuint vaos[] = {r->surf_vao, r->sph_vao, r->cyl_vao, r->dyn_vao, r->text_vao};
     glDeleteVertexArrays(5, vaos);
     glDeleteTextures(1, &r->font_tex);
+    glDeleteBuffers(1, &r->tri_tbo);
+    glDeleteTextures(1, &r->tri_tex);
     glDeleteProgram(r->lit);
     glDeleteProgram(r->flat);
     glDeleteProgram(r->text);
+    glDeleteProgram(r->tis);
     free(r);
 }
 
-int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, ftm_error *err)
+/* The tissues' colours of the kept triangles into the buffer texture. */
+static int upload_tissues(ftm_render *r, const int32_t *label, ftm_error *err)
+{
+    uint8_t *rgba = malloc((size_t)r->ntri * 4 + 1);
+    if (!rgba)
+        return ftm_gl_fail(err, "mesh", "out of memory");
+    for (int32_t t = 0; t < r->ntri; t++) {
+        float c[3];
+        ftm_tissue_color(label[t], c);
+        for (int k = 0; k < 3; k++)
+            rgba[4 * (size_t)t + k] = (uint8_t)(c[k] * 255.0f + 0.5f);
+        rgba[4 * (size_t)t + 3] = 255;
+    }
+    glBindBuffer(GL_TEXTURE_BUFFER, r->tri_tbo);
+    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)((size_t)r->ntri * 4), rgba, GL_STATIC_DRAW);
+    glBindTexture(GL_TEXTURE_BUFFER, r->tri_tex);
+    glTexBuffer(GL_TEXTURE_BUFFER, GL_RGBA8, r->tri_tbo);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+    free(rgba);
+    return FTM_OK;
+}
+
+int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, const ftm_scene *scene,
+                        ftm_error *err)
 {
     free_mesh(r);
     if (!mesh)
@@ -435,29 +498,47 @@ int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, ftm_error *err)
     int32_t n = ftm_mesh_node_count(mesh), nt = ftm_mesh_triangle_count(mesh);
     const int32_t *t = ftm_mesh_triangles(mesh);
     int32_t *map = malloc((size_t)n * sizeof *map);
+    int32_t *label = malloc(((size_t)nt + 1) * sizeof *label);
     r->tri = malloc(((size_t)nt * 3 + 1) * sizeof *r->tri);
     r->node = malloc(((size_t)n + 1) * sizeof *r->node);
-    if (!map || !r->tri || !r->node) {
+    if (!map || !label || !r->tri || !r->node || ftm_tissue_surface_labels(mesh, label)) {
         free(map);
+        free(label);
         free_mesh(r);
         return ftm_gl_fail(err, "mesh", "out of memory");
     }
-    /* only surface nodes are drawn: compact them to render vertices */
+    /* only surface nodes are drawn: compact them to render vertices; a face
+     * between two elements (a file's triangle where two tissues meet) is
+     * inside the body and left out: the outer surface shows where the
+     * tissues meet by their colours */
     for (int32_t i = 0; i < n; i++)
         map[i] = -1;
-    int32_t nv = 0;
-    for (int32_t i = 0; i < 3 * nt; i++) {
-        int32_t a = t[i];
-        if (map[a] < 0) {
-            map[a] = nv;
-            r->node[nv++] = a;
+    int32_t nv = 0, kept = 0;
+    for (int32_t f = 0; f < nt; f++) {
+        if (label[f] == FTM_TISSUE_INTERIOR)
+            continue;
+        for (int k = 0; k < 3; k++) {
+            int32_t a = t[3 * f + k];
+            if (map[a] < 0) {
+                map[a] = nv;
+                r->node[nv++] = a;
+            }
+            r->tri[3 * kept + k] = map[a];
         }
-        r->tri[i] = map[a];
+        label[kept++] = label[f];
     }
     free(map);
+    nt = kept;
+    r->ntissues = ftm_tissue_list(label, nt, mesh, scene, r->tissues, FTM_RENDER_MAX_TISSUES);
+    /* a colour per triangle in a buffer texture: GL 3.3 promises 65536
+     * texels, most drivers far more; past it, one colour and no legend */
+    GLint tbo_max = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &tbo_max);
+    r->labelled = ftm_mesh_has_labels(mesh) && nt <= tbo_max;
     r->rest = malloc(((size_t)nv * 3 + 1) * sizeof *r->rest);
     r->verts = malloc(((size_t)nv * VERT_FLOATS + 1) * sizeof *r->verts);
     if (!r->rest || !r->verts) {
+        free(label);
         free_mesh(r);
         return ftm_gl_fail(err, "mesh", "out of memory");
     }
@@ -471,6 +552,11 @@ int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, ftm_error *err)
     r->ntri = nt;
     r->nvert = nv;
     r->link = ftm_mesh_mean_link_length(mesh);
+    r->tri_label = label;
+    if (r->labelled && upload_tissues(r, label, err)) {
+        free_mesh(r);
+        return FTM_ENOMEM;
+    }
     glBindVertexArray(r->surf_vao);
     glBindBuffer(GL_ARRAY_BUFFER, r->surf_vbo);
     glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)((size_t)nv * VERT_FLOATS * sizeof(float)), NULL,
@@ -559,6 +645,56 @@ bool ftm_render_has_volume(const ftm_render *r) { return ftm_volume_render_activ
 int32_t ftm_render_volume_slices(const ftm_render *r) { return ftm_volume_render_slices(r->vol); }
 
 int32_t ftm_render_triangle_count(const ftm_render *r) { return r->ntri; }
+
+int ftm_render_tissue_point(const ftm_render *r, int32_t label, ftm_vec3 eye, ftm_vec3 *point)
+{
+    double best = 0.5; /* facing the eye at least this much (cosine) */
+    int found = 0;
+    for (int32_t t = 0; r->verts && t < r->ntri; t++) {
+        if (r->tri_label[t] != label)
+            continue;
+        double c[3] = {0, 0, 0}, e1[3], e2[3];
+        const float *p[3];
+        for (int k = 0; k < 3; k++)
+            p[k] = r->verts + (size_t)r->tri[3 * t + k] * VERT_FLOATS;
+        for (int d = 0; d < 3; d++) {
+            c[d] = ((double)p[0][d] + p[1][d] + p[2][d]) / 3.0;
+            e1[d] = (double)p[1][d] - p[0][d];
+            e2[d] = (double)p[2][d] - p[0][d];
+        }
+        const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                             e1[0] * e2[1] - e1[1] * e2[0]};
+        const double to[3] = {eye.x - c[0], eye.y - c[1], eye.z - c[2]};
+        const double ln = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]),
+                     lt = sqrt(to[0] * to[0] + to[1] * to[1] + to[2] * to[2]);
+        if (!(ln > 0 && lt > 0))
+            continue;
+        const double facing = fabs(n[0] * to[0] + n[1] * to[1] + n[2] * to[2]) / (ln * lt);
+        if (facing <= best)
+            continue;
+        /* not hidden: the first surface along the eye's ray is this one */
+        const ftm_vec3 dir = {-to[0] / lt, -to[1] / lt, -to[2] / lt};
+        double dist;
+        if (!ftm_render_surface_along(r, eye, dir, &dist, NULL) || dist < lt * (1 - 1e-4))
+            continue;
+        best = facing;
+        *point = (ftm_vec3){c[0], c[1], c[2]};
+        found = 1;
+    }
+    return found;
+}
+
+void ftm_render_legend_box(const ftm_render *r, float box[4])
+{
+    memcpy(box, r->legend_box, sizeof r->legend_box);
+}
+
+int32_t ftm_render_tissues(const ftm_render *r, const ftm_tissue **out)
+{
+    if (out)
+        *out = r->tissues;
+    return r->labelled ? r->ntissues : 0;
+}
 double ftm_render_link_length(const ftm_render *r) { return r->link; }
 
 void ftm_render_update(ftm_render *r, const ftm_client_view *v)
@@ -813,8 +949,62 @@ static void participant_label(const ftm_client_view *v, const ftm_client_probe *
 
 /* Each instrument's name at the top of its shaft, in its colour: who is
  * pressing where, in every view. Returns vertices written. */
+/* The legend (key l): a panel at the bottom left (the bottom right when
+ * the HUD reaches down there), a swatch of each tissue's colour and its
+ * name and E; at most LEGEND_ROWS rows, then how many more. Writes its box
+ * (x0, y0, x1, y1; all 0 when there is none) and returns its rows. */
+#define LEGEND_ROWS 12
+static int legend_layout(const ftm_render *r, const ftm_render_opts *o, int w, int h,
+                         float hud_bottom, float hud_right, char rows[LEGEND_ROWS + 2][96],
+                         float box[4])
+{
+    box[0] = box[1] = box[2] = box[3] = 0;
+    const ftm_tissue *t;
+    int32_t nt = ftm_render_tissues(r, &t);
+    if (!o->legend || nt <= 0)
+        return 0;
+    int n = 0;
+    snprintf(rows[n++], 96, "tissues (l: hide)");
+    for (int32_t i = 0; i < nt && i < LEGEND_ROWS; i++)
+        ftm_tissue_legend_text(&t[i], rows[n++], 96);
+    if (nt > LEGEND_ROWS)
+        snprintf(rows[n++], 96, "... %d more", (int)(nt - LEGEND_ROWS));
+    const float px = text_px(o), lh = line_height(o), sw = FTM_FONT_CELL_H * px;
+    size_t cols = 0;
+    for (int i = 0; i < n; i++)
+        if (strlen(rows[i]) > cols)
+            cols = strlen(rows[i]);
+    const float bw = (float)cols * FTM_FONT_CELL_W * px + sw + 20, bh = (float)n * lh + 8;
+    float x0 = 6, y0 = (float)h - 6 - bh;
+    if (y0 < hud_bottom + 6 && hud_right + 12 + bw <= (float)w)
+        x0 = (float)w - 6 - bw; /* beside the HUD, not over it */
+    box[0] = x0, box[1] = y0, box[2] = x0 + bw, box[3] = y0 + bh;
+    return n;
+}
+
+static int legend_draw(const ftm_render *r, const ftm_render_opts *o, char rows[][96], int n,
+                       const float box[4], float *buf)
+{
+    const ftm_tissue *t;
+    int32_t nt = ftm_render_tissues(r, &t);
+    const float px = text_px(o), lh = line_height(o), sw = FTM_FONT_CELL_H * px;
+    const float bg[4] = {0.05f, 0.06f, 0.08f, 0.70f}, fg[4] = {0.92f, 0.95f, 0.90f, 1.0f};
+    int k = text_box(buf, box[0], box[1], box[2] - box[0], box[3] - box[1], bg);
+    for (int i = 0; i < n; i++) {
+        const float y = box[1] + 6 + (float)i * lh;
+        float x = box[0] + 6;
+        const int ti = i - 1; /* row 0 is the title */
+        if (ti >= 0 && ti < nt && ti < LEGEND_ROWS) {
+            const float c[4] = {t[ti].color[0], t[ti].color[1], t[ti].color[2], 1.0f};
+            k += text_box(buf + (size_t)k * TEXT_FLOATS, x, y, sw, sw, c);
+        }
+        k += text_line(buf + (size_t)k * TEXT_FLOATS, x + (i > 0 ? sw + 8 : 0), y, px, rows[i], fg);
+    }
+    return k;
+}
+
 static int probe_labels(const ftm_render *r, const ftm_client_view *v, const float mvp[16],
-                        int w, int h, float px, float below, float *buf)
+                        int w, int h, float px, float below, const float legend[4], float *buf)
 {
     int n = 0, placed = 0;
     float boxes[16][4]; /* labels placed so far: x0, y0, x1, y1 */
@@ -844,8 +1034,12 @@ static int probe_labels(const ftm_render *r, const ftm_client_view *v, const flo
         const float tw = (float)strlen(label) * FTM_FONT_CELL_W * px;
         /* not under the HUD: down the shaft to just below it; not over
          * another's label: a line further down */
-        const float lh = FTM_FONT_CELL_H * px + 6, bx = sx + 6;
-        float by = fmaxf(sy - FTM_FONT_CELL_H * px - 4, below + 6);
+        const float lh = FTM_FONT_CELL_H * px + 6;
+        float bx = sx + 6, by = fmaxf(sy - FTM_FONT_CELL_H * px - 4, below + 6);
+        /* not over the legend: beside it */
+        if (legend[2] > legend[0] && bx - 3 < legend[2] && bx + tw + 3 > legend[0] &&
+            by - 2 < legend[3] && by + lh > legend[1])
+            bx = legend[2] + 6;
         for (int moved = 1; moved;) {
             moved = 0;
             for (int k = 0; k < placed; k++)
@@ -877,12 +1071,21 @@ static void draw_text(ftm_render *r, const ftm_client_view *v, int w, int h,
         chars += strlen(hud[i]) + 1;
     for (int i = 0; o->help && i < o->nhelp; i++)
         chars += strlen(o->help[i]) + 1;
+    float px = text_px(o), lh = line_height(o);
+    float hud_bottom = o->hud && nhud > 0 ? (float)ftm_render_hud_height(o, nhud) : 0.0f;
+    float hud_right = 0;
+    for (int i = 0; o->hud && i < nhud; i++)
+        hud_right = fmaxf(hud_right, 18 + (float)strlen(hud[i]) * FTM_FONT_CELL_W * px);
+    char legend[LEGEND_ROWS + 2][96];
+    int nlegend = legend_layout(r, o, w, h, hud_bottom, hud_right, legend, r->legend_box);
+    for (int i = 0; i < nlegend; i++)
+        chars += strlen(legend[i]) + 2;
     float *buf = scratch(r, (chars + 4) * 6 * TEXT_FLOATS);
     if (!buf)
         return;
-    float px = text_px(o), lh = line_height(o);
-    float hud_bottom = o->hud && nhud > 0 ? (float)ftm_render_hud_height(o, nhud) : 0.0f;
-    int n = probe_labels(r, v, mvp, w, h, px, hud_bottom, buf); /* under the banners */
+    int n = probe_labels(r, v, mvp, w, h, px, hud_bottom, r->legend_box, buf); /* under the banners */
+    if (nlegend)
+        n += legend_draw(r, o, legend, nlegend, r->legend_box, buf + (size_t)n * TEXT_FLOATS);
     if (o->hud && nhud > 0) {
         size_t wmax = 0;
         for (int i = 0; i < nhud; i++)
@@ -1000,10 +1203,27 @@ void ftm_render_draw(ftm_render *r, const ftm_client_view *v, const ftm_camera *
     glUniform1f(r->lit_full, (float)full);
     if (r->mesh && r->ntri > 0 && !volume) {
         glUniformMatrix4fv(r->lit_model, 1, GL_FALSE, identity);
-        glUniform3f(r->lit_color, 0.86f, 0.56f, 0.52f);
-        glUniform1i(r->lit_usemap, o->colormap ? 1 : 0);
         glBindVertexArray(r->surf_vao);
-        glDrawElements(GL_TRIANGLES, 3 * r->ntri, GL_UNSIGNED_INT, (void *)0);
+        if (r->labelled) { /* each triangle its tissue's colour */
+            glUseProgram(r->tis);
+            glUniformMatrix4fv(r->tis_mvp, 1, GL_FALSE, mvp);
+            glUniformMatrix4fv(r->tis_model, 1, GL_FALSE, identity);
+            glUniform3f(r->tis_eye, (float)eye.x, (float)eye.y, (float)eye.z);
+            glUniform1f(r->tis_full, (float)full);
+            glUniform1i(r->tis_usemap, o->colormap ? 1 : 0);
+            glUniform1i(r->tis_tricolor, 1);
+            glActiveTexture(GL_TEXTURE1);
+            glBindTexture(GL_TEXTURE_BUFFER, r->tri_tex);
+            glActiveTexture(GL_TEXTURE0);
+            glDrawElements(GL_TRIANGLES, 3 * r->ntri, GL_UNSIGNED_INT, (void *)0);
+            glUseProgram(r->lit);
+        } else {
+            float tc[3];
+            ftm_tissue_color(0, tc);
+            glUniform3f(r->lit_color, tc[0], tc[1], tc[2]);
+            glUniform1i(r->lit_usemap, o->colormap ? 1 : 0);
+            glDrawElements(GL_TRIANGLES, 3 * r->ntri, GL_UNSIGNED_INT, (void *)0);
+        }
     }
     /* probes: the instrument (tip and shaft) at each HIP, contact markers */
     glUniform1i(r->lit_usemap, 0);

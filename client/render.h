@@ -10,6 +10,7 @@
 
 #include "camera.h"
 #include "client_session.h"
+#include "tissues.h"
 
 typedef struct ftm_render ftm_render;
 
@@ -28,6 +29,7 @@ typedef struct ftm_render_opts {
     const char *const *help;
     int nhelp;
     double volume_scale;  /* the slices' framebuffer pixels per voxel (0: default) */
+    bool legend;          /* the tissues' legend, for a mesh with labels (key l) */
 } ftm_render_opts;
 
 ftm_render_opts ftm_render_default_opts(void);
@@ -36,9 +38,24 @@ ftm_render_opts ftm_render_default_opts(void);
 int ftm_render_create(ftm_render **out, ftm_error *err);
 void ftm_render_destroy(ftm_render *r);
 
-/* The surface to draw: triangles of mesh (NULL: none). */
-int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, ftm_error *err);
+/* The surface to draw: triangles of mesh (NULL: none), but those two
+ * elements share (inside the body); each in the colour of its element's
+ * label when the mesh has labels (tissues.h), named after scene's (may be
+ * NULL) label names for the legend. */
+int ftm_render_set_mesh(ftm_render *r, const ftm_mesh *mesh, const ftm_scene *scene,
+                        ftm_error *err);
 int32_t ftm_render_triangle_count(const ftm_render *r);
+/* The legend's tissues (*out; may be NULL), in increasing label order: how
+ * many, 0 for a mesh without labels. */
+#define FTM_RENDER_MAX_TISSUES 256
+int32_t ftm_render_tissues(const ftm_render *r, const ftm_tissue **out);
+/* Where the last frame drew the legend: x0, y0, x1, y1 in pixels from the
+ * top left; all 0 when it drew none. */
+void ftm_render_legend_box(const ftm_render *r, float box[4]);
+/* A point of tissue `label` the eye sees (the centre of its drawn triangle
+ * that faces the eye most, not hidden by another): 1 and *point, or 0 (none
+ * in sight). For a screenshot's checks. */
+int ftm_render_tissue_point(const ftm_render *r, int32_t label, ftm_vec3 eye, ftm_vec3 *point);
 /* Mean link length of the mesh set (0 without one): sizes the probe markers. */
 double ftm_render_link_length(const ftm_render *r);
 

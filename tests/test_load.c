@@ -477,8 +477,22 @@ static void test_bad_gmsh(void **state)
         {"twonodes.msh", MSH_FORMAT MSH_NODES4 MSH_NODES4, FTM_EPARSE, 16, "second $Nodes"},
         {"stray.msh", MSH_FORMAT "junk\n", FTM_EPARSE, 4, "'junk'"},
         {"strayend.msh", MSH_FORMAT "$EndNodes\n", FTM_EPARSE, 4, "unexpected"},
-        {"unclosed.msh", MSH_FORMAT "$PhysicalNames\n1\n3 1 \"body\"\n", FTM_EPARSE, 4,
-         "$EndPhysicalNames"},
+        {"unclosed.msh", MSH_FORMAT "$PhysicalNames\n1\n3 1 \"body\"\n", FTM_EPARSE, 6,
+         "file ends inside $PhysicalNames (expected $EndPhysicalNames)"},
+        {"unclosed2.msh", MSH_FORMAT "$NodeData\n1\n", FTM_EPARSE, 4, "$EndNodeData"},
+        {"pnquote.msh", MSH_FORMAT "$PhysicalNames\n1\n3 1 body\n$EndPhysicalNames\n", FTM_EPARSE,
+         6, "physical name not in double quotes"},
+        {"pnshort.msh", MSH_FORMAT "$PhysicalNames\n2\n3 1 \"a b\"\n$EndPhysicalNames\n",
+         FTM_EPARSE, 7, "expected dimension, tag and \"name\", found '$EndPhysicalNames'"},
+        {"pndim.msh", MSH_FORMAT "$PhysicalNames\n1\n4 1 \"a\"\n$EndPhysicalNames\n", FTM_EPARSE,
+         6, "physical dimension 4 out of range"},
+        {"pntag.msh", MSH_FORMAT "$PhysicalNames\n1\n3 0 \"a\"\n$EndPhysicalNames\n", FTM_EPARSE,
+         6, "physical tag 0 out of range"},
+        {"pnnoname.msh", MSH_FORMAT "$PhysicalNames\n1\n3 1\n$EndPhysicalNames\n", FTM_EPARSE, 6,
+         "needs dimension, tag and \"name\""},
+        {"pntwice.msh",
+         MSH_FORMAT "$PhysicalNames\n0\n$EndPhysicalNames\n$PhysicalNames\n0\n$EndPhysicalNames\n",
+         FTM_EPARSE, 7, "second $PhysicalNames"},
         {"truncnodes.msh", MSH_FORMAT "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n", FTM_EPARSE, 8,
          "ends inside $Nodes"},
         {"nodecount.msh",
@@ -707,6 +721,15 @@ static void test_gmsh_hexahedra_labels(void **state)
     assert_true(ftm_mesh_has_labels(m));
     assert_int_equal(ftm_mesh_hexahedron_label(m, 0), 5);
     assert_int_equal(ftm_mesh_hexahedron_label(m, 1), 9);
+    /* the volume groups' $PhysicalNames name the labels (the client's legend) */
+    assert_string_equal(ftm_mesh_label_name(m, 5), "grey");
+    assert_string_equal(ftm_mesh_label_name(m, 9), "white");
+    assert_null(ftm_mesh_label_name(m, 7));
+    ftm_material_def mat = ftm_default_material_def(); /* a copy keeps them (a clone) */
+    ftm_mesh *c = NULL;
+    assert_int_equal(ftm_mesh_with_material(m, &mat, &mat, &c, NULL), FTM_OK);
+    assert_string_equal(ftm_mesh_label_name(c, 9), "white");
+    ftm_mesh_destroy(c);
     assert_near(enclosed_volume(m), 2.0, 1e-12);
     /* the hexahedra are those of the file, renumbered */
     const int32_t *h = ftm_mesh_hexahedra(m);

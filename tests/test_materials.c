@@ -645,6 +645,43 @@ static void test_fixed_label(void **state)
     printf("fixed_label = 0: %s\n", err.message);
 }
 
+/* `name` in [fem LABEL]: what the client's legend calls the label
+ * (client/tissues.c); optional, printable ASCII, unique */
+static void test_label_names(void **state)
+{
+    (void)state;
+    ftm_scene *scene = NULL;
+    ftm_error err = {0};
+    int rc = parse_bar("forces = linear-fem",
+                       "[fem 9]\nname =  white matter   # inner\nyoung = 4e4\npoisson = 0\n"
+                       "[fem 5]\nyoung = 1e4\npoisson = 0\n",
+                       &scene, &err);
+    if (rc != FTM_OK)
+        fail_msg("%s", err.message);
+    assert_string_equal(ftm_scene_label_name(scene, 9), "white matter");
+    assert_null(ftm_scene_label_name(scene, 5)); /* a section without a name */
+    assert_null(ftm_scene_label_name(scene, 7)); /* no section */
+    int32_t n = 0;
+    const ftm_label_material *m = ftm_scene_label_materials(scene, &n);
+    assert_int_equal(n, 2);
+    assert_true(m[0].label == 9 && m[0].young == 4e4); /* the name leaves the material be */
+    ftm_scene_destroy(scene);
+
+    const char *lin = "forces = linear-fem";
+    expect_refused(lin, "[fem 9]\nname =\nyoung = 1\npoisson = 0\n", ":14: name: missing value");
+    expect_refused(lin, "[fem 9]\nname = a\nname = b\n", ":15: duplicate key 'name' (first at line 14)");
+    expect_refused(lin, "[fem 9]\nname = 0123456789012345678901234567890123456789x\n",
+                   ":14: name: at most 40 characters, got 41");
+    expect_refused(lin, "[fem 9]\nname = gr\xc3\xa9y\n",
+                   ":14: name: character 3 is not printable ASCII (byte 0xc3)");
+    expect_refused(lin, "[fem 9]\nname = a\tb\n", "character 2 is not printable ASCII (byte 0x09)");
+    expect_refused(lin,
+                   "[fem 5]\nname = grey\nyoung = 1\npoisson = 0\n"
+                   "[fem 9]\nname = grey\nyoung = 1\npoisson = 0\n",
+                   ":18: name 'grey' already names label 5 (line 14)");
+    expect_refused(lin, "[fem 9]\nlabel = grey\n", "takes young, poisson and name");
+}
+
 static void test_refusals(void **state)
 {
     (void)state;
@@ -749,6 +786,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_labels_in_series),
         cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_label_names),
         cmocka_unit_test(test_fixed_label),
         cmocka_unit_test(test_corot_neo_per_label),
         cmocka_unit_test(test_density_per_label),

@@ -30,6 +30,12 @@ typedef struct tag_entry {
     int32_t index;
 } tag_entry;
 
+/* A volume group's name in $PhysicalNames: its elements' label's. */
+typedef struct physical_name {
+    int32_t label;
+    char name[FTM_MESH_LABEL_NAME_MAX + 1];
+} physical_name;
+
 /* A volume entity of $Entities: its physical group is its elements' label. */
 typedef struct volume_entity {
     int64_t tag;
@@ -70,6 +76,9 @@ typedef struct msh_state {
     elem_list tets, hexes;
 
     bool have_entities;
+    /* $PhysicalNames of volume groups: a label's name, for display */
+    struct physical_name *names;
+    size_t name_count, name_cap;
     volume_entity *volumes; /* sorted by tag after $Entities */
     size_t volume_count, volume_cap;
 } msh_state;
@@ -710,7 +719,52 @@ static int parse_elements(msh_state *s, ftm_error *err)
     return FTM_OK;
 }
 
-/* Skips an unknown section ($PhysicalNames, $Entities, $NodeData, ...). */
+/* $PhysicalNames: "dim tag \"name\"" lines. A volume group's (dim 3)
+ * tag is its elements' label, and its name what the client's legend shows:
+ * kept (cut to FTM_MESH_LABEL_NAME_MAX bytes, any byte that is not
+ * printable ASCII shown as '?'). Other dimensions' names are checked and
+ * dropped. */
+static int parse_physical_names(msh_state *s, ftm_error *err)
+{
+    int rc = data_line(s, "PhysicalNames", "the number of names", err);
+    int64_t count = 0;
+    if (rc < 0 || (rc = expect_tokens(s, 1, "$PhysicalNames", err)) < 0 ||
+        (rc = int_token(s, 0, 0, FTM_MESH_MAX_LABEL_NAMES, "number of names", &count, err)) < 0)
+        return rc;
+    for (int64_t i = 0; i < count; i++) {
+        if ((rc = data_line(s, "PhysicalNames", "dimension, tag and \"name\"", err)) < 0)
+            return rc;
+        int64_t dim, tag;
+        if (s->ntok < 3 || s->too_long)
+            return ftm_error_set(err, FTM_EPARSE,
+                                 "%s:%d: a physical name needs dimension, tag and \"name\"",
+                                 s->path, s->text.line);
+        if ((rc = int_token(s, 0, 0, 3, "physical dimension", &dim, err)) < 0 ||
+            (rc = int_token(s, 1, 1, INT32_MAX, "physical tag", &tag, err)) < 0)
+            return rc;
+        /* the name runs from the third token to the line's last, quoted */
+        const char *a = s->tok[2], *b = s->tok[s->ntok - 1] + s->toklen[s->ntok - 1];
+        if (b - a < 2 || a[0] != '"' || b[-1] != '"')
+            return ftm_error_set(err, FTM_EPARSE, "%s:%d: physical name not in double quotes",
+                                 s->path, s->text.line);
+        if (dim != 3 || b - a == 2)
+            continue;
+        physical_name *g = ftm_load_grow(s->names, &s->name_cap, s->name_count + 1, sizeof *g);
+        if (!g)
+            return ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", s->path);
+        s->names = g;
+        physical_name *e = &g[s->name_count++];
+        e->label = (int32_t)tag;
+        size_t n = (size_t)(b - a - 2) < FTM_MESH_LABEL_NAME_MAX ? (size_t)(b - a - 2)
+                                                               : FTM_MESH_LABEL_NAME_MAX;
+        for (size_t k = 0; k < n; k++)
+            e->name[k] = a[1 + k] >= 0x20 && a[1 + k] <= 0x7e ? a[1 + k] : '?';
+        e->name[n] = '\0';
+    }
+    return end_line(s, "PhysicalNames", err);
+}
+
+/* Skips an unknown section ($NodeData, ...). */
 static int skip_section(msh_state *s, ftm_error *err)
 {
     const char *name = s->tok[0] + 1;
@@ -734,7 +788,7 @@ static int parse_file(msh_state *s, ftm_error *err)
                              "%s:%d: not a Gmsh MSH file (expected $MeshFormat, found '%.*s')",
                              s->path, s->text.line, QUOTE(s->toklen[0]), s->tok[0]);
     int rc = parse_format(s, err);
-    bool have_nodes = false, have_elements = false;
+    bool have_nodes = false, have_elements = false, have_names = false;
     while (rc >= 0 && next_line(s)) {
         if (s->tok[0][0] != '$')
             return ftm_error_set(err, FTM_EPARSE, "%s:%d: expected a section ($Name), found '%.*s'",
@@ -764,6 +818,12 @@ static int parse_file(msh_state *s, ftm_error *err)
                                      s->path, s->text.line);
             s->have_entities = true;
             rc = parse_entities(s, err);
+        } else if (line_is(s, "$PhysicalNames")) {
+            if (have_names)
+                return ftm_error_set(err, FTM_EPARSE, "%s:%d: second $PhysicalNames section",
+                                     s->path, s->text.line);
+            have_names = true;
+            rc = parse_physical_names(s, err);
         } else if (line_is(s, "$MeshFormat")) {
             return ftm_error_set(err, FTM_EPARSE, "%s:%d: second $MeshFormat section", s->path,
                                  s->text.line);
@@ -828,6 +888,12 @@ int ftm_load_gmsh(ftm_mesh_builder *builder, const char *path, const ftm_materia
                              .hex_labels = s->hexes.labelled ? s->hexes.label : NULL,
                              .hex_count = s->hexes.count},
             err);
+    /* the names of the labels the elements carry */
+    for (size_t i = 0; rc >= 0 && i < s->name_count; i++)
+        if (ftm_mesh_builder_set_label_name(builder, s->names[i].label, s->names[i].name) ==
+            FTM_ENOMEM)
+            rc = ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", path);
+    free(s->names);
     for (int k = 0; k < 2; k++) {
         elem_list *e = k ? &s->hexes : &s->tets;
         free(e->v);

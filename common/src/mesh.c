@@ -6,6 +6,7 @@
 #include "error.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -33,6 +34,8 @@ struct ftm_mesh_builder {
         int32_t count;
     } *bc;
     int32_t bc_cap;
+    ftm_label_name *label_names;
+    int32_t label_name_count, label_name_cap;
     /* open-addressing set of link keys (a << 32 | b), for de-duplication */
     uint64_t *link_keys;
     uint32_t key_cap; /* power of two, 0 = none yet */
@@ -89,6 +92,7 @@ void ftm_mesh_builder_destroy(ftm_mesh_builder *b)
     free(b->tet_labels);
     free(b->hex_labels);
     free(b->bc);
+    free(b->label_names);
     free(b->link_keys);
     free(b);
 }
@@ -627,6 +631,7 @@ void ftm_mesh_destroy(ftm_mesh *m)
     free(m->bc);
     free(m->bc_n);
     free(m->ground_k);
+    free(m->label_names);
     free(m->node_of_input);
     free(m->input_of_node);
     free(m);
@@ -675,6 +680,9 @@ ftm_mesh *ftm_mesh_clone(const ftm_mesh *m)
     c->bc = m->bc ? dup(m->bc, n) : NULL;
     c->bc_n = m->bc ? dup(m->bc_n, n * 6 * sizeof(double)) : NULL;
     c->ground_k = m->bc ? dup(m->ground_k, n * sizeof(double)) : NULL;
+    c->label_names = m->label_names ? dup(m->label_names, (size_t)m->label_name_count *
+                                                              sizeof *m->label_names)
+                                    : NULL;
     c->node_of_input = dup(m->node_of_input, n * sizeof(int32_t));
     c->input_of_node = dup(m->input_of_node, n * sizeof(int32_t));
     if (!c->rest || !c->mass || !c->damping || !c->fixed || !c->min_link || !c->fixed_hops ||
@@ -682,7 +690,8 @@ ftm_mesh *ftm_mesh_clone(const ftm_mesh *m)
         (pad && !c->pad_kl) || !c->link_a || !c->link_b || !c->link_k || !c->link_len || !c->tris ||
         !c->tets || !c->hexes || !c->node_of_input || !c->input_of_node ||
         (m->tet_labels && !c->tet_labels) || (m->hex_labels && !c->hex_labels) ||
-        (m->bc && (!c->bc || !c->bc_n || !c->ground_k))) {
+        (m->bc && (!c->bc || !c->bc_n || !c->ground_k)) ||
+        (m->label_names && !c->label_names)) {
         ftm_mesh_destroy(c);
         return NULL;
     }
@@ -938,6 +947,12 @@ int ftm_mesh_build(const ftm_mesh_builder *b, const ftm_mesh_build_def *def, ftm
         if (!m->hex_labels)
             goto fail;
     }
+    if (b->label_name_count) {
+        m->label_names = dup(b->label_names, (size_t)b->label_name_count * sizeof *b->label_names);
+        if (!m->label_names)
+            goto fail;
+        m->label_name_count = b->label_name_count;
+    }
 
     free(row);
     free(surf);
@@ -992,6 +1007,34 @@ int32_t ftm_mesh_hexahedron_label(const ftm_mesh *m, int32_t hex)
 bool ftm_mesh_has_labels(const ftm_mesh *m)
 {
     return m->tet_labels != NULL || m->hex_labels != NULL;
+}
+
+int ftm_mesh_builder_set_label_name(ftm_mesh_builder *b, int32_t label, const char *name)
+{
+    if (!b || label < 1 || !name || !name[0])
+        return FTM_EINVAL;
+    int32_t i = 0;
+    while (i < b->label_name_count && b->label_names[i].label != label)
+        i++;
+    if (i == b->label_name_count) {
+        if (i >= FTM_MESH_MAX_LABEL_NAMES)
+            return FTM_ERANGE;
+        if (!grow((void **)&b->label_names, &b->label_name_cap, i + 1, sizeof *b->label_names))
+            return FTM_ENOMEM;
+        b->label_name_count++;
+    }
+    ftm_label_name *e = &b->label_names[i];
+    e->label = label;
+    snprintf(e->name, sizeof e->name, "%s", name);
+    return FTM_OK;
+}
+
+const char *ftm_mesh_label_name(const ftm_mesh *m, int32_t label)
+{
+    for (int32_t i = 0; i < m->label_name_count; i++)
+        if (m->label_names[i].label == label)
+            return m->label_names[i].name;
+    return NULL;
 }
 
 ftm_vec3 ftm_mesh_rest_position(const ftm_mesh *m, int32_t i)

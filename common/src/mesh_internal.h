@@ -7,6 +7,12 @@
 
 #include "ftm/mesh.h"
 
+/* A label's name for display (ftm_mesh_builder_set_label_name). */
+typedef struct ftm_label_name {
+    int32_t label;
+    char name[FTM_MESH_LABEL_NAME_MAX + 1];
+} ftm_label_name;
+
 struct ftm_mesh {
     int32_t node_count;
     int32_t link_count;
@@ -46,6 +52,8 @@ struct ftm_mesh {
     /* Element labels (tissues), one per tetrahedron (hexahedron) in the
      * builder's order, 0 = none; NULL when the builder set none. */
     int32_t *tet_labels, *hex_labels;
+    ftm_label_name *label_names; /* label_name_count, for display; NULL: none */
+    int32_t label_name_count;
 
     int32_t *node_of_input; /* input index -> mesh index */
     int32_t *input_of_node; /* mesh index -> input index */

@@ -50,6 +50,7 @@ struct ftm_scene {
     double young, poisson, density; /* [fem]; density 0 = not given */
     ftm_label_material *label_materials; /* [fem LABEL], in the file's order */
     int32_t label_material_count;
+    char (*label_names)[FTM_SCENE_LABEL_NAME_MAX + 1]; /* their `name`s ("": none) */
     ftm_volume *volume;            /* [volume], with generator = volume */
     ftm_ffd *ffd;
     ftm_scene_tool tool;           /* [tool]; zeros = not given */
@@ -250,8 +251,9 @@ typedef struct load_spec {
 
 /* A [fem LABEL] section: where it and its keys are. */
 typedef struct label_fem {
-    int32_t line, young_line, poisson_line, density_line;
+    int32_t line, young_line, poisson_line, density_line, name_line;
     ftm_label_material mat;
+    char name[FTM_SCENE_LABEL_NAME_MAX + 1]; /* `name`: what the client's legend shows */
 } label_fem;
 
 /* A [material LABEL] section: the spring stiffness of one label. */
@@ -1237,17 +1239,48 @@ static int open_label_fem(parser *p, const char *v, size_t n, section *cur)
     return FTM_OK;
 }
 
-/* young, poisson or density in the [fem LABEL] being read. */
+/* `name` in a [fem LABEL]: the tissue's name for a legend, printable ASCII
+ * (the client's font), unique among the labels. */
+static int label_fem_name(parser *p, label_fem *lf, const char *v, size_t vn)
+{
+    if (lf->name_line)
+        return fail_at(p, p->line, FTM_EPARSE, "duplicate key 'name' (first at line %d)",
+                       (int)lf->name_line);
+    if (vn == 0)
+        return fail_at(p, p->line, FTM_EPARSE, "name: missing value");
+    if (vn > FTM_SCENE_LABEL_NAME_MAX)
+        return fail_at(p, p->line, FTM_EPARSE, "name: at most %d characters, got %zu",
+                       FTM_SCENE_LABEL_NAME_MAX, vn);
+    for (size_t i = 0; i < vn; i++)
+        if ((unsigned char)v[i] < 0x20 || (unsigned char)v[i] > 0x7e)
+            return fail_at(p, p->line, FTM_EPARSE,
+                           "name: character %zu is not printable ASCII (byte 0x%02x)", i + 1,
+                           (unsigned)(unsigned char)v[i]);
+    for (size_t i = 0; i + 1 < p->s.label_fem_count; i++) {
+        const label_fem *o = &p->s.label_fems[i];
+        if (o->name_line && strlen(o->name) == vn && memcmp(o->name, v, vn) == 0)
+            return fail_at(p, p->line, FTM_EPARSE, "name '%s' already names label %d (line %d)",
+                           o->name, (int)o->mat.label, (int)o->name_line);
+    }
+    memcpy(lf->name, v, vn);
+    lf->name[vn] = '\0';
+    lf->name_line = p->line;
+    return FTM_OK;
+}
+
+/* young, poisson, density or name in the [fem LABEL] being read. */
 static int label_fem_key(parser *p, const char *kname, size_t kn, const char *v, size_t vn)
 {
     label_fem *lf = &p->s.label_fems[p->s.label_fem_count - 1];
+    if (kn == 4 && memcmp(kname, "name", 4) == 0)
+        return label_fem_name(p, lf, v, vn);
     bool young = kn == 5 && memcmp(kname, "young", 5) == 0;
     bool poisson = kn == 7 && memcmp(kname, "poisson", 7) == 0;
     bool density = kn == 7 && memcmp(kname, "density", 7) == 0;
     if (!young && !poisson && !density)
         return fail_at(p, p->line, FTM_EPARSE,
-                       "unknown key '%.*s' in [fem %d] (a label's section takes young, poisson "
-                       "and density)",
+                       "unknown key '%.*s' in [fem %d] (a label's section takes young, poisson, "
+                       "density and name)",
                        shown(kn), kname, (int)lf->mat.label);
     const char *name = young ? "young" : poisson ? "poisson" : "density";
     int32_t *seen = young ? &lf->young_line : poisson ? &lf->poisson_line : &lf->density_line;
@@ -2099,8 +2132,13 @@ static int parse_scene(const char *text, size_t length, const char *name, const 
         scene->label_materials = malloc(p.s.label_fem_count * sizeof *scene->label_materials);
         if (!scene->label_materials)
             rc = ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", name);
-        for (size_t i = 0; rc == FTM_OK && i < p.s.label_fem_count; i++)
+        scene->label_names = malloc(p.s.label_fem_count * sizeof *scene->label_names);
+        if (rc == FTM_OK && !scene->label_names)
+            rc = ftm_error_set(err, FTM_ENOMEM, "%s: out of memory", name);
+        for (size_t i = 0; rc == FTM_OK && i < p.s.label_fem_count; i++) {
             scene->label_materials[i] = p.s.label_fems[i].mat;
+            memcpy(scene->label_names[i], p.s.label_fems[i].name, sizeof scene->label_names[i]);
+        }
         scene->label_material_count = (int32_t)p.s.label_fem_count;
     }
     if (rc == FTM_OK && p.s.sim.forces != FTM_FORCES_SPRINGS &&
@@ -2256,6 +2294,7 @@ void ftm_scene_destroy(ftm_scene *scene)
     ftm_volume_destroy(scene->volume);
     free(scene->loads);
     free(scene->label_materials);
+    free(scene->label_names);
     free(scene);
 }
 
@@ -2296,6 +2335,14 @@ const ftm_label_material *ftm_scene_label_materials(const ftm_scene *scene, int3
     if (count)
         *count = scene->label_material_count;
     return scene->label_materials;
+}
+
+const char *ftm_scene_label_name(const ftm_scene *scene, int32_t label)
+{
+    for (int32_t i = 0; i < scene->label_material_count; i++)
+        if (scene->label_materials[i].label == label)
+            return scene->label_names[i][0] ? scene->label_names[i] : NULL;
+    return NULL;
 }
 
 bool ftm_scene_fem_material(const ftm_scene *scene, double *young, double *poisson,

@@ -402,20 +402,22 @@ static void test_instructor_keys(void **state)
 static void test_help_per_role(void **state)
 {
     (void)state;
-    int n = ftm_hud_help(FTM_WIRE_ROLE_TRAINEE, true, false, lines);
+    int n = ftm_hud_help(FTM_WIRE_ROLE_TRAINEE, true, false, false, lines);
     assert_true(find(n, "lower / raise the probe") >= 0);
     assert_true(find(n, "the probe back above the tissue") >= 0);
     assert_true(find(n, "reset the tissue") < 0);
     assert_true(find(n, "are the instructor's") >= 0);
     assert_true(find(n, "v  x  n") < 0);
-    n = ftm_hud_help(FTM_WIRE_ROLE_INSTRUCTOR, false, true, lines);
+    n = ftm_hud_help(FTM_WIRE_ROLE_INSTRUCTOR, false, true, true, lines);
     assert_true(find(n, "reset the tissue") >= 0);
     assert_true(find(n, "stiffer / softer") >= 0);
     assert_true(find(n, "the probe back above") < 0);
     assert_true(find(n, "left drag          orbit") >= 0);
     assert_true(find(n, "v  x  n") >= 0);
-    n = ftm_hud_help(FTM_WIRE_ROLE_OBSERVER, false, false, lines);
+    assert_true(find(n, "the tissues' legend on / off") >= 0); /* a mesh with labels */
+    n = ftm_hud_help(FTM_WIRE_ROLE_OBSERVER, false, false, false, lines);
     assert_true(find(n, "reset the tissue") < 0 && find(n, "haptic renderer") < 0);
+    assert_true(find(n, "legend") < 0);
 }
 
 /* A trainee's probe line (height above the surface, push depth), the word

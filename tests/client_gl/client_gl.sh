@@ -35,6 +35,11 @@
 #       notches touch the tissue again, key u lifts the probe; a trainee's
 #       instructor key is answered on screen; F1 shows the help overlay.
 #       Skipped (77) without xdotool.
+#   tissues: a block of two labelled tissues (tests/data/two_tissue.msh):
+#       each tissue is drawn in
+#       its own colour (not the other's, not the unlabelled one) where the
+#       client says it sees it, and the legend shows both swatches below
+#       the HUD's rows.
 #   fps: --max-fps 20 draws 10..24 fps over 3 s under Xvfb (where the swap
 #       interval does not throttle), the default cap at most 72 fps.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
@@ -111,8 +116,55 @@ screenshot)
     y1=$(( $3 > $1 + 30 ? $3 : $1 + 30 ))
     "$FTM_PNG_CHECK" hue "$dir/after.png" "$(($2 + 4))" "$(($3 - 24))" "$(($2 + 140))" "$y1" \
         0.20 0.90 0.35 || fail "png check: no name label in the trainee's colour"
+    # a mesh without labels: its own tissue colour, no legend
+    ! grep -q '^legend' "$dir/after.out" || fail "a legend for a mesh without labels"
     [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
     echo "PASS screenshot: $(cat "$dir/after.out")"
+    ;;
+tissues)
+    # a mesh of two labelled tissues (tests/data/two_tissue.msh: physical
+    # groups 1 and 2 side by side, named by the scene's [fem LABEL] name):
+    # each drawn in its own colour, where the client says it sees it, and
+    # the legend with both colours' swatches, below the HUD's rows
+    # (no trainee: an instrument would hide the tissue behind it; the
+    # docs' picture, docs/client.md, has one pressing)
+    start_server --scene "$FTM_DATA/../data/scenes/two_tissue.scene"
+    client tis --role observer --screenshot "$dir/tis.png" --screenshot-timeout 40 ||
+        fail "client exited with $?"
+    grep -q "tissue: label 1, grey matter  E 2 kPa, 136 surface triangles" "$dir/tis.log" &&
+        grep -q "tissue: label 2, white matter  E 6 kPa, 136 surface triangles" "$dir/tis.log" ||
+        fail "the client's log does not list both tissues"
+    top=$(sed -n 's/^screenshot .* view-top \([0-9]*\) .*/\1/p' "$dir/tis.out")
+    set -- $(sed -n 's/^legend //p' "$dir/tis.out")
+    [ $# -eq 4 ] && [ -n "$top" ] || fail "no legend or view top in the client's output"
+    [ "$2" -gt "$top" ] || fail "the legend (rows $2..$4) reaches into the HUD's rows (0..$top)"
+    c1="0.80 0.36 0.40" c2="0.93 0.86 0.66" c0="0.86 0.56 0.52" # tissues.c: labels 1, 2, 0
+    for c in "$c1" "$c2"; do
+        "$FTM_PNG_CHECK" hue "$dir/tis.png" "$1" "$2" "$3" "$4" $c ||
+            fail "png check: no swatch of ($c) in the legend"
+    done
+    # most of a small box around the point in the tissue's colour (by
+    # chromaticity: shading keeps it, a highlight or a neighbour's edge may
+    # not), little of it in the other's or the unlabelled colour
+    share() { # colour -> percent of the box's pixels of that colour
+        "$FTM_PNG_CHECK" hue "$dir/tis.png" $box "$@" |
+            sed -n 's/.*: \([0-9]*\) of \([0-9]*\) pixels of colour.*/\1 \2/p' |
+            awk '{ print int(100 * $1 / $2) }'
+    }
+    for label in 1 2; do
+        set -- $(sed -n "s/^tissue $label \([0-9]*\) \([0-9]*\) .*/\1 \2/p" "$dir/tis.out")
+        [ $# -eq 2 ] || fail "tissue $label not in sight"
+        box="$(($1 - 6)) $(($2 - 6)) $(($1 + 6)) $(($2 + 6))"
+        if [ $label = 1 ]; then own=$c1 other=$c2; else own=$c2 other=$c1; fi
+        p=$(share $own)
+        [ "${p:-0}" -ge 60 ] || fail "png check: tissue $label: ${p:-0} % of ($box) in its colour ($own)"
+        for c in "$other" "$c0"; do
+            p=$(share $c)
+            [ "${p:-100}" -le 20 ] || fail "png check: tissue $label: ${p:-?} % of ($box) in ($c)"
+        done
+    done
+    [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/tis.png" "$FTM_KEEP_SCREENSHOT"
+    echo "PASS tissues: $(cat "$dir/tis.out")"
     ;;
 instructor)
     # the GL client as instructor plays timed commands (--commands): the

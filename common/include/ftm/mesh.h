@@ -69,6 +69,14 @@ int32_t ftm_mesh_builder_hexahedron_count(const ftm_mesh_builder *builder);
  * FTM_ERANGE (no such element), FTM_EINVAL (label < 0), FTM_ENOMEM. */
 int ftm_mesh_builder_set_tetrahedron_label(ftm_mesh_builder *builder, int32_t tet, int32_t label);
 int ftm_mesh_builder_set_hexahedron_label(ftm_mesh_builder *builder, int32_t hex, int32_t label);
+/* A label's name, for display (a Gmsh physical group's $PhysicalNames
+ * entry: "grey matter"): label >= 1; name cut to FTM_MESH_LABEL_NAME_MAX
+ * bytes; setting a label's name again replaces it. FTM_EINVAL (label < 1,
+ * name NULL or empty), FTM_ERANGE (more than FTM_MESH_MAX_LABEL_NAMES
+ * names), FTM_ENOMEM. */
+#define FTM_MESH_LABEL_NAME_MAX 40
+#define FTM_MESH_MAX_LABEL_NAMES 65536
+int ftm_mesh_builder_set_label_name(ftm_mesh_builder *builder, int32_t label, const char *name);
 /* Rest position of a node added so far (input index); FTM_ERANGE if none. */
 int ftm_mesh_builder_node_position(const ftm_mesh_builder *builder, int32_t node, ftm_vec3 *out);
 /* Fixes or frees a node added so far: boundary conditions chosen after a
@@ -148,6 +156,9 @@ const int32_t *ftm_mesh_tetrahedron_labels(const ftm_mesh *mesh);
 const int32_t *ftm_mesh_hexahedron_labels(const ftm_mesh *mesh);
 /* Whether the builder labelled any element. */
 bool ftm_mesh_has_labels(const ftm_mesh *mesh);
+/* The name the builder gave label (ftm_mesh_builder_set_label_name), NULL
+ * for none. */
+const char *ftm_mesh_label_name(const ftm_mesh *mesh, int32_t label);
 
 int32_t ftm_mesh_node_of_input(const ftm_mesh *mesh, int32_t input_index);
 int32_t ftm_mesh_input_of_node(const ftm_mesh *mesh, int32_t node);

@@ -81,6 +81,11 @@ bool ftm_scene_fem_material(const ftm_scene *scene, double *young, double *poiss
  * the [fem] material being every other element's (ftm fem passes them to
  * ftm_fem as per-element materials). count may be NULL. */
 const ftm_label_material *ftm_scene_label_materials(const ftm_scene *scene, int32_t *count);
+/* The `name` a [fem LABEL] section gives its label (printable ASCII, at
+ * most FTM_SCENE_LABEL_NAME_MAX characters: a legend's "grey matter"); NULL
+ * when the scene names it nowhere. */
+#define FTM_SCENE_LABEL_NAME_MAX 40
+const char *ftm_scene_label_name(const ftm_scene *scene, int32_t label);
 
 /* The scene's [tool] (docs/scene-format.md): the instrument a trainee holds,
  * as the client draws it [m]; 0 where the scene gives none (the client then
