@@ -679,7 +679,7 @@ static void test_label_names(void **state)
                    "[fem 5]\nname = grey\nyoung = 1\npoisson = 0\n"
                    "[fem 9]\nname = grey\nyoung = 1\npoisson = 0\n",
                    ":18: name 'grey' already names label 5 (line 14)");
-    expect_refused(lin, "[fem 9]\nlabel = grey\n", "takes young, poisson and name");
+    expect_refused(lin, "[fem 9]\nlabel = grey\n", "takes young, poisson, density and name");
 }
 
 static void test_refusals(void **state)
@@ -700,7 +700,7 @@ static void test_refusals(void **state)
     expect_refused(lin, "[fem 9]\nyoung = 1\nyoung = 2\n", ":15: duplicate key 'young'");
     expect_refused(lin, "[fem 9]\nyoung = 1\npoisson = 0\nstiffness = 3\n",
                    ":16: unknown key 'stiffness' in [fem 9] (a label's section takes young, "
-                   "poisson and density)");
+                   "poisson, density and name)");
     /* a density per label beside a [fem] without one */
     expect_refused(lin, "[fem 9]\nyoung = 1\npoisson = 0\ndensity = 1000\n",
                    ":16: [fem 9]: a density per label needs [fem] density too");
