@@ -72,6 +72,22 @@ static void put_mesh(hasher *h, const ftm_mesh *m)
     put_u64(h, (uint64_t)nt);
     for (int32_t i = 0; i < 3 * nt; i++)
         put_u64(h, (uint64_t)t[i]);
+    /* sliding nodes and springs to ground: appended only where the mesh has
+     * some, so the other scenes keep the digests they had */
+    if (!ftm_mesh_has_slides(m) && !ftm_mesh_has_ground_springs(m))
+        return;
+    put(h, "constraints", 11);
+    for (int32_t i = 0; i < n; i++) {
+        ftm_vec3 nv[2];
+        const int32_t c = ftm_mesh_slide_normals(m, i, nv);
+        put_u64(h, (uint64_t)c);
+        for (int32_t q = 0; q < c; q++) {
+            put_f64(h, nv[q].x);
+            put_f64(h, nv[q].y);
+            put_f64(h, nv[q].z);
+        }
+        put_f64(h, ftm_mesh_ground_stiffness(m, i));
+    }
 }
 
 int ftm_replay_scene_digest(const ftm_scene *scene, uint8_t out[FTM_REPLAY_DIGEST_SIZE])

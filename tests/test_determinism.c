@@ -26,8 +26,11 @@ typedef struct scenario {
     bool elastic; /* the elastic far field at depth 2 (its ring and solve) */
 } scenario;
 
-/* Runs a press / move / release / relax script and returns the final hash. */
-static uint64_t run(const scenario *sc)
+/* Runs a press / move / release / relax script and returns the final hash.
+ * With bc (3D): the bottom not fixed but sliding on z = 0 (one node of it
+ * on a tilted plane instead, one on a line), and two top nodes on springs
+ * to ground (docs/scene-format.md, Boundary conditions). */
+static uint64_t run_bc(const scenario *sc, bool bc)
 {
     ftm_mesh_builder *b = ftm_mesh_builder_create();
     ftm_error err;
@@ -38,7 +41,19 @@ static uint64_t run(const scenario *sc)
         d.spacing = (ftm_vec3){0.01, 0.01, 0.01};
         d.stencil = FTM_STENCIL_18;
         d.material = (ftm_material_def){0.001, 0.3, 50.0, {1.0, 1.0, 2.0}};
+        if (bc)
+            d.fixed_faces = 0;
         assert_int_equal(ftm_generate_lattice3d(b, &d, &err), FTM_OK);
+        for (int32_t i = 0; bc && i < 100; i++)
+            assert_int_equal(ftm_mesh_builder_add_slide(b, i, i == 55 ? (ftm_vec3){0.3, -0.2, 1.0}
+                                                                      : (ftm_vec3){0, 0, 1}),
+                             FTM_OK);
+        if (bc) {
+            assert_int_equal(ftm_mesh_builder_add_slide(b, 9, (ftm_vec3){0, 1, 0}), FTM_OK);
+            assert_int_equal(ftm_mesh_builder_add_ground_spring(b, 900, 30.0), FTM_OK);
+            assert_int_equal(ftm_mesh_builder_add_ground_spring(b, 5 + 10 * (4 + 10 * 9), 10.0),
+                             FTM_OK);
+        }
         a = 4 + 10 * (4 + 10 * 9);
         c = 6 + 10 * (5 + 10 * 9);
     } else {
@@ -83,11 +98,13 @@ static uint64_t run(const scenario *sc)
     pressed = 31 * pressed + ftm_sim_hash(sim);
     assert_int_equal(ftm_sim_set_contacts(sim, NULL, 0, &err), FTM_OK); /* all released */
     assert_int_equal(ftm_sim_run(sim, 300), FTM_OK);
-    uint64_t h = ftm_sim_hash(sim) ^ (sc->elastic ? pressed : 0);
+    uint64_t h = ftm_sim_hash(sim) ^ (sc->elastic || bc ? pressed : 0);
     ftm_sim_destroy(sim);
     ftm_mesh_destroy(m);
     return h;
 }
+
+static uint64_t run(const scenario *sc) { return run_bc(sc, false); }
 
 static const scenario scenarios[] = {
     {"lattice2d colored", FTM_ORDER_LAYER_COLORED, false, 0x4b86508014e3ad2cULL, false},
@@ -262,6 +279,31 @@ static void test_elem_golden_hashes(void **state)
     assert_int_equal(bad, 0);
 }
 
+/* Sliding nodes and springs to ground (the lattice3d scenarios' script on
+ * a block resting on the plane z = 0): every kernel updates those nodes
+ * with one scalar function, so the hashes are the same everywhere. */
+static const scenario bc_scenarios[] = {
+    {"bc colored", FTM_ORDER_LAYER_COLORED, true, 0x5b18b8be474381f3ULL, false},
+    {"bc bfs", FTM_ORDER_BFS, true, 0x0169b76bc422a344ULL, false},
+    {"bc jacobi", FTM_ORDER_LAYER_JACOBI, true, 0x541f9b5fc92e79b0ULL, false},
+    {"bc colored, elastic far field", FTM_ORDER_LAYER_COLORED, true, 0x0a397793c44718d9ULL, true},
+};
+
+static void test_bc_golden_hashes(void **state)
+{
+    (void)state;
+    int bad = 0;
+    for (size_t i = 0; i < sizeof bc_scenarios / sizeof bc_scenarios[0]; i++) {
+        uint64_t h = run_bc(&bc_scenarios[i], true);
+        if (h != bc_scenarios[i].expected) {
+            print_error("%s: hash 0x%016" PRIx64 "ULL, expected 0x%016" PRIx64 "ULL\n",
+                        bc_scenarios[i].name, h, bc_scenarios[i].expected);
+            bad++;
+        }
+    }
+    assert_int_equal(bad, 0);
+}
+
 /* The same run twice in one process, and a run on a rebuilt mesh, agree. */
 static void test_repeatable(void **state)
 {
@@ -276,6 +318,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_golden_hashes),
         cmocka_unit_test(test_elem_golden_hashes),
+        cmocka_unit_test(test_bc_golden_hashes),
         cmocka_unit_test(test_repeatable),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

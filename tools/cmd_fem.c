@@ -121,7 +121,8 @@ typedef struct result {
     double young, poisson;
     int32_t force_loads, displacement_loads;
     double total_force[3];
-    double reaction[3]; /* sum of the reactions at the constrained dofs */
+    double reaction[3]; /* sum of the reactions at the constrained dofs, the
+                         * sliding nodes' planes and the springs to ground */
     double max_u;
     int32_t max_node; /* input index */
     double max_vec[3];
@@ -347,9 +348,13 @@ int ftm_cmd_fem(int argc, char **argv)
                 r.max_node = in;
                 memcpy(r.max_vec, uv, sizeof r.max_vec);
             }
+            /* a sliding node's residual is its plane's reaction; a spring to
+             * ground pulls with -k_g u (K u holds its k_g u) */
+            const bool slides = ftm_mesh_slide_normals(mesh, v, NULL) > 0;
+            const double kg = ftm_mesh_ground_stiffness(mesh, v);
             for (int k = 0; k < 3; k++)
-                if (ftm_mesh_fixed(mesh, v) || constrained[3 * (size_t)v + k])
-                    r.reaction[k] += res[3 * (size_t)v + k];
+                if (ftm_mesh_fixed(mesh, v) || constrained[3 * (size_t)v + k] || slides || kg > 0)
+                    r.reaction[k] += res[3 * (size_t)v + k] - kg * uv[k];
         }
         bool csv_stdout = o.csv && strcmp(o.csv, "-") == 0;
         if (o.csv) {

@@ -32,6 +32,12 @@ struct ftm_fem {
     double *val; /* 9 per block, row-major */
     /* reduced numbering: free dof -> 0..free-1, constrained -> -1 */
     int32_t *reduced;
+    /* Sliding nodes (ftm_mesh_slide_normals): their dofs are in the node's
+     * own frame, rot[9 i] = R_i row-major with columns the normals, then
+     * tangents (K's blocks hold R_i^T K_ij R_j); the first dofs, along the
+     * normals, are constrained to 0. NULL when no node slides; rotated[i]. */
+    double *rot;
+    uint8_t *rotated;
     int64_t free_dofs;
     int64_t constrained;
     cholmod_common cc;
@@ -384,6 +390,114 @@ static int factorise(ftm_fem *fem, const ftm_fem_def *def, ftm_error *err)
     return rc;
 }
 
+/* ------------------------------------------------------------ constraints */
+
+/* A unit vector normal to n (unit): the axis n is least along, less its
+ * part along n. Exact for an axis n (another axis). */
+static void tangent(const double n[3], double t[3])
+{
+    int a = 0;
+    for (int d = 1; d < 3; d++)
+        if (fabs(n[d]) < fabs(n[a]))
+            a = d;
+    double dot = n[a];
+    for (int d = 0; d < 3; d++)
+        t[d] = (d == a ? 1.0 : 0.0) - dot * n[d];
+    double l = sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    for (int d = 0; d < 3; d++)
+        t[d] /= l;
+}
+
+static void cross(const double a[3], const double b[3], double c[3])
+{
+    c[0] = a[1] * b[2] - a[2] * b[1];
+    c[1] = a[2] * b[0] - a[0] * b[2];
+    c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* B = R_i^T B (left) or B = B R_j (right), B a 3x3 block row-major. */
+static void rotate_block(double b[9], const double r[9], bool left)
+{
+    double o[9];
+    for (int p = 0; p < 3; p++)
+        for (int q = 0; q < 3; q++) {
+            double s = 0.0;
+            for (int k = 0; k < 3; k++)
+                s += left ? r[3 * k + p] * b[3 * k + q] : b[3 * p + k] * r[3 * k + q];
+            o[3 * p + q] = s;
+        }
+    memcpy(b, o, sizeof o);
+}
+
+/* v = R^T v (to the node's frame) or R v (back). */
+static void rotate_vec(double v[3], const double r[9], bool to_frame)
+{
+    double o[3];
+    for (int p = 0; p < 3; p++)
+        o[p] = to_frame ? r[p] * v[0] + r[3 + p] * v[1] + r[6 + p] * v[2]
+                        : r[3 * p] * v[0] + r[3 * p + 1] * v[1] + r[3 * p + 2] * v[2];
+    memcpy(v, o, sizeof o);
+}
+
+/* The mesh's springs to ground (k_g I on the node's diagonal block) and
+ * sliding nodes (their blocks turned to the node's frame, whose first dofs
+ * are then constrained: the normals eliminated exactly). */
+static int mesh_constraints(ftm_fem *fem, const ftm_fem_def *def, ftm_error *err)
+{
+    const ftm_mesh *m = fem->mesh;
+    const int32_t n = fem->nodes;
+    for (int32_t i = 0; i < n; i++) {
+        const double k = ftm_mesh_ground_stiffness(m, i);
+        if (k <= 0.0 || ftm_mesh_fixed(m, i))
+            continue;
+        for (int64_t q = fem->row_start[i]; q < fem->row_start[i + 1]; q++)
+            if (fem->col[q] == i)
+                for (int d = 0; d < 3; d++)
+                    fem->val[9 * q + 4 * d] += k;
+    }
+    if (!ftm_mesh_has_slides(m))
+        return FTM_OK;
+    fem->rot = calloc(9 * (size_t)n, sizeof *fem->rot);
+    fem->rotated = calloc((size_t)n, 1);
+    if (!fem->rot || !fem->rotated)
+        return ftm_error_set(err, FTM_ENOMEM, "ftm_fem_create: out of memory");
+    for (int32_t i = 0; i < n; i++) {
+        ftm_vec3 nv[2];
+        const int32_t c = ftm_mesh_slide_normals(m, i, nv);
+        if (c <= 0 || ftm_mesh_fixed(m, i))
+            continue;
+        for (int d = 0; c > 0 && def->constrained && d < 3; d++)
+            if (def->constrained[3 * (int64_t)i + d])
+                return ftm_error_set(err, FTM_EINVAL,
+                                     "node %d (input index) slides on a plane and has constrained "
+                                     "dofs too: fix it or let it slide",
+                                     (int)ftm_mesh_input_of_node(m, i));
+        double col[3][3] = {{nv[0].x, nv[0].y, nv[0].z}};
+        if (c == 2) {
+            col[1][0] = nv[1].x;
+            col[1][1] = nv[1].y;
+            col[1][2] = nv[1].z;
+        } else {
+            tangent(col[0], col[1]);
+        }
+        cross(col[0], col[1], col[2]);
+        double *r = fem->rot + 9 * (size_t)i;
+        for (int p = 0; p < 3; p++)
+            for (int q = 0; q < 3; q++)
+                r[3 * p + q] = col[q][p];
+        fem->rotated[i] = 1;
+    }
+    for (int32_t i = 0; i < n; i++)
+        for (int64_t q = fem->row_start[i]; q < fem->row_start[i + 1]; q++) {
+            const int32_t j = fem->col[q];
+            if (fem->rotated[i])
+                rotate_block(fem->val + 9 * q, fem->rot + 9 * (size_t)i, true);
+            if (fem->rotated[j])
+                rotate_block(fem->val + 9 * q, fem->rot + 9 * (size_t)j, false);
+        }
+    return FTM_OK;
+}
+
 /* ------------------------------------------------------------ public */
 
 void ftm_fem_destroy(ftm_fem *fem)
@@ -402,6 +516,8 @@ void ftm_fem_destroy(ftm_fem *fem)
     free(fem->col);
     free(fem->val);
     free(fem->reduced);
+    free(fem->rot);
+    free(fem->rotated);
     free(fem->work);
     free(fem->first);
     free(fem);
@@ -451,7 +567,10 @@ int ftm_fem_create(const ftm_mesh *mesh, const ftm_fem_def *def, ftm_fem **out, 
         rc = assemble(fem, def, &el, err);
     fem->stats.assemble_seconds = now_seconds() - t0;
 
-    /* constraints: fixed nodes (all dofs) plus the caller's dofs */
+    if (rc == FTM_OK)
+        rc = mesh_constraints(fem, def, err);
+    /* constraints: fixed nodes (all dofs), sliding nodes' normals, plus the
+     * caller's dofs */
     if (rc == FTM_OK) {
         fem->reduced = malloc(3 * (size_t)n * sizeof *fem->reduced);
         if (!fem->reduced)
@@ -459,9 +578,10 @@ int ftm_fem_create(const ftm_mesh *mesh, const ftm_fem_def *def, ftm_fem **out, 
     }
     for (int32_t i = 0; rc == FTM_OK && i < n; i++) {
         bool fixed = ftm_mesh_fixed(mesh, i);
+        const int32_t slides = ftm_mesh_slide_normals(mesh, i, NULL);
         for (int c = 0; c < 3; c++) {
             int64_t dof = 3 * (int64_t)i + c;
-            if (fixed || (def->constrained && def->constrained[dof])) {
+            if (fixed || c < slides || (def->constrained && def->constrained[dof])) {
                 fem->reduced[dof] = -1;
                 fem->constrained++;
             } else {
@@ -554,9 +674,16 @@ int ftm_fem_solve(ftm_fem *fem, const double *forces, const double *prescribed, 
             if (ri < 0)
                 continue;
             double s = forces ? forces[d] : 0.0;
+            if (forces && fem->rotated && fem->rotated[i]) { /* in the node's frame */
+                double v[3] = {forces[d - ci], forces[d - ci + 1], forces[d - ci + 2]};
+                rotate_vec(v, fem->rot + 9 * (size_t)i, true);
+                s = v[ci];
+            }
             if (prescribed) {
                 for (int64_t q = fem->row_start[i]; q < fem->row_start[i + 1]; q++) {
                     const double *blk = fem->val + 9 * q;
+                    if (fem->rotated && fem->rotated[fem->col[q]])
+                        continue; /* its constrained dofs are its normals: 0 */
                     for (int cj = 0; cj < 3; cj++) {
                         int64_t dj = 3 * (int64_t)fem->col[q] + cj;
                         if (fem->reduced[dj] < 0)
@@ -588,8 +715,12 @@ int ftm_fem_solve(ftm_fem *fem, const double *forces, const double *prescribed, 
             keep[k] += x[k];
         for (int64_t d = 0; d < 3 * (int64_t)n; d++) {
             int32_t r = fem->reduced[d];
-            u_out[d] = r >= 0 ? keep[r] : (prescribed ? prescribed[d] : 0.0);
+            const bool turned = fem->rotated && fem->rotated[d / 3];
+            u_out[d] = r >= 0 ? keep[r] : (prescribed && !turned ? prescribed[d] : 0.0);
         }
+        for (int32_t i = 0; fem->rotated && i < n; i++)
+            if (fem->rotated[i])
+                rotate_vec(u_out + 3 * (size_t)i, fem->rot + 9 * (size_t)i, false);
     } else {
         for (int64_t d = 0; d < 3 * (int64_t)n; d++)
             u_out[d] = prescribed ? prescribed[d] : 0.0;
@@ -601,17 +732,28 @@ int ftm_fem_solve(ftm_fem *fem, const double *forces, const double *prescribed, 
 
 void ftm_fem_residual(const ftm_fem *fem, const double *u, const double *forces, double *r_out)
 {
-    for (int32_t i = 0; i < fem->nodes; i++)
+    for (int32_t i = 0; i < fem->nodes; i++) {
+        double ri[3];
         for (int ci = 0; ci < 3; ci++) {
-            int64_t d = 3 * (int64_t)i + ci;
             double s = 0.0;
             for (int64_t q = fem->row_start[i]; q < fem->row_start[i + 1]; q++) {
                 const double *blk = fem->val + 9 * q;
+                const int32_t j = fem->col[q];
+                double uj[3] = {u[3 * (int64_t)j], u[3 * (int64_t)j + 1], u[3 * (int64_t)j + 2]};
+                if (fem->rotated && fem->rotated[j]) /* K's blocks are in the nodes' frames */
+                    rotate_vec(uj, fem->rot + 9 * (size_t)j, true);
                 for (int cj = 0; cj < 3; cj++)
-                    s += blk[3 * ci + cj] * u[3 * (int64_t)fem->col[q] + cj];
+                    s += blk[3 * ci + cj] * uj[cj];
             }
-            r_out[d] = s - (forces ? forces[d] : 0.0);
+            ri[ci] = s;
         }
+        if (fem->rotated && fem->rotated[i])
+            rotate_vec(ri, fem->rot + 9 * (size_t)i, false);
+        for (int ci = 0; ci < 3; ci++) {
+            int64_t d = 3 * (int64_t)i + ci;
+            r_out[d] = ri[ci] - (forces ? forces[d] : 0.0);
+        }
+    }
 }
 
 ftm_fem_stats ftm_fem_get_stats(const ftm_fem *fem)

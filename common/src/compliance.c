@@ -72,6 +72,31 @@ static void spring_block(const ftm_mesh *m, int32_t a, int32_t b, double kab, do
             out[3 * p + s] = kab * (q * (r[p] / d) * (r[s] / d) + (p == s ? 1.0 - q : 0.0));
 }
 
+/* Node i's constraints as a block of K (docs/scene-format.md): k_g I for
+ * its springs to ground, and for each normal n it may not move along a
+ * penalty a n n^T, a = FTM_SLIDE_PENALTY times the largest diagonal entry of
+ * its block `diag` (the body's own stiffness there): its motion along n is
+ * then about 1e-8 of what it would be free, and the far field places it on
+ * its plane exactly (ftm_far_impose). False: node i has none. */
+#define FTM_SLIDE_PENALTY 1e8
+static bool constraint_block(const ftm_mesh *m, int32_t i, const double diag[9], double out[9])
+{
+    if (!m->bc || !m->bc[i])
+        return false;
+    double dmax = diag[0] > diag[4] ? diag[0] : diag[4];
+    dmax = dmax > diag[8] ? dmax : diag[8];
+    const double a = FTM_SLIDE_PENALTY * (dmax > 0.0 ? dmax : 1.0);
+    for (int e = 0; e < 9; e++)
+        out[e] = e % 4 == 0 ? m->ground_k[i] : 0.0;
+    for (int q = 0; q < (m->bc[i] & FTM_BC_SLIDES); q++) {
+        const double *n = m->bc_n + 6 * (size_t)i + 3 * q;
+        for (int p = 0; p < 3; p++)
+            for (int t = 0; t < 3; t++)
+                out[3 * p + t] += a * n[p] * n[t];
+    }
+    return true;
+}
+
 static void for_each_block(const ftm_sim *sim, const ftm_mesh *m, const ftm_compliance *g,
                            block_fn fn, void *user)
 {
@@ -87,6 +112,8 @@ static void for_each_block(const ftm_sim *sim, const ftm_mesh *m, const ftm_comp
                 int32_t j = node[q];
                 if (g->dof[j] >= 0 && g->dof[j] <= g->dof[i])
                     fn(user, i, j, k + 9 * (size_t)q);
+                if (j == i && constraint_block(m, i, k + 9 * (size_t)q, blk))
+                    fn(user, i, i, blk);
             }
         }
         return;
@@ -107,6 +134,8 @@ static void for_each_block(const ftm_sim *sim, const ftm_mesh *m, const ftm_comp
             }
         }
         fn(user, i, i, diag);
+        if (constraint_block(m, i, diag, blk))
+            fn(user, i, i, blk);
     }
 }
 

@@ -337,6 +337,8 @@ void ftm_far_impose(ftm_sim *sim)
             xp[d] = x[d];
             x[d] = rest[3 * i + d] + f->u[3 * k + d];
         }
+        if (sim->m->bc && (sim->m->bc[i] & FTM_BC_SLIDES)) /* exactly on its plane */
+            ftm_bc_project(sim->m, i, x);
     }
 }
 
@@ -350,7 +352,8 @@ int ftm_far_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err)
      * not from the changes in between, so a replica that starts from the
      * scene's mesh and the new one gets the server's bits. */
     double ratio = 0.0;
-    bool uniform = !sim->elem && m->link_count == sim->m->link_count;
+    /* (springs to ground keep their stiffness: K is then not a multiple) */
+    bool uniform = !sim->elem && m->link_count == sim->m->link_count && !m->ground_k;
     for (int32_t l = 0; uniform && l < m->link_count; l++) {
         double q = m->link_k[l] / f->ref_k[l];
         if (l == 0)

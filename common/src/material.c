@@ -110,6 +110,16 @@ fail:
     return rc;
 }
 
+/* The same partial constraints and springs to ground, node for node. */
+static bool same_constraints(const ftm_mesh *a, const ftm_mesh *b)
+{
+    size_t n = (size_t)a->node_count;
+    if (!a->bc || !b->bc)
+        return !a->bc && !b->bc;
+    return memcmp(a->bc, b->bc, n) == 0 && memcmp(a->bc_n, b->bc_n, 6 * n * sizeof(double)) == 0 &&
+           memcmp(a->ground_k, b->ground_k, n * sizeof(double)) == 0;
+}
+
 /* The elements of each node (hexahedra, then tetrahedra, ascending), CSR. */
 static int node_elements(const ftm_mesh *m, int32_t **start_out, int32_t **elem_out)
 {
@@ -240,7 +250,7 @@ bool ftm_mesh_same_shape(const ftm_mesh *a, const ftm_mesh *b)
         return false;
     size_t n = (size_t)a->node_count, e = (size_t)a->adj_start[n];
     return memcmp(a->rest, b->rest, n * 3 * sizeof(double)) == 0 &&
-           memcmp(a->fixed, b->fixed, n) == 0 &&
+           memcmp(a->fixed, b->fixed, n) == 0 && same_constraints(a, b) &&
            memcmp(a->adj_start, b->adj_start, (n + 1) * sizeof(int32_t)) == 0 &&
            memcmp(a->adj_node, b->adj_node, e * sizeof(int32_t)) == 0 &&
            memcmp(a->adj_len, b->adj_len, e * sizeof(double)) == 0 &&

@@ -25,6 +25,15 @@ struct ftm_mesh_builder {
      * per element, 0 where none was set. */
     int32_t *tet_labels, *hex_labels;
     int32_t tet_label_cap, hex_label_cap; /* in elements */
+    /* Partial constraints and ground springs (input order), NULL until the
+     * first is set: the normals a node may not move along, orthonormal,
+     * and the stiffness of its springs to ground. */
+    struct builder_bc {
+        double n[2][3];
+        double k;
+        int32_t count;
+    } *bc;
+    int32_t bc_cap;
     ftm_label_name *label_names;
     int32_t label_name_count, label_name_cap;
     /* open-addressing set of link keys (a << 32 | b), for de-duplication */
@@ -82,6 +91,7 @@ void ftm_mesh_builder_destroy(ftm_mesh_builder *b)
     free(b->hexes);
     free(b->tet_labels);
     free(b->hex_labels);
+    free(b->bc);
     free(b->label_names);
     free(b->link_keys);
     free(b);
@@ -106,6 +116,90 @@ int ftm_mesh_builder_set_fixed(ftm_mesh_builder *b, int32_t node, bool fixed)
         return FTM_ERANGE;
     b->nodes[node].fixed = fixed;
     return FTM_OK;
+}
+
+/* The builder's constraint record of node, zeroed records for every node
+ * added so far; NULL: no memory. */
+static struct builder_bc *builder_bc(ftm_mesh_builder *b, int32_t node)
+{
+    const int32_t old = b->bc ? b->bc_cap : 0;
+    if (!grow((void **)&b->bc, &b->bc_cap, b->node_count, sizeof *b->bc))
+        return NULL;
+    if (b->bc_cap > old)
+        memset(b->bc + old, 0, (size_t)(b->bc_cap - old) * sizeof *b->bc);
+    return &b->bc[node];
+}
+
+int ftm_mesh_builder_add_slide(ftm_mesh_builder *b, int32_t node, ftm_vec3 normal)
+{
+    if (!b || node < 0 || node >= b->node_count)
+        return FTM_ERANGE;
+    const double v[3] = {normal.x, normal.y, normal.z};
+    const double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!isfinite(len) || !(len > 0.0))
+        return FTM_EINVAL;
+    struct builder_bc *c = builder_bc(b, node);
+    if (!c)
+        return FTM_ENOMEM;
+    /* Gram-Schmidt against the normals the node has: what is left of v is
+     * the new direction (an axis stays an exact axis: its dot products with
+     * other axes are exact zeros) */
+    double r[3] = {v[0] / len, v[1] / len, v[2] / len};
+    for (int32_t q = 0; q < c->count; q++) {
+        const double *n = c->n[q];
+        const double dot = r[0] * n[0] + r[1] * n[1] + r[2] * n[2];
+        for (int d = 0; d < 3; d++)
+            r[d] -= dot * n[d];
+    }
+    const double rl = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    if (rl <= 1e-9)
+        return FTM_OK; /* a plane the node is on already */
+    if (c->count == 2)
+        return FTM_EINVAL; /* three directions: the node is fixed */
+    for (int d = 0; d < 3; d++)
+        c->n[c->count][d] = r[d] / rl;
+    c->count++;
+    return FTM_OK;
+}
+
+int ftm_mesh_builder_add_ground_spring(ftm_mesh_builder *b, int32_t node, double stiffness)
+{
+    if (!b || node < 0 || node >= b->node_count)
+        return FTM_ERANGE;
+    if (!isfinite(stiffness) || !(stiffness > 0.0))
+        return FTM_EINVAL;
+    struct builder_bc *c = builder_bc(b, node);
+    if (!c)
+        return FTM_ENOMEM;
+    if (!isfinite(c->k + stiffness))
+        return FTM_EINVAL;
+    c->k += stiffness;
+    return FTM_OK;
+}
+
+bool ftm_mesh_builder_node_fixed(const ftm_mesh_builder *b, int32_t node)
+{
+    return b && node >= 0 && node < b->node_count && b->nodes[node].fixed;
+}
+
+int32_t ftm_mesh_builder_label_nodes(const ftm_mesh_builder *b, int32_t label, uint8_t *mark)
+{
+    if (!b || label < 1)
+        return 0;
+    int32_t found = 0;
+    for (int32_t e = 0; b->tet_labels && e < b->tet_count; e++)
+        if (b->tet_labels[e] == label) {
+            for (int k = 0; k < 4; k++)
+                mark[b->tets[4 * (size_t)e + k]] = 1;
+            found++;
+        }
+    for (int32_t e = 0; b->hex_labels && e < b->hex_count; e++)
+        if (b->hex_labels[e] == label) {
+            for (int k = 0; k < 8; k++)
+                mark[b->hexes[8 * (size_t)e + k]] = 1;
+            found++;
+        }
+    return found;
 }
 
 int32_t ftm_mesh_builder_fix_label(ftm_mesh_builder *b, int32_t label)
@@ -534,6 +628,9 @@ void ftm_mesh_destroy(ftm_mesh *m)
     free(m->hexes);
     free(m->tet_labels);
     free(m->hex_labels);
+    free(m->bc);
+    free(m->bc_n);
+    free(m->ground_k);
     free(m->label_names);
     free(m->node_of_input);
     free(m->input_of_node);
@@ -580,6 +677,9 @@ ftm_mesh *ftm_mesh_clone(const ftm_mesh *m)
     c->hexes = dup(m->hexes, (size_t)m->hex_count * 8 * sizeof(int32_t));
     c->tet_labels = m->tet_labels ? dup(m->tet_labels, (size_t)m->tet_count * sizeof(int32_t)) : NULL;
     c->hex_labels = m->hex_labels ? dup(m->hex_labels, (size_t)m->hex_count * sizeof(int32_t)) : NULL;
+    c->bc = m->bc ? dup(m->bc, n) : NULL;
+    c->bc_n = m->bc ? dup(m->bc_n, n * 6 * sizeof(double)) : NULL;
+    c->ground_k = m->bc ? dup(m->ground_k, n * sizeof(double)) : NULL;
     c->label_names = m->label_names ? dup(m->label_names, (size_t)m->label_name_count *
                                                               sizeof *m->label_names)
                                     : NULL;
@@ -590,11 +690,46 @@ ftm_mesh *ftm_mesh_clone(const ftm_mesh *m)
         (pad && !c->pad_kl) || !c->link_a || !c->link_b || !c->link_k || !c->link_len || !c->tris ||
         !c->tets || !c->hexes || !c->node_of_input || !c->input_of_node ||
         (m->tet_labels && !c->tet_labels) || (m->hex_labels && !c->hex_labels) ||
+        (m->bc && (!c->bc || !c->bc_n || !c->ground_k)) ||
         (m->label_names && !c->label_names)) {
         ftm_mesh_destroy(c);
         return NULL;
     }
     return c;
+}
+
+/* The builder's partial constraints and ground springs in mesh order; a
+ * fixed node keeps neither. A normal with a z component takes a planar
+ * mesh's planar sweep away (the sweep would not write z). */
+static int copy_constraints(const ftm_mesh_builder *b, const int32_t *order, ftm_mesh *m)
+{
+    const int32_t n = m->node_count;
+    bool any = false;
+    for (int32_t i = 0; b->bc && i < n && !any; i++) {
+        const int32_t in = order[i];
+        any = in < b->bc_cap && !b->nodes[in].fixed && (b->bc[in].count || b->bc[in].k > 0.0);
+    }
+    if (!any)
+        return FTM_OK;
+    m->bc = calloc((size_t)n, 1);
+    m->bc_n = calloc((size_t)n * 6, sizeof *m->bc_n);
+    m->ground_k = calloc((size_t)n, sizeof *m->ground_k);
+    if (!m->bc || !m->bc_n || !m->ground_k)
+        return FTM_ENOMEM;
+    for (int32_t i = 0; i < n; i++) {
+        const int32_t in = order[i];
+        if (in >= b->bc_cap || b->nodes[in].fixed)
+            continue;
+        const struct builder_bc *c = &b->bc[in];
+        m->bc[i] = (uint8_t)(c->count | (c->k > 0.0 ? FTM_BC_SPRING : 0));
+        m->ground_k[i] = c->k;
+        for (int32_t q = 0; q < c->count; q++) {
+            memcpy(m->bc_n + 6 * (size_t)i + 3 * q, c->n[q], 3 * sizeof(double));
+            if (c->n[q][2] != 0.0)
+                m->planar = false;
+        }
+    }
+    return FTM_OK;
 }
 
 typedef struct nb_link {
@@ -683,6 +818,8 @@ int ftm_mesh_build(const ftm_mesh_builder *b, const ftm_mesh_build_def *def, ftm
     m->planar = true;
     for (int32_t i = 0; i < n && m->planar; i++)
         m->planar = ftm_is_plus_zero(m->rest[3 * i + 2]);
+    if (copy_constraints(b, order, m) != FTM_OK)
+        goto fail;
     for (int32_t i = 0; i < n; i++)
         m->adj_start[i + 1] += m->adj_start[i];
     memcpy(fill, m->adj_start, (size_t)n * sizeof *fill);
@@ -909,6 +1046,39 @@ double ftm_mesh_mass(const ftm_mesh *m, int32_t i) { return m->mass[i]; }
 double ftm_mesh_damping(const ftm_mesh *m, int32_t i) { return m->damping[i]; }
 bool ftm_mesh_fixed(const ftm_mesh *m, int32_t i) { return m->fixed[i] != 0; }
 
+int32_t ftm_mesh_slide_normals(const ftm_mesh *m, int32_t i, ftm_vec3 normals[2])
+{
+    if (i < 0 || i >= m->node_count)
+        return FTM_ERANGE;
+    const int32_t count = m->bc ? m->bc[i] & FTM_BC_SLIDES : 0;
+    for (int32_t q = 0; normals && q < count; q++) {
+        const double *nq = m->bc_n + 6 * (size_t)i + 3 * q;
+        normals[q] = (ftm_vec3){nq[0], nq[1], nq[2]};
+    }
+    return count;
+}
+
+double ftm_mesh_ground_stiffness(const ftm_mesh *m, int32_t i)
+{
+    return m->ground_k && i >= 0 && i < m->node_count ? m->ground_k[i] : 0.0;
+}
+
+bool ftm_mesh_has_slides(const ftm_mesh *m)
+{
+    for (int32_t i = 0; m->bc && i < m->node_count; i++)
+        if (m->bc[i] & FTM_BC_SLIDES)
+            return true;
+    return false;
+}
+
+bool ftm_mesh_has_ground_springs(const ftm_mesh *m)
+{
+    for (int32_t i = 0; m->bc && i < m->node_count; i++)
+        if (m->bc[i] & FTM_BC_SPRING)
+            return true;
+    return false;
+}
+
 int32_t ftm_mesh_neighbors(const ftm_mesh *m, int32_t i, const int32_t **nb, const double **k,
                            const double **len)
 {
@@ -955,6 +1125,8 @@ double ftm_mesh_critical_time_step(const ftm_mesh *m)
             int32_t j = m->adj_node[e];
             s += m->adj_k[e] * (1.0 / m->mass[i] + 1.0 / sqrt(m->mass[i] * m->mass[j]));
         }
+        if (m->ground_k) /* a spring to ground: its own row, k_g / m_i */
+            s += m->ground_k[i] / m->mass[i];
         if (s > lambda)
             lambda = s;
     }

@@ -58,6 +58,15 @@ struct ftm_mesh {
     int32_t *node_of_input; /* input index -> mesh index */
     int32_t *input_of_node; /* mesh index -> input index */
 
+    /* Partial constraints and springs to ground (docs/scene-format.md), all
+     * three NULL when no node has one. bc[i]: FTM_BC_SLIDES normals node i
+     * may not move along (0..2, bc_n[6 i ..] orthonormal) and FTM_BC_SPRING
+     * when ground_k[i] > 0; 0 for a node without either. A fixed node has
+     * neither. */
+    uint8_t *bc;
+    double *bc_n;
+    double *ground_k;
+
     double mean_link_length;
     /* Every rest position has z = +0.0 (exactly those bits): a mesh in the
      * plane z = 0, such as the 2D lattice. The group sweep then leaves z out
@@ -91,6 +100,45 @@ static inline bool ftm_mesh_pad_cheap(const ftm_mesh *m)
 static inline bool ftm_mesh_pad_rows_fit(size_t nodes, int32_t max_degree, size_t adjacency)
 {
     return nodes * (size_t)max_degree <= 4 * adjacency + 64;
+}
+
+enum { FTM_BC_SLIDES = 3, FTM_BC_SPRING = 4 };
+
+/* Takes out of x (node i's new position) what moves along the node's
+ * normals: x -= (n . (x - X)) n for each, in order (they are orthonormal).
+ * An axis normal sets that coordinate to X's exactly, so a node sliding on
+ * z = c stays on it bit for bit. A normal with a zero component leaves that
+ * coordinate's bits (x - (+-0) = x for x = +0.0 too), which keeps a planar
+ * state planar. */
+static inline void ftm_bc_project(const ftm_mesh *m, int32_t i, double x[3])
+{
+    const double *X = m->rest + 3 * (size_t)i;
+    for (int q = 0; q < (m->bc[i] & FTM_BC_SLIDES); q++) {
+        const double *n = m->bc_n + 6 * (size_t)i + 3 * q;
+        if (n[1] == 0.0 && n[2] == 0.0) {
+            x[0] = X[0];
+        } else if (n[0] == 0.0 && n[2] == 0.0) {
+            x[1] = X[1];
+        } else if (n[0] == 0.0 && n[1] == 0.0) {
+            x[2] = X[2];
+        } else {
+            const double s = n[0] * (x[0] - X[0]) + n[1] * (x[1] - X[1]) + n[2] * (x[2] - X[2]);
+            for (int d = 0; d < 3; d++)
+                x[d] -= s * n[d];
+        }
+    }
+}
+
+/* Adds node i's springs to ground to f, the sum of its internal forces as
+ * Eq. 8 subtracts it: f += k_g (x - X). */
+static inline void ftm_bc_ground_force(const ftm_mesh *m, int32_t i, const double x[3],
+                                       double f[3])
+{
+    if (m->bc[i] & FTM_BC_SPRING) {
+        const double k = m->ground_k[i], *X = m->rest + 3 * (size_t)i;
+        for (int d = 0; d < 3; d++)
+            f[d] += k * (x[d] - X[d]);
+    }
 }
 
 /* A deep copy of m (NULL: out of memory), e.g. to change its material. */

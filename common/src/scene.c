@@ -92,6 +92,11 @@ typedef enum key {
     K_FIXED_NODES,
     K_FIXED_BOX,
     K_FIXED_LABEL,
+    K_SLIDE_NODES,
+    K_SLIDE_BOX,
+    K_GROUND_SPRINGS,
+    K_SLIDE_LABEL,
+    K_GROUND_LABEL,
     K_MASS,
     K_DAMPING,
     K_STIFFNESS,
@@ -160,6 +165,11 @@ static const struct {
     [K_FIXED_NODES] = {SEC_MESH, "fixed_nodes", true},
     [K_FIXED_LABEL] = {SEC_MESH, "fixed_label", true},
     [K_FIXED_BOX] = {SEC_MESH, "fixed_box", true},
+    [K_SLIDE_NODES] = {SEC_MESH, "slide_nodes", true},
+    [K_SLIDE_BOX] = {SEC_MESH, "slide_box", true},
+    [K_GROUND_SPRINGS] = {SEC_MESH, "ground_springs", true},
+    [K_SLIDE_LABEL] = {SEC_MESH, "slide_label", true},
+    [K_GROUND_LABEL] = {SEC_MESH, "ground_label", true},
     [K_MASS] = {SEC_MATERIAL, "mass", false},
     [K_DAMPING] = {SEC_MATERIAL, "damping", false},
     [K_STIFFNESS] = {SEC_MATERIAL, "stiffness", false},
@@ -219,6 +229,17 @@ typedef struct fixed_box {
     double lo[3], hi[3];
 } fixed_box;
 
+/* slide_nodes, slide_box (a normal) and ground_springs (a stiffness) */
+typedef enum bc_kind { BC_SLIDE, BC_SLIDE_BOX, BC_GROUND, BC_SLIDE_LABEL, BC_GROUND_LABEL } bc_kind;
+typedef struct bc_spec {
+    bc_kind kind;
+    int32_t line;
+    double normal[3]; /* slides */
+    double k;         /* ground springs, N/m */
+    int64_t input;    /* slide_nodes, ground_springs: one node each; *_label: the label */
+    fixed_box box;    /* slide_box */
+} bc_spec;
+
 typedef struct load_spec {
     int32_t line;                     /* line of the [load] header */
     int32_t key_line[LOAD_KEY_COUNT]; /* where each key was set, 0 = not set */
@@ -261,6 +282,8 @@ typedef struct spec {
     size_t fixed_box_count, fixed_box_cap;
     fixed_index *fixed_labels; /* fixed_label: input = the label */
     size_t fixed_label_count, fixed_label_cap;
+    bc_spec *bcs; /* slide_nodes, slide_box, ground_springs in the file's order */
+    size_t bc_count, bc_cap;
     /* [material] */
     ftm_material_def material;
     /* [sim] */
@@ -641,6 +664,116 @@ static int index_list(parser *p, const char *kn, const char *v, size_t vlen, int
     return FTM_OK;
 }
 
+/* The two sides of "WHAT : LIST" (slide_nodes, slide_box, ground_springs). */
+static int colon_sides(parser *p, const char *kn, const char *v, size_t vlen, const char *form,
+                       const char **right, size_t *rlen, size_t *llen)
+{
+    const char *colon = memchr(v, ':', vlen);
+    if (!colon)
+        return fail_at(p, p->line, FTM_EPARSE, "%s: expected %s", kn, form);
+    *llen = (size_t)(colon - v);
+    *right = colon + 1;
+    *rlen = vlen - *llen - 1;
+    return FTM_OK;
+}
+
+/* A normal: x, y or z, or three numbers not all zero. */
+static int normal_value(parser *p, const char *kn, const char *v, size_t vlen, double n[3])
+{
+    token t[3];
+    int count = 0, rc;
+    if ((rc = split(p, kn, v, vlen, t, 1, 3, &count)) != FTM_OK)
+        return rc;
+    if (count == 1 && t[0].n == 1 && t[0].s[0] >= 'x' && t[0].s[0] <= 'z') {
+        n[0] = n[1] = n[2] = 0.0;
+        n[t[0].s[0] - 'x'] = 1.0;
+        return FTM_OK;
+    }
+    if (count != 3)
+        return fail_at(p, p->line, FTM_EPARSE,
+                       "%s: the normal is x, y, z or three numbers NX NY NZ, got '%.*s'", kn,
+                       shown(vlen), v);
+    for (int i = 0; i < 3; i++)
+        if ((rc = number(p, kn, t[i], &n[i])) != FTM_OK)
+            return rc;
+    double l2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    if (!(l2 > 0.0) || !isfinite(l2))
+        return fail_at(p, p->line, FTM_EINVAL,
+                       "%s: the normal %g %g %g has %s length: it gives no direction", kn, n[0],
+                       n[1], n[2], l2 > 0.0 ? "no finite" : "zero");
+    return FTM_OK;
+}
+
+/* slide_nodes = NORMAL : NODES, slide_box = NORMAL : BOX, ground_springs =
+ * STIFFNESS : NODES; one bc_spec per node (box). */
+static int bc_value(parser *p, key k, const char *kn, const char *v, size_t vlen)
+{
+    spec *s = &p->s;
+    const char *form = k == K_SLIDE_NODES    ? "NORMAL : NODES (normal x, y, z or NX NY NZ)"
+                       : k == K_SLIDE_BOX    ? "NORMAL : XMIN YMIN ZMIN XMAX YMAX ZMAX"
+                       : k == K_SLIDE_LABEL  ? "NORMAL : LABELS (element labels >= 1)"
+                       : k == K_GROUND_LABEL ? "STIFFNESS : LABELS (N/m; element labels >= 1)"
+                                             : "STIFFNESS : NODES (stiffness in N/m)";
+    const bool labels = k == K_SLIDE_LABEL || k == K_GROUND_LABEL;
+    const char *right = v;
+    size_t rlen = 0, llen = 0;
+    int rc;
+    if ((rc = colon_sides(p, kn, v, vlen, form, &right, &rlen, &llen)) != FTM_OK)
+        return rc;
+    bc_spec b = {.kind = k == K_SLIDE_NODES    ? BC_SLIDE
+                         : k == K_SLIDE_BOX    ? BC_SLIDE_BOX
+                         : k == K_SLIDE_LABEL  ? BC_SLIDE_LABEL
+                         : k == K_GROUND_LABEL ? BC_GROUND_LABEL
+                                               : BC_GROUND,
+                 .line = p->line};
+    if (k == K_GROUND_SPRINGS || k == K_GROUND_LABEL) {
+        if ((rc = scalar(p, kn, v, llen, false, &b.k)) != FTM_OK)
+            return rc;
+        if (!(b.k > 0.0) || !isfinite(b.k))
+            return fail_at(p, p->line, FTM_EINVAL,
+                           "%s: the stiffness must be > 0 N/m and finite, got %g", kn, b.k);
+    } else if ((rc = normal_value(p, kn, v, llen, b.normal)) != FTM_OK) {
+        return rc;
+    }
+    if (k == K_SLIDE_BOX) {
+        token t[6];
+        double x[6];
+        int n = 0;
+        if ((rc = split(p, kn, right, rlen, t, 6, 6, &n)) != FTM_OK)
+            return rc;
+        for (int i = 0; i < 6; i++)
+            if ((rc = number(p, kn, t[i], &x[i])) != FTM_OK)
+                return rc;
+        for (int i = 0; i < 3; i++)
+            if (x[i] > x[i + 3])
+                return fail_at(p, p->line, FTM_EINVAL,
+                               "slide_box: min %c (%g) is greater than max %c (%g)", 'x' + i, x[i],
+                               'x' + i, x[i + 3]);
+        memcpy(b.box.lo, x, sizeof b.box.lo);
+        memcpy(b.box.hi, x + 3, sizeof b.box.hi);
+        bc_spec *e = push((void **)&s->bcs, &s->bc_count, &s->bc_cap, sizeof *e);
+        if (!e)
+            return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
+        *e = b;
+        return FTM_OK;
+    }
+    const char *cur = right, *end = right + rlen;
+    token one;
+    int count = 0;
+    while (ftm_text_token(&cur, end, &one.s, &one.n)) {
+        if ((rc = integer(p, kn, one, labels ? 1 : 0, INT32_MAX, &b.input)) != FTM_OK)
+            return rc;
+        bc_spec *e = push((void **)&s->bcs, &s->bc_count, &s->bc_cap, sizeof *e);
+        if (!e)
+            return fail_at(p, p->line, FTM_ENOMEM, "out of memory");
+        *e = b;
+        count++;
+    }
+    if (count == 0)
+        return fail_at(p, p->line, FTM_EPARSE, "%s: expected %s", kn, form);
+    return FTM_OK;
+}
+
 static int set_mesh_key(parser *p, key k, const char *kn, const char *v, size_t vlen)
 {
     spec *s = &p->s;
@@ -704,6 +837,12 @@ static int set_mesh_key(parser *p, key k, const char *kn, const char *v, size_t 
     case K_FIXED_NODES:
         return index_list(p, kn, v, vlen, 0, &s->fixed_nodes, &s->fixed_node_count,
                           &s->fixed_node_cap, "node indices");
+    case K_SLIDE_NODES:
+    case K_SLIDE_BOX:
+    case K_GROUND_SPRINGS:
+    case K_SLIDE_LABEL:
+    case K_GROUND_LABEL:
+        return bc_value(p, k, kn, v, vlen);
     case K_FIXED_LABEL: /* element labels, >= 1; checked against the mesh once built */
         return index_list(p, kn, v, vlen, 1, &s->fixed_labels, &s->fixed_label_count,
                           &s->fixed_label_cap, "element labels");
@@ -1523,6 +1662,86 @@ static int apply_fixed(const parser *p, ftm_mesh_builder *b)
     return FTM_OK;
 }
 
+/* One slide or ground spring on input node i (after apply_fixed): a node
+ * is fixed or sliding, not both. */
+static int constrain_node(const parser *p, ftm_mesh_builder *b, const bc_spec *c, int32_t i)
+{
+    static const char *const names[] = {[BC_SLIDE] = "slide_nodes",
+                                        [BC_SLIDE_BOX] = "slide_box",
+                                        [BC_GROUND] = "ground_springs",
+                                        [BC_SLIDE_LABEL] = "slide_label",
+                                        [BC_GROUND_LABEL] = "ground_label"};
+    const char *kn = names[c->kind];
+    const bool ground = c->kind == BC_GROUND || c->kind == BC_GROUND_LABEL;
+    if (i >= ftm_mesh_builder_node_count(b))
+        return fail_at(p, c->line, FTM_ERANGE, "%s: node %d out of range (mesh has %d nodes)", kn,
+                       (int)i, (int)ftm_mesh_builder_node_count(b));
+    if (ftm_mesh_builder_node_fixed(b, i))
+        return fail_at(p, c->line, FTM_EINVAL,
+                       "%s: node %d is fixed too (fixed_nodes, fixed_faces, fixed_label or "
+                       "fixed_box): a node is fixed or %s, not both",
+                       kn, (int)i, ground ? "on a spring to ground" : "sliding");
+    int rc = ground
+                 ? ftm_mesh_builder_add_ground_spring(b, i, c->k)
+                 : ftm_mesh_builder_add_slide(b, i, (ftm_vec3){c->normal[0], c->normal[1],
+                                                               c->normal[2]});
+    if (rc == FTM_EINVAL && !ground)
+        return fail_at(p, c->line, rc,
+                       "%s: node %d would slide along no direction (three independent normals): "
+                       "fix it instead",
+                       kn, (int)i);
+    if (rc != FTM_OK)
+        return fail_at(p, c->line, rc, "%s: node %d: %s", kn, (int)i, ftm_strerror(rc));
+    return FTM_OK;
+}
+
+/* slide_nodes, slide_box, ground_springs, slide_label and ground_label, in
+ * the file's order. A node named by index that is fixed is refused; a box
+ * or a label may hold fixed nodes, which stay fixed. */
+static int apply_constraints(const parser *p, ftm_mesh_builder *b)
+{
+    const spec *s = &p->s;
+    int rc = FTM_OK;
+    for (size_t k = 0; rc == FTM_OK && k < s->bc_count; k++) {
+        const bc_spec *c = &s->bcs[k];
+        if (c->kind == BC_SLIDE || c->kind == BC_GROUND) {
+            rc = constrain_node(p, b, c, c->input > INT32_MAX ? INT32_MAX : (int32_t)c->input);
+            continue;
+        }
+        if (c->kind == BC_SLIDE_LABEL || c->kind == BC_GROUND_LABEL) {
+            const int32_t n = ftm_mesh_builder_node_count(b);
+            uint8_t *mark = calloc((size_t)n + 1, 1);
+            if (!mark)
+                return fail_at(p, c->line, FTM_ENOMEM, "out of memory");
+            if (ftm_mesh_builder_label_nodes(b, (int32_t)c->input, mark) == 0)
+                rc = fail_at(p, c->line, FTM_EINVAL,
+                             "%s: no element of the mesh has label %lld (%d tetrahedra, %d "
+                             "hexahedra)",
+                             c->kind == BC_SLIDE_LABEL ? "slide_label" : "ground_label",
+                             (long long)c->input, (int)ftm_mesh_builder_tetrahedron_count(b),
+                             (int)ftm_mesh_builder_hexahedron_count(b));
+            for (int32_t i = 0; rc == FTM_OK && i < n; i++)
+                if (mark[i] && !ftm_mesh_builder_node_fixed(b, i)) /* fixed stays fixed */
+                    rc = constrain_node(p, b, c, i);
+            free(mark);
+            continue;
+        }
+        int32_t hits = 0;
+        for (int32_t i = 0, n = ftm_mesh_builder_node_count(b); rc == FTM_OK && i < n; i++) {
+            ftm_vec3 x;
+            ftm_mesh_builder_node_position(b, i, &x);
+            if (in_box(&c->box, x)) { /* (a fixed node in it stays fixed) */
+                if (!ftm_mesh_builder_node_fixed(b, i))
+                    rc = constrain_node(p, b, c, i);
+                hits++;
+            }
+        }
+        if (rc == FTM_OK && hits == 0)
+            return fail_at(p, c->line, FTM_EINVAL, "slide_box: no node lies in the box");
+    }
+    return rc;
+}
+
 static int apply_label_springs(const parser *p, ftm_mesh **m);
 
 /* The mesh, and for the volume generator the image and its embedding. */
@@ -1548,6 +1767,8 @@ static int build_mesh(const parser *p, ftm_scene *scene)
     }
     if (rc == FTM_OK)
         rc = apply_fixed(p, b);
+    if (rc == FTM_OK)
+        rc = apply_constraints(p, b);
     if (rc == FTM_OK) {
         ftm_error sub;
         ftm_error_clear(&sub);
@@ -1840,6 +2061,7 @@ static void free_spec(spec *s)
     free(s->fixed_nodes);
     free(s->fixed_boxes);
     free(s->fixed_labels);
+    free(s->bcs);
     free(s->loads);
     free(s->label_fems);
     free(s->label_springs);

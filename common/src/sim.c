@@ -259,6 +259,12 @@ int ftm_sim_set_mesh(ftm_sim *sim, const ftm_mesh *m, ftm_error *err)
         return ftm_error_set(err, FTM_EINVAL,
                              "sim set mesh: the new mesh differs in shape (nodes, rest positions, "
                              "fixed nodes, links or surface)");
+    if (sim->elem && sim->far && m->ground_k)
+        return ftm_error_set(err, FTM_EINVAL,
+                             "sim set mesh: a new material with element forces, the elastic far "
+                             "field and springs to ground is not supported (the far field's "
+                             "stiffness would no longer be a multiple of the one it was made "
+                             "for)");
     if (sim->elem) { /* a factor on E from the links, the mesh's damping */
         int rc = ftm_elem_set_mesh(sim, m, err);
         if (rc)
@@ -1064,6 +1070,11 @@ double ftm_sim_potential_energy(const ftm_sim *sim)
         double rx = a[0] - b[0], ry = a[1] - b[1], rz = a[2] - b[2];
         double ext = sqrt(rx * rx + ry * ry + rz * rz) - m->link_len[l];
         e += 0.5 * m->link_k[l] * ext * ext;
+    }
+    for (int32_t i = 0; m->ground_k && i < m->node_count; i++) { /* springs to ground */
+        const double *x = sim->x + 3 * i, *X = m->rest + 3 * i;
+        const double ux = x[0] - X[0], uy = x[1] - X[1], uz = x[2] - X[2];
+        e += 0.5 * m->ground_k[i] * (ux * ux + uy * uy + uz * uz);
     }
     return e;
 }

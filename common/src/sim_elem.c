@@ -420,7 +420,9 @@ static inline bool update_node(ftm_sim *sim, int32_t i, double *save, int stride
     } else {
         node_force(sim->elem, sim->m, sim->x, i, f);
     }
-    double m2 = integrate(sim, i, cur, f, nw);
+    double ground;
+    double m2 = sim->m->bc && sim->m->bc[i] ? ftm_bc_update(sim, i, cur, f, nw, &ground)
+                                            : integrate(sim, i, cur, f, nw);
     *mm = m2 > *mm ? m2 : *mm;
     for (int d = 0; d < 3; d++) {
         if (save)
@@ -487,9 +489,11 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
         for (int32_t g = 0, b0 = 0; g < s->groups; g++) {
             for (int32_t k = s->group[g]; k < s->group[g + 1]; k++) {
                 int32_t i = s->node[k];
-                double f[3];
+                double f[3], ground;
                 node_force(el, sim->m, sim->x, i, f);
-                double m2 = integrate(sim, i, sim->x + 3 * i, f, s->tmp + 3 * k);
+                double m2 = sim->m->bc && sim->m->bc[i]
+                                ? ftm_bc_update(sim, i, sim->x + 3 * i, f, s->tmp + 3 * k, &ground)
+                                : integrate(sim, i, sim->x + 3 * i, f, s->tmp + 3 * k);
                 ok &= m2 <= ftm_sim_lim2(sim, i);
                 mm = m2 > mm ? m2 : mm;
             }
@@ -593,6 +597,8 @@ void ftm_elem_reactions(ftm_sim *sim)
             continue;
         double f[3];
         node_force(sim->elem, sim->m, sim->x, ct->node, f);
+        if (sim->m->bc) /* a held node on a spring to ground pulls on it too */
+            ftm_bc_ground_force(sim->m, ct->node, sim->x + 3 * ct->node, f);
         double *r = sim->reaction + 3 * ct->group;
         r[0] -= f[0];
         r[1] -= f[1];
@@ -1185,7 +1191,7 @@ void ftm_elem_select_kernel(ftm_elem *el, ftm_elem_kernel which)
 
 /* Node i's Gershgorin row of M^-1/2 K M^-1/2: the largest over its three
  * rows of sum_j |K_ij| / sqrt(m_i m_j). */
-static double gershgorin_row(const ftm_elem *el, int32_t i)
+static double gershgorin_row(const ftm_elem *el, const ftm_mesh *m, int32_t i)
 {
     double li = 0.0;
     for (int r = 0; r < 3; r++) {
@@ -1195,6 +1201,8 @@ static double gershgorin_row(const ftm_elem *el, int32_t i)
             double sc = 1.0 / sqrt(el->mass[i] * el->mass[el->row_node[p]]);
             s += (fabs(kb[0]) + fabs(kb[1]) + fabs(kb[2])) * sc;
         }
+        if (m->ground_k) /* a spring to ground: k_g / m_i on the diagonal */
+            s += m->ground_k[i] / el->mass[i];
         li = s > li ? s : li;
     }
     return li;
@@ -1224,7 +1232,7 @@ static void scale_masses(ftm_elem *el, const ftm_sim *sim)
         for (int32_t i = 0; i < m->node_count; i++) {
             if (m->fixed[i])
                 continue;
-            double li = gershgorin_row(el, i);
+            double li = gershgorin_row(el, m, i);
             if (li > lim) {
                 double f = li / lim;
                 el->mass[i] *= round < 40 ? f : f * f;
@@ -1259,7 +1267,7 @@ static void bound_and_warn(ftm_elem *el, const ftm_sim *sim)
     for (int32_t i = 0; i < m->node_count; i++) {
         if (m->fixed[i])
             continue;
-        double li = gershgorin_row(el, i);
+        double li = gershgorin_row(el, m, i);
         lmax = li > lmax ? li : lmax;
         double required = 0.055 * li * sim->def.time_step;
         double ratio = m->damping[i] / (2.0 * el->mass[i]) / required;

@@ -222,6 +222,29 @@ static inline bool ftm_sim_record_links(const ftm_sim *sim)
     return !s->linked && (s->uses > 0 || (sim->def.cache_layers && s->last_uses != 1));
 }
 
+/* Eq. 8 for node i with a partial constraint or a spring to ground
+ * (m->bc[i] != 0): f, the node's internal forces at cur as Eq. 8 subtracts
+ * them, gets the ground spring added; the new position is projected onto
+ * the node's plane (line). Returns the squared motion; *ground gets the
+ * ground spring's energy at cur, k_g |cur - X|^2 / 2. Every order and
+ * kernel updates such a node with this one function (sim_groups.inc does it
+ * after the vector blocks), so they agree bit for bit. */
+static inline double ftm_bc_update(const ftm_sim *sim, int32_t i, const double cur[3], double f[3],
+                                   double out[3], double *ground)
+{
+    const ftm_mesh *m = sim->m;
+    const double *c = sim->coef + FTM_COEF * (size_t)i, *F = sim->force + 3 * (size_t)i,
+                 *p = sim->xp + 3 * (size_t)i, *X = m->rest + 3 * (size_t)i;
+    ftm_bc_ground_force(m, i, cur, f);
+    for (int d = 0; d < 3; d++)
+        out[d] = c[0] * (F[d] - f[d]) + c[1] * cur[d] - c[2] * p[d];
+    ftm_bc_project(m, i, out);
+    const double ux = cur[0] - X[0], uy = cur[1] - X[1], uz = cur[2] - X[2];
+    *ground = 0.5 * m->ground_k[i] * (ux * ux + uy * uy + uz * uz);
+    const double dx = out[0] - cur[0], dy = out[1] - cur[1], dz = out[2] - cur[2];
+    return dx * dx + dy * dy + dz * dz;
+}
+
 /* sim.c */
 int ftm_sim_relax_reserve(ftm_sim *sim, int32_t need);
 
@@ -236,6 +259,14 @@ int ftm_sim_rebuild_schedule(ftm_sim *sim);
  * guard limit or to a non-finite position. */
 bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2);
 bool ftm_sweep_relax(ftm_sim *sim);
+/* The constrained nodes (m->bc) of the group at schedule positions k0 ..
+ * k1-1, whose new positions the group sweep left at tmp (x, y and z vectors
+ * of w lanes per block): updated again by ftm_bc_update from the state
+ * before the group (the vector blocks leave them out of the guard, the
+ * largest motion and the energy). Adds their motion to *mm and their
+ * energy to *en; false if one moved more than its guard limit. */
+bool ftm_bc_group(ftm_sim *sim, int32_t k0, int32_t k1, double *tmp, int w, double *mm,
+                  double *en);
 void ftm_sim_compute_reactions(ftm_sim *sim);
 void ftm_sim_spring_force(const ftm_sim *sim, int32_t i, double f[3]);
 double ftm_sim_link_pe(const ftm_sim *sim, int32_t i);

@@ -108,12 +108,13 @@ bool ftm_sweep_gs(ftm_sim *sim, int32_t k0, int32_t k1, double *max_m2)
     for (int32_t k = k0; k < k1; k++) {
         int32_t i = s->node[k];
         double *xi = x + 3 * i, *pi = xp + 3 * i, *sv = s->save + 3 * k;
-        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe;
+        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe, ground = 0.0;
         spring_force_pe(m, x, i, cur, f, &pe);
-        double m2 = integrate(sim, i, cur, f, nw);
+        double m2 = m->bc && m->bc[i] ? ftm_bc_update(sim, i, cur, f, nw, &ground)
+                                      : integrate(sim, i, cur, f, nw);
         ok &= m2 <= ftm_sim_lim2(sim, i); /* false for NaN too */
         mm = m2 > mm ? m2 : mm;
-        en += sim->ke_w[i] * m2 + 0.25 * pe;
+        en += sim->ke_w[i] * m2 + 0.25 * pe + ground;
         for (int d = 0; d < 3; d++) {
             sv[d] = pi[d];
             pi[d] = cur[d];
@@ -215,17 +216,33 @@ static inline __attribute__((always_inline)) void load_kl4(const double *const k
 #undef JNAME
 #undef JBLOCK
 /* one instance of the sweep per (links read, recorded or neither; planar;
- * rows padded or compact): constants in the body */
-#define SWEEP_PLANAR(body, sim, max_m2, linked, record, compact)                               \
-    (ftm_sim_planar(sim) ? body(sim, max_m2, linked, record, true, compact)                    \
-                         : body(sim, max_m2, linked, record, false, compact))
-#define SWEEP_ROWS(body, sim, max_m2, linked, record)                                          \
-    ((sim)->pad_rows ? SWEEP_PLANAR(body, sim, max_m2, linked, record, false)                  \
-                     : SWEEP_PLANAR(body, sim, max_m2, linked, record, true))
-#define SWEEP_VARIANTS(body, sim, max_m2)                                                      \
-    ((sim)->s.linked              ? SWEEP_PLANAR(body, sim, max_m2, true, false, false)        \
-     : ftm_sim_record_links(sim) ? SWEEP_ROWS(body, sim, max_m2, false, true)                 \
-                                  : SWEEP_ROWS(body, sim, max_m2, false, false))
+ * rows padded or compact; constrained nodes or none): constants in the body.
+ * A mesh with constrained nodes (sliding, springs to ground) runs instances
+ * of its own, so that the others' loops hold no call to ftm_bc_group (with
+ * it, GCC 12 kept their vector accumulators in memory) */
+#define SWEEP_PLANAR(body, sim, max_m2, linked, record, compact, bcs)                          \
+    (ftm_sim_planar(sim) ? body(sim, max_m2, linked, record, true, compact, bcs)               \
+                         : body(sim, max_m2, linked, record, false, compact, bcs))
+#define SWEEP_ROWS(body, sim, max_m2, linked, record, bcs)                                     \
+    ((sim)->pad_rows ? SWEEP_PLANAR(body, sim, max_m2, linked, record, false, bcs)             \
+                     : SWEEP_PLANAR(body, sim, max_m2, linked, record, true, bcs))
+#define SWEEP_LINKS(body, sim, max_m2, bcs)                                                    \
+    ((sim)->s.linked              ? SWEEP_PLANAR(body, sim, max_m2, true, false, false, bcs)   \
+     : ftm_sim_record_links(sim) ? SWEEP_ROWS(body, sim, max_m2, false, true, bcs)            \
+                                  : SWEEP_ROWS(body, sim, max_m2, false, false, bcs))
+/* the sweep of a kernel (TARGET, body) as two functions, the constrained
+ * meshes' instances in one of their own, so the other's code is as it was */
+#define SWEEP_FUNCTIONS(name, TARGET, body)                                                    \
+    TARGET __attribute__((noinline)) static bool name##_bc(ftm_sim *sim, double *max_m2)       \
+    {                                                                                          \
+        return SWEEP_LINKS(body, sim, max_m2, true);                                           \
+    }                                                                                          \
+    TARGET static bool name(ftm_sim *sim, double *max_m2)                                      \
+    {                                                                                          \
+        if (__builtin_expect((sim)->m->bc != NULL, 0))                                         \
+            return name##_bc(sim, max_m2);                                                     \
+        return SWEEP_LINKS(body, sim, max_m2, false);                                          \
+    }
 
 #if defined(__x86_64__) || defined(__i386__) /* the 8-lane build is for AVX-512 */
 #include <immintrin.h>
@@ -331,21 +348,11 @@ static inline AVX512 void load_coef8(const double *p, const size_t on[8], v8d *a
 #define JBLOCK4 block4_in8
 #include "sim_groups.inc"
 
-__attribute__((target("avx512f"))) static bool sweep_groups_avx512(ftm_sim *sim, double *max_m2)
-{
-    return SWEEP_VARIANTS(sweep_groups_body8, sim, max_m2);
-}
-
-__attribute__((target("avx"))) static bool sweep_groups_avx(ftm_sim *sim, double *max_m2)
-{
-    return SWEEP_VARIANTS(sweep_groups_body4, sim, max_m2);
-}
+SWEEP_FUNCTIONS(sweep_groups_avx512, __attribute__((target("avx512f"))), sweep_groups_body8)
+SWEEP_FUNCTIONS(sweep_groups_avx, __attribute__((target("avx"))), sweep_groups_body4)
 #endif
 
-static bool sweep_groups_portable(ftm_sim *sim, double *max_m2)
-{
-    return SWEEP_VARIANTS(sweep_groups_body4, sim, max_m2);
-}
+SWEEP_FUNCTIONS(sweep_groups_portable, , sweep_groups_body4)
 
 void ftm_sim_select_kernel(ftm_sim *sim, bool portable)
 {
@@ -376,17 +383,42 @@ bool ftm_sweep_relax(ftm_sim *sim)
     for (int32_t r = 0; r < sim->nrelax; r++) {
         int32_t i = sim->relax[r];
         double *xi = sim->x + 3 * i, *pi = sim->xp + 3 * i;
-        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe;
+        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe, ground = 0.0;
         spring_force_pe(sim->m, sim->x, i, cur, f, &pe);
-        double m2 = integrate(sim, i, cur, f, nw);
+        double m2 = sim->m->bc && sim->m->bc[i] ? ftm_bc_update(sim, i, cur, f, nw, &ground)
+                                                : integrate(sim, i, cur, f, nw);
         ok &= m2 <= ftm_sim_lim2(sim, i);
-        en += sim->ke_w[i] * m2 + 0.25 * pe;
+        en += sim->ke_w[i] * m2 + 0.25 * pe + ground;
         for (int d = 0; d < 3; d++) {
             pi[d] = cur[d];
             xi[d] = nw[d];
         }
     }
     sim->energy += en;
+    return ok;
+}
+
+bool ftm_bc_group(ftm_sim *sim, int32_t k0, int32_t k1, double *tmp, int w, double *mm,
+                  double *en)
+{
+    const ftm_mesh *m = sim->m;
+    bool ok = true;
+    for (int32_t k = k0; k < k1; k++) {
+        const int32_t i = sim->s.node[k];
+        if (!m->bc[i])
+            continue;
+        const double *xi = sim->x + 3 * (size_t)i;
+        double cur[3] = {xi[0], xi[1], xi[2]}, f[3], nw[3], pe, ground;
+        spring_force_pe(m, sim->x, i, cur, f, &pe);
+        const double m2 = ftm_bc_update(sim, i, cur, f, nw, &ground);
+        ok &= m2 <= ftm_sim_lim2(sim, i);
+        *mm = m2 > *mm ? m2 : *mm;
+        *en += sim->ke_w[i] * m2 + 0.25 * pe + ground;
+        double *t = tmp + 3 * (size_t)((k - k0) & ~(w - 1)) + ((k - k0) & (w - 1));
+        t[0] = nw[0];
+        t[w] = nw[1];
+        t[2 * w] = nw[2];
+    }
     return ok;
 }
 
@@ -400,6 +432,8 @@ void ftm_sim_compute_reactions(ftm_sim *sim)
             continue;
         double f[3];
         spring_force(sim->m, sim->x, ct->node, sim->x + 3 * ct->node, f);
+        if (sim->m->bc) /* a held node on a spring to ground pulls on it too */
+            ftm_bc_ground_force(sim->m, ct->node, sim->x + 3 * ct->node, f);
         double *r = sim->reaction + 3 * ct->group;
         r[0] -= f[0];
         r[1] -= f[1];

@@ -126,6 +126,9 @@ int32_t ftm_sim_contact_stiffness(const ftm_sim *sim, int32_t group, double K[9]
                 for (int b = 0; b < 3; b++)
                     K[3 * a + b] -= ks[e] * (u[a] * u[b] + lat * ((a == b ? 1.0 : 0.0) - u[a] * u[b]));
         }
+        const double kg = ftm_mesh_ground_stiffness(sim->m, i); /* its spring to ground */
+        for (int a = 0; a < 3; a++)
+            K[4 * a] -= kg;
     }
     return used;
 }

@@ -82,10 +82,29 @@ int ftm_mesh_builder_node_position(const ftm_mesh_builder *builder, int32_t node
 /* Fixes or frees a node added so far: boundary conditions chosen after a
  * generator or loader has made the nodes. */
 int ftm_mesh_builder_set_fixed(ftm_mesh_builder *builder, int32_t node, bool fixed);
+/* Whether a node added so far is fixed (false for no such node). */
+bool ftm_mesh_builder_node_fixed(const ftm_mesh_builder *builder, int32_t node);
 /* Fixes every node of every element labelled `label` (>= 1): a part of the
  * body held in place, the skull around a brain, a bone under a muscle.
  * Returns how many elements carry the label (0: none; nothing changed). */
 int32_t ftm_mesh_builder_fix_label(ftm_mesh_builder *builder, int32_t label);
+/* Sets mark[i] = 1 (mark: one per node added so far) for every node of
+ * every element labelled `label` (>= 1); returns how many elements carry it. */
+int32_t ftm_mesh_builder_label_nodes(const ftm_mesh_builder *builder, int32_t label,
+                                     uint8_t *mark);
+/* Partial constraints (docs/scene-format.md, Boundary conditions): node may
+ * not move along `normal` (any length > 0): it slides on the plane through
+ * its rest position normal to it. A second call with another direction
+ * leaves it a line to slide on; a direction the node's normals span already
+ * changes nothing. FTM_ERANGE (no such node), FTM_EINVAL (zero or
+ * non-finite normal; a third independent direction: fix the node instead),
+ * FTM_ENOMEM. A node also fixed is fixed: the mesh keeps no constraint on it. */
+int ftm_mesh_builder_add_slide(ftm_mesh_builder *builder, int32_t node, ftm_vec3 normal);
+/* A spring to ground: a force -k (x - X) on the node, X its rest position
+ * (an attachment). Springs on one node add up. FTM_ERANGE (no such node),
+ * FTM_EINVAL (stiffness not finite and > 0), FTM_ENOMEM. */
+int ftm_mesh_builder_add_ground_spring(ftm_mesh_builder *builder, int32_t node,
+                                       double stiffness);
 
 /* Builds the mesh; the builder may be reused or destroyed afterwards.
  * Fails (FTM_EINVAL, message in err) on an empty mesh. */
@@ -103,6 +122,13 @@ ftm_vec3 ftm_mesh_rest_position(const ftm_mesh *mesh, int32_t node);
 double ftm_mesh_mass(const ftm_mesh *mesh, int32_t node);
 double ftm_mesh_damping(const ftm_mesh *mesh, int32_t node);
 bool ftm_mesh_fixed(const ftm_mesh *mesh, int32_t node);
+/* The unit normals node may not move along (orthonormal), 0..2 of them
+ * (copied to normals when not NULL), or FTM_ERANGE. */
+int32_t ftm_mesh_slide_normals(const ftm_mesh *mesh, int32_t node, ftm_vec3 normals[2]);
+/* Stiffness of node's springs to ground [N/m], 0 if none. */
+double ftm_mesh_ground_stiffness(const ftm_mesh *mesh, int32_t node);
+bool ftm_mesh_has_slides(const ftm_mesh *mesh);
+bool ftm_mesh_has_ground_springs(const ftm_mesh *mesh);
 
 /* Neighbours of a node: count returned, arrays valid for the mesh's lifetime.
  * Each entry j has the neighbour's index, the link's stiffness and rest length. */
@@ -148,7 +174,7 @@ int32_t ftm_mesh_max_degree(const ftm_mesh *mesh);
 double ftm_mesh_critical_time_step(const ftm_mesh *mesh);
 
 /* Whether two meshes have the same shape: nodes, rest positions, fixed
- * nodes, adjacency with rest lengths and surface triangles, in the same
+ * nodes, partial constraints and springs to ground, adjacency with rest lengths and surface triangles, in the same
  * numbering; only masses, damping and stiffness may differ. */
 bool ftm_mesh_same_shape(const ftm_mesh *a, const ftm_mesh *b);
 

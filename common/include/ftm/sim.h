@@ -241,7 +241,8 @@ void ftm_sim_get_stats(const ftm_sim *sim, ftm_sim_stats *stats);
 int32_t ftm_sim_layers(ftm_sim *sim, const int32_t **order, const int32_t **start);
 
 /* Kinetic energy estimate sum 1/2 m |x - x_prev|^2 / h^2 and spring potential
- * energy over the nodes not at rest (for tests and diagnostics). */
+ * energy (links and springs to ground) over the nodes not at rest (for tests
+ * and diagnostics). */
 double ftm_sim_kinetic_energy(const ftm_sim *sim);
 double ftm_sim_potential_energy(const ftm_sim *sim);
 
@@ -327,7 +328,8 @@ int ftm_sim_internal_forces(const ftm_sim *sim, const double *x, double *f_out);
  * (ftm_sim_reaction) with respect to a rigid motion dx of all the group's
  * displacement contacts (how a probe moves them), the rest of the tissue held
  * at its current positions: the tangent stiffness of the springs joining the
- * group's nodes to the others (Eq. 6), at the current state. Returns the
+ * group's nodes to the others (Eq. 6) and of their springs to ground, at
+ * the current state. Returns the
  * number of displacement contacts of the group (0: K is zero). Springs only:
  * with element forces (ftm_sim_def.forces) it returns 0. */
 int32_t ftm_sim_contact_stiffness(const ftm_sim *sim, int32_t group, double K[9]);
