@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ftm mesh (tools/mesher): label maps the test writes itself (two nested
  * spheres, placed by an sform) meshed, the .msh read back through libftm's
  * loader and checked here independently: tissues as labels, each element

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `ftm mesh`: runs ftm-mesh, the scan-to-tissue-mesh program (tools/mesher:
  * C++, for CGAL), installed beside ftm. A separate program so that libftm
  * and ftm stay C and link no CGAL (docs/meshes.md). */

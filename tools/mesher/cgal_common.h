@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // What the two CGAL meshing paths share: the optimisation rounds and the
 // copy of a complex into a Tet_mesh. Templates over the complex, so each
 // path (one translation unit each, CGAL's templates are heavy) instantiates

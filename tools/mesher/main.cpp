@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // ftm-mesh (run as `ftm mesh`): a tetrahedral tissue mesh from a segmented
 // scan or a closed surface, written as Gmsh MSH 4.1 with each tetrahedron's
 // tissue as its physical group (docs/meshes.md).

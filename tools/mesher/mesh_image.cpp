@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // A labelled image meshed with CGAL's 3D mesh generation (Mesh_3): a
 // Delaunay refinement whose facets follow every boundary between two labels,
 // so the tissues conform where they meet (the approach of SOFA's CGAL

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // A closed surface (an STL) meshed with CGAL's Mesh_3 inside it: its
 // facets approximate the surface, every tetrahedron one tissue.
 #include "cgal_common.h"

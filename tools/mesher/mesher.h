@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // ftm-mesh: tissue meshes from segmented scans and closed surfaces
 // (docs/meshes.md, "From a scan to a tissue mesh"). C++ because CGAL is;
 // libftm stays C and is used through its C headers.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Surface slivers, quality figures and the Gmsh writer (output.h).
 #include "output.h"
 

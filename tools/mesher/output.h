@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // After meshing: the last slivers on the outer boundary, quality figures,
 // and the Gmsh file (output.cpp). No CGAL here.
 #ifndef FTM_MESHER_OUTPUT_H

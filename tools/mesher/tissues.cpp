@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // Label maps to tissue maps: grouping, checks, cleaning (tissues.h).
 #include "tissues.h"
 

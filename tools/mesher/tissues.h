@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
 // The tissue map a label map becomes: label groups per tissue, the checks a
 // map must pass, and the cleaning before meshing (tissues.cpp).
 #ifndef FTM_MESHER_TISSUES_H
