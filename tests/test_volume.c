@@ -1417,7 +1417,8 @@ static void test_volume_label_scenes(void **state)
         {"file = lblock.nii\nlabels = lab9mm.nii\n",
          "9: labels: lab9mm.nii has voxels of 9 x 9 x 9 mm, the image (lblock.nii) 10 x 10 x 10"},
         {"file = lblock.nii\nlabels = labshift.nii\n",
-         "9: labels: labshift.nii's box starts at (45, 45, 45) mm, the image's (lblock.nii) at (0, 0, 0) mm"},
+         "9: labels: labshift.nii's box starts at (45, 45, 45) mm, the image's (lblock.nii) at "
+         "(0, 0, 0) mm"},
         {"phantom = head\nvoxels = 8\nlabels = lab16.nii\n",
          "10: labels: lab16.nii is 16x16x16 voxels, the image (the phantom) 8x8x8"},
         {"file = lblock.nii\nlabels = lab.nii\nlabels = lab.nii\n", "10: "},
