@@ -43,7 +43,8 @@
 #   volumelabels: a volume and its label map ([volume] labels), both
 #       written here: each labelled half of the block is drawn in its
 #       tissue's colour (the surface's palette, label 15 as label 5); the
-#       same volume without the key in the intensity's colours.
+#       same volume without the key in the intensity's colours; cut away
+#       (--cut), the section shows both tissues' colours.
 #   fps: --max-fps 20 draws 10..24 fps over 3 s under Xvfb (where the swap
 #       interval does not throttle), the default cap at most 72 fps.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
@@ -405,6 +406,9 @@ EOF
         fail "client exited with $?"
     grep -q "drawing the scene's volume (40x40x40 voxels) as slices, coloured by its label map" \
         "$dir/lab.log" || fail "the client did not draw the volume by its label map"
+    # cut away (key x): the section through the middle, opaque, both tissues
+    client labcut --role observer --cut --screenshot "$dir/labcut.png" --screenshot-timeout 40 ||
+        fail "client (cut away) exited with $?"
     kill $server 2>/dev/null; wait $server 2>/dev/null
     rm -f "$dir/server.log"
     start_server --scene "$dir/unlabelled.scene"
@@ -424,6 +428,10 @@ EOF
         fail "png check: label 1's half not in its tissue colour"
     "$FTM_PNG_CHECK" nearest "$dir/lab.png" $right 80 $c15 $c1 $ci ||
         fail "png check: label 15's half not in its tissue colour"
+    "$FTM_PNG_CHECK" nearest "$dir/labcut.png" $((cx - 60)) $((cy - 40)) $((cx - 15)) $((cy + 40)) \
+        80 $c1 $c15 $ci || fail "png check: label 1's half of the section not in its colour"
+    "$FTM_PNG_CHECK" nearest "$dir/labcut.png" $((cx + 15)) $((cy - 40)) $((cx + 60)) $((cy + 40)) \
+        80 $c15 $c1 $ci || fail "png check: label 15's half of the section not in its colour"
     for box in "$left" "$right"; do
         "$FTM_PNG_CHECK" nearest "$dir/nolab.png" $box 80 $ci $c1 $c15 ||
             fail "png check: without the label map, not the intensity's colours"
