@@ -267,7 +267,7 @@ static void pick_session(app *a, int k)
     ftm_client_view_free(&a->view);
     memset(&a->view, 0, sizeof a->view);
     ftm_error err = {0, ""};
-    ftm_render_set_volume(a->ren, NULL, NULL, &err);
+    ftm_render_set_volume(a->ren, NULL, NULL, NULL, &err);
     ftm_render_set_mesh(a->ren, NULL, NULL, &err);
     a->drawn_mesh = NULL;
     a->o.session = a->picked;
@@ -450,7 +450,8 @@ static void new_mesh(app *a)
     ftm_render_set_tool(a->ren, a->view.tool);
     if (ftm_render_set_mesh(a->ren, a->view.mesh, a->view.scene, &err))
         alog(a, FTM_LOG_ERROR, "%s", err.message);
-    if (ftm_render_set_volume(a->ren, a->view.volume, a->view.ffd, &err))
+    const ftm_label_map *vlabels = a->view.scene ? ftm_scene_volume_labels(a->view.scene) : NULL;
+    if (ftm_render_set_volume(a->ren, a->view.volume, a->view.ffd, vlabels, &err))
         alog(a, FTM_LOG_ERROR, "%s", err.message);
     a->drawn_mesh = a->view.mesh;
     a->cam_set = false;
@@ -471,8 +472,9 @@ static void new_mesh(app *a)
     }
     if (ftm_render_has_volume(a->ren)) {
         ftm_volume_info vi = ftm_volume_get_info(a->view.volume);
-        alog(a, FTM_LOG_INFO, "drawing the scene's volume (%dx%dx%d voxels) as slices%s",
-             (int)vi.nx, (int)vi.ny, (int)vi.nz, a->ropts.volume ? "" : " (off: key v)");
+        alog(a, FTM_LOG_INFO, "drawing the scene's volume (%dx%dx%d voxels) as slices%s%s",
+             (int)vi.nx, (int)vi.ny, (int)vi.nz, vlabels ? ", coloured by its label map" : "",
+             a->ropts.volume ? "" : " (off: key v)");
     }
     if (mouse_probe(a)) { /* the probe starts above the middle of the top */
         ftm_vec3 lo, hi;

@@ -631,11 +631,11 @@ static int make_cage(ftm_render *r)
 }
 
 int ftm_render_set_volume(ftm_render *r, const ftm_volume *volume, const ftm_ffd *ffd,
-                          ftm_error *err)
+                          const ftm_label_map *labels, ftm_error *err)
 {
     r->cage_count = 0;
-    int rc = ftm_volume_render_set(r->vol, volume, ffd, r->mesh ? ftm_mesh_node_count(r->mesh) : 0,
-                                   err);
+    int rc = ftm_volume_render_set(r->vol, volume, ffd, labels,
+                                   r->mesh ? ftm_mesh_node_count(r->mesh) : 0, err);
     if (rc == FTM_OK && ftm_volume_render_active(r->vol) && make_cage(r))
         return ftm_gl_fail(err, "volume", "out of memory");
     return rc;

@@ -90,10 +90,11 @@ void ftm_render_participant_color(uint32_t participant, float c[3]);
 int ftm_render_surface_along(const ftm_render *r, ftm_vec3 from, ftm_vec3 dir, double *dist,
                              ftm_vec3 *normal);
 
-/* The scene's volume and its embedding in the mesh set (both NULL: none);
- * uploads the image. */
+/* The scene's volume and its embedding in the mesh set (both NULL: none),
+ * and its label map (NULL: none; drawn in the tissues' colours,
+ * volume_render.h); uploads the image. */
 int ftm_render_set_volume(ftm_render *r, const ftm_volume *volume, const ftm_ffd *ffd,
-                          ftm_error *err);
+                          const ftm_label_map *labels, ftm_error *err);
 bool ftm_render_has_volume(const ftm_render *r);
 /* Slices of the volume along the axis drawn last (0: no volume). */
 int32_t ftm_render_volume_slices(const ftm_render *r);

@@ -3,6 +3,7 @@
 #include "volume_render.h"
 
 #include "render_gl.h"
+#include "tissues.h"
 
 #include <math.h>
 #include <stddef.h>
@@ -28,13 +29,14 @@
 /* The slices' shader, compiled in variants (llvmpipe runs a shader's every
  * line under lane masks, whether a branch is taken or not, so a variant
  * holds only what it draws): bit 0 the colour map, bit 1 a slice per
- * plane (one sample), bit 2 the cut-away's section. */
-enum { VAR_MAP = 1, VAR_ONE = 2, VAR_SECTION = 4, VARIANTS = 8 };
+ * plane (one sample), bit 2 the cut-away's section, bit 3 the tissues'
+ * colours from a label map (compiled when a volume with one is set). */
+enum { VAR_MAP = 1, VAR_ONE = 2, VAR_SECTION = 4, VAR_LABELS = 8, VARIANTS = 16 };
 
 typedef struct vol_prog {
     GLuint prog;
     GLint u_mvp, u_tex, u_depth, u_usedepth, u_air, u_full, u_eye;
-    GLint u_planes, u_axis, u_tscale, u_voxels, u_spacing, u_trange;
+    GLint u_planes, u_axis, u_tscale, u_voxels, u_spacing, u_trange, u_labels;
 } vol_prog;
 
 struct ftm_volume_render {
@@ -48,6 +50,7 @@ struct ftm_volume_render {
     int fw, fh;
     bool depth_copy; /* the window's depth copies (false: a format it cannot copy) */
     GLuint vao, vbo, ibo, tex;
+    GLuint ltex; /* the label map's tissue colours (A 1 where labelled), 0: none */
 
     const ftm_volume *vol;
     const ftm_ffd *ffd;
@@ -144,22 +147,30 @@ static const char *vol_fs =
     "uniform vec3 u_axis, u_tscale, u_voxels; uniform float u_spacing; uniform vec2 u_trange;\n"
     "out vec4 o_color;\n"
     FTM_GL_RAMP_GLSL
+    /* a labelled voxel's tissue colour (nearest: no blend of two tissues)
+     * in place of the intensity's; its opacity stays the intensity's */
+    "#ifdef LABELS\n"
+    "uniform sampler3D u_labels;\n"
+    "vec3 tissue(vec3 c, vec3 t) { vec4 l = texture(u_labels, t); return mix(c, l.rgb, l.a); }\n"
+    "#else\n"
+    "#define tissue(c, t) (c)\n"
+    "#endif\n"
     "vec3 base(float v) {\n"
     "  vec3 c = mix(vec3(0.55, 0.56, 0.62), vec3(0.96, 0.62, 0.42), smoothstep(0.12, 0.42, v));\n"
     "  c = mix(c, vec3(0.90, 0.50, 0.52), smoothstep(0.48, 0.58, v));\n"
     "  return mix(c, vec3(1.0, 0.96, 0.88), smoothstep(0.68, 0.95, v));\n"
     "}\n"
     /* a sample's colour (premultiplied), its opacity for the path d */
-    "vec4 sample1(vec4 s, vec3 l, float density, float da, vec3 mapc, float map) {\n"
+    "vec4 sample1(vec4 s, vec3 t, vec3 l, float density, float da, vec3 mapc, float map) {\n"
     "  float v = s.r;\n"
     "  vec3 g = s.gba - 0.5;\n"
     "  float gm = length(g);\n"
     "  float a = 0.05 * smoothstep(u_air, 0.40, v) + 0.16 * smoothstep(0.65, 1.0, v);\n"
     "  a *= mix(0.12, 1.0, smoothstep(0.02, 0.15, gm));\n"
     "#ifdef MAP\n"
-    "  vec3 c = mix(base(v), mapc, map);\n"
+    "  vec3 c = mix(tissue(base(v), t), mapc, map);\n"
     "#else\n"
-    "  vec3 c = base(v);\n"
+    "  vec3 c = tissue(base(v), t);\n"
     "#endif\n"
     "  float dl = gm > 1e-4 ? abs(dot(g, l)) / gm : 1.0;\n"
     "  float d4 = dl * dl; d4 *= d4;\n"
@@ -178,7 +189,7 @@ static const char *vol_fs =
     "#if defined(SECTION)\n"
     "  float v = texture(u_tex, v_tex).r;\n"
     "  if (v < u_air) discard;\n"
-    "  vec3 c = mix(vec3(min(1.0, 1.15 * v)), base(v), 0.3);\n"
+    "  vec3 c = tissue(mix(vec3(min(1.0, 1.15 * v)), base(v), 0.3), v_tex);\n"
     "  o_color = vec4(mix(c, mapc, map), 1.0);\n"
     "#elif defined(ONE)\n"
     "  if (u_usedepth != 0 &&\n"
@@ -186,7 +197,7 @@ static const char *vol_fs =
     "    discard;\n"
     "  vec4 s = texture(u_tex, v_tex);\n"
     "  if (s.r < u_air) discard;\n"
-    "  o_color = sample1(s, v_light, v_density, 0.5 * (v_density - 1.0), mapc, map);\n"
+    "  o_color = sample1(s, v_tex, v_light, v_density, 0.5 * (v_density - 1.0), mapc, map);\n"
     "#else\n"
     /* one plane further along the ray: in texture coordinates, in voxels */
     "  float ra = max(abs(dot(v_ray, u_axis)), 0.2 * length(v_ray));\n"
@@ -214,7 +225,7 @@ static const char *vol_fs =
     "  for (int k = 0; k < planes; k++, t += st) {\n"
     "    vec4 s = texture(u_tex, t);\n"
     "    if (s.r < u_air) continue;\n"
-    "    acc += (1.0 - acc.a) * sample1(s, l, density, da, mapc, map);\n"
+    "    acc += (1.0 - acc.a) * sample1(s, t, l, density, da, mapc, map);\n"
     "  }\n"
     "  if (acc.a <= 0.0) discard;\n"
     "  o_color = acc;\n"
@@ -239,8 +250,9 @@ static const char *comp_fs =
 static int compile_variant(ftm_volume_render *vr, int var, ftm_error *err)
 {
     char head[128];
-    snprintf(head, sizeof head, "#version 330 core\n%s%s%s", var & VAR_MAP ? "#define MAP\n" : "",
-             var & VAR_ONE ? "#define ONE\n" : "", var & VAR_SECTION ? "#define SECTION\n" : "");
+    snprintf(head, sizeof head, "#version 330 core\n%s%s%s%s", var & VAR_MAP ? "#define MAP\n" : "",
+             var & VAR_ONE ? "#define ONE\n" : "", var & VAR_SECTION ? "#define SECTION\n" : "",
+             var & VAR_LABELS ? "#define LABELS\n" : "");
     size_t hn = strlen(head), vn = strlen(vol_vs), fn = strlen(vol_fs);
     char *vs = malloc(hn + vn + 1), *fs = malloc(hn + fn + 1);
     if (!vs || !fs) {
@@ -275,6 +287,7 @@ static int compile_variant(ftm_volume_render *vr, int var, ftm_error *err)
         {"u_voxels", offsetof(vol_prog, u_voxels)},
         {"u_spacing", offsetof(vol_prog, u_spacing)},
         {"u_trange", offsetof(vol_prog, u_trange)},
+        {"u_labels", offsetof(vol_prog, u_labels)},
     };
     for (size_t i = 0; i < sizeof uni / sizeof uni[0]; i++)
         *(GLint *)((char *)p + uni[i].at) = glGetUniformLocation(p->prog, uni[i].name);
@@ -295,7 +308,7 @@ int ftm_volume_render_create(ftm_volume_render **out, ftm_error *err)
     ftm_volume_render *vr = calloc(1, sizeof *vr);
     if (!vr)
         return ftm_gl_fail(err, "volume", "out of memory");
-    for (int v = 0; v < VARIANTS; v++) {
+    for (int v = 0; v < VAR_LABELS; v++) { /* the label variants when needed */
         if ((v & VAR_SECTION) && (v & VAR_ONE))
             continue;
         if (compile_variant(vr, v, err)) {
@@ -336,7 +349,9 @@ static void clear(ftm_volume_render *vr)
 {
     if (vr->tex)
         glDeleteTextures(1, &vr->tex);
-    vr->tex = 0;
+    if (vr->ltex)
+        glDeleteTextures(1, &vr->ltex);
+    vr->tex = vr->ltex = 0;
     void *arrays[] = {vr->u,      vr->occ,  vr->verts,  vr->used,  vr->idx,    vr->dir,
                       vr->centre, vr->key,  vr->planes, vr->count, vr->first, vr->dcount,
                       (void *)vr->doff};
@@ -462,8 +477,67 @@ static uint8_t *shading_texels(const ftm_volume *volume)
     return t;
 }
 
+/* The label map's texels: the tissue's colour (client/tissues.c, as the
+ * surface's), alpha 255 where labelled (> 0), 0 where not (the intensity's
+ * colour shows). */
+static uint8_t *label_texels(const ftm_label_map *labels)
+{
+    ftm_volume_info in = ftm_label_map_get_info(labels);
+    const int32_t *d = ftm_label_map_data(labels);
+    const size_t n = (size_t)in.nx * in.ny * in.nz;
+    uint8_t *t = calloc(4 * n, 1);
+    if (!t)
+        return NULL;
+    for (size_t i = 0; i < n; i++) {
+        if (d[i] <= 0)
+            continue;
+        float c[3];
+        ftm_tissue_color(d[i], c);
+        for (int k = 0; k < 3; k++)
+            t[4 * i + k] = (uint8_t)lrintf(255.0f * c[k]);
+        t[4 * i + 3] = 255;
+    }
+    return t;
+}
+
+/* Uploads the label map's colours (nearest: a voxel is one tissue), and
+ * compiles the shader's label variants the first time. */
+static int set_labels(ftm_volume_render *vr, const ftm_label_map *labels, ftm_error *err)
+{
+    ftm_volume_info li = ftm_label_map_get_info(labels);
+    if (li.nx != vr->nvox[0] || li.ny != vr->nvox[1] || li.nz != vr->nvox[2]) {
+        char msg[160];
+        snprintf(msg, sizeof msg, "label map of %dx%dx%d voxels on an image of %dx%dx%d",
+                 (int)li.nx, (int)li.ny, (int)li.nz, (int)vr->nvox[0], (int)vr->nvox[1],
+                 (int)vr->nvox[2]);
+        return ftm_gl_fail(err, "volume", msg);
+    }
+    for (int v = VAR_LABELS; v < VARIANTS; v++)
+        if (!((v & VAR_SECTION) && (v & VAR_ONE)) && !vr->progs[v].prog &&
+            compile_variant(vr, v, err))
+            return FTM_EINVAL;
+    uint8_t *texels = label_texels(labels);
+    if (!texels)
+        return ftm_gl_fail(err, "volume", "out of memory");
+    glGenTextures(1, &vr->ltex);
+    glBindTexture(GL_TEXTURE_3D, vr->ltex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA8, li.nx, li.ny, li.nz, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+                 texels);
+    free(texels);
+    ftm_gl_texture_params(GL_TEXTURE_3D, GL_NEAREST);
+    glBindTexture(GL_TEXTURE_3D, 0);
+    GLenum e = glGetError();
+    if (e != GL_NO_ERROR) {
+        char msg[64];
+        snprintf(msg, sizeof msg, "GL error 0x%x uploading the label map", e);
+        return ftm_gl_fail(err, "volume", msg);
+    }
+    return FTM_OK;
+}
+
 int ftm_volume_render_set(ftm_volume_render *vr, const ftm_volume *volume, const ftm_ffd *ffd,
-                          int32_t node_count, ftm_error *err)
+                          const ftm_label_map *labels, int32_t node_count, ftm_error *err)
 {
     clear(vr);
     if (!volume || !ffd)
@@ -557,6 +631,11 @@ int ftm_volume_render_set(ftm_volume_render *vr, const ftm_volume *volume, const
         snprintf(msg, sizeof msg, "GL error 0x%x uploading the image", e);
         clear(vr);
         return ftm_gl_fail(err, "volume", msg);
+    }
+    int rc;
+    if (labels && (rc = set_labels(vr, labels, err)) != FTM_OK) {
+        clear(vr);
+        return rc;
     }
     vr->dirty = true;
     return FTM_OK;
@@ -988,9 +1067,10 @@ void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3
     }
     /* a slice per plane: one sample */
     const bool one = step == 1;
-    const int var = (colormap ? VAR_MAP : 0) | (one ? VAR_ONE : 0);
+    const int lab = vr->ltex ? VAR_LABELS : 0;
+    const int var = (colormap ? VAR_MAP : 0) | (one ? VAR_ONE : 0) | lab;
     const vol_prog *progs[2] = {&vr->progs[var],
-                                &vr->progs[(colormap ? VAR_MAP : 0) | VAR_SECTION]};
+                                &vr->progs[(colormap ? VAR_MAP : 0) | VAR_SECTION | lab]};
     /* the planes' texture coordinates along a, a hair wider for rounding */
     double t0 = (vr->lo[a] - vr->tlo[a]) / vr->tsz[a], t1 = (vr->hi[a] - vr->tlo[a]) / vr->tsz[a];
     double eps = 1e-4 * (t1 - t0);
@@ -1011,6 +1091,12 @@ void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3
         glUniform1i(p->u_tex, 1);
         glUniform1i(p->u_depth, 2);
         glUniform1i(p->u_usedepth, low && vr->depth_copy ? 1 : 0);
+        if (lab)
+            glUniform1i(p->u_labels, 3);
+    }
+    if (lab) {
+        glActiveTexture(GL_TEXTURE3);
+        glBindTexture(GL_TEXTURE_3D, vr->ltex);
     }
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_3D, vr->tex);
@@ -1072,5 +1158,9 @@ void ftm_volume_render_draw(ftm_volume_render *vr, const float mvp[16], ftm_vec3
     }
     glBindVertexArray(0);
     glDisable(GL_BLEND);
+    if (lab) {
+        glActiveTexture(GL_TEXTURE3);
+        glBindTexture(GL_TEXTURE_3D, 0);
+    }
     glActiveTexture(GL_TEXTURE0);
 }

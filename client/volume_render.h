@@ -16,6 +16,7 @@
 #ifndef FTM_CLIENT_VOLUME_RENDER_H
 #define FTM_CLIENT_VOLUME_RENDER_H
 
+#include "ftm/labels.h"
 #include "ftm/volume.h"
 
 #include <stdbool.h>
@@ -34,9 +35,13 @@ int ftm_volume_render_create(ftm_volume_render **out, ftm_error *err);
 void ftm_volume_render_destroy(ftm_volume_render *vr);
 
 /* The volume and its embedding (both NULL: none); uploads the image once.
- * node_count: the lattice mesh's nodes (positions are checked against it). */
+ * labels (NULL: none): a label map on the image's voxels; a labelled voxel
+ * (label > 0) is drawn in its tissue's colour (ftm_tissue_color, as the
+ * surface), with the intensity's opacity and shading; label 0 keeps the
+ * intensity's colours. node_count: the lattice mesh's nodes (positions are
+ * checked against it). */
 int ftm_volume_render_set(ftm_volume_render *vr, const ftm_volume *volume, const ftm_ffd *ffd,
-                          int32_t node_count, ftm_error *err);
+                          const ftm_label_map *labels, int32_t node_count, ftm_error *err);
 bool ftm_volume_render_active(const ftm_volume_render *vr);
 /* Slices drawn last (before a draw: the most planes along an axis). */
 int32_t ftm_volume_render_slices(const ftm_volume_render *vr);

@@ -1317,6 +1317,124 @@ static void test_volume_scenes(void **state)
     SCENE_BAD(path, "bad.nii: header field sizeof_hdr = 0");
 }
 
+/* [volume] labels: a label map on the image's grid, for the client to draw
+ * the image by tissue; refused (naming the file and the line) when it is
+ * missing or on another grid. */
+static void write_labels(const char *name, int16_t nx, int16_t ny, int16_t nz, float mm,
+                         float shift)
+{
+    const size_t n = (size_t)nx * ny * nz;
+    int16_t *lab = malloc(n * sizeof *lab);
+    assert_non_null(lab);
+    for (size_t i = 0; i < n; i++)
+        lab[i] = (int16_t)(i % (size_t)nx < (size_t)nx / 2 ? 1 : 15);
+    nii h = nii_default(nx, ny, nz, 4, 16); /* int16 */
+    h.pixdim[1] = h.pixdim[2] = h.pixdim[3] = mm;
+    if (shift != 0) { /* placed by an sform, shifted along each axis [mm] */
+        h.sform_code = 1;
+        for (int a = 0; a < 3; a++) {
+            h.srow[a][a] = mm;
+            h.srow[a][3] = shift;
+        }
+    }
+    size_t size;
+    uint8_t *b = nii_bytes(&h, lab, n * sizeof *lab, &size);
+    write_file(name, b, size);
+    free(b);
+    free(lab);
+}
+
+static void test_volume_label_scenes(void **state)
+{
+    (void)state;
+    NEEDS_NIFTI();
+    uint8_t vox[4 * 4 * 4];
+    for (int i = 0; i < 64; i++)
+        vox[i] = (uint8_t)(100 + i);
+    nii h = nii_default(4, 4, 4, 2, 8);
+    h.pixdim[1] = h.pixdim[2] = h.pixdim[3] = 10; /* mm */
+    size_t size;
+    uint8_t *b = nii_bytes(&h, vox, sizeof vox, &size);
+    write_file("lblock.nii", b, size);
+    free(b);
+    write_labels("lab.nii", 4, 4, 4, 10, 0);
+    write_labels("lab443.nii", 4, 4, 3, 10, 0);
+    write_labels("lab9mm.nii", 4, 4, 4, 9, 0);
+    write_labels("labshift.nii", 4, 4, 4, 10, 50);
+    write_labels("lab16.nii", 16, 16, 16, 6.25f, 0); /* the phantom's 0.1 m / 16 */
+
+    /* read as the image is (scale, origin): on its grid, x fastest */
+    char text[1024];
+    snprintf(text, sizeof text,
+             "[mesh]\ngenerator = volume\n%s"
+             "[volume]\nfile = lblock.nii\nlabels = lab.nii\nnodes = 3\nhard = 2\nair = 0\n"
+             "scale = 2\norigin = 1 2 3\n",
+             mat);
+    ftm_scene *s = NULL;
+    ftm_error err;
+    if (ftm_scene_load_file(write_text("lab.scene", text), &s, &err) != FTM_OK)
+        fail_msg("%s", err.message);
+    const ftm_label_map *lm = ftm_scene_volume_labels(s);
+    assert_non_null(lm);
+    ftm_volume_info li = ftm_label_map_get_info(lm), vi = ftm_volume_get_info(ftm_scene_volume(s));
+    assert_true(li.nx == 4 && li.ny == 4 && li.nz == 4);
+    assert_near(li.spacing.x, vi.spacing.x, 1e-15);
+    assert_true(li.origin.x == 1 && li.origin.y == 2 && li.origin.z == 3);
+    const int32_t *d = ftm_label_map_data(lm);
+    for (int i = 0; i < 64; i++)
+        assert_int_equal(d[i], i % 4 < 2 ? 1 : 15);
+    ftm_scene_destroy(s);
+
+    /* without the key: none */
+    snprintf(text, sizeof text,
+             "[mesh]\ngenerator = volume\n%s[volume]\nfile = lblock.nii\nnodes = 3\n", mat);
+    assert_int_equal(ftm_scene_load_file(write_text("nolab.scene", text), &s, &err), FTM_OK);
+    assert_null(ftm_scene_volume_labels(s));
+    ftm_scene_destroy(s);
+    assert_int_equal(ftm_scene_open("head", &s, &err), FTM_OK);
+    assert_null(ftm_scene_volume_labels(s));
+    ftm_scene_destroy(s);
+
+    /* a phantom's grid: its voxels and size, from its origin */
+    snprintf(text, sizeof text,
+             "[mesh]\ngenerator = volume\n%s[volume]\nphantom = head\nvoxels = 16\n"
+             "size = 0.1\nnodes = 4\nlabels = lab16.nii\n",
+             mat);
+    if (ftm_scene_load_file(write_text("phlab.scene", text), &s, &err) != FTM_OK)
+        fail_msg("%s", err.message);
+    assert_int_equal(ftm_label_map_get_info(ftm_scene_volume_labels(s)).nz, 16);
+    ftm_scene_destroy(s);
+
+    /* [volume] at line 7, its keys from 8 */
+    static const struct {
+        const char *volume, *part;
+    } bad[] = {
+        {"file = lblock.nii\nlabels = nothere.nii\n", "9: labels: "},
+        {"file = lblock.nii\nlabels = nothere.nii\n", "nothere.nii: cannot open"},
+        {"file = lblock.nii\nlabels = lab443.nii\n",
+         "9: labels: lab443.nii is 4x4x3 voxels, the image (lblock.nii) 4x4x4: a label map must "
+         "be on the image's grid"},
+        {"file = lblock.nii\nlabels = lab9mm.nii\n",
+         "9: labels: lab9mm.nii has voxels of 9 x 9 x 9 mm, the image (lblock.nii) 10 x 10 x 10"},
+        {"file = lblock.nii\nlabels = labshift.nii\n",
+         "9: labels: labshift.nii's box starts at (45, 45, 45) mm, the image's (lblock.nii) at "
+         "(0, 0, 0) mm"},
+        {"phantom = head\nvoxels = 8\nlabels = lab16.nii\n",
+         "10: labels: lab16.nii is 16x16x16 voxels, the image (the phantom) 8x8x8"},
+        {"file = lblock.nii\nlabels = lab.nii\nlabels = lab.nii\n", "10: "},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        char name[32], part[200];
+        snprintf(name, sizeof name, "l%zu.scene", i);
+        bool at_line = bad[i].part[0] >= '0' && bad[i].part[0] <= '9';
+        snprintf(part, sizeof part, "%s%s%s", at_line ? name : "", at_line ? ":" : "",
+                 bad[i].part);
+        snprintf(text, sizeof text, "[mesh]\ngenerator = volume\n%s[volume]\n%snodes = 3\n", mat,
+                 bad[i].volume);
+        expect_scene_error(write_text(name, text), part, (int)i);
+    }
+}
+
 int main(void)
 {
     if (!mkdtemp(tmpdir)) {
@@ -1338,6 +1456,7 @@ int main(void)
         cmocka_unit_test(test_nifti2),
         cmocka_unit_test(test_label_map),
         cmocka_unit_test(test_volume_scenes),
+        cmocka_unit_test(test_volume_label_scenes),
     };
     int failed = cmocka_run_group_tests(tests, NULL, NULL);
     char cmd[128];

@@ -53,6 +53,7 @@ struct ftm_scene {
     char (*label_names)[FTM_SCENE_LABEL_NAME_MAX + 1]; /* their `name`s ("": none) */
     ftm_volume *volume;            /* [volume], with generator = volume */
     ftm_ffd *ffd;
+    ftm_label_map *volume_labels;  /* [volume] labels: on the image's voxels; NULL: none */
     ftm_scene_tool tool;           /* [tool]; zeros = not given */
 };
 
@@ -130,6 +131,7 @@ typedef enum key {
     K_SCALE,
     K_ORIGIN,
     K_AXES,
+    K_VOLUME_LABELS,
     K_TIP_RADIUS,
     K_SHAFT_RADIUS,
     K_SHAFT_LENGTH,
@@ -206,6 +208,7 @@ static const struct {
     [K_SCALE] = {SEC_VOLUME, "scale", false},
     [K_ORIGIN] = {SEC_VOLUME, "origin", false},
     [K_AXES] = {SEC_VOLUME, "axes", false},
+    [K_VOLUME_LABELS] = {SEC_VOLUME, "labels", false},
     [K_NODE] = {SEC_LOAD, "node", false},
     [K_KIND] = {SEC_LOAD, "kind", false},
     [K_VALUE] = {SEC_LOAD, "value", false},
@@ -301,6 +304,7 @@ typedef struct spec {
     size_t label_spring_count, label_spring_cap;
     /* [volume] */
     char *volume_file;
+    char *volume_labels_file;      /* [volume] labels */
     ftm_volume_phantom_def phantom;
     ftm_volume_load_def volume_load;
     ftm_volume_lattice_def volume_lattice; /* its material is [material]'s */
@@ -552,6 +556,10 @@ static int set_volume_key(parser *p, key k, const char *kn, const char *v, size_
     switch (k) {
     case K_VOLUME_FILE:
         return path_value(p, v, vlen, &s->volume_file);
+    case K_VOLUME_LABELS:
+        free(s->volume_labels_file); /* (a repeated key is refused before this) */
+        s->volume_labels_file = NULL;
+        return path_value(p, v, vlen, &s->volume_labels_file);
     case K_PHANTOM: {
         static const char *const phantoms[] = {"head", NULL};
         int which;
@@ -1580,6 +1588,63 @@ static int fill_volume(const parser *p, ftm_mesh_builder *b, ftm_volume **volume
     return FTM_OK;
 }
 
+/* [volume] labels: a label map on the image's grid (the same voxels, voxel
+ * size and box, within a hundredth of a voxel), read as the image is
+ * (axes, origin, scale), for the client to colour the image by tissue. */
+static int load_volume_labels(const parser *p, const ftm_volume *volume, ftm_label_map **out)
+{
+    const spec *s = &p->s;
+    const int32_t line = s->key_line[K_VOLUME_LABELS];
+    const char *what = s->volume_file ? s->volume_file : "the phantom";
+    char *joined = NULL;
+    int rc = scene_path(p, s->volume_labels_file, line, &joined);
+    if (rc != FTM_OK)
+        return rc;
+    ftm_label_map_def d = ftm_default_label_map_def();
+    if (s->volume_file) {
+        d.axes = s->volume_load.axes;
+        d.origin = s->volume_load.origin;
+        d.scale = s->volume_load.scale;
+    } else { /* the phantom's box starts at its origin, on the file's own axes */
+        d.axes = FTM_VOLUME_AXES_STORED;
+        d.origin = s->phantom.origin;
+    }
+    ftm_error sub;
+    ftm_error_clear(&sub);
+    rc = ftm_label_map_load(joined ? joined : s->volume_labels_file, &d, out, &sub);
+    free(joined);
+    if (rc != FTM_OK)
+        return fail_at(p, line, rc, "labels: %s", sub.message[0] ? sub.message : ftm_strerror(rc));
+    const ftm_volume_info a = ftm_label_map_get_info(*out), b = ftm_volume_get_info(volume);
+    const char *file = s->volume_labels_file;
+    if (a.nx != b.nx || a.ny != b.ny || a.nz != b.nz)
+        return fail_at(p, line, FTM_EINVAL,
+                       "labels: %s is %dx%dx%d voxels, the image (%s) %dx%dx%d: a label map "
+                       "must be on the image's grid",
+                       file, (int)a.nx, (int)a.ny, (int)a.nz, what, (int)b.nx, (int)b.ny,
+                       (int)b.nz);
+    const double as[3] = {a.spacing.x, a.spacing.y, a.spacing.z},
+                 bs[3] = {b.spacing.x, b.spacing.y, b.spacing.z},
+                 ao[3] = {a.origin.x, a.origin.y, a.origin.z},
+                 bo[3] = {b.origin.x, b.origin.y, b.origin.z};
+    const int32_t nv[3] = {b.nx, b.ny, b.nz};
+    for (int i = 0; i < 3; i++) { /* the box's far end within a hundredth of a voxel too */
+        if (!(fabs(as[i] - bs[i]) * nv[i] <= 0.01 * bs[i]))
+            return fail_at(p, line, FTM_EINVAL,
+                           "labels: %s has voxels of %g x %g x %g mm, the image (%s) %g x %g x "
+                           "%g mm: a label map must be on the image's grid",
+                           file, 1e3 * as[0], 1e3 * as[1], 1e3 * as[2], what, 1e3 * bs[0],
+                           1e3 * bs[1], 1e3 * bs[2]);
+        if (!(fabs(ao[i] - bo[i]) <= 0.01 * bs[i]))
+            return fail_at(p, line, FTM_EINVAL,
+                           "labels: %s's box starts at (%g, %g, %g) mm, the image's (%s) at "
+                           "(%g, %g, %g) mm: a label map must be on the image's grid",
+                           file, 1e3 * ao[0], 1e3 * ao[1], 1e3 * ao[2], what, 1e3 * bo[0],
+                           1e3 * bo[1], 1e3 * bo[2]);
+    }
+    return FTM_OK;
+}
+
 /* Fills a builder with the generated or loaded mesh; for the volume
  * generator also the image and where each lattice point went. */
 static int fill_builder(const parser *p, ftm_mesh_builder *b, ftm_volume **volume,
@@ -1754,6 +1819,8 @@ static int build_mesh(const parser *p, ftm_scene *scene)
     int32_t *points = NULL; /* lattice point -> input index, then mesh node */
     ftm_mesh **out = &scene->mesh;
     int rc = fill_builder(p, b, &scene->volume, &points);
+    if (rc == FTM_OK && s->volume_labels_file)
+        rc = load_volume_labels(p, scene->volume, &scene->volume_labels);
     if (rc == FTM_OK) {
         int32_t n = ftm_mesh_builder_node_count(b);
         for (size_t i = 0; i < s->fixed_node_count; i++) {
@@ -2058,6 +2125,7 @@ static void free_spec(spec *s)
 {
     free(s->file);
     free(s->volume_file);
+    free(s->volume_labels_file);
     free(s->fixed_nodes);
     free(s->fixed_boxes);
     free(s->fixed_labels);
@@ -2292,6 +2360,7 @@ void ftm_scene_destroy(ftm_scene *scene)
     ftm_mesh_destroy(scene->mesh);
     ftm_ffd_destroy(scene->ffd);
     ftm_volume_destroy(scene->volume);
+    ftm_label_map_destroy(scene->volume_labels);
     free(scene->loads);
     free(scene->label_materials);
     free(scene->label_names);
@@ -2367,6 +2436,11 @@ const ftm_volume *ftm_scene_volume(const ftm_scene *scene)
 const ftm_ffd *ftm_scene_ffd(const ftm_scene *scene)
 {
     return scene->ffd;
+}
+
+const ftm_label_map *ftm_scene_volume_labels(const ftm_scene *scene)
+{
+    return scene->volume_labels;
 }
 
 /* Fraction of the full value a load applies at time t (start <= t < release). */

@@ -40,6 +40,11 @@
 #       its own colour (not the other's, not the unlabelled one) where the
 #       client says it sees it, and the legend shows both swatches below
 #       the HUD's rows.
+#   volumelabels: a volume and its label map ([volume] labels), both
+#       written here: each labelled half of the block is drawn in its
+#       tissue's colour (the surface's palette, label 15 as label 5); the
+#       same volume without the key in the intensity's colours; cut away
+#       (--cut), the section shows both tissues' colours.
 #   fps: --max-fps 20 draws 10..24 fps over 3 s under Xvfb (where the swap
 #       interval does not throttle), the default cap at most 72 fps.
 # Exit 77 (skipped) without xvfb-run/Xvfb. Every process runs under timeout.
@@ -354,6 +359,85 @@ volume)
         fail "png check: the cut-away looks like the whole volume"
     [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/after.png" "$FTM_KEEP_SCREENSHOT"
     echo "PASS volume: $(cat "$dir/after.out")"
+    ;;
+volumelabels)
+    # a volume with a label map ([volume] labels): a block of tissue (a
+    # bright shell around a softer inside) whose half x < 20 is label 1 and
+    # the rest label 15, written here; the client colours each half by its
+    # tissue (the surface's palette: 1 rose, 15 the 5th colour, bluish),
+    # and the same volume without the key keeps the intensity's colours
+    timeout 30 python3 - "$dir/vol.nii" "$dir/lab.nii" <<'EOF'
+import struct, sys
+def nii(path, n, mm, dtype, bitpix, fmt, vals):
+    h = bytearray(352)
+    struct.pack_into('<i', h, 0, 348)
+    struct.pack_into('<8h', h, 40, 3, n, n, n, 1, 1, 1, 1)
+    struct.pack_into('<hh', h, 70, dtype, bitpix)
+    struct.pack_into('<8f', h, 76, 1, mm, mm, mm, 0, 0, 0, 0)
+    struct.pack_into('<f', h, 108, 352)
+    struct.pack_into('<f', h, 112, 1)
+    h[123] = 2  # mm
+    h[344:348] = b'n+1\0'
+    with open(path, 'wb') as f:
+        f.write(h)
+        f.write(struct.pack('<%d%s' % (len(vals), fmt), *vals))
+n = 40
+vol, lab = [], []
+for k in range(n):
+    for j in range(n):
+        for i in range(n):
+            inside = all(6 <= a < 34 for a in (i, j, k))
+            shell = inside and any(a < 8 or a >= 32 for a in (i, j, k))
+            vol.append(255 if shell else 140 if inside else 0)
+            lab.append(0 if not inside else 1 if i < 20 else 15)
+nii(sys.argv[1], n, 2.5, 2, 8, 'B', vol)
+nii(sys.argv[2], n, 2.5, 4, 16, 'h', lab)
+EOF
+    [ $? -eq 0 ] || fail "could not write the volume and its label map"
+    for s in labelled unlabelled; do
+        { echo "[scene]"; echo "name = $s"; echo "[mesh]"; echo "generator = volume"
+          echo "[volume]"; echo "file = vol.nii"; [ $s = labelled ] && echo "labels = lab.nii"
+          echo "nodes = 5"; echo "fix = zmin"
+          echo "[material]"; echo "mass = 0.01"; echo "damping = 1"; echo "stiffness = 250"
+          echo "[sim]"; echo "time_step = 1e-3"; echo "depth = 8"; } >"$dir/$s.scene"
+    done
+    start_server --scene "$dir/labelled.scene"
+    client lab --role observer --screenshot "$dir/lab.png" --screenshot-timeout 40 ||
+        fail "client exited with $?"
+    grep -q "drawing the scene's volume (40x40x40 voxels) as slices, coloured by its label map" \
+        "$dir/lab.log" || fail "the client did not draw the volume by its label map"
+    # cut away (key x): the section through the middle, opaque, both tissues
+    client labcut --role observer --cut --screenshot "$dir/labcut.png" --screenshot-timeout 40 ||
+        fail "client (cut away) exited with $?"
+    kill $server 2>/dev/null; wait $server 2>/dev/null
+    rm -f "$dir/server.log"
+    start_server --scene "$dir/unlabelled.scene"
+    client nolab --role observer --screenshot "$dir/nolab.png" --screenshot-timeout 40 ||
+        fail "client (no label map) exited with $?"
+    ! grep -q "coloured by its label map" "$dir/nolab.log" || fail "a label map where none is"
+    # the view's middle is the block's centre; x < 20 is drawn left of it
+    set -- $(sed -n 's/^screenshot .* \([0-9]*\)x\([0-9]*\) tick .* view-top \([0-9]*\) .*/\1 \2 \3/p' \
+        "$dir/lab.out")
+    [ $# -eq 3 ] || fail "no size or view top in the client's screenshot line"
+    cx=$(( $1 / 2 )) cy=$(( $3 + ($2 - $3) / 2 ))
+    left="$((cx - 100)) $((cy - 40)) $((cx - 50)) $((cy + 40))"
+    right="$((cx + 30)) $((cy - 40)) $((cx + 100)) $((cy + 40))"
+    c1="0.80 0.36 0.40" c15="0.60 0.72 0.80" # tissues.c: labels 1 and 15 (5th colour)
+    ci="1.0 0.96 0.88" # the intensity's colour of bright tissue (volume_render.c, base)
+    "$FTM_PNG_CHECK" nearest "$dir/lab.png" $left 80 $c1 $c15 $ci ||
+        fail "png check: label 1's half not in its tissue colour"
+    "$FTM_PNG_CHECK" nearest "$dir/lab.png" $right 80 $c15 $c1 $ci ||
+        fail "png check: label 15's half not in its tissue colour"
+    "$FTM_PNG_CHECK" nearest "$dir/labcut.png" $((cx - 60)) $((cy - 40)) $((cx - 15)) $((cy + 40)) \
+        80 $c1 $c15 $ci || fail "png check: label 1's half of the section not in its colour"
+    "$FTM_PNG_CHECK" nearest "$dir/labcut.png" $((cx + 15)) $((cy - 40)) $((cx + 60)) $((cy + 40)) \
+        80 $c15 $c1 $ci || fail "png check: label 15's half of the section not in its colour"
+    for box in "$left" "$right"; do
+        "$FTM_PNG_CHECK" nearest "$dir/nolab.png" $box 80 $ci $c1 $c15 ||
+            fail "png check: without the label map, not the intensity's colours"
+    done
+    [ -n "${FTM_KEEP_SCREENSHOT:-}" ] && cp "$dir/lab.png" "$dir/nolab.png" "$(dirname "$FTM_KEEP_SCREENSHOT")/"
+    echo "PASS volumelabels: $(cat "$dir/lab.out")"
     ;;
 reset)
     # a trainee's mouse probe (driven by xdotool in the client's X display)

@@ -31,6 +31,11 @@
  *       at least 12 lit pixels (R + G + B > 150) of the colour (R, G, B),
  *       0..1, by chromaticity within 0.04, in the box: a participant's name
  *       label drawn in the participant's colour.
+ *   client-png-check nearest IMAGE.png X0 Y0 X1 Y1 P R1 G1 B1 R2 G2 B2 [R G B ...]
+ *       of the lit pixels (R + G + B > 150) in the box, at least P percent
+ *       are nearest (by chromaticity) the first of the colours given (0..1):
+ *       a translucent volume's tissue colour, blended over the background,
+ *       told from the other tissues' colours.
  *   client-png-check panel IMAGE.png X Y R
  *       the help overlay (F1) covers the square of half-side R around (X, Y):
  *       at least half its pixels are of the panel's deep blue, and some of
@@ -386,6 +391,47 @@ static int hue_box(const char *path, int x0, int y0, int x1, int y1, double r, d
     return 0;
 }
 
+/* Lit pixels in the box whose chromaticity is nearest colours[0] of the n
+ * given (3 each), at least `share` percent of them. */
+static int nearest_box(const char *path, int x0, int y0, int x1, int y1, double share,
+                       const double *colors, int n)
+{
+    image a;
+    if (load(path, &a))
+        return 2;
+    long lit = 0, first = 0;
+    for (int y = y0; y <= y1; y++)
+        for (int x = x0; x <= x1; x++) {
+            if (x < 0 || y < 0 || x >= a.w || y >= a.h)
+                continue;
+            const unsigned char *p = a.rgb + ((size_t)y * a.w + x) * 3;
+            const int sum = p[0] + p[1] + p[2];
+            if (sum <= 150)
+                continue;
+            lit++;
+            int best = 0;
+            double bd = INFINITY;
+            for (int c = 0; c < n; c++) {
+                const double *w = colors + 3 * c, ws = w[0] + w[1] + w[2];
+                double d = 0;
+                for (int k = 0; k < 3; k++)
+                    d += pow((double)p[k] / sum - w[k] / ws, 2);
+                if (d < bd)
+                    bd = d, best = c;
+            }
+            first += best == 0;
+        }
+    free(a.rgb);
+    printf("%s: in (%d, %d)..(%d, %d): %ld of %ld lit pixels nearest (%.2f, %.2f, %.2f)\n", path,
+           x0, y0, x1, y1, first, lit, colors[0], colors[1], colors[2]);
+    if (lit < 20 || 100.0 * (double)first < share * (double)lit) {
+        printf("FAIL: fewer than %g %% of them\n", share);
+        return 1;
+    }
+    printf("PASS\n");
+    return 0;
+}
+
 static int steel(const char *path, int cx, int cy, int r)
 {
     image a;
@@ -455,6 +501,14 @@ int main(int argc, char **argv)
     if (argc == 10 && strcmp(argv[1], "hue") == 0)
         return hue_box(argv[2], atoi(argv[3]), atoi(argv[4]), atoi(argv[5]), atoi(argv[6]),
                        atof(argv[7]), atof(argv[8]), atof(argv[9]));
+    if (argc >= 14 && (argc - 8) % 3 == 0 && argc <= 8 + 3 * 8 &&
+        strcmp(argv[1], "nearest") == 0) {
+        double colors[3 * 8];
+        for (int i = 8; i < argc; i++)
+            colors[i - 8] = atof(argv[i]);
+        return nearest_box(argv[2], atoi(argv[3]), atoi(argv[4]), atoi(argv[5]), atoi(argv[6]),
+                           atof(argv[7]), colors, (argc - 8) / 3);
+    }
     if (argc == 6 && strcmp(argv[1], "steel") == 0)
         return steel(argv[2], atoi(argv[3]), atoi(argv[4]), atoi(argv[5]));
     if (argc == 6 && strcmp(argv[1], "panel") == 0)
@@ -474,6 +528,7 @@ int main(int argc, char **argv)
                     "       client-png-check similar A.png B.png X Y R M\n"
                     "       client-png-check steel IMAGE.png X Y R\n"
                     "       client-png-check hue IMAGE.png X0 Y0 X1 Y1 R G B\n"
+                    "       client-png-check nearest IMAGE.png X0 Y0 X1 Y1 P R G B R G B...\n"
                     "       client-png-check hudfit IMAGE.png Y1\n"
                     "       client-png-check panel IMAGE.png X Y R\n");
     return 2;

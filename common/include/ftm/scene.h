@@ -8,6 +8,7 @@
 
 #include "ftm/generate.h"
 #include "ftm/sim.h"
+#include "ftm/labels.h"
 #include "ftm/volume.h"
 
 #ifdef __cplusplus
@@ -101,6 +102,9 @@ ftm_scene_tool ftm_scene_get_tool(const ftm_scene *scene);
  * (docs/scene-format.md). NULL both for a scene without one. */
 const ftm_volume *ftm_scene_volume(const ftm_scene *scene);
 const ftm_ffd *ftm_scene_ffd(const ftm_scene *scene);
+/* [volume] labels: the label map on the image's voxels (the same counts,
+ * voxel size and box), for drawing the image by tissue; NULL without one. */
+const ftm_label_map *ftm_scene_volume_labels(const ftm_scene *scene);
 
 /* The contacts the script prescribes at simulation time t [s]: writes at most
  * capacity entries and returns how many are active (loads not yet started or
