@@ -131,6 +131,8 @@ int ftm_replay_scene_digest(const ftm_scene *scene, uint8_t out[FTM_REPLAY_DIGES
         put(&h, "far field", 9);
         put_u64(&h, (uint64_t)d.far_field);
     }
+    if (d.mass_scaling) /* the masses, and so every step, change with it */
+        put(&h, "mass scaling", 12);
     EVP_DigestUpdate(h.ctx, h.buf, h.fill);
     unsigned int len = 0;
     int ok = EVP_DigestFinal_ex(h.ctx, out, &len);

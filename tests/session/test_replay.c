@@ -899,6 +899,30 @@ static void test_digest_constraints(void **state)
     }
 }
 
+/* [fem] mass_scaling changes the masses, so two scenes that differ in it
+ * alone have different digests. */
+static void test_digest_mass_scaling(void **state)
+{
+    (void)state;
+    static const char *const texts[] = {
+        "[mesh]\ngenerator = lattice3d\nnx = 3\nny = 3\nnz = 3\nspacing = 0.01\n"
+        "[material]\nmass = 0.001\nstiffness = 50\n[sim]\nforces = linear-fem\n"
+        "[fem]\nyoung = 1e4\npoisson = 0.3\ndensity = 1000\n",
+        "[mesh]\ngenerator = lattice3d\nnx = 3\nny = 3\nnz = 3\nspacing = 0.01\n"
+        "[material]\nmass = 0.001\nstiffness = 50\n[sim]\nforces = linear-fem\n"
+        "[fem]\nyoung = 1e4\npoisson = 0.3\ndensity = 1000\nmass_scaling = on\n",
+    };
+    uint8_t d[2][32];
+    for (int i = 0; i < 2; i++) {
+        ftm_scene *sc = NULL;
+        ftm_error err;
+        assert_int_equal(ftm_scene_parse(texts[i], strlen(texts[i]), "m.scene", &sc, &err), FTM_OK);
+        ftm_replay_scene_digest(sc, d[i]);
+        ftm_scene_destroy(sc);
+    }
+    assert_memory_not_equal(d[0], d[1], 32);
+}
+
 /* An announcement is checked against this build's arithmetic first: a
  * server of another revision (or of none: revision 1, from before the
  * field) is refused with FTM_EVERSION, whatever its scene. */
@@ -1097,6 +1121,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sha256),
         cmocka_unit_test(test_digest_constraints),
+        cmocka_unit_test(test_digest_mass_scaling),
         cmocka_unit_test(test_id_held),
         cmocka_unit_test(test_announce_arithmetic),
         cmocka_unit_test(test_continue_in_contact),
