@@ -12,10 +12,6 @@ cd "$(dirname "$0")/.."
 deploy/install-deps.sh
 
 jobs=$(nproc 2>/dev/null || echo 2)
-# one test more than cores: the session tests spend much of their time
-# waiting on a real-time server (a local run used 56 % of two cores), and
-# their margins are set for a loaded machine
-tjobs=$((jobs + 1))
 status=0
 # The elastic far field's precomputation (docs/core.md, "Far field") is the
 # same bits in every build: computed once by the release build below, then
@@ -27,7 +23,7 @@ cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DFTM_WERROR=ON
 cmake --build build/release -j "$jobs"
 build/release/tools/ftm sim default --steps 1 --quiet >/dev/null   # the default scene's far field
 build/release/tools/ftm sim palpation --steps 1 --quiet >/dev/null # the main job's scene's
-ctest --test-dir build/release --output-on-failure -j "$tjobs" || status=1
+ctest --test-dir build/release --output-on-failure -j "$jobs" || status=1
 
 # (the ASan build leaves out a few tests that check behaviour the same in
 # every build, within CI's 30 minutes: the network-namespace tests, the
@@ -39,7 +35,7 @@ cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTM_WERROR=ON \
       -DFTM_SANITIZE=address,undefined -DFTM_BUILD_MESHER=OFF
 cmake --build build/asan -j "$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-  ctest --test-dir build/asan --output-on-failure -j "$tjobs" || status=1
+  ctest --test-dir build/asan --output-on-failure -j "$jobs" || status=1
 
 # clang builds every program FTM ships (libraries, server, client, bot, the
 # ftm tool) with warnings as errors, and the two golden-hash tests; the other
