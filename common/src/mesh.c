@@ -182,7 +182,11 @@ bool ftm_mesh_builder_node_fixed(const ftm_mesh_builder *b, int32_t node)
     return b && node >= 0 && node < b->node_count && b->nodes[node].fixed;
 }
 
-int32_t ftm_mesh_builder_label_nodes(const ftm_mesh_builder *b, int32_t label, uint8_t *mark)
+/* Calls fn(user, node) for every node of every element labelled `label`
+ * (a node of several such elements more than once); returns how many
+ * elements carry the label. */
+static int32_t for_label_nodes(const ftm_mesh_builder *b, int32_t label,
+                               void (*fn)(void *user, int32_t node), void *user)
 {
     if (!b || label < 1)
         return 0;
@@ -190,36 +194,33 @@ int32_t ftm_mesh_builder_label_nodes(const ftm_mesh_builder *b, int32_t label, u
     for (int32_t e = 0; b->tet_labels && e < b->tet_count; e++)
         if (b->tet_labels[e] == label) {
             for (int k = 0; k < 4; k++)
-                mark[b->tets[4 * (size_t)e + k]] = 1;
+                fn(user, b->tets[4 * (size_t)e + k]);
             found++;
         }
     for (int32_t e = 0; b->hex_labels && e < b->hex_count; e++)
         if (b->hex_labels[e] == label) {
             for (int k = 0; k < 8; k++)
-                mark[b->hexes[8 * (size_t)e + k]] = 1;
+                fn(user, b->hexes[8 * (size_t)e + k]);
             found++;
         }
     return found;
 }
 
+static void mark_node(void *user, int32_t node) { ((uint8_t *)user)[node] = 1; }
+
+int32_t ftm_mesh_builder_label_nodes(const ftm_mesh_builder *b, int32_t label, uint8_t *mark)
+{
+    return for_label_nodes(b, label, mark_node, mark);
+}
+
+static void fix_node(void *user, int32_t node)
+{
+    ((ftm_mesh_builder *)user)->nodes[node].fixed = true;
+}
+
 int32_t ftm_mesh_builder_fix_label(ftm_mesh_builder *b, int32_t label)
 {
-    if (!b || label < 1)
-        return 0;
-    int32_t found = 0;
-    for (int32_t e = 0; b->tet_labels && e < b->tet_count; e++)
-        if (b->tet_labels[e] == label) {
-            for (int k = 0; k < 4; k++)
-                b->nodes[b->tets[4 * (size_t)e + k]].fixed = true;
-            found++;
-        }
-    for (int32_t e = 0; b->hex_labels && e < b->hex_count; e++)
-        if (b->hex_labels[e] == label) {
-            for (int k = 0; k < 8; k++)
-                b->nodes[b->hexes[8 * (size_t)e + k]].fixed = true;
-            found++;
-        }
-    return found;
+    return for_label_nodes(b, label, fix_node, b);
 }
 
 static bool finite3(ftm_vec3 v)
