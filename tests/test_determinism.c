@@ -251,11 +251,13 @@ static const elem_scenario elem_scenarios[] = {
      0xb610fbe0a202cbb5ULL, 0x0ee2c1177d1551b9ULL},
     /* revision 4 (ftm/sim.h): co-rotational forces per element at the
      * substep's start, in vector lanes (common/src/elem_block.inc), the
-     * polar decomposition stopping on its determinant */
+     * polar decomposition stopping on its determinant; revision 5: the
+     * tetrahedra's fourth gradient and force from the other three, stress
+     * from H's upper triangle (the hexahedra's hash did not move) */
     {"corot-fem hexahedra", FTM_FORCES_COROT_FEM, false, FTM_ORDER_LAYER_COLORED,
      0xc47bb98aae4302d8ULL, 0xe54a1063fa34ae29ULL},
     {"corot-fem tetrahedra jacobi", FTM_FORCES_COROT_FEM, true, FTM_ORDER_LAYER_JACOBI,
-     0x1b6f77c148213d0aULL, 0x66bb4b87bd3a35a3ULL},
+     0x1b6f77c148213d0aULL, 0x2bf097f919f6502bULL},
     {"neo-hookean hexahedra", FTM_FORCES_NEO_HOOKEAN, false, FTM_ORDER_LAYER_COLORED,
      0x18f5985f9213b241ULL, 0x34e413af608ea098ULL},
     {"neo-hookean tetrahedra bfs", FTM_FORCES_NEO_HOOKEAN, true, FTM_ORDER_BFS,

@@ -84,6 +84,10 @@ struct ftm_elem {
     uint32_t bgen;
     /* the blocks of the schedule's nodes, for the schedule of that version */
     int32_t *sched_blk, nsched_blk;
+    /* the schedule's positions k in the order of their nodes' first force
+     * records (sched_key: scratch), which element_forces_of follows */
+    int32_t *sched_perm;
+    int64_t *sched_key;
     uint32_t sched_version;
     bool sched_known;
     /* the blocks evaluated at the end of the last step (in generation gen)
@@ -143,6 +147,8 @@ void ftm_elem_free(ftm_elem *el)
     free(el->bstamp);
     free(el->inv_mark);
     free(el->sched_blk);
+    free(el->sched_perm);
+    free(el->sched_key);
     free(el);
 }
 
@@ -223,11 +229,13 @@ static inline void element_force(const ftm_elem *restrict el, const double *rest
     f[2] = fz;
 }
 
-/* element_force of count nodes into out (3 each), four nodes' sums
- * interleaved: each is one chain of dependent additions, which alone would
- * wait on every add. Each node's additions are those of element_force. */
+/* element_force of count nodes into out (3 each), taken in the order perm
+ * (node[perm[k]] into out + 3 perm[k]), four nodes' sums interleaved: each
+ * is one chain of dependent additions, which alone would wait on every
+ * add. Each node's additions are those of element_force. */
 static void element_forces_of(const ftm_elem *restrict el, const double *restrict fe,
-                              const int32_t *restrict node, int32_t count, double *restrict out)
+                              const int32_t *restrict node, const int32_t *restrict perm,
+                              int32_t count, double *restrict out)
 {
     typedef double v2 __attribute__((vector_size(16)));
     int32_t k = 0;
@@ -236,8 +244,9 @@ static void element_forces_of(const ftm_elem *restrict el, const double *restric
         v2 xy[4];
         double fz[4];
         for (int j = 0; j < 4; j++) {
-            q[j] = el->inc_start[node[k + j]];
-            end[j] = el->inc_start[node[k + j] + 1];
+            const int32_t i = node[perm[k + j]];
+            q[j] = el->inc_start[i];
+            end[j] = el->inc_start[i + 1];
             xy[j] = (v2){0.0, 0.0};
             fz[j] = 0.0;
         }
@@ -256,13 +265,14 @@ static void element_forces_of(const ftm_elem *restrict el, const double *restric
                 break;
         }
         for (int j = 0; j < 4; j++) {
-            out[3 * (k + j)] = xy[j][0];
-            out[3 * (k + j) + 1] = xy[j][1];
-            out[3 * (k + j) + 2] = fz[j];
+            double *o = out + 3 * (size_t)perm[k + j];
+            o[0] = xy[j][0];
+            o[1] = xy[j][1];
+            o[2] = fz[j];
         }
     }
     for (; k < count; k++)
-        element_force(el, fe, node[k], out + 3 * k);
+        element_force(el, fe, node[perm[k]], out + 3 * (size_t)perm[k]);
 }
 
 static inline void node_force(const ftm_elem *el, const ftm_mesh *m, const double *x, int32_t i,
@@ -309,6 +319,12 @@ static int cmp_block(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+static int cmp_key(const void *a, const void *b)
+{
+    const int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
+}
+
 /* The blocks of the schedule's nodes, once per schedule, ascending: their
  * data are then read as one forward stream (blocks are independent, so
  * the order changes no bits). */
@@ -330,6 +346,17 @@ static void schedule_blocks(ftm_elem *el, const schedule *s)
     }
     qsort(el->sched_blk, (size_t)nb, sizeof *el->sched_blk, cmp_block);
     el->nsched_blk = nb;
+    /* the nodes' sums then read their records nearly in memory order, not
+     * in the layers' order (each sum's bits are its own either way) */
+    for (int32_t k = 0; k < s->count; k++) {
+        const int32_t i = s->node[k];
+        const int64_t first =
+            el->inc_start[i] < el->inc_start[i + 1] ? el->inc_fe[el->inc_start[i]] : INT32_MAX;
+        el->sched_key[k] = first << 32 | k;
+    }
+    qsort(el->sched_key, (size_t)s->count, sizeof *el->sched_key, cmp_key);
+    for (int32_t k = 0; k < s->count; k++)
+        el->sched_perm[k] = (int32_t)(el->sched_key[k] & 0xffffffff);
     el->sched_version = s->version;
     el->sched_known = true;
 }
@@ -361,6 +388,11 @@ static bool prepare(ftm_elem *el, const ftm_sim *sim, bool sched, const node_lis
     if (nb == 0)
         return true;
     el->blocks(&el->eb, el->list, nb, sim->x, sim->m->rest);
+    if (eb->kind == FTM_EK_COROT) { /* (no element fails) */
+        for (int32_t k = 0; k < nb; k++)
+            el->valid[el->list[k]] = el->gen;
+        return true;
+    }
     bool bad = false;
     for (int32_t k = 0; k < nb; k++) {
         const int32_t b = el->list[k], e0 = ftm_eb_first(eb, b);
@@ -467,7 +499,7 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
         prepare(el, sim, true, NULL, 0);
         if (sim->def.order != FTM_ORDER_LAYER_JACOBI) {
             pre = s->tmp;
-            element_forces_of(el, el->eb.fe, s->node, s->count, pre);
+            element_forces_of(el, el->eb.fe, s->node, el->sched_perm, s->count, pre);
         }
     }
     if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
@@ -650,9 +682,12 @@ static int element_forces(const ftm_sim *sim, const double *x, double *f)
      * the integrator's order; nothing written if an element is inverted */
     ftm_elem_blocks eb = el->eb;
     const size_t nb = (size_t)eb.count;
+    const bool neo = eb.kind == FTM_EK_NEO; /* (co-rotational: ok and det are constants) */
     eb.fe = ftm_eb_alloc_fe(&eb);
-    eb.det = malloc((FTM_EB * nb + 1) * sizeof *eb.det);
-    eb.ok = malloc((FTM_EB * nb + 1) * sizeof *eb.ok);
+    if (neo) {
+        eb.det = malloc((FTM_EB * nb + 1) * sizeof *eb.det);
+        eb.ok = malloc((FTM_EB * nb + 1) * sizeof *eb.ok);
+    }
     eb.u = malloc((3 * (size_t)m->node_count + 1) * sizeof *eb.u);
     int32_t *all = malloc((nb + 1) * sizeof *all);
     int rc = eb.fe && eb.det && eb.ok && eb.u && all ? FTM_OK : FTM_ENOMEM;
@@ -668,8 +703,10 @@ static int element_forces(const ftm_sim *sim, const double *x, double *f)
     for (int32_t i = 0; !rc && i < m->node_count; i++)
         element_force(el, eb.fe, i, f + 3 * i);
     free(eb.fe);
-    free(eb.det);
-    free(eb.ok);
+    if (neo) {
+        free(eb.det);
+        free(eb.ok);
+    }
     free(eb.u);
     free(all);
     return rc;
@@ -1116,12 +1153,14 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
     el->bstamp = calloc(nb + 1, sizeof *el->bstamp);
     el->inv_mark = calloc((size_t)el->count + 1, sizeof *el->inv_mark);
     el->sched_blk = malloc((nb + 1) * sizeof *el->sched_blk);
+    el->sched_perm = malloc(((size_t)m->node_count + 1) * sizeof *el->sched_perm);
+    el->sched_key = malloc(((size_t)m->node_count + 1) * sizeof *el->sched_key);
     eb->elem_of = malloc(((size_t)el->count + 1) * sizeof *eb->elem_of);
     eb->place_of = malloc(((size_t)el->count + 1) * sizeof *eb->place_of);
     if (!eb->lanes || !eb->node || !eb->fe || !eb->det || !eb->ok || !eb->gp || !eb->rest || !eb->mat || !eb->u || !el->inc_fe ||
         !eb->elem_of || !eb->place_of ||
         !el->node_blk_start || !el->node_blk || !el->valid || !el->list || !el->bstamp ||
-        !el->inv_mark || !el->sched_blk)
+        !el->inv_mark || !el->sched_blk || !el->sched_perm || !el->sched_key)
         return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %d element blocks",
                              (int)nb);
     if (place_elements(el, m, eb)) {
@@ -1129,6 +1168,11 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
         free(eb->place_of);
         eb->elem_of = eb->place_of = NULL;
     }
+    if (!neo) /* (co-rotational elements never fail: set once, not per evaluation) */
+        for (size_t k = 0; k < FTM_EB * (size_t)nb; k++) {
+            eb->ok[k] = -1;
+            eb->det[k] = 1.0;
+        }
     for (int32_t b = 0; b < eb->count; b++) {
         const bool hex = ftm_eb_hex(eb, b);
         const int32_t e0 = ftm_eb_first(eb, b), e1 = hex ? eb->hex_count : el->count;
