@@ -28,16 +28,15 @@ typedef int64_t e4l __attribute__((vector_size(32)));
 #define LOAD_XYZ4(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
 #define SELECT_BITS(m, a, b) ((EV)(((m) & (EL)(a)) | (~(m) & (EL)(b))))
 
-/* Stores EW lanes' forces (x, y, z) as records (x, y, z, 0) at their
- * slots (ftm_eb_slot) of a node's records p, the lanes from lane0 */
+/* Stores EW lanes' forces (x, y, z) as records (x, y, z) (ftm_eb_fe) of a
+ * node's records p, the lanes from lane0 */
 #define STOREF_LANES(p, lane0, x, y, z)                                                          \
     do {                                                                                         \
         for (int l_ = 0; l_ < EW; l_++) {                                                        \
-            double *r_ = (p) + 4 * ftm_eb_slot((lane0) + l_);                                    \
+            double *r_ = (p) + FTM_EB_REC * ((lane0) + l_);                                      \
             r_[0] = (x)[l_];                                                                     \
             r_[1] = (y)[l_];                                                                     \
             r_[2] = (z)[l_];                                                                     \
-            r_[3] = 0.0;                                                                         \
         }                                                                                        \
     } while (0)
 
@@ -58,18 +57,19 @@ typedef int64_t e4l __attribute__((vector_size(32)));
 #undef EANY
 
 #if defined(__x86_64__) || defined(__i386__)
-/* 4 lanes transposed to records: (x0 y0 x2 y2) (z0 0 z2 0), ... */
+/* 4 lanes to 4 records (x, y, z): (x0 y0 z0 x1) (y1 z1 x2 y2) (z2 x3 y3 z3) */
 static inline __attribute__((target("avx2"), always_inline)) void
 avx2_storef(double *p, int lane0, e4d x, e4d y, e4d z)
 {
-    const __m256d t0 = _mm256_unpacklo_pd((__m256d)x, (__m256d)y),
-                  t1 = _mm256_unpackhi_pd((__m256d)x, (__m256d)y),
-                  t2 = _mm256_unpacklo_pd((__m256d)z, _mm256_setzero_pd()),
-                  t3 = _mm256_unpackhi_pd((__m256d)z, _mm256_setzero_pd());
-    _mm256_storeu_pd(p + 4 * ftm_eb_slot(lane0), _mm256_permute2f128_pd(t0, t2, 0x20));
-    _mm256_storeu_pd(p + 4 * ftm_eb_slot(lane0 + 1), _mm256_permute2f128_pd(t1, t3, 0x20));
-    _mm256_storeu_pd(p + 4 * ftm_eb_slot(lane0 + 2), _mm256_permute2f128_pd(t0, t2, 0x31));
-    _mm256_storeu_pd(p + 4 * ftm_eb_slot(lane0 + 3), _mm256_permute2f128_pd(t1, t3, 0x31));
+    const __m256d X = (__m256d)x, Y = (__m256d)y, Z = (__m256d)z;
+    const __m256d xy = _mm256_unpacklo_pd(X, Y),                             /* x0 y0 x2 y2 */
+        yz = _mm256_unpackhi_pd(Y, Z),                                       /* y1 z1 y3 z3 */
+        zx1 = _mm256_unpacklo_pd(Z, _mm256_permute4x64_pd(X, 0x55)),         /* z0 x1 z2 x1 */
+        zx3 = _mm256_unpacklo_pd(Z, _mm256_permute4x64_pd(X, 0xff));         /* z0 x3 z2 x3 */
+    double *r = p + FTM_EB_REC * lane0;
+    _mm256_storeu_pd(r, _mm256_permute2f128_pd(xy, zx1, 0x20));     /* x0 y0 z0 x1 */
+    _mm256_storeu_pd(r + 4, _mm256_permute2f128_pd(yz, xy, 0x30));  /* y1 z1 x2 y2 */
+    _mm256_storeu_pd(r + 8, _mm256_permute2f128_pd(zx3, yz, 0x31)); /* z2 x3 y3 z3 */
 }
 
 #define ETARGET __attribute__((target("avx2")))
@@ -114,23 +114,25 @@ load_xyz8(const double *p, const size_t o[8], e8d *x, e8d *y, e8d *z)
     *z = (e8d)_mm512_unpackhi_pd(yz0, yz1);
 }
 
-/* 8 lanes transposed to records, two lanes per store: lanes (0, 2) (4, 6)
- * (1, 3) (5, 7), slots 0 .. 7 (ftm_eb_slot) */
+/* 8 lanes to 8 records (x, y, z), three stores: x and y interleaved by one
+ * permute, z blended in by a masked one */
 static inline __attribute__((target("avx512f"), always_inline)) void
 avx512_storef(double *p, int lane0, e8d x, e8d y, e8d z)
 {
     (void)lane0; /* (0: a block is one vector) */
-    const __m512d zero = _mm512_setzero_pd(),
-                  t0 = _mm512_unpacklo_pd((__m512d)x, (__m512d)y), /* x0 y0 x2 y2 x4 y4 x6 y6 */
-        t1 = _mm512_unpackhi_pd((__m512d)x, (__m512d)y),           /* x1 y1 x3 y3 ... */
-        t2 = _mm512_unpacklo_pd((__m512d)z, zero),                 /* z0 0 z2 0 ... */
-        t3 = _mm512_unpackhi_pd((__m512d)z, zero);
-    const __m512i lo = _mm512_set_epi64(11, 10, 3, 2, 9, 8, 1, 0),
-                  hi = _mm512_set_epi64(15, 14, 7, 6, 13, 12, 5, 4);
-    _mm512_storeu_pd(p, _mm512_permutex2var_pd(t0, lo, t2));      /* lanes 0, 2 */
-    _mm512_storeu_pd(p + 8, _mm512_permutex2var_pd(t0, hi, t2));  /* 4, 6 */
-    _mm512_storeu_pd(p + 16, _mm512_permutex2var_pd(t1, lo, t3)); /* 1, 3 */
-    _mm512_storeu_pd(p + 24, _mm512_permutex2var_pd(t1, hi, t3)); /* 5, 7 */
+    const __m512d X = (__m512d)x, Y = (__m512d)y, Z = (__m512d)z;
+    /* (_mm512_set_epi64 lists elements 7 .. 0) */
+    const __m512d a0 = _mm512_permutex2var_pd(X, _mm512_set_epi64(10, 2, 0, 9, 1, 0, 8, 0), Y),
+                  a1 = _mm512_permutex2var_pd(X, _mm512_set_epi64(5, 0, 12, 4, 0, 11, 3, 0), Y),
+                  a2 = _mm512_permutex2var_pd(X, _mm512_set_epi64(0, 15, 7, 0, 14, 6, 0, 13), Y);
+    _mm512_storeu_pd(p, _mm512_mask_permutexvar_pd(a0, 0x24, _mm512_set_epi64(0, 0, 1, 0, 0, 0, 0, 0),
+                                                   Z)); /* x0 y0 z0 x1 y1 z1 x2 y2 */
+    _mm512_storeu_pd(p + 8, _mm512_mask_permutexvar_pd(
+                                a1, 0x49, _mm512_set_epi64(0, 4, 0, 0, 3, 0, 0, 2),
+                                Z)); /* z2 x3 y3 z3 x4 y4 z4 x5 */
+    _mm512_storeu_pd(p + 16, _mm512_mask_permutexvar_pd(
+                                 a2, 0x92, _mm512_set_epi64(7, 0, 0, 6, 0, 0, 5, 0),
+                                 Z)); /* y5 z5 x6 y6 z6 x7 y7 z7 */
 }
 
 #define EW 8

@@ -7,7 +7,7 @@
  * (hexahedra first, then tetrahedra; a type's last block may be partial),
  * and every per-element input array is stored lane-minor: value k of the
  * element in lane l of block b at [b's offset + k * FTM_EB + l]; the forces
- * are records of 4 (ftm_eb_fe). A kernel of W
+ * are records of FTM_EB_REC (ftm_eb_fe). A kernel of W
  * lanes (8 with AVX-512, 4 with AVX2 or portable) runs a block as FTM_EB / W
  * vectors, each lane doing one element's operations in one fixed order, so
  * every kernel gives the same bits on every machine: for neo-Hookean forces
@@ -50,9 +50,9 @@ typedef struct ftm_elem_blocks {
     double *u;          /* scratch, per node: x - rest (3 each), filled by a
                            kernel for the nodes of the blocks it evaluates */
     int32_t nodes;      /* the mesh's nodes (u holds 3 nodes + 1) */
-    double *fe;         /* per block the nodal forces, nn x FTM_EB records of 4
-                           (x, y, z, 0): lane l of node a at record
-                           FTM_EB a + ftm_eb_slot(l) (ftm_eb_fe) */
+    double *fe;         /* per block the nodal forces, nn x FTM_EB records of
+                           FTM_EB_REC (x, y, z): lane l of node a at record
+                           FTM_EB a + l (ftm_eb_fe) */
     double *det;        /* per block FTM_EB: neo, the smallest J of each lane's points */
     int64_t *ok;        /* per block FTM_EB: neo, all ones where J > 0 at every point;
                            co-rotational, all ones */
@@ -83,11 +83,10 @@ static inline int32_t ftm_eb_nodes(const ftm_elem_blocks *eb, int32_t b)
 {
     return b < eb->hex_blocks ? 8 : 4;
 }
-/* The record of lane l among a node's FTM_EB force records: lanes 0, 2,
- * 4, 6 then 1, 3, 5, 7, the order in which 8 lanes leave a transpose in
- * pairs (elem_kernel.c). One record per incidence: a node sums its
- * elements' forces from one cache line each. */
-static inline int ftm_eb_slot(int l) { return (l & 1) * (FTM_EB / 2) + (l >> 1); }
+/* A force record: x, y, z, unpadded, so that a block's records of one node
+ * are 3 cache lines and a sweep's records a quarter fewer lines than padded
+ * (x, y, z, 0) ones (docs/speed.md, revision 5). One record per incidence. */
+#define FTM_EB_REC 3
 /* the first place of block b (its lane l holds ftm_eb_elem(eb, first + l)) */
 static inline int32_t ftm_eb_first(const ftm_elem_blocks *eb, int32_t b)
 {
@@ -119,12 +118,13 @@ static inline size_t ftm_eb_node_off(const ftm_elem_blocks *eb, int32_t b)
 /* the force record of lane l, node a of block b, in eb->fe */
 static inline size_t ftm_eb_fe(const ftm_elem_blocks *eb, int32_t b, int a, int l)
 {
-    return 4 * (FTM_EB * (ftm_eb_node_off(eb, b) + (size_t)a) + (size_t)ftm_eb_slot(l));
+    return FTM_EB_REC * (FTM_EB * (ftm_eb_node_off(eb, b) + (size_t)a) + (size_t)l);
 }
 /* zeroed force records for every block, 64-byte aligned (free() them) */
 static inline double *ftm_eb_alloc_fe(const ftm_elem_blocks *eb)
 {
-    const size_t bytes = (4 * FTM_EB * ftm_eb_node_off(eb, eb->count) + 8) * sizeof(double);
+    const size_t bytes =
+        (FTM_EB_REC * FTM_EB * ftm_eb_node_off(eb, eb->count) + 8) * sizeof(double);
     const size_t size = (bytes + 63) / 64 * 64;
     double *p = aligned_alloc(64, size);
     if (p)

@@ -65,7 +65,7 @@ struct ftm_elem {
     double *gp;
     size_t *goff;
     /* co-rotational and neo-Hookean: the elements in blocks, evaluated a
-     * block at a time; inc_fe[q] is where the force record (x, y, z, 0) of
+     * block at a time; inc_fe[q] is where the force record (x, y, z) of
      * incidence q is in eb.fe; node i's blocks are
      * node_blk[node_blk_start[i] ..] */
     ftm_elem_blocks eb;
@@ -212,7 +212,7 @@ static inline void linear_force(const ftm_elem *restrict el, const ftm_mesh *res
 static inline void element_force(const ftm_elem *restrict el, const double *restrict fe,
                                  int32_t i, double f[3])
 {
-    /* a record (x, y, z, 0) at a time, x and y as a pair: the same
+    /* a record (x, y, z) at a time, x and y as a pair: the same
      * additions, per axis, as one by one */
     typedef double v2 __attribute__((vector_size(16)));
     v2 xy = {0.0, 0.0};
