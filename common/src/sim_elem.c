@@ -84,10 +84,6 @@ struct ftm_elem {
     uint32_t bgen;
     /* the blocks of the schedule's nodes, for the schedule of that version */
     int32_t *sched_blk, nsched_blk;
-    /* the schedule's positions k in the order of their nodes' first force
-     * records (sched_key: scratch), which element_forces_of follows */
-    int32_t *sched_perm;
-    int64_t *sched_key;
     uint32_t sched_version;
     bool sched_known;
     /* the blocks evaluated at the end of the last step (in generation gen)
@@ -147,8 +143,6 @@ void ftm_elem_free(ftm_elem *el)
     free(el->bstamp);
     free(el->inv_mark);
     free(el->sched_blk);
-    free(el->sched_perm);
-    free(el->sched_key);
     free(el);
 }
 
@@ -229,50 +223,74 @@ static inline void element_force(const ftm_elem *restrict el, const double *rest
     f[2] = fz;
 }
 
-/* element_force of count nodes into out (3 each), taken in the order perm
- * (node[perm[k]] into out + 3 perm[k]), four nodes' sums interleaved: each
- * is one chain of dependent additions, which alone would wait on every
- * add. Each node's additions are those of element_force. */
-static void element_forces_of(const ftm_elem *restrict el, const double *restrict fe,
-                              const int32_t *restrict node, const int32_t *restrict perm,
-                              int32_t count, double *restrict out)
+static inline __attribute__((always_inline)) void
+forces_of_body(const ftm_elem *restrict el, const double *restrict fe,
+               const int32_t *restrict node, int32_t count, double *restrict out)
 {
-    typedef double v2 __attribute__((vector_size(16)));
+    /* a record's x, y, z and the next record's x as one vector, one load
+     * and one add a record: the fourth lane's sum is not used
+     * (ftm_eb_alloc_fe pads the last record) */
+    typedef double v4 __attribute__((vector_size(32), aligned(8)));
     int32_t k = 0;
     for (; k + 4 <= count; k += 4) {
         int32_t q[4], end[4];
-        v2 xy[4];
-        double fz[4];
+        v4 acc[4];
         for (int j = 0; j < 4; j++) {
-            const int32_t i = node[perm[k + j]];
+            const int32_t i = node[k + j];
             q[j] = el->inc_start[i];
             end[j] = el->inc_start[i + 1];
-            xy[j] = (v2){0.0, 0.0};
-            fz[j] = 0.0;
+            acc[j] = (v4){0.0, 0.0, 0.0, 0.0};
         }
         for (;;) {
             int live = 0;
             for (int j = 0; j < 4; j++)
                 if (q[j] < end[j]) {
-                    const double *fa = fe + el->inc_fe[q[j]++];
-                    v2 a;
-                    memcpy(&a, fa, sizeof a);
-                    xy[j] += a;
-                    fz[j] += fa[2];
+                    acc[j] += *(const v4 *)(fe + el->inc_fe[q[j]++]);
                     live++;
                 }
             if (!live)
                 break;
         }
         for (int j = 0; j < 4; j++) {
-            double *o = out + 3 * (size_t)perm[k + j];
-            o[0] = xy[j][0];
-            o[1] = xy[j][1];
-            o[2] = fz[j];
+            double *o = out + 3 * (size_t)(k + j);
+            o[0] = acc[j][0];
+            o[1] = acc[j][1];
+            o[2] = acc[j][2];
         }
     }
     for (; k < count; k++)
-        element_force(el, fe, node[perm[k]], out + 3 * (size_t)perm[k]);
+        element_force(el, fe, node[k], out + 3 * (size_t)k);
+}
+
+static void forces_of_base(const ftm_elem *restrict el, const double *restrict fe,
+                           const int32_t *restrict node, int32_t count, double *restrict out)
+{
+    forces_of_body(el, fe, node, count, out);
+}
+
+#if defined(__x86_64__) || defined(__i386__)
+static __attribute__((target("avx2"))) void
+forces_of_avx2(const ftm_elem *restrict el, const double *restrict fe,
+               const int32_t *restrict node, int32_t count, double *restrict out)
+{
+    forces_of_body(el, fe, node, count, out);
+}
+#endif
+
+/* element_force of count nodes into out (3 each), four nodes' sums
+ * interleaved: each is one chain of dependent additions, which alone would
+ * wait on every add. Each node's additions are those of element_force, in
+ * 256-bit vectors where the processor has them (the same bits per lane). */
+static void element_forces_of(const ftm_elem *restrict el, const double *restrict fe,
+                              const int32_t *restrict node, int32_t count, double *restrict out)
+{
+#if defined(__x86_64__) || defined(__i386__)
+    if (__builtin_cpu_supports("avx2")) {
+        forces_of_avx2(el, fe, node, count, out);
+        return;
+    }
+#endif
+    forces_of_base(el, fe, node, count, out);
 }
 
 static inline void node_force(const ftm_elem *el, const ftm_mesh *m, const double *x, int32_t i,
@@ -319,12 +337,6 @@ static int cmp_block(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static int cmp_key(const void *a, const void *b)
-{
-    const int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
-    return (x > y) - (x < y);
-}
-
 /* The blocks of the schedule's nodes, once per schedule, ascending: their
  * data are then read as one forward stream (blocks are independent, so
  * the order changes no bits). */
@@ -346,17 +358,6 @@ static void schedule_blocks(ftm_elem *el, const schedule *s)
     }
     qsort(el->sched_blk, (size_t)nb, sizeof *el->sched_blk, cmp_block);
     el->nsched_blk = nb;
-    /* the nodes' sums then read their records nearly in memory order, not
-     * in the layers' order (each sum's bits are its own either way) */
-    for (int32_t k = 0; k < s->count; k++) {
-        const int32_t i = s->node[k];
-        const int64_t first =
-            el->inc_start[i] < el->inc_start[i + 1] ? el->inc_fe[el->inc_start[i]] : INT32_MAX;
-        el->sched_key[k] = first << 32 | k;
-    }
-    qsort(el->sched_key, (size_t)s->count, sizeof *el->sched_key, cmp_key);
-    for (int32_t k = 0; k < s->count; k++)
-        el->sched_perm[k] = (int32_t)(el->sched_key[k] & 0xffffffff);
     el->sched_version = s->version;
     el->sched_known = true;
 }
@@ -499,7 +500,7 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
         prepare(el, sim, true, NULL, 0);
         if (sim->def.order != FTM_ORDER_LAYER_JACOBI) {
             pre = s->tmp;
-            element_forces_of(el, el->eb.fe, s->node, el->sched_perm, s->count, pre);
+            element_forces_of(el, el->eb.fe, s->node, s->count, pre);
         }
     }
     if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
@@ -1153,14 +1154,12 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
     el->bstamp = calloc(nb + 1, sizeof *el->bstamp);
     el->inv_mark = calloc((size_t)el->count + 1, sizeof *el->inv_mark);
     el->sched_blk = malloc((nb + 1) * sizeof *el->sched_blk);
-    el->sched_perm = malloc(((size_t)m->node_count + 1) * sizeof *el->sched_perm);
-    el->sched_key = malloc(((size_t)m->node_count + 1) * sizeof *el->sched_key);
     eb->elem_of = malloc(((size_t)el->count + 1) * sizeof *eb->elem_of);
     eb->place_of = malloc(((size_t)el->count + 1) * sizeof *eb->place_of);
     if (!eb->lanes || !eb->node || !eb->fe || !eb->det || !eb->ok || !eb->gp || !eb->rest || !eb->mat || !eb->u || !el->inc_fe ||
         !eb->elem_of || !eb->place_of ||
         !el->node_blk_start || !el->node_blk || !el->valid || !el->list || !el->bstamp ||
-        !el->inv_mark || !el->sched_blk || !el->sched_perm || !el->sched_key)
+        !el->inv_mark || !el->sched_blk)
         return ftm_error_set(err, FTM_ENOMEM, "sim: out of memory for %d element blocks",
                              (int)nb);
     if (place_elements(el, m, eb)) {
