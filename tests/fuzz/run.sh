@@ -7,19 +7,25 @@
 # and the script exits 1. With --merge, the inputs that reached new
 # coverage are merged back into tests/fuzz/corpus/TARGET (minimised).
 # With --runs N each target instead runs N inputs from a fixed seed: the same
-# inputs on every run of the same build (CI's smoke run).
-#   tests/fuzz/run.sh [--merge] [--build DIR] [--runs N] [SECONDS] [TARGET...]
+# inputs on every run of the same build (CI's smoke run). --build-only builds
+# the targets and stops; --no-build runs them as last built (so that CI can
+# run two sets at once on one build).
+#   tests/fuzz/run.sh [--merge] [--build DIR] [--runs N] [--build-only|--no-build]
+#                     [SECONDS] [TARGET...]
 # (SECONDS is ignored with --runs)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 merge=0
 runs=0
 build=build/fuzz
+make=1
 while [ $# -gt 0 ]; do
     case $1 in
     --merge) merge=1; shift ;;
     --build) build=$2; shift 2 ;;
     --runs) runs=$2; shift 2 ;;
+    --build-only) make=2; shift ;;
+    --no-build) make=0; shift ;;
     *) break ;;
     esac
 done
@@ -40,9 +46,12 @@ fi
 
 # (client/ configured too: fuzz_script reads scripts through its haptic
 # device; only the targets named are built)
-CC=clang cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFTM_FUZZ=ON -DFTM_WERROR=ON \
-    -DFTM_SANITIZE=address,undefined -DFTM_BUILD_MESHER=OFF >/dev/null
-cmake --build "$build" --target "${targets[@]}"
+if [ $make -gt 0 ]; then
+    CC=clang cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFTM_FUZZ=ON \
+        -DFTM_WERROR=ON -DFTM_SANITIZE=address,undefined -DFTM_BUILD_MESHER=OFF >/dev/null
+    cmake --build "$build" --target "${targets[@]}"
+    [ $make = 1 ] || exit 0
+fi
 
 # Assimp's leak on malformed STL files is suppressed (lsan.supp says why)
 export LSAN_OPTIONS="suppressions=$PWD/tests/fuzz/lsan.supp${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
