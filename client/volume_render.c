@@ -502,6 +502,26 @@ static uint8_t *label_texels(const ftm_label_map *labels)
 
 /* Uploads the label map's colours (nearest: a voxel is one tissue), and
  * compiles the shader's label variants the first time. */
+/* A new RGBA8 3D texture in *tex of nx x ny x nz texels, filtered by filter,
+ * texels freed; what names it in the error (FTM_OK, or ftm_gl_fail's code). */
+static int upload_rgba3d(GLuint *tex, int32_t nx, int32_t ny, int32_t nz, uint8_t *texels,
+                         GLint filter, const char *what, ftm_error *err)
+{
+    glGenTextures(1, tex);
+    glBindTexture(GL_TEXTURE_3D, *tex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA8, nx, ny, nz, 0, GL_RGBA, GL_UNSIGNED_BYTE, texels);
+    free(texels);
+    ftm_gl_texture_params(GL_TEXTURE_3D, filter);
+    glBindTexture(GL_TEXTURE_3D, 0);
+    GLenum e = glGetError();
+    if (e == GL_NO_ERROR)
+        return FTM_OK;
+    char msg[64];
+    snprintf(msg, sizeof msg, "GL error 0x%x uploading %s", e, what);
+    return ftm_gl_fail(err, "volume", msg);
+}
+
 static int set_labels(ftm_volume_render *vr, const ftm_label_map *labels, ftm_error *err)
 {
     ftm_volume_info li = ftm_label_map_get_info(labels);
@@ -519,21 +539,7 @@ static int set_labels(ftm_volume_render *vr, const ftm_label_map *labels, ftm_er
     uint8_t *texels = label_texels(labels);
     if (!texels)
         return ftm_gl_fail(err, "volume", "out of memory");
-    glGenTextures(1, &vr->ltex);
-    glBindTexture(GL_TEXTURE_3D, vr->ltex);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA8, li.nx, li.ny, li.nz, 0, GL_RGBA, GL_UNSIGNED_BYTE,
-                 texels);
-    free(texels);
-    ftm_gl_texture_params(GL_TEXTURE_3D, GL_NEAREST);
-    glBindTexture(GL_TEXTURE_3D, 0);
-    GLenum e = glGetError();
-    if (e != GL_NO_ERROR) {
-        char msg[64];
-        snprintf(msg, sizeof msg, "GL error 0x%x uploading the label map", e);
-        return ftm_gl_fail(err, "volume", msg);
-    }
-    return FTM_OK;
+    return upload_rgba3d(&vr->ltex, li.nx, li.ny, li.nz, texels, GL_NEAREST, "the label map", err);
 }
 
 int ftm_volume_render_set(ftm_volume_render *vr, const ftm_volume *volume, const ftm_ffd *ffd,
@@ -617,22 +623,11 @@ int ftm_volume_render_set(ftm_volume_render *vr, const ftm_volume *volume, const
         vr->olo[a] = vr->lo[a] + (vr->hi[a] - vr->lo[a]) * (none ? 0 : bl[a]) / vr->nb[a];
         vr->ohi[a] = vr->lo[a] + (vr->hi[a] - vr->lo[a]) * (none ? vr->nb[a] : bh[a] + 1) / vr->nb[a];
     }
-    glGenTextures(1, &vr->tex);
-    glBindTexture(GL_TEXTURE_3D, vr->tex);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA8, in.nx, in.ny, in.nz, 0, GL_RGBA, GL_UNSIGNED_BYTE,
-                 texels);
-    free(texels);
-    ftm_gl_texture_params(GL_TEXTURE_3D, GL_LINEAR);
-    glBindTexture(GL_TEXTURE_3D, 0);
-    GLenum e = glGetError();
-    if (e != GL_NO_ERROR) {
-        char msg[64];
-        snprintf(msg, sizeof msg, "GL error 0x%x uploading the image", e);
+    int rc = upload_rgba3d(&vr->tex, in.nx, in.ny, in.nz, texels, GL_LINEAR, "the image", err);
+    if (rc) {
         clear(vr);
-        return ftm_gl_fail(err, "volume", msg);
+        return rc;
     }
-    int rc;
     if (labels && (rc = set_labels(vr, labels, err)) != FTM_OK) {
         clear(vr);
         return rc;
