@@ -11,7 +11,7 @@
 #include <string.h>
 
 #if defined(__x86_64__) || defined(__i386__)
-#include <immintrin.h>
+#include "simd8.h"
 #endif
 
 /* the helpers of elem_block.inc pass vectors by value; all are inlined */
@@ -26,6 +26,9 @@ typedef int64_t e4l __attribute__((vector_size(32)));
 
 /* 4 lanes: x, y, z of four points by 16-byte pairs (sim_internal.h) */
 #define LOAD_XYZ4(p, o, x, y, z) ftm_load_xyz4(p, o[0], o[1], o[2], o[3], x, y, z)
+/* 4 lanes: x, y, z of four nodes' displacements (eb->u) */
+#define LOAD_U4(p, o, x, y, z)                                                                   \
+    ftm_load_xyz4(p, FTM_EB_U * o[0], FTM_EB_U * o[1], FTM_EB_U * o[2], FTM_EB_U * o[3], x, y, z)
 #define SELECT_BITS(m, a, b) ((EV)(((m) & (EL)(a)) | (~(m) & (EL)(b))))
 
 /* Stores EW lanes' forces (x, y, z) as records (x, y, z) (ftm_eb_fe) of a
@@ -48,6 +51,7 @@ typedef int64_t e4l __attribute__((vector_size(32)));
 #define ESELECT SELECT_BITS
 #define EANY(m) ((m)[0] | (m)[1] | (m)[2] | (m)[3])
 #define ELOADXYZ LOAD_XYZ4
+#define ELOADU LOAD_U4
 #define ESTOREF STOREF_LANES
 #include "elem_block.inc"
 #undef ESTOREF
@@ -84,34 +88,22 @@ avx2_storef(double *p, int lane0, e4d x, e4d y, e4d z)
 #undef ESELECT
 #undef EANY
 #undef ELOADXYZ
+#undef ELOADU
 #undef EW
 #undef EV
 #undef EL
 
-/* 8 lanes: x, y, z of eight points, as sim_kernel.c's load_xyz8 */
-static inline __attribute__((target("avx512f"), always_inline)) __m512d
-pairs4(const double *a, const double *b, const double *c, const double *d)
-{
-    const __m256d lo =
-        _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(a)), _mm_loadu_pd(b), 1);
-    const __m256d hi =
-        _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(c)), _mm_loadu_pd(d), 1);
-    return _mm512_insertf64x4(_mm512_castpd256_pd512(lo), hi, 1);
-}
+/* 8 lanes: x, y, z of eight points (simd8.h) */
+typedef v8d e8d;
+typedef v8l e8l;
 
-typedef double e8d __attribute__((vector_size(64)));
-typedef int64_t e8l __attribute__((vector_size(64)));
-
-static inline __attribute__((target("avx512f"), always_inline)) void
-load_xyz8(const double *p, const size_t o[8], e8d *x, e8d *y, e8d *z)
+/* x, y, z of eight nodes' displacements (eb->u, rows of FTM_EB_U as the
+ * coefficient rows: one 256-bit load each and a transpose) */
+_Static_assert(FTM_EB_U == FTM_COEF, "load_u8 reads rows as load_coef8 does");
+static inline AVX512 void load_u8(const double *p, const size_t o[8], e8d *x, e8d *y, e8d *z)
 {
-    const __m512d xy0 = pairs4(p + o[0], p + o[2], p + o[4], p + o[6]),
-                  xy1 = pairs4(p + o[1], p + o[3], p + o[5], p + o[7]),
-                  yz0 = pairs4(p + o[0] + 1, p + o[2] + 1, p + o[4] + 1, p + o[6] + 1),
-                  yz1 = pairs4(p + o[1] + 1, p + o[3] + 1, p + o[5] + 1, p + o[7] + 1);
-    *x = (e8d)_mm512_unpacklo_pd(xy0, xy1);
-    *y = (e8d)_mm512_unpacklo_pd(yz0, yz1);
-    *z = (e8d)_mm512_unpackhi_pd(yz0, yz1);
+    e8d unused;
+    load_coef8(p, o, x, y, z, &unused);
 }
 
 /* 8 lanes to 8 records (x, y, z), three stores: x and y interleaved by one
@@ -143,6 +135,7 @@ avx512_storef(double *p, int lane0, e8d x, e8d y, e8d z)
 #define ESELECT SELECT_BITS /* (a ternary logic instruction) */
 #define EANY(m) (_mm512_test_epi64_mask((__m512i)(m), (__m512i)(m)) != 0)
 #define ELOADXYZ load_xyz8
+#define ELOADU load_u8
 #define ESTOREF avx512_storef
 #include "elem_block.inc"
 #undef ESTOREF
@@ -151,6 +144,7 @@ avx512_storef(double *p, int lane0, e8d x, e8d y, e8d z)
 #undef ESELECT
 #undef EANY
 #undef ELOADXYZ
+#undef ELOADU
 #endif
 #undef EW
 #undef EV

@@ -29,10 +29,16 @@
  *   weight (hyperelastic.h): 8 x 25 on a hexahedron, 13 on a tetrahedron;
  * co-rotational: a hexahedron's inverse Jacobians at its 8 Gauss points and
  *   then its centre (9 each, ftm_hex8_inverse_jacobians) and the 8 points'
- *   weights; a tetrahedron's 12 gradients and its volume, as neo-Hookean. */
+ *   weights; a tetrahedron's 12 gradients and its volume, as neo-Hookean,
+ *   except that the fourth node's gradient, which the co-rotational kernel
+ *   never reads, gives its place to the volume times lambda and times mu
+ *   (ftm_eb_gp_off's blocks: two of FTM_EB_MAT's cache lines fewer a block,
+ *   and two multiplications). */
 #define FTM_NEO_HEX_GP (8 * 25)
 #define FTM_COROT_HEX_GP (9 * 9 + 8)
 #define FTM_TET_GP 13
+#define FTM_COROT_TET_WL 9  /* w lambda */
+#define FTM_COROT_TET_WM 10 /* w mu */
 
 typedef enum ftm_elem_kind { FTM_EK_NEO, FTM_EK_COROT } ftm_elem_kind;
 
@@ -47,9 +53,10 @@ typedef struct ftm_elem_blocks {
     double *gp;         /* per block the kind's element data, spare lanes 0 */
     double *rest;       /* per block the nodes' rest positions, 3 nn x FTM_EB
                            (co-rotational hexahedra) */
-    double *u;          /* scratch, per node: x - rest (3 each), filled by a
-                           kernel for the nodes of the blocks it evaluates */
-    int32_t nodes;      /* the mesh's nodes (u holds 3 nodes + 1) */
+    double *u;          /* scratch, per node: x - rest (FTM_EB_U each, the
+                           last not used), filled by a kernel for the nodes
+                           of the blocks it evaluates */
+    int32_t nodes;      /* the mesh's nodes (u holds FTM_EB_U nodes + 1) */
     double *fe;         /* per block the nodal forces, nn x FTM_EB records of
                            FTM_EB_REC (x, y, z): lane l of node a at record
                            FTM_EB a + l (ftm_eb_fe) */
@@ -72,6 +79,10 @@ typedef struct ftm_elem_blocks {
      * both: places are elements. */
     int32_t *elem_of, *place_of;
 } ftm_elem_blocks;
+
+/* eb->u's doubles per node: x, y, z and a fourth never read, so that eight
+ * lanes' displacements are eight 256-bit loads and a transpose */
+#define FTM_EB_U 4
 
 #define FTM_EB_MAT 3
 #define FTM_EB_MU 0

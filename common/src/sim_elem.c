@@ -223,41 +223,50 @@ static inline void element_force(const ftm_elem *restrict el, const double *rest
     f[2] = fz;
 }
 
+/* element_force of the w nodes node[0 .. w-1] into out (3 each), their
+ * sums interleaved: each is one chain of dependent additions, which alone
+ * would wait on every add. A record's x, y, z and the next record's x are
+ * one vector, one load and one add a record: the fourth lane's sum is not
+ * used (ftm_eb_alloc_fe pads the last record). The w run together for as
+ * many records as all have, without a branch a record, then each its
+ * rest alone. Each node's additions are element_force's, in order. */
+static inline __attribute__((always_inline)) void
+group_sums(const ftm_elem *restrict el, const double *restrict fe, const int32_t *restrict node,
+           const int w, double *restrict out)
+{
+    typedef double v4 __attribute__((vector_size(32), aligned(8)));
+    const int32_t *restrict inc = el->inc_fe;
+    int32_t q[8], len[8], n = INT32_MAX;
+    v4 acc[8];
+    for (int j = 0; j < w; j++) {
+        const int32_t i = node[j];
+        q[j] = el->inc_start[i];
+        len[j] = el->inc_start[i + 1] - q[j];
+        n = len[j] < n ? len[j] : n;
+        acc[j] = (v4){0.0, 0.0, 0.0, 0.0};
+    }
+    for (int32_t t = 0; t < n; t++)
+        for (int j = 0; j < w; j++)
+            acc[j] += *(const v4 *)(fe + inc[q[j] + t]);
+    for (int j = 0; j < w; j++)
+        for (int32_t t = n; t < len[j]; t++)
+            acc[j] += *(const v4 *)(fe + inc[q[j] + t]);
+    for (int j = 0; j < w; j++) {
+        out[3 * j] = acc[j][0];
+        out[3 * j + 1] = acc[j][1];
+        out[3 * j + 2] = acc[j][2];
+    }
+}
+
 static inline __attribute__((always_inline)) void
 forces_of_body(const ftm_elem *restrict el, const double *restrict fe,
                const int32_t *restrict node, int32_t count, double *restrict out)
 {
-    /* a record's x, y, z and the next record's x as one vector, one load
-     * and one add a record: the fourth lane's sum is not used
-     * (ftm_eb_alloc_fe pads the last record) */
-    typedef double v4 __attribute__((vector_size(32), aligned(8)));
     int32_t k = 0;
-    for (; k + 4 <= count; k += 4) {
-        int32_t q[4], end[4];
-        v4 acc[4];
-        for (int j = 0; j < 4; j++) {
-            const int32_t i = node[k + j];
-            q[j] = el->inc_start[i];
-            end[j] = el->inc_start[i + 1];
-            acc[j] = (v4){0.0, 0.0, 0.0, 0.0};
-        }
-        for (;;) {
-            int live = 0;
-            for (int j = 0; j < 4; j++)
-                if (q[j] < end[j]) {
-                    acc[j] += *(const v4 *)(fe + el->inc_fe[q[j]++]);
-                    live++;
-                }
-            if (!live)
-                break;
-        }
-        for (int j = 0; j < 4; j++) {
-            double *o = out + 3 * (size_t)(k + j);
-            o[0] = acc[j][0];
-            o[1] = acc[j][1];
-            o[2] = acc[j][2];
-        }
-    }
+    for (; k + 8 <= count; k += 8)
+        group_sums(el, fe, node + k, 8, out + 3 * (size_t)k);
+    for (; k + 4 <= count; k += 4)
+        group_sums(el, fe, node + k, 4, out + 3 * (size_t)k);
     for (; k < count; k++)
         element_force(el, fe, node[k], out + 3 * (size_t)k);
 }
@@ -277,10 +286,9 @@ forces_of_avx2(const ftm_elem *restrict el, const double *restrict fe,
 }
 #endif
 
-/* element_force of count nodes into out (3 each), four nodes' sums
- * interleaved: each is one chain of dependent additions, which alone would
- * wait on every add. Each node's additions are those of element_force, in
- * 256-bit vectors where the processor has them (the same bits per lane). */
+/* element_force of count nodes into out (3 each), eight nodes' sums at a
+ * time (group_sums), in 256-bit vectors where the processor has them (the
+ * same bits per lane). */
 static void element_forces_of(const ftm_elem *restrict el, const double *restrict fe,
                               const int32_t *restrict node, int32_t count, double *restrict out)
 {
@@ -466,6 +474,52 @@ static inline bool update_node(ftm_sim *sim, int32_t i, double *save, int stride
     return m2 <= ftm_sim_lim2(sim, i); /* false for NaN too */
 }
 
+/* update_node of every scheduled node in the colored order, its element
+ * forces summed beforehand in pre (3 per position), no node constrained:
+ * the same arithmetic with the branches and the save's division hoisted
+ * out of the loop over nodes. False if a node moved more than its limit. */
+static bool update_summed(ftm_sim *sim, const double *restrict pre, double *mm)
+{
+    const schedule *s = &sim->s;
+    const int32_t w = sim->group_lanes;
+    const double sc = sim->elem->scale;
+    const bool scaled = sc != 1.0;
+    double *restrict x = sim->x, *restrict xp = sim->xp;
+    const double *restrict coef = sim->coef, *restrict force = sim->force;
+    static const double none[3] = {0.0, 0.0, 0.0}; /* (the force of a group past layer 0) */
+    bool ok = true;
+    double big = *mm;
+    for (int32_t g = 0, b = 0; g < s->groups; g++) {
+        const int32_t k1 = s->group[g + 1];
+        const bool forced = g < s->forced_groups;
+        for (int32_t k = s->group[g]; k < k1; k += w, b++) {
+            double *restrict sv = s->save + 3 * (size_t)w * (size_t)b;
+            const int32_t lanes = k1 - k < w ? k1 - k : w;
+            for (int32_t l = 0; l < lanes; l++) {
+                const size_t i = (size_t)s->node[k + l];
+                const double *c = coef + FTM_COEF * i, *F = forced ? force + 3 * i : none,
+                             *f = pre + 3 * (size_t)(k + l);
+                double *xi = x + 3 * i, *pi = xp + 3 * i, nw[3], m2 = 0.0;
+                for (int d = 0; d < 3; d++) {
+                    const double fd = scaled ? f[d] * sc : f[d];
+                    nw[d] = c[0] * (F[d] - fd) + c[1] * xi[d] - c[2] * pi[d];
+                }
+                const double dx = nw[0] - xi[0], dy = nw[1] - xi[1], dz = nw[2] - xi[2];
+                m2 = dx * dx + dy * dy + dz * dz;
+                big = m2 > big ? m2 : big;
+                ok &= m2 <= c[FTM_LIM2]; /* false for NaN too */
+                for (int d = 0; d < 3; d++) {
+                    sv[d * w + l] = pi[d];
+                    pi[d] = xi[d];
+                    xi[d] = nw[d];
+                }
+            }
+        }
+    }
+    *mm = big;
+    return ok;
+}
+
 /* A held node (displacement contact, far-field ring) was just placed, its
  * old position in x_prev: the elements evaluated at the last step's end
  * still hold unless it moved (a probe held still, or a ring under
@@ -503,7 +557,9 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
             element_forces_of(el, el->eb.fe, s->node, s->count, pre);
         }
     }
-    if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
+    if (sim->def.order == FTM_ORDER_LAYER_COLORED && pre && !sim->m->bc) {
+        ok &= update_summed(sim, pre, &mm);
+    } else if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
         /* one node at a time in schedule order; save as the kernels do */
         const int32_t w = sim->group_lanes;
         for (int32_t g = 0, b0 = 0; g < s->groups; g++) {
@@ -689,7 +745,7 @@ static int element_forces(const ftm_sim *sim, const double *x, double *f)
         eb.det = malloc((FTM_EB * nb + 1) * sizeof *eb.det);
         eb.ok = malloc((FTM_EB * nb + 1) * sizeof *eb.ok);
     }
-    eb.u = malloc((3 * (size_t)m->node_count + 1) * sizeof *eb.u);
+    eb.u = calloc(FTM_EB_U * (size_t)m->node_count + 1, sizeof *eb.u);
     int32_t *all = malloc((nb + 1) * sizeof *all);
     int rc = eb.fe && eb.det && eb.ok && eb.u && all ? FTM_OK : FTM_ENOMEM;
     if (!rc) {
@@ -1145,7 +1201,7 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
     eb->rest = calloc(3 * slots + 1, sizeof *eb->rest);
     eb->mat = malloc((FTM_EB_MAT * FTM_EB * nb + 1) * sizeof *eb->mat);
     eb->nodes = m->node_count;
-    eb->u = calloc(3 * (size_t)m->node_count + 1, sizeof *eb->u);
+    eb->u = calloc(FTM_EB_U * (size_t)m->node_count + 1, sizeof *eb->u);
     el->inc_fe = malloc((ninc + 1) * sizeof *el->inc_fe);
     el->node_blk_start = malloc(((size_t)m->node_count + 1) * sizeof *el->node_blk_start);
     el->node_blk = malloc((ninc + 1) * sizeof *el->node_blk);
@@ -1196,10 +1252,15 @@ static int build_blocks(ftm_elem *el, const ftm_mesh *m, const ftm_sim_def *d, f
             mat[FTM_EB * FTM_EB_MU] = young / (2.0 * (1.0 + nu));
             mat[FTM_EB * FTM_EB_KAPPA] = young / (3.0 * (1.0 - 2.0 * nu));
             mat[FTM_EB * FTM_EB_LAMBDA] = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
-            if (l < lanes)
+            if (l < lanes) {
+                double *gp = eb->gp + FTM_EB * ftm_eb_gp_off(eb, b) + (size_t)l;
                 for (int k = 0; k < gn; k++)
-                    eb->gp[FTM_EB * (ftm_eb_gp_off(eb, b) + (size_t)k) + (size_t)l] =
-                        el->gp[el->goff[e] + (size_t)k];
+                    gp[FTM_EB * k] = el->gp[el->goff[e] + (size_t)k];
+                if (!neo && !hex) { /* (w is slot 12: the products the kernel formed) */
+                    gp[FTM_EB * FTM_COROT_TET_WL] = gp[FTM_EB * 12] * mat[FTM_EB * FTM_EB_LAMBDA];
+                    gp[FTM_EB * FTM_COROT_TET_WM] = gp[FTM_EB * 12] * mat[FTM_EB * FTM_EB_MU];
+                }
+            }
         }
     }
     /* per node: its incidences' places in eb.fe, and its distinct blocks */

@@ -363,7 +363,13 @@ static void check_corot(bool tets)
         print_message("corot %s field %d: largest force %.3g N, off the matrices by %.2g of it%s\n",
                       tets ? "tetrahedra" : "hexahedra", fi, big, err / big,
                       upright ? "" : " (inverted elements: R = I)");
-        assert_true(err <= 1e-11 * big);
+        /* the kernel's polar decomposition stops with R within 5e-11
+         * (elem_block.inc, revision 6), which moves each element's strain
+         * by as much: relative to the force of a strain e about 5e-11 / e,
+         * and a lane only stops early at small strains, where its error is
+         * about e^4 / 8 (e^3 / 8 of its force, below 2e-9 where it stops
+         * early). 1e-11 before revision 6. */
+        assert_true(err <= 2e-9 * big);
     }
     assert_true(inverted > 0);
     ftm_sim_destroy(sim);

@@ -228,11 +228,13 @@ uint64_t ftm_sim_hash(const ftm_sim *sim);
  * 2026-11-25; 3: co-rotational forces evaluated per element at the substep's
  * start, in vector lanes, 2026-11-28; 4: their polar decomposition stops
  * on the determinant, 2026-11-28; 5: a co-rotational tetrahedron's fourth
- * force is minus the sum of the other three, 2026-11-29). Hashes and
+ * force is minus the sum of the other three, 2026-11-29; 6: the polar
+ * decomposition stops one step sooner, with R to 5e-11, 2026-11-29).
+ * Hashes and
  * replays agree only between
  * cores of one revision, so a session announces its server's
  * (ftm_wire_announce.arithmetic). */
-#define FTM_ARITHMETIC_REVISION 5u
+#define FTM_ARITHMETIC_REVISION 6u
 uint32_t ftm_arithmetic_revision(void);
 
 void ftm_sim_get_stats(const ftm_sim *sim, ftm_sim_stats *stats);
