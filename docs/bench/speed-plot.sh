@@ -7,13 +7,13 @@ set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 awk '!/^#/ && NF {
     n = 0
-    for (r = 0; r < 3; r++) {
+    for (r = 0; r < 4; r++) {
         s = 0; c = 0
         for (k = 0; k < 3; k++) { v = $(2 + 3 * r + k); if (v != "-") { s += v; c++ } }
         m[r] = s / c
     }
     match($0, /"[^"]*"/); name = substr($0, RSTART, RLENGTH)
-    print name, m[0], m[1], m[2]
+    print name, m[0], m[1], m[2], m[3]
 }' "$here/speed-revisions.dat" >"$here/speed-revisions.means"
 gnuplot <<GP
 set terminal pngcairo size 900,480 font ",11"
@@ -34,6 +34,7 @@ set arrow from graph 0, first 6 to graph 1, first 6 nohead dt 3 lc rgb "#555555"
 set label "neo-Hookean target 6x" at graph 0.01, first 6.25 tc rgb "#555555"
 plot "$here/speed-revisions.means" using 2:xtic(1) title "revision 3" lc rgb "#bbbbbb", \
      "" using 3 title "revision 4" lc rgb "#6699cc", \
-     "" using 4 title "revision 5" lc rgb "#224488"
+     "" using 4 title "revision 5" lc rgb "#224488", \
+     "" using 5 title "revision 6" lc rgb "#112244"
 GP
 rm -f "$here/speed-revisions.means"
