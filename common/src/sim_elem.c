@@ -475,48 +475,24 @@ static inline bool update_node(ftm_sim *sim, int32_t i, double *save, int stride
 }
 
 /* update_node of every scheduled node in the colored order, its element
- * forces summed beforehand in pre (3 per position), no node constrained:
- * the same arithmetic with the branches and the save's division hoisted
- * out of the loop over nodes. False if a node moved more than its limit. */
+ * forces summed beforehand in pre (3 per position): block by block of the
+ * group sweep's cut, so that each save slot comes without a division
+ * (ftm_group_save's). False if a node moved more than its limit. */
 static bool update_summed(ftm_sim *sim, const double *restrict pre, double *mm)
 {
     const schedule *s = &sim->s;
     const int32_t w = sim->group_lanes;
-    const double sc = sim->elem->scale;
-    const bool scaled = sc != 1.0;
-    double *restrict x = sim->x, *restrict xp = sim->xp;
-    const double *restrict coef = sim->coef, *restrict force = sim->force;
-    static const double none[3] = {0.0, 0.0, 0.0}; /* (the force of a group past layer 0) */
     bool ok = true;
-    double big = *mm;
     for (int32_t g = 0, b = 0; g < s->groups; g++) {
         const int32_t k1 = s->group[g + 1];
-        const bool forced = g < s->forced_groups;
         for (int32_t k = s->group[g]; k < k1; k += w, b++) {
-            double *restrict sv = s->save + 3 * (size_t)w * (size_t)b;
+            double *sv = s->save + 3 * (size_t)w * (size_t)b;
             const int32_t lanes = k1 - k < w ? k1 - k : w;
-            for (int32_t l = 0; l < lanes; l++) {
-                const size_t i = (size_t)s->node[k + l];
-                const double *c = coef + FTM_COEF * i, *F = forced ? force + 3 * i : none,
-                             *f = pre + 3 * (size_t)(k + l);
-                double *xi = x + 3 * i, *pi = xp + 3 * i, nw[3], m2 = 0.0;
-                for (int d = 0; d < 3; d++) {
-                    const double fd = scaled ? f[d] * sc : f[d];
-                    nw[d] = c[0] * (F[d] - fd) + c[1] * xi[d] - c[2] * pi[d];
-                }
-                const double dx = nw[0] - xi[0], dy = nw[1] - xi[1], dz = nw[2] - xi[2];
-                m2 = dx * dx + dy * dy + dz * dz;
-                big = m2 > big ? m2 : big;
-                ok &= m2 <= c[FTM_LIM2]; /* false for NaN too */
-                for (int d = 0; d < 3; d++) {
-                    sv[d * w + l] = pi[d];
-                    pi[d] = xi[d];
-                    xi[d] = nw[d];
-                }
-            }
+            for (int32_t l = 0; l < lanes; l++)
+                ok &= update_node(sim, s->node[k + l], sv + l, w, mm,
+                                  pre + 3 * (size_t)(k + l));
         }
     }
-    *mm = big;
     return ok;
 }
 
@@ -557,7 +533,7 @@ bool ftm_elem_sweep(ftm_sim *sim, double *max_m2)
             element_forces_of(el, el->eb.fe, s->node, s->count, pre);
         }
     }
-    if (sim->def.order == FTM_ORDER_LAYER_COLORED && pre && !sim->m->bc) {
+    if (sim->def.order == FTM_ORDER_LAYER_COLORED && pre) {
         ok &= update_summed(sim, pre, &mm);
     } else if (sim->def.order == FTM_ORDER_LAYER_COLORED) {
         /* one node at a time in schedule order; save as the kernels do */
