@@ -138,7 +138,7 @@ typedef struct {
     uint64_t seq[NKIND];
     bool seen[NKIND];
     int64_t first_status, last_status; /* source time */
-    bool last_was_first;
+    bool joining; /* every status so far a JOINING of the first second */
     int joinings_first_second, statuses_first_second;
     int64_t next_joining; /* the second JOINING, after the first */
     int64_t max_gap;
@@ -476,19 +476,25 @@ static void on_status(const Ftm__V1__ParticipantStatus *st, uint32_t from, uint6
     s->role = st->role;
     if (s->first_status) {
         const int64_t gap = src_time - s->last_status;
-        /* the first status (JOINING on joining) may stand alone for a second */
-        const int64_t limit = (s->last_was_first ? SEC : SEC / 2) + (int64_t)(S.status_slack * 1e9);
+        /* the JOINING sent on joining may stand alone for a second, and so
+         * may the (at most two) JOINING statuses of that second: the next
+         * one is due 1 s after the first, not 500 ms after the second */
+        int64_t limit = SEC / 2;
+        if (s->joining && s->first_status + SEC - s->last_status > limit)
+            limit = s->first_status + SEC - s->last_status;
+        limit += (int64_t)(S.status_slack * 1e9);
         if (st->state != FTM__V1__PARTICIPANT_STATE__STATE_LEAVING)
             check(R_STATUS_PERIOD, gap <= limit,
                   "statuses of %u %.1f ms apart (limit %.1f ms), the second one %.3f s after its "
                   "first, state %d", from, (double)gap * 1e-6, (double)limit * 1e-6,
                   (double)(src_time - s->first_status) * 1e-9, (int)st->state);
-        if (gap > s->max_gap && !s->last_was_first)
+        if (gap > s->max_gap && !s->joining)
             s->max_gap = gap;
-        s->last_was_first = false;
+        s->joining = s->joining && st->state == FTM__V1__PARTICIPANT_STATE__STATE_JOINING &&
+                     src_time - s->first_status < SEC;
     } else {
         s->first_status = src_time;
-        s->last_was_first = st->state == FTM__V1__PARTICIPANT_STATE__STATE_JOINING;
+        s->joining = st->state == FTM__V1__PARTICIPANT_STATE__STATE_JOINING;
     }
     s->last_status = src_time;
     if (st->state == FTM__V1__PARTICIPANT_STATE__STATE_JOINING && src_time != s->first_status &&
